@@ -1,0 +1,23 @@
+# Two commands: `make run` and `make test`. Each creates .venv on first use and
+# reinstalls only when pyproject.toml changed (the stamp file tracks it).
+PYTHON ?= python3.11
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: run test bench clean
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[dev,reference]'
+	touch $(STAMP)
+
+run: $(STAMP)
+	$(BIN)/bnerr demo
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q
+
+clean:
+	rm -rf $(VENV) build *.egg-info

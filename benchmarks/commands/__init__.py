@@ -1,0 +1,1 @@
+"""One module per ``bnerr`` subcommand, each with ``register(subparsers)``; see benchmarks.cli."""
