@@ -1,0 +1,594 @@
+"""Image error metrics against a reference, their running means over frames, and bootstrap intervals.
+
+What the benchmark measures (METHODS.md section 6): for a rendered (or denoised) image ``pred`` and
+the converged reference ``ref`` of the same frame, both ``[C, H, W]`` linear radiance,
+
+- ``mse``: ``mean(e^2)`` with ``e = pred - ref``;
+- ``relmse``: ``mean(e^2 / (ref^2 + 0.01))``, the relative MSE of pbrt/Mitsuba papers, which keeps
+  dark pixels from vanishing and bright ones from dominating;
+- ``psnr``: ``10 log10(peak^2 / mse)`` with ``peak = ref.max() - ref.min()`` (torchmetrics' default
+  data range: the target's range);
+- ``ssim``: scikit-image's ``structural_similarity`` (Wang et al. 2004, 7x7 uniform window) with
+  ``data_range`` taken from the reference, channels averaged;
+- ``mse_blur1``, ``mse_blur2``: the MSE of the *error* after a Gaussian blur of sigma 1 and 2 pixels,
+  the halftoning model of the eye (Heitz & Belcour 2019, section 6; Georgiev & Fajardo 2016).
+  A blue-noise error loses most of its energy under the blur, a white one keeps ``1 / (4 pi sigma^2)``
+  of it. Kernel size ``2 * ceil(3 sigma) + 1`` (7 and 13 taps), kornia's ``gaussian_blur2d`` with
+  ``"reflect"`` border, which mirrors *without* repeating the edge pixel (numpy's ``"reflect"``,
+  scipy's ``"mirror"``), so that the border adds no spurious correlation to the error;
+- ``flip``: mean HDR-FLIP (Andersson et al. 2021, "Visualizing Errors in Rendered High Dynamic Range
+  Images"), through the optional package ``flip-evaluator``;
+- ``lowfreq``: the fraction of the error's power below 0.125 cycles/pixel
+  (:func:`bnerr.spectrum.low_frequency_fraction`): about 0.05 for white noise, near 0 for blue.
+
+Every metric may be restricted to a boolean pixel ``mask [H, W]`` (for example the pixels near
+object edges, :func:`edge_mask`): the blur is applied to the whole error image first, and only the
+masked pixels are averaged.
+
+**Update and compute** (STYLE.md habit 2, torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
+Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
+pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores such as PSNR and SSIM), and
+the compute step is ``sum(numerators) / sum(denominators)`` over frames. One frame gives the
+per-image value; many frames give the pooled running mean; a bootstrap resamples the frames' pairs.
+
+**Intervals.** :func:`bootstrap_interval` and :func:`paired_ratio` give percentile-bootstrap 95%
+intervals (Efron & Tibshirani 1993) over frames, two-stage when frames come in independent seed
+sets (resample seed sets, then frames inside each), with a fixed ``torch.Generator`` seed so that
+the same inputs give the same interval. Frames of one temporal run are not independent (the seed
+image carries over), so the frame-level bootstrap is a within-run estimate; independent seed sets are
+the unit that makes it honest, and the suites use them where the budget allows.
+
+Not for: training losses (nothing here is differentiable on purpose: SSIM and FLIP leave torch),
+or perceptual claims beyond what FLIP and the blurred MSE model.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import torch
+
+from bnerr.errors import (
+    ShapeError,
+    ValueRangeError,
+    check_dtype,
+    check_finite,
+    check_name,
+    check_positive_int,
+    check_range,
+    check_shape,
+    check_tensor,
+)
+from bnerr.spectrum import low_frequency_fraction
+
+__all__ = [
+    "BLUR_SIGMAS",
+    "METRICS",
+    "Estimate",
+    "FrameMetrics",
+    "blurred_mse",
+    "bootstrap_interval",
+    "edge_mask",
+    "flip",
+    "flip_available",
+    "lowfreq",
+    "mse",
+    "paired_ratio",
+    "psnr",
+    "relmse",
+    "ssim",
+]
+
+#: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
+BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
+
+#: Every metric :class:`FrameMetrics` knows, in table order. ``flip`` needs ``flip-evaluator``.
+METRICS: tuple[str, ...] = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq", "flip")
+
+_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
+_RELMSE_EPS = 0.01
+
+
+# --------------------------------------------------------------------------------------------------
+# Input checks (public boundary)
+
+
+def _check_pair(pred: object, ref: object, mask: object = None) -> dict[str, int]:
+    """Check ``pred``, ``ref`` ([C, H, W], same shape, floating, finite) and ``mask`` ([H, W] bool)."""
+    size = check_shape(check_tensor(pred, "pred"), "C H W", "pred")
+    check_shape(check_tensor(ref, "ref"), "C H W", "ref")
+    if pred.shape != ref.shape:
+        raise ShapeError(f"pred: expected the shape of ref {list(ref.shape)}, got {list(pred.shape)}")
+    check_dtype(pred, _FLOATS, "pred")
+    check_dtype(ref, _FLOATS, "ref")
+    check_finite(pred, "pred")
+    check_finite(ref, "ref")
+    if mask is not None:
+        check_shape(check_tensor(mask, "mask"), f"{size['H']} {size['W']}", "mask")
+        check_dtype(mask, torch.bool, "mask")
+        if not bool(mask.any()):
+            raise ValueRangeError("mask: expected at least one selected pixel, got none")
+    return size
+
+
+def _check_blur_size(size: dict[str, int], sigma: float) -> int:
+    """Kernel size ``2 ceil(3 sigma) + 1``; the reflect border needs H and W > half of it."""
+    check_range(sigma, "sigma", 1e-3, 64.0)
+    kernel = 2 * math.ceil(3 * sigma) + 1
+    if min(size["H"], size["W"]) <= kernel // 2:
+        raise ShapeError(
+            f"pred: expected H and W > {kernel // 2} for a sigma {sigma} blur "
+            f"({kernel}-tap kernel, reflect border), got {size['H']} x {size['W']}"
+        )
+    return kernel
+
+
+# --------------------------------------------------------------------------------------------------
+# Updates: one frame -> (numerator, denominator), float64 on the input's device
+
+
+def _masked_sum(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
+    """``(sum, count)`` of ``values [C, H, W]`` over all pixels or the masked ones: ``[2]`` float64."""
+    values = values.to(torch.float64)
+    if mask is not None:
+        values = values[:, mask]
+    return torch.stack([values.sum(), values.new_tensor(float(values.numel()))])
+
+
+def _mse_update(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+    return _masked_sum((pred.to(torch.float64) - ref).square(), mask)
+
+
+def _relmse_update(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+    ref64 = ref.to(torch.float64)
+    return _masked_sum((pred.to(torch.float64) - ref64).square() / (ref64.square() + _RELMSE_EPS), mask)
+
+
+def _blurred_mse_update(
+    pred: torch.Tensor, ref: torch.Tensor, sigma: float, kernel: int, mask: torch.Tensor | None = None
+) -> torch.Tensor:
+    from kornia.filters import gaussian_blur2d
+
+    # Blur the error, not the two images: the metric asks how much error survives a low-pass
+    # filter, which is linear, so blur(pred) - blur(ref) would be the same up to rounding.
+    err = (pred.to(torch.float64) - ref.to(torch.float64)).unsqueeze(0)
+    blurred = gaussian_blur2d(err, (kernel, kernel), (sigma, sigma), border_type="reflect")[0]
+    return _masked_sum(blurred.square(), mask)
+
+
+def _value_update(value: float, device: torch.device) -> torch.Tensor:
+    """A per-image score as the pair ``(value, 1)``, so that compute averages it over frames."""
+    return torch.tensor([value, 1.0], dtype=torch.float64, device=device)
+
+
+def _compute(stats: torch.Tensor) -> torch.Tensor:
+    """``sum(numerator) / sum(denominator)`` over the leading axes of ``stats [..., 2]``."""
+    total = stats.reshape(-1, 2).sum(dim=0)
+    return total[0] / total[1]
+
+
+def _psnr_value(mse_stats: torch.Tensor, ref: torch.Tensor, data_range: float | None) -> float:
+    peak = float(ref.max() - ref.min()) if data_range is None else data_range
+    if peak <= 0.0:
+        raise ValueRangeError(f"ref: expected a non-constant reference for the PSNR peak, got range {peak}")
+    err = float(_compute(mse_stats))
+    return math.inf if err == 0.0 else 10.0 * math.log10(peak * peak / err)
+
+
+def _ssim_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None) -> float:
+    from skimage.metrics import structural_similarity
+
+    size = min(ref.shape[-2:])
+    if size < 7:
+        raise ShapeError(f"pred: expected H and W >= 7 for SSIM's 7x7 window, got {list(ref.shape[-2:])}")
+    peak = float(ref.max() - ref.min())
+    if peak <= 0.0:
+        raise ValueRangeError(f"ref: expected a non-constant reference for SSIM's data range, got {peak}")
+    ref_np = ref.detach().to("cpu", torch.float64).numpy()
+    pred_np = pred.detach().to("cpu", torch.float64).numpy()
+    score, smap = structural_similarity(ref_np, pred_np, data_range=peak, channel_axis=0, full=True)
+    if mask is None:
+        return float(score)
+    # scikit-image averages the map without a border of (win_size - 1) / 2 = 3 pixels; do the same.
+    keep = mask.detach().cpu().numpy().copy()
+    keep[:3, :] = keep[-3:, :] = keep[:, :3] = keep[:, -3:] = False
+    if not keep.any():
+        raise ValueRangeError("mask: expected a selected pixel at least 3 pixels from the border for SSIM")
+    return float(smap[:, keep].mean())
+
+
+def _require_flip() -> None:
+    if not flip_available():
+        raise ImportError(
+            "flip: the FLIP metric needs the optional package 'flip-evaluator' "
+            "(pip install 'bnerr[reference]' or pip install flip-evaluator==1.7)"
+        )
+
+
+def _flip_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None) -> float:
+    _require_flip()
+    import flip_evaluator
+
+    # HDR-FLIP reads HxWxC linear RGB with non-negative values; a denoiser may undershoot below 0.
+    def hwc(x: torch.Tensor):
+        return x.detach().to("cpu", torch.float32).clamp_min(0.0).permute(1, 2, 0).contiguous().numpy()
+
+    if ref.shape[0] != 3:
+        raise ShapeError(f"pred: expected 3 channels (RGB) for FLIP, got {ref.shape[0]}")
+    error_map, mean_error, _ = flip_evaluator.evaluate(hwc(ref), hwc(pred), "HDR", applyMagma=False)
+    if mask is None:
+        return float(mean_error)
+    return float(error_map[..., 0][mask.detach().cpu().numpy()].mean())
+
+
+def _lowfreq_value(pred: torch.Tensor, ref: torch.Tensor, tile: int) -> float:
+    return low_frequency_fraction((pred.to(torch.float64) - ref.to(torch.float64)), tile=tile)
+
+
+# --------------------------------------------------------------------------------------------------
+# Per-image metrics (pure functions)
+
+
+def mse(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+    """Mean squared error ``mean((pred - ref)^2)`` over channels and (masked) pixels.
+
+    Args:
+        pred: ``[C, H, W]`` floating, finite (a :class:`~bnerr.errors.NonFiniteError` otherwise).
+        ref: ``[C, H, W]`` reference of the same shape.
+        mask: optional ``[H, W]`` bool; only the selected pixels count.
+
+    Returns:
+        A 0-dim float64 tensor on the inputs' device (accumulated in float64).
+    """
+    _check_pair(pred, ref, mask)
+    return _compute(_mse_update(pred, ref, mask))
+
+
+def relmse(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+    """Relative MSE ``mean((pred - ref)^2 / (ref^2 + 0.01))``; shapes as in :func:`mse`."""
+    _check_pair(pred, ref, mask)
+    return _compute(_relmse_update(pred, ref, mask))
+
+
+def psnr(
+    pred: torch.Tensor,
+    ref: torch.Tensor,
+    data_range: float | None = None,
+    mask: torch.Tensor | None = None,
+) -> float:
+    """Peak signal-to-noise ratio in dB, ``10 log10(peak^2 / mse)``; ``inf`` for a perfect match.
+
+    ``peak`` is ``data_range`` if given, else ``ref.max() - ref.min()`` (HDR images have no fixed
+    peak; the reference's range is torchmetrics' default too). Shapes as in :func:`mse`.
+    """
+    _check_pair(pred, ref, mask)
+    if data_range is not None:
+        check_range(data_range, "data_range", 1e-12, math.inf)
+    return _psnr_value(_mse_update(pred, ref, mask), ref, data_range)
+
+
+def ssim(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> float:
+    """Structural similarity (Wang et al. 2004) by scikit-image, channels averaged.
+
+    ``data_range`` is the reference's ``max - min``; 7x7 uniform window, so H and W must be >= 7.
+    With a mask, the SSIM map is averaged over the selected pixels (away from the 3-pixel border
+    that scikit-image excludes too). Runs on the CPU in float64 whatever the inputs' device.
+    """
+    _check_pair(pred, ref, mask)
+    return _ssim_value(pred, ref, mask)
+
+
+def blurred_mse(
+    pred: torch.Tensor, ref: torch.Tensor, sigma: float, mask: torch.Tensor | None = None
+) -> torch.Tensor:
+    """MSE of the error after a Gaussian blur of ``sigma`` pixels: ``mean(G_sigma * (pred - ref))^2``.
+
+    Kernel ``2 ceil(3 sigma) + 1`` taps, reflect border (H and W must exceed half the kernel).
+    Shapes and return as in :func:`mse`.
+    """
+    size = _check_pair(pred, ref, mask)
+    kernel = _check_blur_size(size, sigma)
+    return _compute(_blurred_mse_update(pred, ref, float(sigma), kernel, mask))
+
+
+def flip_available() -> bool:
+    """Whether the optional package ``flip-evaluator`` (for :func:`flip`) is installed."""
+    return importlib.util.find_spec("flip_evaluator") is not None
+
+
+def flip(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> float:
+    """Mean HDR-FLIP error (Andersson et al. 2021) of ``pred [3, H, W]`` against ``ref [3, H, W]``.
+
+    Linear RGB, negative values clamped to 0 (HDR-FLIP's input domain), default viewing conditions
+    (67 pixels per degree) and exposure range chosen by FLIP from the reference. Raises
+    ``ImportError`` with the install command when ``flip-evaluator`` is missing. About 0.5 s for
+    256x256 on one core: not for tight loops.
+    """
+    _check_pair(pred, ref, mask)
+    return _flip_value(pred, ref, mask)
+
+
+def lowfreq(pred: torch.Tensor, ref: torch.Tensor, tile: int = 64, cutoff: float = 0.125) -> float:
+    """Fraction of the error's power below ``cutoff`` cycles/pixel on ``tile x tile`` tiles.
+
+    :func:`bnerr.spectrum.low_frequency_fraction` of ``pred - ref``: about 0.047 (64x64 tiles) for
+    white noise, near 0 for blue noise. Shapes as in :func:`mse`; no mask (a spectrum needs whole
+    tiles).
+    """
+    _check_pair(pred, ref)
+    return low_frequency_fraction(pred.to(torch.float64) - ref.to(torch.float64), tile=tile, cutoff=cutoff)
+
+
+def edge_mask(object_id: torch.Tensor, radius: int = 1) -> torch.Tensor:
+    """Pixels within ``radius`` pixels (Chebyshev) of an object-id discontinuity: ``[H, W]`` bool.
+
+    A pixel is on an edge when its 4-neighbour has a different object id; the edge set is then
+    dilated by ``radius``. This is where the temporal method is expected to fail (a seed's value
+    does not carry to a pixel on another object), so the stability suite measures error there.
+
+    Args:
+        object_id: ``[1, H, W]`` (a Frame's ``object_id``) or ``[H, W]``, any dtype.
+        radius: dilation radius in pixels, >= 0.
+    """
+    check_tensor(object_id, "object_id")
+    ids = object_id[0] if object_id.ndim == 3 and object_id.shape[0] == 1 else object_id
+    check_shape(ids, "H W", "object_id")
+    check_positive_int(radius, "radius", minimum=0)
+    edge = torch.zeros(ids.shape, dtype=torch.bool, device=ids.device)
+    dy = ids[1:, :] != ids[:-1, :]
+    dx = ids[:, 1:] != ids[:, :-1]
+    edge[1:, :] |= dy
+    edge[:-1, :] |= dy
+    edge[:, 1:] |= dx
+    edge[:, :-1] |= dx
+    if radius > 0:
+        size = 2 * radius + 1
+        edge = torch.nn.functional.max_pool2d(edge[None, None].float(), size, stride=1, padding=radius)
+        edge = edge[0, 0] > 0
+    return edge
+
+
+# --------------------------------------------------------------------------------------------------
+# Statistics over frames
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """A point estimate with its bootstrap interval.
+
+    Attributes:
+        value: the estimate on all the data (not the mean of the resamples).
+        lo, hi: the percentile-bootstrap interval at ``level``.
+        n: number of frames it rests on (seed sets x frames).
+        level: confidence level of ``(lo, hi)``.
+    """
+
+    value: float
+    lo: float
+    hi: float
+    n: int
+    level: float = 0.95
+
+    def __str__(self) -> str:
+        return f"{self.value:.4g} [{self.lo:.4g}, {self.hi:.4g}]"
+
+
+def _as_stats(values: object, name: str) -> torch.Tensor:
+    """Per-frame values ``[F]`` or ``[S, F]`` (or pairs ``[S, F, 2]``) -> ``[S, F, 2]`` float64 CPU."""
+    x = torch.as_tensor(check_tensor(values, name) if isinstance(values, torch.Tensor) else values)
+    x = x.detach().to("cpu", torch.float64)
+    if x.ndim == 1:
+        x = x[None]
+    if x.ndim == 2:
+        x = torch.stack([x, torch.ones_like(x)], dim=-1)
+    if x.ndim != 3 or x.shape[-1] != 2 or x.numel() == 0:
+        raise ShapeError(
+            f"{name}: expected per-frame values [F] or [S, F] (or pairs [S, F, 2]), "
+            f"got shape {list(x.shape)}"
+        )
+    check_finite(x, name)
+    return x
+
+
+def _resample(shape: tuple[int, int], resamples: int, seed: int) -> torch.Tensor:
+    """Two-stage bootstrap indices into ``S * F`` frames: ``[R, S * F]`` int64.
+
+    Stage 1 draws S seed sets with replacement, stage 2 draws F frames with replacement inside each
+    drawn set. With S = 1 this is the ordinary bootstrap over frames.
+    """
+    s, f = shape
+    gen = torch.Generator().manual_seed(seed)
+    sets = torch.randint(s, (resamples, s, 1), generator=gen)
+    frames = torch.randint(f, (resamples, s, f), generator=gen)
+    return (sets * f + frames).reshape(resamples, s * f)
+
+
+def _resampled_values(stats: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """``sum(num) / sum(den)`` for each resample: ``stats [S, F, 2]``, ``index [R, N]`` -> ``[R]``."""
+    picked = stats.reshape(-1, 2)[index]  # [R, N, 2]
+    total = picked.sum(dim=1)
+    return total[:, 0] / total[:, 1]
+
+
+def _interval(samples: torch.Tensor, level: float) -> tuple[float, float]:
+    alpha = (1.0 - level) / 2.0
+    lo, hi = torch.quantile(samples, torch.tensor([alpha, 1.0 - alpha], dtype=torch.float64))
+    return float(lo), float(hi)
+
+
+def _check_level(level: float, resamples: int) -> None:
+    check_range(level, "level", 0.5, 0.999)
+    check_positive_int(resamples, "resamples", minimum=100)
+
+
+def bootstrap_interval(
+    values: torch.Tensor | Sequence[float],
+    level: float = 0.95,
+    resamples: int = 2000,
+    seed: int = 0,
+) -> Estimate:
+    """Mean of per-frame values with a percentile-bootstrap interval.
+
+    Args:
+        values: per-frame values ``[F]``, or ``[S, F]`` for S independent seed sets of F frames
+            each (two-stage bootstrap: seed sets, then frames), or ``[S, F, 2]`` pairs
+            ``(numerator, denominator)`` from the metric updates, whose mean is the ratio of sums.
+        level: confidence level in [0.5, 0.999].
+        resamples: bootstrap resamples (>= 100).
+        seed: seed of the ``torch.Generator`` that draws the resamples; fixed, so the same values
+            always give the same interval.
+
+    Returns:
+        :class:`Estimate`; with a single frame the interval collapses to the value.
+    """
+    _check_level(level, resamples)
+    stats = _as_stats(values, "values")
+    samples = _resampled_values(stats, _resample(stats.shape[:2], resamples, seed))
+    lo, hi = _interval(samples, level)
+    return Estimate(float(_compute(stats)), lo, hi, stats.shape[0] * stats.shape[1], level)
+
+
+def paired_ratio(
+    values: torch.Tensor | Sequence[float],
+    baseline: torch.Tensor | Sequence[float],
+    level: float = 0.95,
+    resamples: int = 2000,
+    seed: int = 0,
+) -> Estimate:
+    """Ratio ``mean(values) / mean(baseline)`` with a paired bootstrap interval.
+
+    Frame i of ``values`` and frame i of ``baseline`` show the same scene frame (the same
+    reference), rendered by two strategies; resampling the same frame indices for both removes the
+    frame-to-frame variation of the content from the interval (the comparison METHODS.md asks for:
+    "pairwise on the same scene and frames"). A ratio whose interval lies above 1 is worse than the
+    baseline beyond its statistical error.
+
+    Args:
+        values, baseline: per-frame values of the same shape, ``[F]``, ``[S, F]`` or ``[S, F, 2]``
+            as in :func:`bootstrap_interval`.
+        level, resamples, seed: as in :func:`bootstrap_interval`.
+    """
+    _check_level(level, resamples)
+    a = _as_stats(values, "values")
+    b = _as_stats(baseline, "baseline")
+    if a.shape != b.shape:
+        raise ShapeError(
+            f"values: expected the shape of baseline {list(b.shape)} (the same frames), got {list(a.shape)}"
+        )
+    index = _resample(a.shape[:2], resamples, seed)
+    samples = _resampled_values(a, index) / _resampled_values(b, index)
+    lo, hi = _interval(samples, level)
+    return Estimate(float(_compute(a) / _compute(b)), lo, hi, a.shape[0] * a.shape[1], level)
+
+
+class FrameMetrics:
+    """Metrics of a sequence of frames against their references: update per frame, compute over all.
+
+    Keeps, per metric, each frame's ``(numerator, denominator)`` pair (see the module docstring),
+    so that the running mean, the bootstrap interval and a paired ratio to another run all come
+    from the same numbers.
+
+    Example::
+
+        acc = FrameMetrics(["mse", "mse_blur1"])
+        for t in frames:
+            acc.update(denoised[t], reference[t])
+        acc.compute()["mse"]                 # Estimate(value, lo, hi, n)
+        acc.ratio(white_acc, "mse")           # paired ratio to white over the same frames
+
+    Args:
+        names: metric names from :data:`METRICS` (default: all but ``flip``, which is slow).
+        tile: tile size of the ``lowfreq`` spectrum (clamped to the image by the spectrum).
+    """
+
+    def __init__(self, names: Iterable[str] | None = None, *, tile: int = 64) -> None:
+        chosen = tuple(names) if names is not None else tuple(m for m in METRICS if m != "flip")
+        for name in chosen:
+            check_name(name, METRICS, "metric")
+        if "flip" in chosen:
+            _require_flip()
+        self.names = chosen
+        self.tile = check_positive_int(tile, "tile", minimum=2)
+        self._stats: dict[str, list[torch.Tensor]] = {name: [] for name in chosen}
+        self._groups: list[int] = []
+
+    def update(
+        self,
+        pred: torch.Tensor,
+        ref: torch.Tensor,
+        mask: torch.Tensor | None = None,
+        group: int = 0,
+    ) -> dict[str, float]:
+        """Add one frame; return its per-frame value of every metric.
+
+        Args:
+            pred, ref: ``[C, H, W]`` as in :func:`mse`.
+            mask: optional ``[H, W]`` bool restricting every metric except ``lowfreq``.
+            group: index of the independent seed set the frame belongs to (0 when there is one).
+        """
+        size = _check_pair(pred, ref, mask)
+        check_positive_int(group, "group", minimum=0)
+        row = {name: self._update_one(name, pred, ref, mask, size) for name in self.names}
+        for name, stats in row.items():
+            self._stats[name].append(stats.cpu())
+        self._groups.append(group)
+        return {name: float(_compute(stats)) for name, stats in row.items()}
+
+    def _update_one(
+        self, name: str, pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None, size: dict
+    ) -> torch.Tensor:
+        if name == "mse":
+            return _mse_update(pred, ref, mask)
+        if name == "relmse":
+            return _relmse_update(pred, ref, mask)
+        if name in BLUR_SIGMAS:
+            sigma = BLUR_SIGMAS[name]
+            return _blurred_mse_update(pred, ref, sigma, _check_blur_size(size, sigma), mask)
+        if name == "psnr":
+            return _value_update(_psnr_value(_mse_update(pred, ref, mask), ref, None), pred.device)
+        if name == "ssim":
+            return _value_update(_ssim_value(pred, ref, mask), pred.device)
+        if name == "flip":
+            return _value_update(_flip_value(pred, ref, mask), pred.device)
+        return _value_update(_lowfreq_value(pred, ref, self.tile), pred.device)
+
+    def __len__(self) -> int:
+        return len(self._groups)
+
+    def stats(self, name: str) -> torch.Tensor:
+        """Per-frame ``(numerator, denominator)`` pairs of metric ``name``: ``[S, F, 2]`` float64.
+
+        Frames are grouped by seed set in the order they were added; every seed set must hold the
+        same number of frames.
+        """
+        check_name(name, self.names, "metric")
+        if not self._groups:
+            raise ValueRangeError("FrameMetrics: expected at least one frame, got none")
+        groups = torch.tensor(self._groups)
+        stats = torch.stack(self._stats[name])
+        order = torch.argsort(groups, stable=True)
+        counts = torch.bincount(groups[order])
+        counts = counts[counts > 0]
+        if bool((counts != counts[0]).any()):
+            raise ShapeError(f"FrameMetrics: expected equal frames per seed set, got {counts.tolist()}")
+        return stats[order].reshape(counts.numel(), int(counts[0]), 2)
+
+    def values(self, name: str) -> torch.Tensor:
+        """Per-frame values of metric ``name``: ``[S, F]`` float64."""
+        stats = self.stats(name)
+        return stats[..., 0] / stats[..., 1]
+
+    def compute(self, level: float = 0.95, resamples: int = 2000, seed: int = 0) -> dict[str, Estimate]:
+        """Every metric's pooled mean over the frames with its bootstrap interval."""
+        return {
+            name: bootstrap_interval(self.stats(name), level, resamples, seed) for name in self.names
+        }
+
+    def ratio(
+        self, baseline: "FrameMetrics", name: str, level: float = 0.95, resamples: int = 2000, seed: int = 0
+    ) -> Estimate:
+        """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames."""
+        return paired_ratio(self.stats(name), baseline.stats(name), level, resamples, seed)
