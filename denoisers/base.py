@@ -1,0 +1,93 @@
+"""The denoiser interface: a Frame in, a color image ``[3, H, W]`` out.
+
+Every denoiser (the kornia filters, the U-Net, OIDN) is a pure function over tensors plus a thin
+class around it that stores its parameters (STYLE.md habit 1). The class is what the registry hands
+out and what the benchmark calls; it checks the frame at the boundary once, so the functions below
+it trust their inputs.
+
+What a denoiser is not: it keeps no state between frames (no temporal accumulation, no history
+buffers). The temporal strategies move error between frames; a denoiser that also accumulated over
+time would mix the two effects the benchmark wants to separate.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import torch
+
+from bnerr.errors import BnerrError, DtypeError, check_finite, check_shape
+from bnerr.frame import BUFFERS, Frame
+
+__all__ = ["Denoiser", "MissingBufferError", "check_frame"]
+
+_CHANNELS = dict(BUFFERS, variance=3)
+
+
+class MissingBufferError(BnerrError, ValueError):
+    """A frame lacks an auxiliary buffer (albedo, normal, depth, ...) that a denoiser needs."""
+
+
+def check_frame(frame: object, requires: frozenset[str], who: str) -> Frame:
+    """Check that ``frame`` is a :class:`~bnerr.frame.Frame` holding every buffer in ``requires``.
+
+    Also checks that its color is finite: one NaN spreads over the whole support of a filter (or
+    the receptive field of a network), and the place it came from is then lost.
+
+    Raises:
+        DtypeError: ``frame`` is not a Frame.
+        MissingBufferError: a required buffer is None; the message names it and the denoiser.
+        ShapeError: a buffer's shape does not match ``[C, H, W]`` of the color.
+        NonFiniteError: the color holds NaN or infinity.
+    """
+    if not isinstance(frame, Frame):
+        raise DtypeError(f"{who}: expected a bnerr.frame.Frame, got {type(frame).__name__}")
+    missing = sorted(name for name in requires if getattr(frame, name, None) is None)
+    if missing:
+        raise MissingBufferError(
+            f"{who}: expected a frame with buffer(s) {', '.join(sorted(requires))}, "
+            f"got a frame without {', '.join(missing)}"
+        )
+    # Frame's own __post_init__ checked shapes when it was built; buffers assigned afterwards were
+    # not, so check again here, where a wrong shape would otherwise fail deep inside a filter.
+    size = check_shape(frame.color, "3 H W", f"{who}: frame.color")
+    for name in sorted(requires):
+        channels = _CHANNELS.get(name, 3)
+        check_shape(getattr(frame, name), f"{channels} {size['H']} {size['W']}", f"{who}: frame.{name}")
+    check_finite(frame.color, f"{who}: frame.color")
+    return frame
+
+
+class Denoiser:
+    """Base class: maps a :class:`~bnerr.frame.Frame` to a denoised color ``[3, H, W]``.
+
+    Subclasses set ``name``, set ``requires`` (the auxiliary buffers they read, besides color) and
+    implement :meth:`denoise`. ``__call__`` checks the frame (a missing buffer raises
+    :class:`MissingBufferError` naming it) and returns a float32 tensor on the frame's device.
+
+    Attributes:
+        name: the registry name (``"gaussian"``, ``"unet"``, ...).
+        requires: buffer names the denoiser reads besides ``color``.
+    """
+
+    name: ClassVar[str] = ""
+    requires: frozenset[str] = frozenset()
+
+    def __call__(self, frame: Frame) -> torch.Tensor:
+        frame = check_frame(frame, self.requires, f"denoiser {self.name!r}")
+        out = self.denoise(frame)
+        # Catch a subclass that breaks the contract here rather than in the caller's metric.
+        check_shape(out, f"3 {frame.height} {frame.width}", f"denoiser {self.name!r} output")
+        return out
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        """Denoise a frame already checked by ``__call__``; return ``[3, H, W]`` float32."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement denoise()")
+
+    def params(self) -> dict[str, float | int | str]:
+        """The settings that define this denoiser, as stored by :mod:`denoisers.tuning`."""
+        return {}
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
+        return f"{type(self).__name__}({args})"

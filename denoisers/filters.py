@@ -1,0 +1,400 @@
+"""Classic image filters as denoisers: kornia's five, and the edge-avoiding a-trous filter of SVGF.
+
+Each filter is a pure function over tensors (``color [3, H, W]`` plus the guides it reads, all on
+one device, float32) and a thin :class:`~denoisers.base.Denoiser` class that stores its parameters
+and reads the buffers from a Frame (STYLE.md habit 1).
+
+Parameters are not chosen here: :mod:`denoisers.tuning` picks them per scene and spp on
+white-noise renders, and the benchmark then uses them unchanged for every strategy. The defaults
+below are only reasonable starting points for a 4 spp frame.
+
+Borders are padded by replication everywhere, so every filter works on any image size (a
+reflection pad must be narrower than the image).
+
+What these filters are not: production denoisers. They are the range of classical behaviours the
+benchmark needs, from a linear low-pass (which removes most of a blue-noise error and little of a
+white one) to feature-guided filters (which may not care how the error is distributed).
+"""
+
+from __future__ import annotations
+
+import math
+
+import kornia.filters as KF
+import torch
+import torch.nn.functional as F
+
+from bnerr.errors import ValueRangeError, check_positive_int, check_range
+from bnerr.frame import Frame
+from denoisers.base import Denoiser
+
+__all__ = [
+    "ATrous",
+    "Bilateral",
+    "Gaussian",
+    "Guided",
+    "JointBilateral",
+    "Median",
+    "atrous_filter",
+    "bilateral_filter",
+    "gaussian_filter",
+    "guided_filter",
+    "joint_bilateral_filter",
+    "luminance",
+    "median_filter",
+]
+
+_BORDER = "replicate"
+
+# Rec. 709 luminance weights (linear RGB), the ones pbrt and Mitsuba use for luminance().
+_LUMINANCE = (0.2126, 0.7152, 0.0722)
+
+
+def luminance(color: torch.Tensor) -> torch.Tensor:
+    """Rec. 709 luminance of linear RGB: ``[3, ...]`` -> ``[1, ...]`` (same device and dtype)."""
+    w = torch.tensor(_LUMINANCE, device=color.device, dtype=color.dtype)
+    return torch.einsum("c...,c->...", color, w).unsqueeze(0)
+
+
+def _odd(radius: float) -> int:
+    """The odd kernel width ``2 * ceil(radius) + 1``."""
+    return 2 * math.ceil(radius) + 1
+
+
+# ----------------------------------------------------------------------------------------------
+# Pure functions. Inputs are [C, H, W] tensors on one device; no checks (the classes check).
+# ----------------------------------------------------------------------------------------------
+
+
+def gaussian_filter(color: torch.Tensor, sigma: float) -> torch.Tensor:
+    """Isotropic Gaussian blur of ``color [3, H, W]``, truncated at 3 sigma.
+
+    The linear low-pass the project's claim is about: it removes the high frequencies where a
+    blue-noise error lives. Blurs across edges, so it also biases the image.
+    """
+    k = _odd(3.0 * sigma)
+    return KF.gaussian_blur2d(color[None], (k, k), (sigma, sigma), border_type=_BORDER)[0]
+
+
+def bilateral_filter(color: torch.Tensor, sigma_color: float, sigma_space: float) -> torch.Tensor:
+    """Bilateral filter of ``color [3, H, W]`` with its own color as the range guide.
+
+    Tomasi & Manduchi 1998. ``sigma_color`` is relative to the frame's mean color (mean over
+    pixels and channels), so that one value means the same on a dark and on a bright scene; the
+    spatial kernel is a Gaussian of ``sigma_space`` pixels truncated at 2 sigma. The range kernel
+    uses the L2 distance between RGB values.
+
+    Not for HDR fireflies: a pixel far brighter than its neighbours finds no similar neighbour
+    and is kept as it is. That is the textbook behaviour, kept on purpose.
+    """
+    scale = color.mean().clamp_min(1e-6)
+    k = _odd(2.0 * sigma_space)
+    out = KF.bilateral_blur(
+        color[None] / scale, (k, k), sigma_color, (sigma_space, sigma_space),
+        border_type=_BORDER, color_distance_type="l2",
+    )
+    return out[0] * scale
+
+
+def joint_bilateral_filter(
+    color: torch.Tensor,
+    albedo: torch.Tensor,
+    normal: torch.Tensor,
+    sigma_color: float,
+    sigma_space: float,
+) -> torch.Tensor:
+    """Joint (cross) bilateral filter of ``color [3, H, W]`` guided by ``albedo`` and ``normal``.
+
+    Eisemann & Durand 2004, Petschnigg et al. 2004: the range weights come from the nearly
+    noise-free auxiliary buffers instead of the noisy color, so the filter stops at object,
+    material and crease edges but blurs freely inside a surface. The guide is the 6-channel
+    stack ``[albedo; normal]`` with an L2 distance, so ``sigma_color`` is in albedo units (a
+    normal difference of 1 counts like an albedo difference of 1). Shadow and lighting edges are
+    not in the guide and get blurred.
+    """
+    guide = torch.cat([albedo, normal])[None]
+    k = _odd(2.0 * sigma_space)
+    out = KF.joint_bilateral_blur(
+        color[None], guide, (k, k), sigma_color, (sigma_space, sigma_space),
+        border_type=_BORDER, color_distance_type="l2",
+    )
+    return out[0]
+
+
+def guided_filter(
+    color: torch.Tensor,
+    albedo: torch.Tensor,
+    normal: torch.Tensor,
+    radius: int,
+    eps: float,
+) -> torch.Tensor:
+    """Guided filter (He, Sun & Tang 2010) of ``color [3, H, W]`` with guide ``[albedo; normal]``.
+
+    In each ``(2 radius + 1)^2`` window the output is an affine function of the 6-channel guide
+    fitted to the noisy color by ridge regression (``eps`` regularises, in squared guide units).
+    With albedo in the guide, a texture multiplied by smooth lighting is reproduced instead of
+    blurred; this is the feature-guided filtering of Bauszat, Eisemann & Magnor 2011 ("Guided
+    Image Filtering for Interactive High-quality Global Illumination").
+    """
+    guide = torch.cat([albedo, normal])[None]
+    k = 2 * radius + 1
+    return KF.guided_blur(guide, color[None], (k, k), eps, border_type=_BORDER)[0]
+
+
+def median_filter(color: torch.Tensor, kernel_size: int) -> torch.Tensor:
+    """Per-channel median over a ``kernel_size`` square window of ``color [3, H, W]``.
+
+    Removes isolated fireflies well; on skewed Monte Carlo noise the median of a window is below
+    its mean, so it darkens (biases) the image. That trade-off is what the tuning measures.
+    """
+    return KF.median_blur(color[None], (kernel_size, kernel_size), border_type=_BORDER)[0]
+
+
+# B3-spline a-trous taps (Dammertz et al. 2010; SVGF uses the same 5 x 5 kernel).
+_ATROUS_TAPS = (1.0 / 16.0, 1.0 / 4.0, 3.0 / 8.0, 1.0 / 4.0, 1.0 / 16.0)
+# 3 x 3 Gaussian that SVGF applies to the variance before using it in the luminance weight.
+_VARIANCE_BLUR = ((1 / 16, 1 / 8, 1 / 16), (1 / 8, 1 / 4, 1 / 8), (1 / 16, 1 / 8, 1 / 16))
+# Added to albedo before demodulating, so that black albedo (emitters, background) divides safely;
+# remodulation multiplies by the same value, so demodulation itself changes nothing.
+_ALBEDO_EPS = 1e-3
+# Window of the spatial variance estimate (SVGF uses 7 x 7 when a pixel has no temporal history).
+_VARIANCE_WINDOW = 7
+
+
+def _unit_normals(normal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """Normalized normals ``[3, H, W]`` and the mask ``[1, H, W]`` of pixels that hit a surface."""
+    length = normal.norm(dim=0, keepdim=True)
+    hit = length > 0.5  # pixel-averaged normals of a hit are close to unit length; escaped are 0
+    return torch.where(hit, normal / length.clamp_min(1e-12), torch.zeros_like(normal)), hit
+
+
+def _spatial_variance(lum: torch.Tensor) -> torch.Tensor:
+    """Variance ``[1, H, W]`` of ``lum`` in a 7 x 7 box window (SVGF's estimate without history)."""
+    k = (_VARIANCE_WINDOW, _VARIANCE_WINDOW)
+    mean = KF.box_blur(lum[None], k, border_type=_BORDER)
+    mean_sq = KF.box_blur(lum[None].square(), k, border_type=_BORDER)
+    return (mean_sq - mean.square()).clamp_min(0.0)[0]
+
+
+def _atrous_step(
+    illum: torch.Tensor,
+    variance: torch.Tensor,
+    normal: torch.Tensor,
+    hit: torch.Tensor,
+    depth: torch.Tensor,
+    depth_width: torch.Tensor,
+    step: int,
+    sigma_color: float,
+    sigma_normal: float,
+    sigma_depth: float,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """One edge-avoiding a-trous pass with hole spacing ``step``; returns (illum, variance).
+
+    ``hit [1, H, W]`` is 1.0 where the pixel saw a surface and 0.0 where the ray escaped.
+    """
+    _, h, w = illum.shape
+    kernel = torch.tensor(_VARIANCE_BLUR, device=illum.device, dtype=illum.dtype)
+    var_blur = F.conv2d(F.pad(variance[None], (1, 1, 1, 1), mode=_BORDER), kernel[None, None])[0]
+    lum = luminance(illum)
+    phi_lum = sigma_color * var_blur.sqrt() + 1e-6
+    phi_depth = sigma_depth * depth_width
+    # One padded copy of everything the taps read; each tap is then a view (a slice), not a copy.
+    r = 2 * step
+    stacked = torch.cat([illum, lum, variance, normal, hit, depth])[None]
+    padded = F.pad(stacked, (r, r, r, r), mode=_BORDER)[0]
+
+    sum_c = torch.zeros_like(illum)
+    sum_v = torch.zeros_like(variance)
+    sum_w = torch.zeros_like(variance)
+    for iy, hy in enumerate(_ATROUS_TAPS):
+        for ix, hx in enumerate(_ATROUS_TAPS):
+            dy, dx = (iy - 2) * step, (ix - 2) * step
+            q = padded[:, r + dy : r + dy + h, r + dx : r + dx + w]
+            q_illum, q_lum, q_var, q_normal, q_hit, q_depth = q.split((3, 1, 1, 3, 1, 1))
+            cos = (normal * q_normal).sum(0, keepdim=True).clamp_min(0.0)
+            # Escaped pixels (no normal) average only among themselves, with weight 1.
+            w_normal = torch.where((hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype))
+            # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
+            # spacing and by the step, i.e. by the distance in pixels.
+            dist = math.hypot(dy, dx)
+            w_depth = (q_depth - depth).abs() / (phi_depth * dist + 1e-6)
+            w_lum = (q_lum - lum).abs() / phi_lum
+            weight = (hy * hx) * torch.exp(-w_lum - w_depth) * w_normal
+            sum_c += weight * q_illum
+            sum_v += weight.square() * q_var
+            sum_w += weight
+    # The center tap has weight 3/8 * 3/8 * 1 * 1 (or more), so sum_w is never 0.
+    return sum_c / sum_w, sum_v / sum_w.square()
+
+
+def atrous_filter(
+    color: torch.Tensor,
+    albedo: torch.Tensor,
+    normal: torch.Tensor,
+    depth: torch.Tensor,
+    iterations: int = 5,
+    sigma_color: float = 4.0,
+    sigma_normal: float = 128.0,
+    sigma_depth: float = 1.0,
+) -> torch.Tensor:
+    """Edge-avoiding a-trous wavelet filter: the spatial part of SVGF.
+
+    Dammertz, Sewtz, Hanika & Lensch 2010, "Edge-Avoiding A-Trous Wavelet Transform for fast
+    Global Illumination Filtering" (HPG), with the edge-stopping functions of Schied et al. 2017,
+    "Spatiotemporal Variance-Guided Filtering" (HPG), section 4.4:
+
+    - the color is demodulated by ``albedo`` before filtering and remodulated after;
+    - ``iterations`` passes of the 5 x 5 B3-spline kernel with hole spacing 1, 2, 4, ...;
+    - weights ``w_n = max(0, n_p . n_q)^sigma_normal``,
+      ``w_z = exp(-|z_p - z_q| / (sigma_depth |grad z| |p - q|))``,
+      ``w_l = exp(-|l_p - l_q| / (sigma_color sqrt(g3x3(Var l_p))))``;
+    - the luminance variance is filtered along with the color (squared weights).
+
+    Shapes: ``color``, ``albedo``, ``normal`` ``[3, H, W]``, ``depth [1, H, W]`` -> ``[3, H, W]``.
+
+    What differs from SVGF: no temporal accumulation (a denoiser here sees one frame), so the
+    initial luminance variance is always the spatial estimate SVGF falls back on for pixels
+    without history (here a plain 7 x 7 box window, not SVGF's bilateral one), and the depth
+    gradient is the larger of the central differences in x and y.
+    """
+    illum = color / (albedo + _ALBEDO_EPS)
+    unit, hit = _unit_normals(normal)
+    padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
+    gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
+    gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
+    depth_width = torch.maximum(gx, gy)
+    variance = _spatial_variance(luminance(illum))
+    for i in range(iterations):
+        illum, variance = _atrous_step(
+            illum, variance, unit, hit.to(color.dtype), depth, depth_width, 2**i,
+            sigma_color, sigma_normal, sigma_depth,
+        )
+    return illum * (albedo + _ALBEDO_EPS)
+
+
+# ----------------------------------------------------------------------------------------------
+# Thin classes: store and check parameters, read buffers from the frame.
+# ----------------------------------------------------------------------------------------------
+
+
+def _number(value: object, name: str, lo: float, hi: float) -> float:
+    return float(check_range(value, name, lo, hi))
+
+
+class Gaussian(Denoiser):
+    """Gaussian blur of ``sigma`` pixels; see :func:`gaussian_filter`. Reads color only."""
+
+    name = "gaussian"
+
+    def __init__(self, sigma: float = 1.0) -> None:
+        self.sigma = _number(sigma, "gaussian: sigma", 0.1, 16.0)
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return gaussian_filter(frame.color, self.sigma)
+
+    def params(self) -> dict[str, float]:
+        return {"sigma": self.sigma}
+
+
+class Bilateral(Denoiser):
+    """Bilateral filter; see :func:`bilateral_filter`. Reads color only."""
+
+    name = "bilateral"
+
+    def __init__(self, sigma_color: float = 1.0, sigma_space: float = 1.5) -> None:
+        self.sigma_color = _number(sigma_color, "bilateral: sigma_color", 1e-3, 1e3)
+        self.sigma_space = _number(sigma_space, "bilateral: sigma_space", 0.1, 16.0)
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return bilateral_filter(frame.color, self.sigma_color, self.sigma_space)
+
+    def params(self) -> dict[str, float]:
+        return {"sigma_color": self.sigma_color, "sigma_space": self.sigma_space}
+
+
+class JointBilateral(Denoiser):
+    """Joint bilateral filter guided by albedo and normal; see :func:`joint_bilateral_filter`."""
+
+    name = "joint_bilateral"
+    requires = frozenset({"albedo", "normal"})
+
+    def __init__(self, sigma_color: float = 0.1, sigma_space: float = 2.0) -> None:
+        self.sigma_color = _number(sigma_color, "joint_bilateral: sigma_color", 1e-3, 1e3)
+        self.sigma_space = _number(sigma_space, "joint_bilateral: sigma_space", 0.1, 16.0)
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return joint_bilateral_filter(
+            frame.color, frame.albedo, frame.normal, self.sigma_color, self.sigma_space
+        )
+
+    def params(self) -> dict[str, float]:
+        return {"sigma_color": self.sigma_color, "sigma_space": self.sigma_space}
+
+
+class Guided(Denoiser):
+    """Guided filter with the guide ``[albedo; normal]``; see :func:`guided_filter`."""
+
+    name = "guided"
+    requires = frozenset({"albedo", "normal"})
+
+    def __init__(self, radius: int = 2, eps: float = 1e-2) -> None:
+        self.radius = check_positive_int(radius, "guided: radius")
+        self.eps = _number(eps, "guided: eps", 1e-8, 1e3)
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return guided_filter(frame.color, frame.albedo, frame.normal, self.radius, self.eps)
+
+    def params(self) -> dict[str, float | int]:
+        return {"radius": self.radius, "eps": self.eps}
+
+
+class Median(Denoiser):
+    """Per-channel median filter; see :func:`median_filter`. Reads color only."""
+
+    name = "median"
+
+    def __init__(self, kernel_size: int = 3) -> None:
+        check_positive_int(kernel_size, "median: kernel_size", minimum=3)
+        if kernel_size % 2 == 0:
+            raise ValueRangeError(f"median: kernel_size: expected an odd integer, got {kernel_size}")
+        self.kernel_size = kernel_size
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return median_filter(frame.color, self.kernel_size)
+
+    def params(self) -> dict[str, int]:
+        return {"kernel_size": self.kernel_size}
+
+
+class ATrous(Denoiser):
+    """Edge-avoiding a-trous filter (spatial SVGF); see :func:`atrous_filter`."""
+
+    name = "atrous"
+    requires = frozenset({"albedo", "depth", "normal"})
+
+    def __init__(
+        self,
+        iterations: int = 5,
+        sigma_color: float = 4.0,
+        sigma_normal: float = 128.0,
+        sigma_depth: float = 1.0,
+    ) -> None:
+        self.iterations = check_positive_int(iterations, "atrous: iterations")
+        check_range(iterations, "atrous: iterations", 1, 10)
+        self.sigma_color = _number(sigma_color, "atrous: sigma_color", 1e-3, 1e4)
+        self.sigma_normal = _number(sigma_normal, "atrous: sigma_normal", 0.0, 1e4)
+        self.sigma_depth = _number(sigma_depth, "atrous: sigma_depth", 1e-3, 1e4)
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        return atrous_filter(
+            frame.color, frame.albedo, frame.normal, frame.depth,
+            self.iterations, self.sigma_color, self.sigma_normal, self.sigma_depth,
+        )
+
+    def params(self) -> dict[str, float | int]:
+        return {
+            "iterations": self.iterations,
+            "sigma_color": self.sigma_color,
+            "sigma_normal": self.sigma_normal,
+            "sigma_depth": self.sigma_depth,
+        }

@@ -1,0 +1,318 @@
+"""Training loop of the U-Net: deterministic, checkpointed, resumable bit for bit.
+
+The loop sees only ``(Frame, reference color)`` pairs; rendering them is the caller's job
+(``benchmarks.training_data``, since this package must not import the renderer). Everything that
+varies from step to step comes from the step number and the seed:
+
+- initial weights: ``torch.manual_seed(seed)`` before the network is built;
+- the batch of step ``s`` (which images, where the crops lie): a ``torch.Generator`` seeded with
+  ``(seed, s)``, so no random state has to be saved;
+- the learning rate of step ``s``: a pure function of ``s`` (linear warm-up, cosine decay).
+
+A checkpoint holds the weights, the optimizer state (Adam's moments and step counts), the step and
+the loss history; resuming from it continues exactly where the run stopped, so an interrupted and
+resumed run ends with the same weights as an uninterrupted one (on the same machine and thread
+count: CPU convolution kernels may sum in a different order elsewhere).
+
+Loss: L1 between network output and reference in the transformed domain (auto-exposure, then
+``log1p``), OIDN's choice for HDR training (OIDN trains on L1 of a perceptually transformed
+image, optionally mixed with MS-SSIM). The log keeps fireflies in the reference from dominating.
+
+Not for: large-scale training (no data loader workers, no mixed precision, no multi-GPU).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import torch
+
+from bnerr.errors import FileFormatError, ShapeError, ValueRangeError, check_positive_int, check_shape
+from bnerr.frame import Frame
+from denoisers.base import check_frame
+from denoisers.unet import (
+    DEFAULT_WIDTHS,
+    MAX_PARAMETERS,
+    UNet,
+    atomic_torch_save,
+    auto_exposure,
+    network_input,
+)
+
+__all__ = [
+    "CHECKPOINT_FORMAT",
+    "TrainConfig",
+    "TrainResult",
+    "TrainingSet",
+    "learning_rate",
+    "load_checkpoint",
+    "make_training_set",
+    "train",
+]
+
+#: Format tag of checkpoint files, checked on resume.
+CHECKPOINT_FORMAT = "bnerr-unet-checkpoint-v1"
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Everything that determines the trained weights (besides the data).
+
+    Attributes:
+        steps: optimizer steps of the full run (the learning-rate schedule spans them).
+        batch_size: crops per step.
+        crop: crop side in pixels (a multiple of 8, at most the training images' size).
+        lr: peak learning rate of Adam.
+        warmup: steps of linear warm-up from 0 to ``lr``; then cosine decay to ``lr / 100``.
+        seed: seeds the initial weights and every batch.
+        widths: the U-Net's channel widths (see :class:`~denoisers.unet.UNet`).
+        checkpoint_every: steps between checkpoints.
+    """
+
+    steps: int = 3000
+    batch_size: int = 16
+    crop: int = 64
+    lr: float = 2e-3
+    warmup: int = 100
+    seed: int = 0
+    widths: tuple[int, ...] = DEFAULT_WIDTHS
+    checkpoint_every: int = 100
+
+    def __post_init__(self) -> None:
+        check_positive_int(self.steps, "TrainConfig.steps")
+        check_positive_int(self.batch_size, "TrainConfig.batch_size")
+        check_positive_int(self.crop, "TrainConfig.crop", minimum=8)
+        if self.crop % 8:
+            raise ValueRangeError(f"TrainConfig.crop: expected a multiple of 8, got {self.crop}")
+        check_positive_int(self.warmup, "TrainConfig.warmup", minimum=0)
+        check_positive_int(self.seed, "TrainConfig.seed", minimum=0)
+        check_positive_int(self.checkpoint_every, "TrainConfig.checkpoint_every")
+        if not (isinstance(self.lr, (int, float)) and 0.0 < self.lr < 1.0):
+            raise ValueRangeError(f"TrainConfig.lr: expected a number in (0, 1), got {self.lr!r}")
+        object.__setattr__(self, "widths", tuple(self.widths))
+
+
+@dataclass
+class TrainingSet:
+    """Training pairs in the network's domain, stacked: ``inputs [N, 9, H, W]``, ``targets [N, 3, H, W]``.
+
+    Both are transformed with the auto-exposure of the *noisy* frame (as at inference, where the
+    reference is unknown), so the loss compares like with like.
+    """
+
+    inputs: torch.Tensor
+    targets: torch.Tensor
+
+    def __len__(self) -> int:
+        return self.inputs.shape[0]
+
+
+@dataclass
+class TrainResult:
+    """What :func:`train` returns.
+
+    Attributes:
+        model: the network after the last step run (in eval mode, on the CPU).
+        step: the number of steps done so far (equal to ``config.steps`` when finished).
+        losses: mean training loss of each checkpoint interval, ``(step, loss)``.
+        finished: whether all ``config.steps`` steps are done.
+        seconds: wall time of this call.
+    """
+
+    model: UNet
+    step: int
+    losses: list[tuple[int, float]] = field(default_factory=list)
+    finished: bool = False
+    seconds: float = 0.0
+
+
+def make_training_set(pairs: Sequence[tuple[Frame, torch.Tensor]]) -> TrainingSet:
+    """Stack ``(noisy frame, reference color [3, H, W])`` pairs into a :class:`TrainingSet`.
+
+    Every frame needs albedo and normal and all must have one size.
+
+    Raises:
+        ValueRangeError: no pairs.
+        MissingBufferError: a frame without albedo or normal.
+        ShapeError: a reference of the wrong shape, or frames of different sizes.
+    """
+    if len(pairs) == 0:
+        raise ValueRangeError("make_training_set: pairs: expected at least one pair, got none")
+    inputs, targets = [], []
+    size = None
+    for i, (frame, reference) in enumerate(pairs):
+        frame = check_frame(frame, frozenset({"albedo", "normal"}), f"training pair {i}")
+        check_shape(reference, f"3 {frame.height} {frame.width}", f"training pair {i}: reference")
+        if size is None:
+            size = (frame.height, frame.width)
+        elif size != (frame.height, frame.width):
+            raise ShapeError(
+                f"training pair {i}: expected {size[0]} x {size[1]} like pair 0, "
+                f"got {frame.height} x {frame.width}"
+            )
+        exposure = auto_exposure(frame.color)
+        inputs.append(network_input(frame.color, frame.albedo, frame.normal, exposure))
+        targets.append(torch.log1p(reference.clamp_min(0.0) * exposure))
+    return TrainingSet(torch.stack(inputs).cpu(), torch.stack(targets).cpu())
+
+
+def learning_rate(config: TrainConfig, step: int) -> float:
+    """Learning rate of step ``step`` (0-based): linear warm-up, then cosine decay to lr / 100."""
+    if step < config.warmup:
+        return config.lr * (step + 1) / config.warmup
+    span = max(config.steps - config.warmup, 1)
+    progress = min((step - config.warmup) / span, 1.0)
+    return config.lr * (0.01 + 0.99 * 0.5 * (1.0 + math.cos(math.pi * progress)))
+
+
+def _batch(data: TrainingSet, config: TrainConfig, step: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """The crops of step ``step``: a pure function of (seed, step), so resuming needs no RNG state."""
+    g = torch.Generator().manual_seed(config.seed * 1_000_003 + step)
+    n, _, h, w = data.inputs.shape
+    index = torch.randint(n, (config.batch_size,), generator=g)
+    ys = torch.randint(h - config.crop + 1, (config.batch_size,), generator=g)
+    xs = torch.randint(w - config.crop + 1, (config.batch_size,), generator=g)
+    c = config.crop
+    x = torch.stack([data.inputs[i, :, y : y + c, x_ : x_ + c] for i, y, x_ in zip(index, ys, xs)])
+    t = torch.stack([data.targets[i, :, y : y + c, x_ : x_ + c] for i, y, x_ in zip(index, ys, xs)])
+    return x, t
+
+
+def load_checkpoint(path: str | Path) -> dict:
+    """Read a checkpoint written by :func:`train`.
+
+    Raises:
+        FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr checkpoint.
+    """
+    path = Path(path)
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: expected a training checkpoint, got no such file") from None
+    except Exception as err:  # torch raises many types on a damaged file
+        raise FileFormatError(f"{path}: expected a training checkpoint, got an unreadable file ({err})") from None
+    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
+        got = state.get("format") if isinstance(state, dict) else type(state).__name__
+        raise FileFormatError(f"{path}: expected format {CHECKPOINT_FORMAT!r}, got {got!r}")
+    missing = {"config", "step", "model", "optimizer", "losses", "running"} - set(state)
+    if missing:
+        raise FileFormatError(f"{path}: expected checkpoint entries {sorted(missing)}, got none")
+    return state
+
+
+def _config_from(state: dict, path: Path) -> TrainConfig:
+    try:
+        return TrainConfig(**state["config"])
+    except (TypeError, ValueError) as err:
+        raise FileFormatError(f"{path}: expected a valid training configuration, got {err}") from None
+
+
+def _save(path: Path, config: TrainConfig, step: int, model: UNet, opt: torch.optim.Optimizer,
+          losses: list[tuple[int, float]], running: tuple[float, int]) -> None:
+    atomic_torch_save(
+        {
+            "format": CHECKPOINT_FORMAT,
+            "config": asdict(config),
+            "step": step,
+            "model": model.state_dict(),
+            "optimizer": opt.state_dict(),
+            "losses": [list(x) for x in losses],
+            "running": list(running),  # the loss sum and count of the unfinished interval
+        },
+        path,
+    )
+
+
+def train(
+    data: TrainingSet,
+    config: TrainConfig,
+    checkpoint: str | Path | None = None,
+    *,
+    resume: bool = False,
+    stop_at: int | None = None,
+    time_limit_s: float | None = None,
+    progress: bool = True,
+) -> TrainResult:
+    """Train a :class:`~denoisers.unet.UNet` on ``data`` for ``config.steps`` steps.
+
+    Args:
+        data: the training set (:func:`make_training_set`); images at least ``config.crop`` wide.
+        config: the run's settings; with ``resume`` it must equal the checkpoint's.
+        checkpoint: where to write a checkpoint every ``config.checkpoint_every`` steps and when
+            the call returns. None: no checkpoints.
+        resume: continue from ``checkpoint`` if that file exists (else start fresh).
+        stop_at: stop (after writing a checkpoint) once this many steps are done, as an
+            interruption would; used to test resuming.
+        time_limit_s: stop (after writing a checkpoint) once this much wall time has passed in
+            this call; the stopping step then depends on the machine's speed, so a run that must
+            be reproducible uses ``config.steps`` and lets this be None.
+        progress: show a tqdm progress bar with the running loss.
+
+    Raises:
+        ValueRangeError: images smaller than the crop, or a network over the parameter cap.
+        FileFormatError: ``resume`` from a corrupt checkpoint or from one of another config.
+    """
+    from tqdm.auto import tqdm
+
+    start_time = time.perf_counter()
+    _, _, h, w = data.inputs.shape
+    if min(h, w) < config.crop:
+        raise ValueRangeError(f"train: data: expected images at least {config.crop} px, got {h} x {w}")
+    ckpt = Path(checkpoint) if checkpoint is not None else None
+
+    torch.manual_seed(config.seed)
+    model = UNet(config.widths)
+    count = sum(p.numel() for p in model.parameters())
+    if count > MAX_PARAMETERS:
+        raise ValueRangeError(
+            f"train: widths {config.widths}: expected at most {MAX_PARAMETERS} parameters, got {count}"
+        )
+    opt = torch.optim.Adam(model.parameters(), lr=config.lr)
+    step, losses, running, in_interval = 0, [], 0.0, 0
+    if resume and ckpt is not None and ckpt.exists():
+        state = load_checkpoint(ckpt)
+        if _config_from(state, ckpt) != config:
+            raise FileFormatError(
+                f"{ckpt}: expected a checkpoint of config {asdict(config)}, got {state['config']}"
+            )
+        model.load_state_dict(state["model"])
+        opt.load_state_dict(state["optimizer"])
+        step, losses = int(state["step"]), [(int(s), float(v)) for s, v in state["losses"]]
+        running, in_interval = float(state["running"][0]), int(state["running"][1])
+
+    end = config.steps if stop_at is None else min(config.steps, stop_at)
+    bar = tqdm(total=config.steps, initial=step, disable=not progress, desc="train", unit="step")
+    while step < end:
+        for group in opt.param_groups:
+            group["lr"] = learning_rate(config, step)
+        x, target = _batch(data, config, step)
+        loss = (model(x) - target).abs().mean()
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        step += 1
+        value = loss.detach().item()
+        running, in_interval = running + value, in_interval + 1
+        bar.update(1)
+        bar.set_postfix(loss=f"{value:.4f}")
+        # The loss history depends only on the step, never on where a run was interrupted.
+        if step % config.checkpoint_every == 0 or step == config.steps:
+            losses.append((step, running / in_interval))
+            running, in_interval = 0.0, 0
+        out_of_time = time_limit_s is not None and time.perf_counter() - start_time > time_limit_s
+        if ckpt is not None and (step % config.checkpoint_every == 0 or step == end or out_of_time):
+            _save(ckpt, config, step, model, opt, losses, (running, in_interval))
+        if out_of_time:
+            break
+    bar.close()
+    return TrainResult(
+        model=model.eval(),
+        step=step,
+        losses=losses,
+        finished=step >= config.steps,
+        seconds=time.perf_counter() - start_time,
+    )

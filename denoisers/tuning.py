@@ -1,0 +1,224 @@
+"""Fair filter parameters: tuned per scene and spp on white noise, then frozen for every strategy.
+
+A filter tuned on the renders of one strategy would favour that strategy. So each filter's
+parameters are chosen once per (scene, spp) by a small grid search that minimizes the MSE to the
+reference on **white-noise** renders, stored in a JSON file, and the benchmark then uses the stored
+values unchanged for white, blue-noise and every other strategy. The grid is small on purpose: it
+is there to put each filter near its best setting, not to squeeze the last percent.
+
+File format (JSON, written atomically)::
+
+    {"format": "bnerr-tuned-params-v1",
+     "entries": {"<denoiser>": {"<scene>": {"<spp>": {
+         "params": {...}, "mse": float, "noisy_mse": float, "frames": int,
+         "sampler": "white"}}}}}
+
+Only the filters have parameters to tune (:data:`GRIDS`); ``unet`` and ``oidn`` have none and are
+looked up with their defaults.
+
+This module renders nothing (denoisers do not import the renderer): the caller passes the noisy
+frames and the reference.
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import torch
+
+from bnerr.errors import (
+    DtypeError,
+    FileFormatError,
+    UnknownNameError,
+    ValueRangeError,
+    check_name,
+    check_positive_int,
+    check_shape,
+)
+from bnerr.frame import Frame
+from denoisers import get_denoiser
+from denoisers.base import Denoiser
+
+__all__ = [
+    "GRIDS",
+    "PARAMS_FORMAT",
+    "ParamStore",
+    "TuneResult",
+    "grid_points",
+    "tune",
+    "tuned_denoiser",
+]
+
+#: Format tag of the stored-parameters file.
+PARAMS_FORMAT = "bnerr-tuned-params-v1"
+
+#: The search grid of each tunable filter: parameter -> candidate values (small on purpose).
+GRIDS: dict[str, dict[str, tuple]] = {
+    "atrous": {"iterations": (3, 4, 5), "sigma_color": (1.0, 4.0, 16.0, 64.0)},
+    "bilateral": {"sigma_color": (0.25, 0.5, 1.0, 2.0, 4.0), "sigma_space": (1.0, 2.0, 3.0)},
+    "gaussian": {"sigma": (0.5, 0.75, 1.0, 1.5, 2.0, 3.0)},
+    "guided": {"radius": (1, 2, 3, 5), "eps": (1e-4, 1e-3, 1e-2, 1e-1)},
+    "joint_bilateral": {"sigma_color": (0.05, 0.1, 0.2, 0.5), "sigma_space": (1.0, 2.0, 3.0)},
+    "median": {"kernel_size": (3, 5)},
+}
+
+
+def grid_points(grid: Mapping[str, Sequence]) -> list[dict]:
+    """Every combination of a grid, in a fixed order (the product, keys sorted)."""
+    keys = sorted(grid)
+    return [dict(zip(keys, values)) for values in itertools.product(*(grid[k] for k in keys))]
+
+
+@dataclass
+class TuneResult:
+    """The outcome of :func:`tune`.
+
+    Attributes:
+        denoiser: the filter's name.
+        params: the grid point with the lowest MSE (the first one on a tie).
+        mse: its MSE to the reference, averaged over the frames.
+        noisy_mse: the MSE of the noisy frames themselves.
+        table: every grid point with its MSE, in grid order.
+    """
+
+    denoiser: str
+    params: dict
+    mse: float
+    noisy_mse: float
+    frames: int
+    table: list[tuple[dict, float]] = field(default_factory=list)
+
+
+def _mse(a: torch.Tensor, b: torch.Tensor) -> float:
+    return float((a.double() - b.double()).square().mean())
+
+
+def tune(
+    name: str,
+    frames: Sequence[Frame],
+    references: Sequence[torch.Tensor],
+    grid: Mapping[str, Sequence] | None = None,
+) -> TuneResult:
+    """Grid-search filter ``name`` on white-noise ``frames`` against ``references``.
+
+    Args:
+        name: a tunable filter (a key of :data:`GRIDS`).
+        frames: noisy renders of one scene at one spp, made with the white sampler.
+        references: the reference color ``[3, H, W]`` of each frame (the same tensor may repeat
+            when the frames share a time ``t``).
+        grid: overrides :data:`GRIDS`\\ ``[name]``.
+
+    Returns:
+        The best parameters by mean MSE over the frames.
+
+    Raises:
+        UnknownNameError: ``name`` is not tunable.
+        ValueRangeError: no frames, or not one reference per frame.
+        ShapeError: a reference does not match its frame.
+    """
+    check_name(name, list(GRIDS), "tunable denoiser")
+    if len(frames) == 0 or len(frames) != len(references):
+        raise ValueRangeError(
+            f"tune: expected one reference per frame and at least one frame, "
+            f"got {len(frames)} frames and {len(references)} references"
+        )
+    for i, (frame, ref) in enumerate(zip(frames, references)):
+        check_shape(ref, f"3 {frame.height} {frame.width}", f"tune: references[{i}]")
+    noisy = sum(_mse(f.color, r) for f, r in zip(frames, references)) / len(frames)
+    table = []
+    for params in grid_points(grid if grid is not None else GRIDS[name]):
+        denoiser = get_denoiser(name, **params)
+        mse = sum(_mse(denoiser(f), r) for f, r in zip(frames, references)) / len(frames)
+        table.append((params, mse))
+    best, best_mse = min(table, key=lambda row: row[1])  # min keeps the first of equal values
+    return TuneResult(name, best, best_mse, noisy, len(frames), table)
+
+
+def _atomic_write_text(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+class ParamStore:
+    """Tuned parameters by (denoiser, scene, spp), loaded from and saved to a JSON file."""
+
+    def __init__(self, entries: dict | None = None) -> None:
+        self.entries: dict[str, dict[str, dict[str, dict]]] = entries if entries is not None else {}
+
+    def put(self, result: TuneResult, scene: str, spp: int, sampler: str = "white") -> None:
+        """Store ``result`` as the parameters of ``result.denoiser`` on ``scene`` at ``spp``."""
+        check_positive_int(spp, "ParamStore.put: spp")
+        if not isinstance(scene, str) or not scene:
+            raise DtypeError(f"ParamStore.put: scene: expected a non-empty str, got {scene!r}")
+        self.entries.setdefault(result.denoiser, {}).setdefault(scene, {})[str(spp)] = {
+            "params": dict(result.params),
+            "mse": result.mse,
+            "noisy_mse": result.noisy_mse,
+            "frames": result.frames,
+            "sampler": sampler,
+        }
+
+    def params(self, denoiser: str, scene: str, spp: int) -> dict:
+        """The stored parameters of ``denoiser`` on ``scene`` at ``spp``.
+
+        Raises:
+            UnknownNameError: nothing stored for that triple (the message lists what is).
+        """
+        try:
+            return dict(self.entries[denoiser][scene][str(spp)]["params"])
+        except KeyError:
+            have = sorted(
+                f"{d}/{s}/{n}" for d, by_scene in self.entries.items()
+                for s, by_spp in by_scene.items() for n in by_spp
+            )
+            raise UnknownNameError(
+                f"tuned params: expected an entry for {denoiser}/{scene}/{spp} spp, got none "
+                f"(stored: {', '.join(have) or 'nothing'})"
+            ) from None
+
+    def save(self, path: str | Path) -> None:
+        """Write the store as JSON (sorted keys, so equal stores give equal files), atomically."""
+        text = json.dumps({"format": PARAMS_FORMAT, "entries": self.entries}, indent=1, sort_keys=True)
+        _atomic_write_text(Path(path), text + "\n")
+
+    @classmethod
+    def load(cls, path: str | Path) -> ParamStore:
+        """Read a store written by :meth:`save`.
+
+        Raises:
+            FileFormatError: the file is missing, not JSON, or not a tuned-parameters file.
+        """
+        path = Path(path)
+        try:
+            payload = json.loads(path.read_text())
+        except FileNotFoundError:
+            raise FileFormatError(f"{path}: expected a tuned-parameters file, got no such file") from None
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+            raise FileFormatError(f"{path}: expected a tuned-parameters JSON file, got {err}") from None
+        if not isinstance(payload, dict) or payload.get("format") != PARAMS_FORMAT:
+            got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+            raise FileFormatError(f"{path}: expected format {PARAMS_FORMAT!r}, got {got!r}")
+        entries = payload.get("entries")
+        if not isinstance(entries, dict):
+            raise FileFormatError(f"{path}: expected an 'entries' object, got {type(entries).__name__}")
+        return cls(entries)
+
+
+def tuned_denoiser(name: str, scene: str, spp: int, store: ParamStore) -> Denoiser:
+    """The denoiser ``name`` with its tuned parameters for ``scene`` at ``spp``.
+
+    Denoisers without a grid (``unet``, ``oidn``) are built with their defaults.
+    """
+    if name not in GRIDS:
+        return get_denoiser(name)
+    return get_denoiser(name, **store.params(name, scene, spp))

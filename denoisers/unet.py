@@ -1,0 +1,245 @@
+"""A small U-Net denoiser in the spirit of Intel Open Image Denoise, trained here from scratch.
+
+Architecture (after OIDN's ``UNet``, training/model.py of the OIDN repository; Ronneberger et al.
+2015 for the U-Net): 3 x 3 convolutions with ReLU, 2 x 2 max-pooling down, nearest-neighbour
+upsampling, skip connections concatenated, the last skip being the network input itself, and a
+final 3 x 3 convolution without activation. The network predicts the denoised color directly (not
+a kernel, not a residual), as OIDN does.
+
+Input, ``[9, H, W]``: transformed color, albedo, normal. The color transform is OIDN's recipe for
+HDR input: scale by an auto-exposure (so that a dark and a bright scene look alike to the network),
+then a log transform (``log1p``), which compresses fireflies. The network's output is mapped back
+by the inverse transform.
+
+Much smaller than OIDN's (about 0.3 M parameters instead of about 0.9 M at the default widths;
+``MAX_PARAMETERS`` is the project's cap): it has to train in minutes on two CPU cores. It is a
+baseline that shows what a learned denoiser does with white and blue-noise input, not a
+replacement for OIDN.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from bnerr.errors import DtypeError, FileFormatError, ValueRangeError, check_shape
+from bnerr.frame import Frame
+from denoisers.base import Denoiser
+
+__all__ = [
+    "DEFAULT_WEIGHTS",
+    "MAX_PARAMETERS",
+    "UNet",
+    "UNetDenoiser",
+    "WEIGHTS_FORMAT",
+    "atomic_torch_save",
+    "auto_exposure",
+    "load_weights",
+    "network_input",
+    "parameter_count",
+    "save_weights",
+    "unet_denoise",
+]
+
+#: The shipped weights, produced by the command in ``denoisers/weights/README.md``.
+DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "unet.pt"
+#: Format tag written into every weights file, checked on load.
+WEIGHTS_FORMAT = "bnerr-unet-weights-v1"
+#: The project's cap on the network's size (the issue: "at most about 0.5 M parameters").
+MAX_PARAMETERS = 500_000
+#: Default channel widths: full, 1/2, 1/4, 1/8 resolution (the bottleneck).
+DEFAULT_WIDTHS = (24, 40, 56, 72)
+
+_KEY = 0.18  # mid-grey: auto-exposure maps the image's log-average luminance to it
+_BIN = 16  # auto-exposure averages luminance over 16 x 16 pixel bins first, as OIDN does
+_LUMA = (0.2126, 0.7152, 0.0722)
+
+
+def auto_exposure(color: torch.Tensor) -> torch.Tensor:
+    """Scalar exposure that maps ``color [3, H, W]``'s log-average luminance to 0.18.
+
+    OIDN's autoexposure (core/autoexposure.h): average luminance over 16 x 16 bins, take the
+    geometric mean over the bins that are not black, return ``key / mean``. Binning first makes it
+    robust to the noise of a low-spp frame. Returns a 0-dim tensor (1 for a black image).
+    """
+    w = torch.tensor(_LUMA, device=color.device, dtype=color.dtype)
+    lum = torch.einsum("chw,c->hw", color.clamp_min(0.0), w)[None, None]
+    bins = F.avg_pool2d(lum, _BIN, ceil_mode=True)[0, 0]
+    lit = bins > 1e-8
+    if not bool(lit.any()):
+        return torch.ones((), device=color.device, dtype=color.dtype)
+    return _KEY / bins[lit].log().mean().exp()
+
+
+def network_input(
+    color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, exposure: torch.Tensor
+) -> torch.Tensor:
+    """The ``[9, H, W]`` network input: ``log1p(exposure * color)``, albedo, normal.
+
+    Negative color (which an unbiased estimator never produces, but a filter upstream might) is
+    clamped to 0 before the log.
+    """
+    return torch.cat([torch.log1p(color.clamp_min(0.0) * exposure), albedo, normal])
+
+
+def _conv(cin: int, cout: int) -> nn.Conv2d:
+    return nn.Conv2d(cin, cout, kernel_size=3, padding=1)
+
+
+class UNet(nn.Module):
+    """OIDN-style U-Net: ``[B, 9, H, W]`` -> ``[B, 3, H, W]`` in the transformed (log) domain.
+
+    ``widths = (c0, c1, c2, c3)``: two convolutions at full resolution (c0), one per level at 1/2
+    (c1) and 1/4 (c2), each followed by a max-pool, two in the 1/8 bottleneck (c3); the decoder
+    mirrors it with two convolutions per level after each upsampling and concatenation (with the
+    pooled encoder output of that level, and with the network input at full resolution). H and W
+    need not be multiples of 8: the input is padded by replication and the output cropped.
+    """
+
+    def __init__(self, widths: Sequence[int] = DEFAULT_WIDTHS, in_channels: int = 9) -> None:
+        super().__init__()
+        if len(widths) != 4 or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in widths):
+            raise ValueRangeError(f"UNet: widths: expected 4 positive integers, got {list(widths)}")
+        c0, c1, c2, c3 = widths
+        self.widths = tuple(widths)
+        self.enc0 = _conv(in_channels, c0)
+        self.enc1 = _conv(c0, c0)
+        self.enc2 = _conv(c0, c1)
+        self.enc3 = _conv(c1, c2)
+        self.mid_a = _conv(c2, c3)
+        self.mid_b = _conv(c3, c3)
+        self.dec3_a = _conv(c3 + c1, c2)
+        self.dec3_b = _conv(c2, c2)
+        self.dec2_a = _conv(c2 + c0, c1)
+        self.dec2_b = _conv(c1, c1)
+        self.dec1_a = _conv(c1 + in_channels, c1)
+        self.dec1_b = _conv(c1, c0)
+        self.out = _conv(c0, 3)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        h, w = x.shape[-2:]
+        ph, pw = (-h) % 8, (-w) % 8
+        x = F.pad(x, (0, pw, 0, ph), mode="replicate") if ph or pw else x
+        relu = F.relu
+        skip0 = x
+        y = relu(self.enc1(relu(self.enc0(x))))
+        skip1 = F.max_pool2d(y, 2)  # 1/2
+        skip2 = F.max_pool2d(relu(self.enc2(skip1)), 2)  # 1/4
+        y = F.max_pool2d(relu(self.enc3(skip2)), 2)  # 1/8
+        y = relu(self.mid_b(relu(self.mid_a(y))))
+        y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skip2], 1)  # 1/4
+        y = relu(self.dec3_b(relu(self.dec3_a(y))))
+        y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skip1], 1)  # 1/2
+        y = relu(self.dec2_b(relu(self.dec2_a(y))))
+        y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skip0], 1)  # 1
+        y = relu(self.dec1_b(relu(self.dec1_a(y))))
+        return self.out(y)[..., :h, :w]
+
+
+def unet_denoise(
+    model: UNet, color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor
+) -> torch.Tensor:
+    """Denoise ``color [3, H, W]`` with ``model``, guided by ``albedo`` and ``normal [3, H, W]``.
+
+    Applies the input transform, runs the network without gradients, and inverts the transform;
+    the result is clamped at 0 (radiance is never negative). ``model`` must already be on the
+    color's device. Returns ``[3, H, W]`` float32.
+    """
+    exposure = auto_exposure(color)
+    x = network_input(color, albedo, normal, exposure)
+    with torch.no_grad():
+        y = model(x[None])[0]
+    return torch.expm1(y.clamp_min(0.0)) / exposure
+
+
+def atomic_torch_save(obj: object, path: Path) -> None:
+    """``torch.save`` to a temporary file in ``path``'s folder, then rename it over ``path``.
+
+    A crash mid-write leaves the previous file intact, never a truncated one.
+    """
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        torch.save(obj, tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def save_weights(model: UNet, path: str | Path, meta: dict | None = None) -> None:
+    """Write ``model``'s weights (and its widths, and ``meta``) to ``path`` atomically."""
+    payload = {
+        "format": WEIGHTS_FORMAT,
+        "widths": list(model.widths),
+        "state_dict": model.state_dict(),
+        "meta": dict(meta or {}),
+    }
+    atomic_torch_save(payload, Path(path))
+
+
+def load_weights(path: str | Path) -> UNet:
+    """Build a :class:`UNet` from a weights file written by :func:`save_weights` (on the CPU).
+
+    Raises:
+        FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr U-Net file.
+    """
+    path = Path(path)
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: expected a U-Net weights file, got no such file") from None
+    except Exception as err:  # torch raises many types on a damaged file
+        raise FileFormatError(f"{path}: expected a U-Net weights file, got an unreadable file ({err})") from None
+    if not isinstance(payload, dict) or payload.get("format") != WEIGHTS_FORMAT:
+        got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+        raise FileFormatError(f"{path}: expected format {WEIGHTS_FORMAT!r}, got {got!r}")
+    model = UNet(tuple(payload["widths"]))
+    try:
+        model.load_state_dict(payload["state_dict"])
+    except (RuntimeError, KeyError, TypeError) as err:
+        raise FileFormatError(f"{path}: expected U-Net weights for widths {payload['widths']}, got {err}") from None
+    return model.eval()
+
+
+class UNetDenoiser(Denoiser):
+    """The trained U-Net behind the :class:`~denoisers.base.Denoiser` interface.
+
+    ``weights``: a file written by :func:`save_weights` (default: the shipped weights,
+    :data:`DEFAULT_WEIGHTS`). The model is moved to each frame's device on first use there.
+    """
+
+    name = "unet"
+    requires = frozenset({"albedo", "normal"})
+
+    def __init__(self, weights: str | Path | None = None) -> None:
+        if weights is not None and not isinstance(weights, (str, Path)):
+            raise DtypeError(f"unet: weights: expected a path, got {type(weights).__name__}")
+        self.weights = Path(weights) if weights is not None else DEFAULT_WEIGHTS
+        self._models: dict[torch.device, UNet] = {"cpu": load_weights(self.weights)}
+
+    @property
+    def model(self) -> UNet:
+        """The network on the CPU."""
+        return self._models["cpu"]
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        device = frame.color.device
+        key = "cpu" if device.type == "cpu" else device
+        if key not in self._models:
+            self._models[key] = UNet(self.model.widths).to(device)
+            self._models[key].load_state_dict(self.model.state_dict())
+            self._models[key].eval()
+        return unet_denoise(self._models[key], frame.color, frame.albedo, frame.normal)
+
+    def params(self) -> dict[str, str]:
+        return {"weights": str(self.weights)}
+
+
+def parameter_count(widths: Sequence[int] = DEFAULT_WIDTHS) -> int:
+    """Number of trainable parameters of a :class:`UNet` with these widths."""
+    return sum(p.numel() for p in UNet(widths).parameters())

@@ -1,0 +1,105 @@
+"""Tests of the denoisers package: the registry (denoisers/__init__.py) and the interface (base.py)."""
+
+import pytest
+import torch
+
+import denoisers
+from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameError, ValueRangeError
+from bnerr.frame import Frame
+from denoisers import DENOISERS, Denoiser, MissingBufferError, check_frame, get_denoiser
+
+NAMES = ["atrous", "bilateral", "gaussian", "guided", "joint_bilateral", "median", "oidn", "unet"]
+
+
+def _frame(h=12, w=10, seed=0, **drop):
+    g = torch.Generator().manual_seed(seed)
+    buffers = dict(
+        color=torch.rand(3, h, w, generator=g),
+        albedo=torch.rand(3, h, w, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
+        depth=torch.rand(1, h, w, generator=g) + 1.0,
+    )
+    for name in drop:
+        buffers.pop(name)
+    return Frame(**buffers)
+
+
+def test_registry_names_sorted_and_complete():
+    assert list(DENOISERS) == NAMES
+    assert denoisers.__all__ == sorted(denoisers.__all__)
+    for name, cls in DENOISERS.items():
+        assert cls.name == name and issubclass(cls, Denoiser)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_denoiser_maps_frame_to_color(name):
+    frame = _frame()
+    out = get_denoiser(name)(frame)
+    assert out.shape == (3, 12, 10) and out.dtype == torch.float32 and out.device == frame.color.device
+    assert torch.isfinite(out).all()
+
+
+def test_unknown_name_and_parameter_raise():
+    with pytest.raises(UnknownNameError, match="unknown denoiser 'box'"):
+        get_denoiser("box")
+    with pytest.raises(UnknownNameError, match="unknown parameter.*radius.*expected one of sigma"):
+        get_denoiser("gaussian", radius=3)
+
+
+@pytest.mark.parametrize(
+    "name, missing",
+    [("joint_bilateral", "albedo"), ("guided", "normal"), ("atrous", "depth"), ("unet", "albedo"),
+     ("oidn", "normal")],
+)
+def test_missing_buffer_is_named(name, missing):
+    frame = _frame(**{missing: True})
+    with pytest.raises(MissingBufferError, match=f"denoiser '{name}'.*without {missing}"):
+        get_denoiser(name)(frame)
+
+
+def test_colour_only_filters_need_no_aux_buffers():
+    frame = Frame(color=torch.rand(3, 9, 9, generator=torch.Generator().manual_seed(3)))
+    for name in ("gaussian", "bilateral", "median"):
+        assert get_denoiser(name)(frame).shape == (3, 9, 9)
+
+
+def test_bad_frames_raise_typed_errors():
+    with pytest.raises(DtypeError, match="expected a bnerr.frame.Frame, got Tensor"):
+        get_denoiser("gaussian")(torch.rand(3, 8, 8))
+    frame = _frame()
+    frame.albedo = torch.rand(3, 5, 5)  # assigned after construction: Frame could not check it
+    with pytest.raises(ShapeError, match=r"frame.albedo: expected shape \[3, 12, 10\]"):
+        get_denoiser("guided")(frame)
+    frame = _frame()
+    frame.color[0, 1, 1] = float("nan")
+    with pytest.raises(NonFiniteError, match="frame.color: expected finite values, got 1 NaN"):
+        get_denoiser("median")(frame)
+
+
+def test_check_frame_returns_frame_and_lists_all_missing():
+    frame = _frame(albedo=True, depth=True)
+    assert check_frame(frame, frozenset({"normal"}), "x") is frame
+    with pytest.raises(MissingBufferError, match="without albedo, depth"):
+        check_frame(frame, frozenset({"albedo", "depth", "normal"}), "x")
+
+
+def test_bad_parameter_values_raise():
+    with pytest.raises(ValueRangeError, match=r"gaussian: sigma: expected a value in \[0.1, 16.0\], got -1"):
+        get_denoiser("gaussian", sigma=-1)
+    with pytest.raises(DtypeError, match="median: kernel_size: expected an integer"):
+        get_denoiser("median", kernel_size=3.0)
+    with pytest.raises(ValueRangeError, match="median: kernel_size: expected an odd integer, got 4"):
+        get_denoiser("median", kernel_size=4)
+    with pytest.raises(UnknownNameError, match="unknown oidn quality 'ultra'"):
+        get_denoiser("oidn", quality="ultra")
+
+
+def test_subclass_breaking_the_contract_is_caught():
+    class Broken(Denoiser):
+        name = "broken"
+
+        def denoise(self, frame):
+            return frame.color[:1]
+
+    with pytest.raises(ShapeError, match="denoiser 'broken' output"):
+        Broken()(_frame())

@@ -1,0 +1,133 @@
+"""Tests of denoisers/filters.py: the kornia filters and the edge-avoiding a-trous filter."""
+
+import math
+
+import pytest
+import torch
+
+from bnerr.errors import DtypeError, ValueRangeError
+from bnerr.frame import Frame
+from denoisers.filters import (
+    ATrous,
+    Bilateral,
+    Gaussian,
+    Guided,
+    JointBilateral,
+    Median,
+    atrous_filter,
+    gaussian_filter,
+    joint_bilateral_filter,
+    luminance,
+    median_filter,
+)
+
+FILTERS = [Gaussian(), Bilateral(), JointBilateral(), Guided(), Median(), ATrous()]
+
+
+def _two_surfaces(h=24, w=24, noise=0.0, seed=0, gradient=0.2):
+    """Left half: red albedo facing +z at depth 2; right half: grey albedo facing +x at depth 3.
+
+    Lighting rises linearly from top to bottom by ``gradient``; color = albedo * lighting *
+    (1 + noise * N(0, 1)) clamped at 0.
+    """
+    g = torch.Generator().manual_seed(seed)
+    left = torch.arange(w) < w // 2
+    albedo = torch.where(left, torch.tensor([0.8, 0.1, 0.1])[:, None, None], torch.full((3, 1, 1), 0.5))
+    albedo = albedo.expand(3, h, w).clone()
+    normal = torch.where(left, torch.tensor([0.0, 0.0, 1.0])[:, None, None], torch.tensor([1.0, 0, 0])[:, None, None])
+    normal = normal.expand(3, h, w).clone()
+    depth = torch.where(left, 2.0, 3.0).expand(1, h, w).clone()
+    light = 1.0 + gradient * torch.linspace(0, 1, h)[:, None].expand(h, w)
+    clean = albedo * light
+    color = (clean * (1 + noise * torch.randn(3, h, w, generator=g))).clamp_min(0.0)
+    return Frame(color=color, albedo=albedo, normal=normal, depth=depth), clean
+
+
+@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
+def test_constant_image_is_a_fixed_point(denoiser):
+    frame = Frame(
+        color=torch.full((3, 16, 20), 0.7),
+        albedo=torch.full((3, 16, 20), 0.5),
+        normal=torch.tensor([0.0, 1.0, 0.0])[:, None, None].expand(3, 16, 20).clone(),
+        depth=torch.full((1, 16, 20), 4.0),
+    )
+    torch.testing.assert_close(denoiser(frame), frame.color, rtol=1e-5, atol=1e-6)
+
+
+@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
+def test_deterministic_and_float64_follows_input(denoiser):
+    frame, _ = _two_surfaces(noise=0.5)
+    a, b = denoiser(frame), denoiser(frame)
+    assert torch.equal(a, b)
+    assert a.dtype == torch.float32
+
+
+@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
+def test_lowers_error_on_noisy_two_surface_image(denoiser):
+    frame, clean = _two_surfaces(noise=0.5, seed=1)
+    noisy_mse = float((frame.color - clean).square().mean())
+    mse = float((denoiser(frame) - clean).square().mean())
+    assert mse < 0.5 * noisy_mse, (mse, noisy_mse)
+
+
+def test_gaussian_removes_white_noise_variance_as_theory_says():
+    # A unit-sum kernel k turns white noise of variance v into variance v * sum(k^2); for a
+    # sampled Gaussian of sigma s that is close to 1 / (4 pi s^2).
+    noise = torch.randn(3, 256, 256, generator=torch.Generator().manual_seed(2))
+    sigma = 2.0
+    out = gaussian_filter(noise, sigma)[:, 16:-16, 16:-16]
+    expected = 1.0 / (4 * math.pi * sigma**2)
+    # The estimate of the variance of ~ 3 * 224^2 / (4 pi s^2 * 4) independent values has a relative
+    # standard error of about sqrt(2 / N_eff) = 1.5 %; allow 4 standard errors.
+    assert abs(float(out.var()) / expected - 1) < 0.06
+
+
+def test_feature_guided_filters_keep_geometry_edges_that_gaussian_blurs():
+    # Constant lighting: then the only thing to blur is the edge between the two surfaces.
+    frame, clean = _two_surfaces(noise=0.0, gradient=0.0)
+    edge = slice(10, 14)  # the two columns either side of the material / normal / depth edge
+    for out in (
+        joint_bilateral_filter(frame.color, frame.albedo, frame.normal, 0.05, 2.0),
+        atrous_filter(frame.color, frame.albedo, frame.normal, frame.depth),
+    ):
+        assert float((out - clean)[:, :, edge].abs().max()) < 1e-3
+    blurred = gaussian_filter(frame.color, 2.0)
+    assert float((blurred - clean)[:, :, edge].abs().max()) > 0.05
+
+
+def test_median_removes_an_isolated_firefly():
+    color = torch.full((3, 9, 9), 0.5)
+    color[:, 4, 4] = 100.0
+    assert torch.equal(median_filter(color, 3), torch.full((3, 9, 9), 0.5))
+
+
+def test_atrous_does_not_mix_background_and_surfaces():
+    frame, clean = _two_surfaces(noise=0.0, gradient=0.0)
+    frame.normal[:, :, :4] = 0.0  # escaped rays: no normal, no albedo, depth 0
+    frame.albedo[:, :, :4] = 0.0
+    frame.depth[:, :, :4] = 0.0
+    frame.color[:, :, :4] = 3.0
+    out = atrous_filter(frame.color, frame.albedo, frame.normal, frame.depth)
+    torch.testing.assert_close(out[:, :, :4], frame.color[:, :, :4], rtol=1e-5, atol=1e-5)
+    assert float((out[:, :, 4:] - clean[:, :, 4:]).abs().max()) < 1e-3
+
+
+def test_luminance_weights_sum_to_one():
+    torch.testing.assert_close(luminance(torch.ones(3, 2, 2)), torch.ones(1, 2, 2))
+
+
+def test_parameters_are_checked():
+    with pytest.raises(ValueRangeError, match="bilateral: sigma_space: expected a value in"):
+        Bilateral(sigma_space=0.0)
+    with pytest.raises(DtypeError, match="guided: radius: expected an integer, got float"):
+        Guided(radius=2.5)
+    with pytest.raises(ValueRangeError, match=r"atrous: iterations: expected a value in \[1, 10\], got 11"):
+        ATrous(iterations=11)
+    with pytest.raises(DtypeError, match="joint_bilateral: sigma_color: expected a number, got str"):
+        JointBilateral(sigma_color="wide")
+
+
+def test_params_round_trip_through_constructor():
+    for denoiser in FILTERS:
+        again = type(denoiser)(**denoiser.params())
+        assert again.params() == denoiser.params()

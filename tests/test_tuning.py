@@ -1,0 +1,102 @@
+"""Tests of denoisers/tuning.py: the grid search and the stored-parameters file."""
+
+import json
+
+import pytest
+import torch
+
+from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRangeError
+from bnerr.frame import Frame
+from denoisers.filters import Gaussian, Median
+from denoisers.tuning import GRIDS, PARAMS_FORMAT, ParamStore, grid_points, tune, tuned_denoiser
+
+
+def _noisy_frames(count, noise, seed=0, size=32):
+    """A smooth image and ``count`` noisy copies (Gaussian noise of std ``noise``)."""
+    g = torch.Generator().manual_seed(seed)
+    yy, xx = torch.meshgrid(torch.linspace(0, 1, size), torch.linspace(0, 1, size), indexing="ij")
+    clean = torch.stack([0.5 + 0.3 * xx, 0.4 + 0.2 * yy, 0.3 + 0.1 * xx * yy])
+    frames = [Frame(color=clean + noise * torch.randn(3, size, size, generator=g)) for _ in range(count)]
+    return frames, [clean] * count
+
+
+def test_grid_points_are_the_sorted_product():
+    points = grid_points({"b": (1, 2), "a": ("x", "y", "z")})
+    assert points[0] == {"a": "x", "b": 1} and points[1] == {"a": "x", "b": 2}
+    assert len(points) == 6 and len({tuple(p.items()) for p in points}) == 6
+    for name, grid in GRIDS.items():
+        assert 2 <= len(grid_points(grid)) <= 20, name  # "a small grid"
+
+
+def test_tune_returns_the_minimum_of_its_table():
+    frames, refs = _noisy_frames(2, noise=0.2)
+    result = tune("gaussian", frames, refs)
+    assert len(result.table) == len(GRIDS["gaussian"]["sigma"])
+    assert result.mse == min(mse for _, mse in result.table)
+    assert result.mse < result.noisy_mse
+    # The table's MSE is the denoiser's MSE, recomputed independently here.
+    d = Gaussian(**result.params)
+    again = sum(float((d(f) - r).double().square().mean()) for f, r in zip(frames, refs)) / 2
+    assert result.mse == pytest.approx(again, rel=1e-12)
+
+
+def test_more_noise_picks_a_wider_gaussian():
+    # On a smooth image the best blur widens as the noise grows: a property of the MSE trade-off.
+    low = tune("gaussian", *_noisy_frames(2, noise=0.02))
+    high = tune("gaussian", *_noisy_frames(2, noise=0.5))
+    assert high.params["sigma"] > low.params["sigma"]
+
+
+def test_tune_with_grid_override_and_deterministic():
+    frames, refs = _noisy_frames(1, noise=0.3)
+    a = tune("median", frames, refs, grid={"kernel_size": (3, 5)})
+    b = tune("median", frames, refs, grid={"kernel_size": (3, 5)})
+    assert a == b and [p for p, _ in a.table] == [{"kernel_size": 3}, {"kernel_size": 5}]
+
+
+def test_tune_rejects_bad_input():
+    frames, refs = _noisy_frames(2, noise=0.1)
+    with pytest.raises(UnknownNameError, match="unknown tunable denoiser 'unet'"):
+        tune("unet", frames, refs)
+    with pytest.raises(ValueRangeError, match="got 2 frames and 1 references"):
+        tune("gaussian", frames, refs[:1])
+    with pytest.raises(ShapeError, match=r"tune: references\[1\]"):
+        tune("gaussian", frames, [refs[0], refs[1][:, :8]])
+
+
+def test_store_round_trip_and_lookup(tmp_path):
+    frames, refs = _noisy_frames(1, noise=0.3)
+    store = ParamStore()
+    store.put(tune("median", frames, refs), "cornell", 4)
+    store.put(tune("gaussian", frames, refs), "cornell", 4)
+    path = tmp_path / "sub" / "params.json"
+    store.save(path)
+    loaded = ParamStore.load(path)
+    assert loaded.entries == store.entries
+    assert json.loads(path.read_text())["format"] == PARAMS_FORMAT
+    assert loaded.entries["median"]["cornell"]["4"]["sampler"] == "white"
+    d = tuned_denoiser("median", "cornell", 4, loaded)
+    assert isinstance(d, Median) and d.params() == loaded.params("median", "cornell", 4)
+    # Equal stores give equal files (sorted keys), so the file diffs cleanly in git.
+    again = tmp_path / "again.json"
+    loaded.save(again)
+    assert again.read_text() == path.read_text()
+    assert not list(tmp_path.glob("**/.*tmp"))  # the atomic write leaves no temporary behind
+
+
+def test_store_errors(tmp_path):
+    store = ParamStore()
+    with pytest.raises(UnknownNameError, match="expected an entry for gaussian/snooker/4 spp, got none"):
+        store.params("gaussian", "snooker", 4)
+    with pytest.raises(UnknownNameError, match="expected an entry"):
+        tuned_denoiser("gaussian", "snooker", 4, store)
+    assert tuned_denoiser("unet", "snooker", 4, store).name == "unet"  # nothing to tune
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(FileFormatError, match="bad.json: expected a tuned-parameters JSON file"):
+        ParamStore.load(bad)
+    bad.write_text(json.dumps({"format": "other"}))
+    with pytest.raises(FileFormatError, match="expected format 'bnerr-tuned-params-v1', got 'other'"):
+        ParamStore.load(bad)
+    with pytest.raises(FileFormatError, match="got no such file"):
+        ParamStore.load(tmp_path / "missing.json")

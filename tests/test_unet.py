@@ -1,0 +1,95 @@
+"""Tests of denoisers/unet.py: the network, its input transform, its weights files."""
+
+import pytest
+import torch
+
+from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
+from bnerr.frame import Frame
+from denoisers.unet import (
+    DEFAULT_WIDTHS,
+    MAX_PARAMETERS,
+    UNet,
+    UNetDenoiser,
+    auto_exposure,
+    load_weights,
+    network_input,
+    parameter_count,
+    save_weights,
+    unet_denoise,
+)
+
+
+def _frame(h=20, w=28, seed=0, scale=1.0):
+    g = torch.Generator().manual_seed(seed)
+    return Frame(
+        color=scale * torch.rand(3, h, w, generator=g),
+        albedo=torch.rand(3, h, w, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
+    )
+
+
+def test_default_network_is_within_the_parameter_cap():
+    assert parameter_count(DEFAULT_WIDTHS) <= MAX_PARAMETERS
+
+
+@pytest.mark.parametrize("h, w", [(8, 8), (13, 29), (1, 1)])
+def test_any_size_maps_to_same_size(h, w):
+    torch.manual_seed(0)
+    net = UNet((4, 4, 4, 4)).eval()
+    x = torch.rand(2, 9, h, w)
+    assert net(x).shape == (2, 3, h, w)
+
+
+def test_network_is_local_with_skips_concatenated():
+    # A change of one input pixel must change the output near it (the full-resolution skip) and
+    # leave far pixels alone (the receptive field is bounded).
+    torch.manual_seed(0)
+    net = UNet((4, 4, 4, 4)).eval()
+    x = torch.rand(1, 9, 96, 96)
+    y = x.clone()
+    y[0, :, 4, 4] += 1.0
+    with torch.no_grad():
+        diff = (net(x) - net(y)).abs()[0].sum(0)
+    assert float(diff[4, 4]) > 0 and float(diff[80:, 80:].max()) == 0.0
+
+
+def test_auto_exposure_makes_the_input_scale_invariant():
+    frame = _frame()
+    bright = _frame(scale=40.0)
+    e, e_bright = auto_exposure(frame.color), auto_exposure(bright.color)
+    torch.testing.assert_close(e / e_bright, torch.tensor(40.0), rtol=1e-5, atol=0)
+    a = network_input(frame.color, frame.albedo, frame.normal, e)
+    b = network_input(bright.color, bright.albedo, bright.normal, e_bright)
+    torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)
+    assert float(auto_exposure(torch.zeros(3, 4, 4))) == 1.0
+
+
+def test_save_load_and_denoise_round_trip(tmp_path):
+    torch.manual_seed(0)
+    net = UNet((4, 6, 8, 8)).eval()
+    save_weights(net, tmp_path / "w.pt", meta={"command": "test"})
+    loaded = load_weights(tmp_path / "w.pt")
+    assert loaded.widths == (4, 6, 8, 8)
+    frame = _frame()
+    expected = unet_denoise(net, frame.color, frame.albedo, frame.normal)
+    out = UNetDenoiser(weights=tmp_path / "w.pt")(frame)
+    assert torch.equal(out, expected) and bool((out >= 0).all())
+    assert UNetDenoiser(weights=str(tmp_path / "w.pt")).params() == {"weights": str(tmp_path / "w.pt")}
+
+
+def test_bad_weights_raise(tmp_path):
+    with pytest.raises(FileFormatError, match="nope.pt: expected a U-Net weights file, got no such file"):
+        load_weights(tmp_path / "nope.pt")
+    (tmp_path / "junk.pt").write_bytes(b"\x00garbage")
+    with pytest.raises(FileFormatError, match="junk.pt: expected a U-Net weights file, got an unreadable file"):
+        UNetDenoiser(weights=tmp_path / "junk.pt")
+    torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4], "state_dict": {}}, tmp_path / "e.pt")
+    with pytest.raises(FileFormatError, match="e.pt: expected U-Net weights for widths"):
+        load_weights(tmp_path / "e.pt")
+    torch.save([1, 2], tmp_path / "l.pt")
+    with pytest.raises(FileFormatError, match="expected format 'bnerr-unet-weights-v1', got 'list'"):
+        load_weights(tmp_path / "l.pt")
+    with pytest.raises(DtypeError, match="unet: weights: expected a path, got int"):
+        UNetDenoiser(weights=3)
+    with pytest.raises(ValueRangeError, match="UNet: widths: expected 4 positive integers"):
+        UNet((4, 4, 4))
