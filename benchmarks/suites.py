@@ -1,0 +1,283 @@
+"""The named benchmark suites, as data: which cells ``bnerr bench --suite NAME`` measures.
+
+A **cell** is one scene x strategy x spp x denoiser x condition, measured over ``frames`` frames
+(after ``warmup`` frames that are rendered but not measured, so that the temporal strategies have
+converged) in each of ``seed_sets`` independent seed sets. A **condition** is what the stability
+suite varies besides the scene: camera motion (static, normal, fast), the path depth (hence the
+dimension count), and the pixel region the metrics are restricted to (all pixels, or only those
+near object edges).
+
+A suite is a list of :class:`Sweep` s, each a full cross product, so that the stability suite can
+vary one axis at a time instead of multiplying them all. :func:`resolve` applies the command line's
+overrides to every sweep of a suite.
+
+The four suites (issue 6):
+
+- ``quick``: two scenes, the three strategies that bracket the method (white, temporal, oracle) and
+  two cheap denoisers at 64x64; at most 5 minutes on the 2-core development machine; ``make run``.
+- ``quality``: every scene, strategy and kornia/learned denoiser at 1, 4 and 16 spp; resolution
+  chosen so that the suite stays within about an hour on the same machine.
+- ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
+- ``stability``: the cases where the temporal method is expected to fail: textured against
+  untextured snooker, object edges, static against fast camera motion, 1 to 64 spp, 1 to 8
+  bounces; reported as each strategy's post-denoise MSE ratio to white with its interval.
+
+Not for: per-scene parameter tuning (the denoisers' parameters come from :mod:`denoisers.tuning`,
+tuned on white noise), or anything that changes what a strategy does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from bnerr.errors import ValueRangeError, check_name, check_positive_int
+
+__all__ = ["REGIONS", "SUITES", "Condition", "Suite", "Sweep", "get_suite", "resolve"]
+
+#: Pixel regions the metrics can be restricted to.
+REGIONS: tuple[str, ...] = ("all", "edges")
+
+
+@dataclass(frozen=True)
+class Condition:
+    """What a cell varies besides scene, strategy, spp and denoiser.
+
+    Attributes:
+        motion: camera speed multiplier: 0 renders the scene's static variant
+            (``get_scene(name, animated=False)``), 1 its animation, k > 1 the animation k times
+            faster (the renderer sees frame ``k * t``).
+        depth: ``scene.max_depth`` override in Mitsuba's convention (longest path in segments:
+            2 is direct lighting, ``depth - 1`` scattering vertices), or None for the scene's own.
+        region: ``"all"`` pixels, or ``"edges"``: pixels within one pixel of an object-id
+            discontinuity of the reference (:func:`bnerr.metrics.edge_mask`).
+    """
+
+    motion: int = 1
+    depth: int | None = None
+    region: str = "all"
+
+    def __post_init__(self) -> None:
+        check_positive_int(self.motion, "Condition.motion", minimum=0)
+        if self.depth is not None:
+            check_positive_int(self.depth, "Condition.depth", minimum=2)
+        check_name(self.region, REGIONS, "region")
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A cross product of cells with shared settings.
+
+    Attributes:
+        scenes, strategies, spp, denoisers, conditions: the axes of the cross product.
+        frames: measured frames per seed set; warmup: unmeasured frames before them.
+        res: ``(width, height)`` in pixels.
+        seed_sets: independent seed sets (each restarts the strategy from fresh seeds).
+        reference_spp: samples per pixel of the cached references.
+        metrics: names from :data:`bnerr.metrics.METRICS`.
+    """
+
+    scenes: tuple[str, ...]
+    strategies: tuple[str, ...]
+    spp: tuple[int, ...]
+    denoisers: tuple[str, ...]
+    frames: int = 8
+    warmup: int = 8
+    res: tuple[int, int] = (64, 64)
+    seed_sets: int = 1
+    reference_spp: int = 1024
+    conditions: tuple[Condition, ...] = (Condition(),)
+    metrics: tuple[str, ...] = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
+
+    def __post_init__(self) -> None:
+        for axis in ("scenes", "strategies", "spp", "denoisers", "conditions"):
+            if not getattr(self, axis):
+                raise ValueRangeError(f"Sweep.{axis}: expected at least one entry, got none")
+        for n in self.spp:
+            check_positive_int(n, "Sweep.spp")
+        check_positive_int(self.frames, "Sweep.frames")
+        check_positive_int(self.warmup, "Sweep.warmup", minimum=0)
+        check_positive_int(self.seed_sets, "Sweep.seed_sets")
+        check_positive_int(self.reference_spp, "Sweep.reference_spp")
+        if len(self.res) != 2:
+            raise ValueRangeError(f"Sweep.res: expected (width, height), got {self.res!r}")
+        for n in self.res:
+            check_positive_int(n, "Sweep.res")
+
+    @property
+    def runs(self) -> int:
+        """Number of strategy runs (one per scene x strategy x spp x motion/depth x seed set)."""
+        renders = {(c.motion, c.depth) for c in self.conditions}
+        return len(self.scenes) * len(self.strategies) * len(self.spp) * len(renders) * self.seed_sets
+
+
+@dataclass(frozen=True)
+class Suite:
+    """A named list of sweeps (or, for ``speed``, of timing scripts).
+
+    Attributes:
+        name: the suite's name, also the folder under ``results/``.
+        description: one line for ``bnerr bench --help`` and the report.
+        sweeps: the cell sweeps.
+        scripts: for the speed suite, module names under :mod:`benchmarks` whose measuring
+            function the runner calls.
+        crops: whether the runner saves side-by-side crops for the report.
+    """
+
+    name: str
+    description: str
+    sweeps: tuple[Sweep, ...] = ()
+    scripts: tuple[str, ...] = ()
+    crops: bool = True
+
+
+_ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_untextured", "medium")
+_ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle")
+_ALL_DENOISERS = ("gaussian", "bilateral", "joint_bilateral", "guided", "median", "atrous", "unet", "oidn")
+
+SUITES: dict[str, Suite] = {
+    "quick": Suite(
+        name="quick",
+        description="two scenes, white/temporal/oracle, 1 and 4 spp, gaussian and atrous, 64x64 (< 5 min)",
+        sweeps=(
+            Sweep(
+                scenes=("direct", "indirect"),
+                strategies=("white", "temporal", "oracle"),
+                spp=(1, 4),
+                denoisers=("gaussian", "atrous"),
+                frames=6,
+                warmup=6,
+                res=(64, 64),
+                reference_spp=1024,
+            ),
+        ),
+    ),
+    "quality": Suite(
+        name="quality",
+        description="every scene, strategy and denoiser at 1, 4 and 16 spp (about an hour)",
+        sweeps=(
+            Sweep(
+                scenes=_ALL_SCENES,
+                strategies=_ALL_STRATEGIES,
+                spp=(1, 4, 16),
+                denoisers=_ALL_DENOISERS,
+                frames=4,
+                warmup=8,
+                res=(128, 128),
+                reference_spp=1024,
+            ),
+        ),
+    ),
+    "speed": Suite(
+        name="speed",
+        description="renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p",
+        scripts=("throughput", "speed_permute", "speed_denoise", "speed_masks", "speed_sequences"),
+        crops=False,
+    ),
+    "stability": Suite(
+        name="stability",
+        description="failure cases: texture, object edges, camera motion, 1-64 spp, depth 1-8; ratio to white",
+        sweeps=(
+            # Texture: the paper's failure case, against the same table without its texture.
+            Sweep(
+                scenes=("snooker", "snooker_untextured"),
+                strategies=("white", "temporal", "temporal_sort", "oracle"),
+                spp=(1, 4),
+                denoisers=("gaussian", "atrous"),
+                frames=6,
+                warmup=8,
+                seed_sets=2,
+                conditions=(Condition(region="all"), Condition(region="edges")),
+            ),
+            # Motion: static camera, the scene's animation, and the animation 8 times faster.
+            Sweep(
+                scenes=("direct", "indirect"),
+                strategies=("white", "temporal", "temporal_sort"),
+                spp=(1, 4),
+                denoisers=("gaussian", "atrous"),
+                frames=6,
+                warmup=8,
+                seed_sets=2,
+                conditions=(
+                    Condition(motion=0),
+                    Condition(motion=1),
+                    Condition(motion=8),
+                    Condition(motion=1, region="edges"),
+                ),
+            ),
+            # Sample count: the gain of a blue-noise error should shrink as spp grows.
+            Sweep(
+                scenes=("indirect",),
+                strategies=("white", "bnds", "temporal", "oracle"),
+                spp=(1, 2, 4, 8, 16, 32, 64),
+                denoisers=("gaussian", "atrous"),
+                frames=4,
+                warmup=8,
+                seed_sets=2,
+            ),
+            # Depth: 1, 2, 4 and 8 bounces (max_depth 2, 3, 5, 9; D = 4 to 32 with one light).
+            # Dimensions grow by 4 per bounce, which is where BNDS stops working (its vector mask
+            # covers the first few) and where the temporal method should not care.
+            Sweep(
+                scenes=("cornell",),
+                strategies=("white", "bnds", "temporal"),
+                spp=(1, 4),
+                denoisers=("gaussian", "atrous"),
+                frames=4,
+                warmup=8,
+                seed_sets=2,
+                conditions=tuple(Condition(depth=d) for d in (2, 3, 5, 9)),
+            ),
+        ),
+    ),
+}
+
+
+def get_suite(name: str) -> Suite:
+    """The suite called ``name`` (``quick``, ``quality``, ``speed``, ``stability``)."""
+    return SUITES[check_name(name, tuple(SUITES), "suite")]
+
+
+def _known(values: Sequence[str] | None, known: Sequence[str] | None, what: str) -> tuple[str, ...] | None:
+    if values is None:
+        return None
+    return tuple(v if known is None else check_name(v, known, what) for v in values)
+
+
+def resolve(
+    suite: Suite,
+    *,
+    scenes: Sequence[str] | None = None,
+    strategies: Sequence[str] | None = None,
+    spp: Sequence[int] | None = None,
+    denoisers: Sequence[str] | None = None,
+    frames: int | None = None,
+    warmup: int | None = None,
+    res: tuple[int, int] | None = None,
+    seed_sets: int | None = None,
+    reference_spp: int | None = None,
+    known_scenes: Sequence[str] | None = None,
+    known_strategies: Sequence[str] | None = None,
+    known_denoisers: Sequence[str] | None = None,
+) -> Suite:
+    """``suite`` with the command line's overrides applied to every sweep.
+
+    An override replaces the axis in every sweep (``--scenes direct`` makes every sweep render
+    only ``direct``); None keeps the suite's value. Names are checked against ``known_*`` when
+    given (the registries of the installed parts), raising :class:`UnknownNameError`.
+    """
+    changes = {
+        "scenes": _known(scenes, known_scenes, "scene"),
+        "strategies": _known(strategies, known_strategies, "strategy"),
+        "spp": tuple(spp) if spp is not None else None,
+        "denoisers": _known(denoisers, known_denoisers, "denoiser"),
+        "frames": frames,
+        "warmup": warmup,
+        "res": res,
+        "seed_sets": seed_sets,
+        "reference_spp": reference_spp,
+    }
+    changes = {k: v for k, v in changes.items() if v is not None}
+    sweeps = tuple(dataclasses.replace(s, **changes) for s in suite.sweeps)
+    return dataclasses.replace(suite, sweeps=sweeps)
