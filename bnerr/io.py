@@ -1,0 +1,374 @@
+"""Image I/O: OpenEXR for every buffer (float32, exact), PNG previews, atomic writes.
+
+EXR channel names (one single-part scanline file, ZIP compression, which is lossless):
+
+============  ==========================================  =====================
+buffer        channels                                    ``[C, H, W]``
+============  ==========================================  =====================
+color         ``R G B``                                    ``[3, H, W]``
+albedo        ``albedo.R albedo.G albedo.B``               ``[3, H, W]``
+normal        ``normal.X normal.Y normal.Z``               ``[3, H, W]``
+depth         ``depth.Z``                                  ``[1, H, W]``
+motion        ``motion.X motion.Y``                        ``[2, H, W]``
+object_id     ``object_id.Y``                              ``[1, H, W]``
+variance      ``variance.R variance.G variance.B``         ``[3, H, W]``
+any other     ``<name>.0 .. <name>.<C-1>``                 ``[C, H, W]``
+============  ==========================================  =====================
+
+These follow the layer convention of the OpenEXR documentation ("Technical Introduction",
+channel names ``layer.channel``), so compositing tools show each buffer as a layer. When reading
+a file written elsewhere, the channels of a layer are ordered by the first of these suffix
+orders that they match: ``R G B A``, ``X Y Z``, ``U V``, integers in numeric order, else
+alphabetically. Channels without a layer other than ``R G B`` (``A``, ``Y``, ``Z``, ...) become
+one-channel buffers under their own name. HALF and UINT channels are converted to float32 (UINT
+values above 2^24 lose precision); of a multi-part file only the first part is read.
+
+Every writer goes through :func:`atomic_write`: a crash or an exception never leaves a partial
+file under the final name.
+
+Not for: deep images, tiled or mip-mapped files, or anything but single-part scanline output.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import uuid
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from bnerr.errors import (
+    DtypeError,
+    FileFormatError,
+    ShapeError,
+    check_dtype,
+    check_name,
+    check_range,
+    check_shape,
+)
+from bnerr.frame import BUFFERS, Frame
+
+__all__ = [
+    "CHANNELS",
+    "TONEMAPS",
+    "atomic_write",
+    "read_exr",
+    "read_frame",
+    "write_exr",
+    "write_frame",
+    "write_png",
+]
+
+#: Buffer name -> its EXR channel names, in tensor order. Other buffers use ``<name>.<k>``.
+CHANNELS: dict[str, tuple[str, ...]] = {
+    "color": ("R", "G", "B"),
+    "albedo": ("albedo.R", "albedo.G", "albedo.B"),
+    "normal": ("normal.X", "normal.Y", "normal.Z"),
+    "depth": ("depth.Z",),
+    "motion": ("motion.X", "motion.Y"),
+    "object_id": ("object_id.Y",),
+    "variance": ("variance.R", "variance.G", "variance.B"),
+}
+
+#: Tone-map names of :func:`write_png`.
+TONEMAPS = ("aces", "clamp", "reinhard")
+
+#: Header attribute that holds a Frame's timings (JSON, milliseconds by stage).
+TIMINGS_ATTRIBUTE = "bnerr_timings"
+
+_SUFFIX_ORDERS = (("R", "G", "B", "A"), ("X", "Y", "Z"), ("U", "V"))
+
+
+# ------------------------------------------------------------------------------------------------
+# Atomic writes
+
+
+def _check_path(path: object, name: str = "path") -> Path:
+    if not isinstance(path, (str, os.PathLike)):
+        raise DtypeError(f"{name}: expected a str or os.PathLike, got {type(path).__name__}")
+    return Path(path)
+
+
+@contextlib.contextmanager
+def atomic_write(path: str | os.PathLike, *, suffix: str | None = None) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success rename it over ``path``.
+
+    The temporary file lives in the same folder (so that :func:`os.replace` is an atomic rename
+    on POSIX and Windows) and ends with ``suffix`` (default: ``path``'s suffix), so that writers
+    that choose the format by extension still work. If the body raises, the temporary file is
+    removed and nothing under ``path`` changes. Readers never see a half-written file.
+
+    Raises:
+        FileFormatError: the folder does not exist, or the body wrote nothing.
+    """
+    path = _check_path(path)
+    if not path.parent.is_dir():
+        raise FileFormatError(f"{path}: cannot write, folder {path.parent} does not exist")
+    if suffix is None:
+        suffix = path.suffix
+    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp{suffix}")
+    try:
+        yield tmp
+        if not tmp.exists():
+            raise FileFormatError(f"{path}: the writer created nothing at {tmp.name}")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+# ------------------------------------------------------------------------------------------------
+# EXR
+
+
+def _channel_names(name: str, channels: int) -> tuple[str, ...]:
+    if name in CHANNELS:
+        return CHANNELS[name]
+    return tuple(f"{name}.{k}" for k in range(channels))
+
+
+def _check_buffers(buffers: object) -> dict[str, torch.Tensor]:
+    """Check a ``name -> [C, H, W] float32`` dict: one size for all, known names' channels."""
+    if not isinstance(buffers, Mapping) or not buffers:
+        raise DtypeError(
+            f"buffers: expected a non-empty dict of name -> [C, H, W] tensor, got {buffers!r:.80}"
+        )
+    size: tuple[int, int] | None = None
+    for name, tensor in buffers.items():
+        if not isinstance(name, str) or not name:
+            raise DtypeError(f"buffers: expected non-empty str names, got {name!r}")
+        label = f"buffers[{name!r}]"
+        spec = f"{len(CHANNELS[name])} H W" if name in CHANNELS else "C H W"
+        got = check_shape(tensor, spec, label)
+        check_dtype(tensor, torch.float32, label)
+        if got["H"] < 1 or got["W"] < 1:
+            raise ShapeError(f"{label}: expected H, W >= 1, got shape {list(tensor.shape)}")
+        if size is None:
+            size = (got["H"], got["W"])
+        elif size != (got["H"], got["W"]):
+            raise ShapeError(
+                f"{label}: expected H x W = {size[0]} x {size[1]} like the first buffer, "
+                f"got {got['H']} x {got['W']}"
+            )
+    return dict(buffers)
+
+
+def _write_exr(path: Path, buffers: dict[str, torch.Tensor], attributes: dict[str, str]) -> None:
+    import OpenEXR  # noqa: PLC0415 - a compiled extension: imported only by the EXR functions
+
+    channels: dict[str, np.ndarray] = {}
+    for name, tensor in buffers.items():
+        pixels = tensor.detach().cpu().numpy()
+        for channel, plane in zip(_channel_names(name, pixels.shape[0]), pixels):
+            # OpenEXR reads the array's memory as row-major without looking at its strides: a
+            # non-contiguous view would be written scrambled.
+            channels[channel] = np.ascontiguousarray(plane)
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
+    with atomic_write(path) as tmp:
+        # File() turns the values of the dict it gets into Channel objects: give it its own.
+        OpenEXR.File(header, dict(channels)).write(str(tmp))
+
+
+def write_exr(
+    path: str | os.PathLike,
+    buffers: Mapping[str, torch.Tensor],
+    attributes: Mapping[str, str] | None = None,
+) -> None:
+    """Write named ``[C, H, W]`` float32 buffers to one EXR file, exactly (see the module table).
+
+    Args:
+        path: the file to write (atomically: see :func:`atomic_write`).
+        buffers: buffer name -> ``[C, H, W]`` float32 tensor on any device; all share H and W.
+            Known names (``color``, ``albedo``, ...) must have their channel count.
+        attributes: optional extra string attributes for the header (name -> value).
+
+    Raises:
+        ShapeError, DtypeError: a buffer of the wrong shape or dtype, or a bad name.
+        FileFormatError: the folder does not exist.
+    """
+    path = _check_path(path)
+    buffers = _check_buffers(buffers)
+    attributes = dict(attributes or {})
+    for key, value in attributes.items():
+        if not isinstance(key, str) or not isinstance(value, str):
+            raise DtypeError(f"attributes: expected str -> str, got {key!r}: {value!r:.40}")
+    _write_exr(path, buffers, attributes)
+
+
+def _order(layer: str, suffixes: list[str], path: Path) -> list[str]:
+    """The suffixes of one layer in tensor order (see the module docstring)."""
+    if layer in CHANNELS:
+        want = [c.rpartition(".")[2] for c in CHANNELS[layer]]
+        if sorted(suffixes) != sorted(want):
+            raise FileFormatError(
+                f"{path}: layer {layer!r} expected channels {', '.join(want)}, "
+                f"got {', '.join(sorted(suffixes))}"
+            )
+        return want
+    for order in _SUFFIX_ORDERS:
+        if set(suffixes) <= set(order):
+            return [s for s in order if s in suffixes]
+    if all(s.isdigit() for s in suffixes):
+        return sorted(suffixes, key=int)
+    return sorted(suffixes)
+
+
+def _group(names: list[str], path: Path) -> dict[str, list[str]]:
+    """Channel names -> buffer name -> channel names in tensor order."""
+    layers: dict[str, list[str]] = {}
+    for channel in names:
+        layer, _, suffix = channel.rpartition(".")
+        if not layer:  # no layer: R, G, B are the color, anything else is its own buffer
+            layer, suffix = ("color", channel) if channel in ("R", "G", "B") else (channel, "")
+        layers.setdefault(layer, []).append(suffix)
+    if "color" in layers and len(layers["color"]) < 3:  # an incomplete RGB: plain channels
+        for suffix in layers.pop("color"):
+            layers[suffix] = [""]
+    grouped = {}
+    for layer, suffixes in layers.items():
+        if suffixes == [""]:
+            grouped[layer] = [layer]
+            continue
+        order = _order(layer, suffixes, path)
+        if layer == "color":
+            grouped[layer] = order
+        else:
+            grouped[layer] = [f"{layer}.{s}" for s in order]
+    return grouped
+
+
+def _read_exr(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict]:
+    """Buffers and header of an EXR file; every failure is a FileFormatError naming the file."""
+    import OpenEXR  # noqa: PLC0415
+
+    path = _check_path(path)
+    if not path.is_file():
+        raise FileFormatError(f"{path}: no such file")
+    try:
+        if not OpenEXR.isOpenExrFile(str(path)):
+            raise FileFormatError(f"{path}: not an OpenEXR file (no EXR magic number)")
+        exr = OpenEXR.File(str(path), separate_channels=True)
+        header = exr.header()
+        channels = {name: channel.pixels for name, channel in exr.channels().items()}
+    except FileFormatError:
+        raise
+    except Exception as error:  # the binding raises RuntimeError or ValueError on corrupt data
+        raise FileFormatError(
+            f"{path}: corrupt or truncated OpenEXR file ({type(error).__name__}: {error})"
+        ) from error
+    if not channels:
+        raise FileFormatError(f"{path}: the OpenEXR file holds no channels")
+    buffers = {}
+    for name, members in _group(list(channels), path).items():
+        planes = [np.asarray(channels[c], dtype=np.float32) for c in members]
+        buffers[name] = torch.from_numpy(np.stack(planes))
+    return buffers, header
+
+
+def read_exr(path: str | os.PathLike) -> dict[str, torch.Tensor]:
+    """Read an EXR file into named ``[C, H, W]`` float32 CPU tensors (see the module table).
+
+    Raises:
+        FileFormatError: the file is missing, not an EXR, corrupt or truncated, or a known
+            layer has the wrong channels; the message names the file.
+    """
+    return _read_exr(path)[0]
+
+
+# ------------------------------------------------------------------------------------------------
+# Frames
+
+
+def write_frame(path: str | os.PathLike, frame: Frame) -> None:
+    """Write a :class:`~bnerr.frame.Frame`: its buffers as EXR layers, its timings as JSON in the
+    header attribute ``bnerr_timings``."""
+    if not isinstance(frame, Frame):
+        raise DtypeError(f"frame: expected a bnerr.frame.Frame, got {type(frame).__name__}")
+    timings = json.dumps({str(k): float(v) for k, v in frame.timings.items()}, sort_keys=True)
+    write_exr(path, frame.buffers(), {TIMINGS_ATTRIBUTE: timings})
+
+
+def read_frame(path: str | os.PathLike) -> Frame:
+    """Read a Frame written by :func:`write_frame` (or any EXR with ``R G B``).
+
+    Layers that are not Frame buffers are ignored; missing timings read as ``{}``.
+
+    Raises:
+        FileFormatError: as :func:`read_exr`, or the file has no ``R G B`` channels, or its
+            timings attribute is not a JSON object of numbers.
+    """
+    buffers, header = _read_exr(path)
+    if "color" not in buffers:
+        raise FileFormatError(
+            f"{path}: expected channels R, G, B for the frame's color, "
+            f"got layers {', '.join(sorted(buffers))}"
+        )
+    known = {name: t for name, t in buffers.items() if name in BUFFERS or name == "variance"}
+    timings: dict[str, float] = {}
+    if TIMINGS_ATTRIBUTE in header:
+        try:
+            raw = json.loads(header[TIMINGS_ATTRIBUTE])
+            timings = {str(k): float(v) for k, v in raw.items()}
+        except (TypeError, ValueError, AttributeError) as error:
+            raise FileFormatError(
+                f"{path}: header attribute {TIMINGS_ATTRIBUTE} is not a JSON object of numbers "
+                f"({error})"
+            ) from error
+    try:
+        return Frame(**known, timings=timings)
+    except (ShapeError, DtypeError) as error:
+        raise FileFormatError(f"{path}: not a valid frame ({error})") from error
+
+
+# ------------------------------------------------------------------------------------------------
+# PNG previews
+
+
+def _tonemap(x: torch.Tensor, name: str) -> torch.Tensor:
+    if name == "aces":
+        # Narkowicz 2015, "ACES Filmic Tone Mapping Curve" (a fit of the ACES RRT + ODT),
+        # applied to the exposed radiance as is (without the 0.6 pre-scale of the blog post).
+        return (x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0, 1)
+    if name == "reinhard":
+        return x / (1 + x)  # Reinhard et al. 2002, the global operator L / (1 + L)
+    return x.clamp(0, 1)
+
+
+def _srgb_oetf(x: torch.Tensor) -> torch.Tensor:
+    """IEC 61966-2-1 sRGB encoding of linear values in [0, 1]."""
+    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055)
+
+
+def write_png(
+    path: str | os.PathLike,
+    color: torch.Tensor,
+    exposure: float = 0.0,
+    tonemap: str = "aces",
+) -> None:
+    """Write an 8-bit sRGB PNG preview of linear radiance ``color [3, H, W]`` float32.
+
+    ``value = srgb(tonemap(color * 2^exposure))``, rounded to 8 bits, an RGB PNG whatever the
+    suffix of ``path``; encoded by scikit-image (imageio). Negative values and NaN show as 0, +inf as white: a preview must not fail on a
+    firefly. ``tonemap`` is ``"aces"`` (Narkowicz's fit), ``"reinhard"`` or ``"clamp"``.
+
+    Not for: data; previews lose range and precision. Use :func:`write_exr` for anything that is
+    measured.
+    """
+    path = _check_path(path)
+    check_shape(color, "3 H W", "color")
+    check_dtype(color, torch.float32, "color")
+    exposure = check_range(exposure, "exposure", -64.0, 64.0)
+    check_name(tonemap, TONEMAPS, "tonemap")
+    if color.shape[1] < 1 or color.shape[2] < 1:
+        raise ShapeError(f"color: expected H, W >= 1, got shape {list(color.shape)}")
+    linear = torch.nan_to_num(color.detach().cpu().double(), nan=0.0, posinf=1e30, neginf=0.0)
+    linear = (linear * 2.0**exposure).clamp(min=0)
+    encoded = _srgb_oetf(_tonemap(linear, tonemap).clamp(0, 1))
+    pixels = (encoded * 255).round().to(torch.uint8).permute(1, 2, 0).contiguous().numpy()
+    from skimage.io import imsave  # noqa: PLC0415 - slow to import, needed here only
+
+    with atomic_write(path, suffix=".png") as tmp:  # imsave picks the format by extension
+        imsave(tmp, pixels, check_contrast=False)
