@@ -339,7 +339,8 @@ def _tonemap(x: torch.Tensor, name: str) -> torch.Tensor:
 
 def _srgb_oetf(x: torch.Tensor) -> torch.Tensor:
     """IEC 61966-2-1 sRGB encoding of linear values in [0, 1]."""
-    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055)
+    curve = 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055
+    return torch.where(x <= 0.0031308, 12.92 * x, curve)
 
 
 def write_png(
@@ -351,8 +352,8 @@ def write_png(
     """Write an 8-bit sRGB PNG preview of linear radiance ``color [3, H, W]`` float32.
 
     ``value = srgb(tonemap(color * 2^exposure))``, rounded to 8 bits, an RGB PNG whatever the
-    suffix of ``path``; encoded by scikit-image (imageio). Negative values and NaN show as 0, +inf as white: a preview must not fail on a
-    firefly. ``tonemap`` is ``"aces"`` (Narkowicz's fit), ``"reinhard"`` or ``"clamp"``.
+    suffix of ``path``; encoded by scikit-image (imageio). Negative values and NaN show as 0,
+    +inf as white: a preview must not fail on a firefly. ``tonemap`` is ``"aces"`` (Narkowicz's fit), ``"reinhard"`` or ``"clamp"``.
 
     Not for: data; previews lose range and precision. Use :func:`write_exr` for anything that is
     measured.

@@ -72,7 +72,9 @@ def test_exr_channel_names_follow_the_documented_layers(tmp_path):
     buffers["extra"] = _rand(2, 3)
     write_exr(tmp_path / "a.exr", buffers)
     names = set(OpenEXR.File(str(tmp_path / "a.exr"), separate_channels=True).channels())
-    assert names == {"R", "G", "B", "normal.X", "normal.Y", "normal.Z", "depth.Z", "extra.0", "extra.1"}
+    assert names == {
+        "R", "G", "B", "normal.X", "normal.Y", "normal.Z", "depth.Z", "extra.0", "extra.1"
+    }  # fmt: skip
     # the planes land in the documented channels, in tensor order
     raw = OpenEXR.File(str(tmp_path / "a.exr"), separate_channels=True).channels()
     assert np.array_equal(raw["normal.Y"].pixels, buffers["normal"][1].numpy())

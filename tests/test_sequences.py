@@ -294,6 +294,20 @@ def test_bnds_is_the_shared_sequence_rotated_by_the_mask():
         assert torch.allclose(got[:, j].double(), expect, atol=2**-23, rtol=0)
 
 
+def test_bnds_shared_sequence_table_and_direct_paths_agree_exactly():
+    # Indices below N take the evaluate-once-and-gather path; a lane alone with index >= 1 takes
+    # the direct path. Both must give the same bits.
+    sampler = _bnds(dims=6, size=16)
+    n = 64
+    index = torch.arange(n, dtype=torch.int64).flip(0) % 17
+    seed = torch.arange(n, dtype=torch.int64)
+    pixel = torch.stack([seed % 16, seed // 16], dim=1)
+    together = sampler.sample(seed, index, 1, 5, pixel)
+    alone = torch.cat([sampler.sample(seed[i : i + 1], index[i : i + 1], 1, 5, pixel[i : i + 1])
+                       for i in range(n)])  # fmt: skip
+    assert torch.equal(together, alone)
+
+
 def test_bnds_falls_back_to_per_pixel_white_noise_beyond_the_mask():
     sampler = _bnds(dims=4)
     n = 500

@@ -1,0 +1,99 @@
+"""Time the samplers: ``python -m benchmarks.speed_sequences``.
+
+Each sampler fills ``count`` dimensions for ``n`` lanes (distinct seeds, 64 sample indices, pixels
+of a 1024-wide image), the way the renderer calls it. One warm-up call (tables, allocations),
+then ``repeats`` calls; the median is reported as seconds per call and values per second.
+``bnds`` uses a random 8-channel 64 x 64 mask: its first 8 dimensions are rotated, the rest are
+white noise.
+
+Timings depend on the machine, on the number of torch threads and on what else runs on it;
+report them with the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Sequence
+
+import torch
+
+from bnerr.sequences import SAMPLERS, make_sampler
+
+__all__ = ["main", "measure"]
+
+
+def _lanes(n: int, device: torch.device):
+    lane = torch.arange(n, dtype=torch.int64, device=device)
+    seed = (lane // 64) * 2654435761 % 2**32  # one seed per pixel, 64 samples each
+    index = lane % 64
+    pixel = torch.stack([(lane // 64) // 1024, (lane // 64) % 1024], dim=1)
+    return seed, index, pixel
+
+
+def _sync(device: torch.device) -> None:
+    if device.type == "cuda":
+        torch.cuda.synchronize(device)
+
+
+def measure(
+    names: Sequence[str] | None = None,
+    n: int = 1 << 20,
+    counts: Sequence[int] = (2, 8),
+    repeats: int = 5,
+    device: str | torch.device = "cpu",
+) -> dict[str, dict[int, float]]:
+    """Median seconds per ``sample(seed, index, 0, count, pixel)`` call with ``n`` lanes.
+
+    Returns ``{sampler name: {count: seconds}}``; values per second is ``n * count / seconds``.
+    """
+    device = torch.device(device)
+    seed, index, pixel = _lanes(n, device)
+    mask = torch.rand(8, 64, 64, generator=torch.Generator().manual_seed(0)).to(device)
+    options = {"bnds": {"mask": mask, "offset": (3, 7), "seed0": 1}}
+    results: dict[str, dict[int, float]] = {}
+    for name in names if names is not None else sorted(SAMPLERS):
+        sampler = make_sampler(name, **options.get(name, {}))
+        results[name] = {}
+        for count in counts:
+            sampler.sample(seed, index, 0, count, pixel)  # warm-up
+            times = []
+            for _ in range(repeats):
+                _sync(device)
+                start = time.perf_counter()
+                sampler.sample(seed, index, 0, count, pixel)
+                _sync(device)
+                times.append(time.perf_counter() - start)
+            results[name][count] = statistics.median(times)
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.speed_sequences", description=__doc__.split("\n\n")[0]
+    )
+    parser.add_argument("--n", type=int, default=1 << 20, help="lanes per call (default 2^20)")
+    parser.add_argument("--count", type=int, action="append", help="dims per call (repeatable)")
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--sampler", action="append", help="only these (repeatable)")
+    parser.add_argument("--device", default="cpu")
+    parser.add_argument("--threads", type=int, help="torch threads (default: torch's choice)")
+    args = parser.parse_args(argv)
+    if args.threads:
+        torch.set_num_threads(args.threads)
+    counts = args.count or [2, 8]
+    print(
+        f"sampler time, {args.n} lanes on {args.device}, {torch.get_num_threads()} torch threads, "
+        f"median of {args.repeats}"
+    )
+    results = measure(args.sampler, args.n, counts, args.repeats, args.device)
+    for name, by_count in results.items():
+        for count, seconds in by_count.items():
+            rate = args.n * count / seconds / 1e6
+            print(f"  {name:12s} count {count:3d}  {seconds * 1e3:9.2f} ms  {rate:9.1f} M values/s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
