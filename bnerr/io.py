@@ -54,6 +54,7 @@ from bnerr.frame import BUFFERS, Frame
 
 __all__ = [
     "CHANNELS",
+    "TIMINGS_ATTRIBUTE",
     "TONEMAPS",
     "atomic_write",
     "read_exr",
