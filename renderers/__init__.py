@@ -1,0 +1,20 @@
+"""renderers: a tensorized CPU path tracer, its declarative scenes and a Mitsuba 3 cross-check.
+
+- :func:`render` (:mod:`renderers.tracer`): ``render(scene, t, seeds [H, W] int64, sampler, spp)
+  -> bnerr.frame.Frame``, a pure function of its inputs whose every random number comes from the
+  sampler (seed image, sample index, dimension).
+- :func:`get_scene` and :data:`SCENES` (:mod:`renderers.scenes`): the named scenes, each animated
+  over frames t with a static variant; ``scene.dimensions`` is D and ``scene.max_depth`` the
+  depth in Mitsuba's convention.
+- :mod:`renderers.scene`: the scene description; :mod:`renderers.layout`: which dimension feeds
+  what; :mod:`renderers.mitsuba`: the same scene as a Mitsuba 3 dictionary (optional dependency).
+
+This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmarks`.
+"""
+
+from renderers.layout import Layout
+from renderers.scene import Scene
+from renderers.scenes import SCENES, get_scene
+from renderers.tracer import render
+
+__all__ = ["Layout", "SCENES", "Scene", "get_scene", "render"]

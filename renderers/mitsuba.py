@@ -1,0 +1,183 @@
+"""One frame of a scene as a Mitsuba 3 scene dictionary, and a reference render with Mitsuba.
+
+:func:`to_mitsuba` maps every element of :mod:`renderers.scene` to the Mitsuba 3 plugin with the
+same model, so that Mitsuba's ``path`` (or ``volpath``, with a medium) integrator estimates the
+same image as our tracer:
+
+- camera: ``perspective`` with the same ``look_at``, ``fov`` and ``fov_axis``; ``hdrfilm`` with a
+  box ``rfilter`` (each sample lands in the pixel it was drawn in, as ours) and RGB output;
+  ``independent`` sampler;
+- integrator: ``max_depth`` is the scene's (the same convention, see :mod:`renderers.layout`);
+  Russian roulette is switched off (``rr_depth = max_depth``) like ours; emitters stay visible;
+- ``sphere``, ``rectangle`` (``to_world`` with columns u, v, normal and the center), ``cube``
+  (the box's ``to_world``); ``diffuse`` BSDFs with an ``rgb`` reflectance or, for a cell texture, a
+  ``bitmap`` of its cells with ``nearest`` filtering and no colour conversion (``raw``);
+- area lights: an ``area`` emitter with ``rgb`` radiance on the rectangle;
+- medium: a ``cube`` over the medium's box with a ``null`` BSDF and a ``homogeneous`` interior
+  (``sigma_t``, rgb ``albedo``, ``isotropic`` phase).
+
+Mitsuba's estimator differs from ours (it samples a light point and a BSDF direction at every
+vertex including the last, its volpath picks a colour channel and plays Russian roulette on
+absorption), but each is unbiased for the same integral, so their expected images agree.
+
+Mitsuba is an optional dependency (the ``reference`` extra): :func:`mitsuba_available` says
+whether it imports, and the functions here raise :class:`ImportError` with the install hint when it
+does not.
+
+Not for: exporting scenes to files, or any Mitsuba feature our scene model does not have.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+import torch
+
+from bnerr.errors import DtypeError, check_positive_int
+from renderers.scene import Box, Rectangle, Scene, Sphere
+
+__all__ = ["mitsuba_available", "render_mitsuba", "to_mitsuba"]
+
+_HINT = "Mitsuba 3 is not installed: pip install 'bnerr[reference]' (mitsuba==3.9.1)"
+
+
+def mitsuba_available() -> bool:
+    """Whether ``import mitsuba`` can work (the optional ``reference`` extra)."""
+    return importlib.util.find_spec("mitsuba") is not None
+
+
+def _mi(variant: str | None = None):
+    """The mitsuba module with ``variant`` set (or any variant already set, else scalar_rgb)."""
+    if not mitsuba_available():
+        raise ImportError(_HINT)
+    import mitsuba as mi
+
+    if variant is not None:
+        mi.set_variant(variant)
+    elif mi.variant() is None:
+        mi.set_variant("scalar_rgb")
+    return mi
+
+
+def _matrix(linear: np.ndarray, translation: np.ndarray) -> list[list[float]]:
+    m = np.eye(4)
+    m[:3, :3] = linear
+    m[:3, 3] = translation
+    return m.tolist()
+
+
+def _material(mi, shape) -> dict:
+    albedo = shape.material.albedo
+    if shape.material.textured:
+        reflectance = {
+            "type": "bitmap",
+            "data": mi.TensorXf(np.ascontiguousarray(albedo.texels())),
+            "raw": True,
+            "filter_type": "nearest",
+            "wrap_mode": "clamp",
+        }
+    else:
+        reflectance = {"type": "rgb", "value": list(albedo)}
+    return {"type": "diffuse", "reflectance": reflectance}
+
+
+def _shape(mi, shape, t: int) -> dict:
+    T = mi.ScalarTransform4f
+    if isinstance(shape, Sphere):
+        out = {"type": "sphere", "center": list(shape.center.at(t)), "radius": shape.radius}
+    elif isinstance(shape, Rectangle):
+        linear = np.stack([shape.u, shape.v, shape.normal], axis=1)
+        out = {"type": "rectangle", "to_world": T(_matrix(linear, np.asarray(shape.center)))}
+        if shape.emission is not None:
+            out["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": list(shape.emission)}}
+    else:
+        m = np.asarray(shape.to_world, dtype=np.float64)
+        out = {"type": "cube", "to_world": T(_matrix(m[:, :3], m[:, 3]))}
+    out["bsdf"] = _material(mi, shape)
+    return out
+
+
+def to_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: int, seed: int = 0) -> dict:
+    """Frame ``t`` of ``scene`` as a Mitsuba 3 scene dictionary for ``mi.load_dict``.
+
+    Uses the active Mitsuba variant (scalar_rgb if none is set). Shapes are keyed by their names.
+
+    Raises:
+        ImportError: Mitsuba is not installed.
+        DtypeError: ``scene`` is not a Scene.
+        ValueRangeError: width, height or spp < 1.
+    """
+    if not isinstance(scene, Scene):
+        raise DtypeError(f"scene: expected a renderers Scene, got {type(scene).__name__}")
+    for value, name in ((width, "width"), (height, "height"), (spp, "spp")):
+        check_positive_int(value, name)
+    mi = _mi()
+    origin, target, up = scene.camera.pose(t)
+    integrator = "volpath" if scene.medium is not None else "path"
+    out: dict = {
+        "type": "scene",
+        "integrator": {"type": integrator, "max_depth": scene.max_depth,
+                       "rr_depth": scene.max_depth, "hide_emitters": False},
+        "sensor": {
+            "type": "perspective",
+            "fov": scene.camera.fov,
+            "fov_axis": scene.camera.fov_axis,
+            "near_clip": 1e-4,
+            "far_clip": 1e4,
+            "to_world": mi.ScalarTransform4f().look_at(origin=list(origin), target=list(target), up=list(up)),
+            "film": {"type": "hdrfilm", "width": width, "height": height, "pixel_format": "rgb",
+                     "component_format": "float32", "rfilter": {"type": "box"}},
+            "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+        },
+    }
+    for shape in scene.shapes:
+        out[shape.name] = _shape(mi, shape, t)
+    medium = scene.medium
+    if medium is not None:
+        lo, hi = np.asarray(medium.bounds_min), np.asarray(medium.bounds_max)
+        out["medium-box"] = {
+            "type": "cube",
+            "to_world": mi.ScalarTransform4f(_matrix(np.diag((hi - lo) / 2), (hi + lo) / 2)),
+            "bsdf": {"type": "null"},
+            "interior": {
+                "type": "homogeneous",
+                "sigma_t": float(medium.sigma_t),
+                "albedo": {"type": "rgb", "value": list(medium.albedo)},
+                "phase": {"type": "isotropic"},
+            },
+        }
+    return out
+
+
+def render_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: int, seed: int = 0,
+                   passes: int = 1, variant: str = "scalar_rgb") -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Render frame ``t`` with Mitsuba: mean ``[3, H, W]`` and the variance of that mean.
+
+    ``passes`` independent renders of ``spp / passes`` samples each (seeds ``seed * passes + k``)
+    are averaged; with ``passes = spp`` every render holds one sample per pixel, so the variance is
+    the exact per-pixel sample variance over the ``spp`` samples divided by ``spp`` (Mitsuba's own
+    ``moment`` integrator reports second moments in XYZ, not RGB, which is why it is not used).
+    With ``passes = 1`` the variance is None.
+
+    Raises:
+        ImportError: Mitsuba (or the variant) is not available.
+        ValueRangeError: ``passes`` does not divide ``spp``.
+    """
+    check_positive_int(passes, "passes")
+    check_positive_int(spp, "spp")
+    if spp % passes:
+        from bnerr.errors import ValueRangeError
+
+        raise ValueRangeError(f"passes: expected a divisor of spp = {spp}, got {passes}")
+    mi = _mi(variant)
+    per_pass = spp // passes
+    loaded = mi.load_dict(to_mitsuba(scene, t, width=width, height=height, spp=per_pass, seed=seed))
+    images = torch.stack([
+        torch.from_numpy(np.array(mi.render(loaded, spp=per_pass, seed=seed * passes + k), dtype=np.float64))
+        for k in range(passes)
+    ])  # [passes, H, W, 3]
+    mean = images.mean(0)
+    variance = images.var(0, unbiased=True) / passes if passes > 1 else None
+    to_chw = lambda x: x.permute(2, 0, 1).to(torch.float32).contiguous()  # noqa: E731
+    return to_chw(mean), (to_chw(variance) if variance is not None else None)
