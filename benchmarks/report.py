@@ -1,0 +1,403 @@
+"""Tables and charts from the runner's records: ``table.csv``, ``table.md`` and PNG charts.
+
+Everything here is derived from ``<out>/cells.jsonl`` (:func:`benchmarks.runner.load_records`), so
+a report can be rebuilt without rendering anything (``python -m benchmarks.report DIR``).
+
+- ``table.csv``: one row per cell (scene, strategy, spp, denoiser, condition) with the raw and
+  denoised MSE and their 95% bootstrap intervals, relMSE, PSNR, SSIM, the blurred MSEs, the error's
+  low-frequency fraction, the ratio of each strategy to white noise on the same frames (paired
+  bootstrap interval, :func:`bnerr.metrics.paired_ratio`), and the render, permutation and denoise
+  milliseconds per frame.
+- ``table.md``: per scene and condition, each strategy's post-denoise MSE as a fraction of white's,
+  the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time per frame; and the list
+  of cells where a strategy is worse than white beyond its interval.
+- Charts (matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state):
+  ``error_vs_time_<group>.png`` (post-denoise MSE against render + permutation + denoise time per
+  frame, one line per strategy through its spp values, one panel per denoiser),
+  ``spectra_<group>.png`` (radially averaged power spectrum of the raw and denoised error per
+  strategy), ``crops_<group>.png`` (reference, raw and denoised crops side by side).
+
+Not for: deciding anything. The report states the measured ratios and their intervals; a cell is
+flagged "worse than white" only when the whole interval lies above 1.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from bnerr.io import atomic_write
+from bnerr.metrics import bootstrap_interval, paired_ratio
+
+__all__ = ["COLUMNS", "markdown_table", "summarize", "write_charts", "write_report"]
+
+_CELL = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "width", "height",
+         "frames", "warmup", "seed_sets")
+_RATIO = ("den_mse", "raw_mse", "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2")
+_INTERVAL = ("raw_mse", "den_mse")
+
+#: Columns of ``table.csv``, in order.
+COLUMNS: tuple[str, ...] = (
+    *_CELL,
+    "dimensions",
+    "raw_mse", "raw_mse_lo", "raw_mse_hi",
+    "den_mse", "den_mse_lo", "den_mse_hi",
+    *(f"{m}_ratio{s}" for m in _RATIO for s in ("", "_lo", "_hi")),
+    "raw_relmse", "den_relmse", "raw_psnr", "den_psnr", "raw_ssim", "den_ssim",
+    "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2",
+    "raw_lowfreq", "den_lowfreq",
+    "render_ms", "perm_ms", "denoise_ms", "total_ms",
+    "reference_spp", "reference_floor", "worse_than_white",
+)
+
+_STRATEGY_ORDER = ("white", "bnds", "temporal_sort", "temporal", "oracle")
+
+
+def _stats(record: dict, kind: str, metric: str) -> np.ndarray | None:
+    values = record[kind].get(metric)
+    return None if values is None else np.asarray(values, dtype=np.float64)
+
+
+def _baseline_key(record: dict) -> tuple:
+    cell = dict(record["cell"], strategy="white")
+    return tuple(cell[k] for k in sorted(cell))
+
+
+def _mean_ms(series: list[list[float]]) -> float:
+    flat = [v for row in series for v in row]
+    return float(np.mean(flat)) if flat else math.nan
+
+
+def summarize(records: Iterable[dict], resamples: int = 2000, seed: int = 0) -> list[dict]:
+    """One row per record: the columns of :data:`COLUMNS` (missing values as None).
+
+    Ratios to white pair each record with the white record of the same cell (same scene, spp,
+    denoiser, condition, frames and seed sets); None when the suite has no such white record.
+    """
+    records = list(records)
+    whites = {_baseline_key(r): r for r in records if r["cell"]["strategy"] == "white"}
+    rows = []
+    for rec in records:
+        row: dict = {k: rec["cell"][k] for k in _CELL}
+        row["dimensions"] = rec.get("dimensions")
+        for kind in ("raw", "den"):
+            for metric in rec[kind]:
+                row[f"{kind}_{metric}"] = bootstrap_interval(_stats(rec, kind, metric), resamples=resamples, seed=seed).value
+        for name in _INTERVAL:
+            kind, metric = name.split("_", 1)
+            stats = _stats(rec, kind, metric)
+            if stats is not None:
+                est = bootstrap_interval(stats, resamples=resamples, seed=seed)
+                row[name], row[f"{name}_lo"], row[f"{name}_hi"] = est.value, est.lo, est.hi
+        white = whites.get(_baseline_key(rec))
+        for name in _RATIO:
+            kind, metric = name.split("_", 1)
+            mine = _stats(rec, kind, metric)
+            base = None if white is None else _stats(white, kind, metric)
+            if mine is None or base is None or mine.shape != base.shape:
+                continue
+            est = paired_ratio(mine, base, resamples=resamples, seed=seed)
+            row[f"{name}_ratio"], row[f"{name}_ratio_lo"], row[f"{name}_ratio_hi"] = est.value, est.lo, est.hi
+        timings = rec["timings"]
+        row["render_ms"] = _mean_ms(timings["render_ms"])
+        row["perm_ms"] = _mean_ms(timings["perm_ms"])
+        row["denoise_ms"] = _mean_ms(timings["denoise_ms"])
+        row["total_ms"] = row["render_ms"] + row["perm_ms"] + row["denoise_ms"]
+        row["reference_spp"] = rec["reference"]["spp"]
+        row["reference_floor"] = rec["reference"]["floor"]
+        lo = row.get("den_mse_ratio_lo")
+        row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
+        rows.append({c: row.get(c) for c in COLUMNS})
+    return rows
+
+
+def _csv_text(rows: Sequence[dict]) -> str:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(buffer, fieldnames=COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    for row in rows:
+        writer.writerow({k: ("" if v is None else (f"{v:.6g}" if isinstance(v, float) else v)) for k, v in row.items()})
+    return buffer.getvalue()
+
+
+# --------------------------------------------------------------------------------------------------
+# Markdown
+
+
+def _group_key(row: dict) -> tuple:
+    return (row["scene"], row["motion"], row["depth"], row["region"])
+
+
+def _group_title(key: tuple) -> str:
+    scene, motion, depth, region = key
+    parts = [f"motion x{motion}" if motion != 1 else None, "static camera" if motion == 0 else None,
+             f"depth {depth}" if depth is not None else None, "object edges only" if region == "edges" else None]
+    extra = [p for p in parts if p and not (motion == 0 and p.startswith("motion"))]
+    return scene + (f" ({', '.join(extra)})" if extra else "")
+
+
+def _group_slug(key: tuple) -> str:
+    scene, motion, depth, region = key
+    return scene + ("" if motion == 1 else f"_m{motion}") + ("" if depth is None else f"_d{depth}") + (
+        "" if region == "all" else f"_{region}")
+
+
+def _strategies(rows: Iterable[dict]) -> list[str]:
+    names = {r["strategy"] for r in rows}
+    return sorted(names, key=lambda s: (_STRATEGY_ORDER.index(s) if s in _STRATEGY_ORDER else 99, s))
+
+
+def _ratio_text(row: dict | None, name: str) -> str:
+    if row is None or row.get(f"{name}_ratio") is None:
+        return "-"
+    text = f"{row[f'{name}_ratio']:.3f} [{row[f'{name}_ratio_lo']:.3f}, {row[f'{name}_ratio_hi']:.3f}]"
+    return text + (" (worse)" if row[f"{name}_ratio_lo"] > 1.0 else "")
+
+
+def _table(header: Sequence[str], body: Iterable[Sequence[str]]) -> list[str]:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(cells) + " |" for cells in body]
+    return lines
+
+
+def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
+    strategies = _strategies(rows)
+    by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
+    spps = sorted({r["spp"] for r in rows})
+    denoisers = sorted({r["denoiser"] for r in rows})
+    first = rows[0]
+    lines = [f"### {_group_title(key)}", "",
+             f"{first['width']}x{first['height']}, {first['frames']} measured frames after {first['warmup']} "
+             f"warmup, {first['seed_sets']} seed set(s), D = {first['dimensions']}, reference "
+             f"{first['reference_spp']} spp.", "",
+             "Post-denoise MSE: white's absolute value, every other strategy as a fraction of white's "
+             "(95% paired bootstrap interval).", ""]
+    body = []
+    for spp in spps:
+        for d in denoisers:
+            white = by.get((spp, d, "white"))
+            cells = [str(spp), d]
+            for s in strategies:
+                row = by.get((spp, d, s))
+                if s == "white":
+                    cells.append("-" if row is None else f"{row['den_mse']:.4g}")
+                else:
+                    cells.append(_ratio_text(row, "den_mse") if white is not None else
+                                 ("-" if row is None else f"{row['den_mse']:.4g}"))
+            body.append(cells)
+    lines += _table(["spp", "denoiser", *strategies], body)
+    lines += ["", "Raw error as a fraction of white's: MSE / MSE after a sigma-1 blur / after a sigma-2 "
+              "blur; low-frequency fraction of the error spectrum (white noise ~0.05).", ""]
+    body = []
+    for spp in spps:
+        cells = [str(spp)]
+        for s in strategies:
+            row = by.get((spp, denoisers[0], s))
+            if row is None:
+                cells.append("-")
+                continue
+            ratios = [row.get(f"{m}_ratio") for m in ("raw_mse", "raw_mse_blur1", "raw_mse_blur2")]
+            text = " / ".join("-" if v is None else f"{v:.3f}" for v in ratios)
+            low = row.get("raw_lowfreq")
+            cells.append(text + ("" if low is None else f"; lf {low:.3f}"))
+        body.append(cells)
+    lines += _table(["spp", *strategies], body)
+    lines += ["", "Milliseconds per frame: render + permutation (strategy overhead).", ""]
+    body = []
+    for spp in spps:
+        cells = [str(spp)]
+        for s in strategies:
+            row = by.get((spp, denoisers[0], s))
+            cells.append("-" if row is None else f"{row['render_ms']:.1f} + {row['perm_ms']:.2f}")
+        body.append(cells)
+    lines += _table(["spp", *strategies], body)
+    times = {d: np.mean([r["denoise_ms"] for r in rows if r["denoiser"] == d]) for d in denoisers}
+    lines += ["", "Denoise ms per frame: " + ", ".join(f"{d} {t:.1f}" for d, t in times.items()) + ".", ""]
+    return lines
+
+
+def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
+    """The readable report: one section per scene and condition, then the flagged cells."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for row in rows:
+        groups[_group_key(row)].append(row)
+    lines = [f"# {title}", ""]
+    for key in sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3])):
+        lines += _group_markdown(key, groups[key])
+    flagged = [r for r in rows if r["worse_than_white"]]
+    lines += ["## Worse than white beyond the interval", ""]
+    if not flagged:
+        lines += ["No cell: every strategy's post-denoise MSE interval reaches down to white's or below.", ""]
+    else:
+        lines += _table(
+            ["scene", "condition", "strategy", "spp", "denoiser", "ratio to white"],
+            ([r["scene"], _group_title(_group_key(r)), r["strategy"], str(r["spp"]), r["denoiser"],
+              _ratio_text(r, "den_mse")] for r in flagged),
+        )
+        lines.append("")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------------
+# Charts
+
+
+def _save(fig, path: Path) -> None:
+    with atomic_write(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
+
+
+def _error_vs_time(slug: str, title: str, rows: list[dict], out: Path) -> Path:
+    from matplotlib.figure import Figure
+
+    denoisers = sorted({r["denoiser"] for r in rows})
+    cols = min(4, len(denoisers))
+    nrows = math.ceil(len(denoisers) / cols)
+    fig = Figure(figsize=(4.2 * cols, 3.4 * nrows))
+    for i, d in enumerate(denoisers):
+        ax = fig.add_subplot(nrows, cols, i + 1)
+        for s in _strategies(rows):
+            pts = sorted((r for r in rows if r["denoiser"] == d and r["strategy"] == s), key=lambda r: r["spp"])
+            if not pts:
+                continue
+            x = [r["total_ms"] for r in pts]
+            y = [r["den_mse"] for r in pts]
+            err = [[r["den_mse"] - r["den_mse_lo"] for r in pts], [r["den_mse_hi"] - r["den_mse"] for r in pts]]
+            ax.errorbar(x, y, yerr=err, marker="o", capsize=2, label=s)
+            for r in pts:
+                ax.annotate(f"{r['spp']}", (r["total_ms"], r["den_mse"]), fontsize=7,
+                            textcoords="offset points", xytext=(3, 3))
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_title(d, fontsize=9)
+        ax.set_xlabel("ms per frame (render + permutation + denoise)", fontsize=8)
+        ax.set_ylabel("post-denoise MSE", fontsize=8)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7)
+    fig.suptitle(f"{title}: error after denoising against time (labels: spp)")
+    path = out / f"error_vs_time_{slug}.png"
+    _save(fig, path)
+    return path
+
+
+def _spectra(slug: str, title: str, rows: list[dict], records: dict, out: Path) -> Path | None:
+    from matplotlib.figure import Figure
+
+    spp = min(r["spp"] for r in rows)
+    denoiser = sorted({r["denoiser"] for r in rows})[0]
+    fig = Figure(figsize=(9, 3.4))
+    drawn = False
+    for j, (kind, label) in enumerate((("raw", "raw error"), ("den", f"error after {denoiser}"))):
+        ax = fig.add_subplot(1, 2, j + 1)
+        for s in _strategies(rows):
+            rec = records.get((slug, s, spp, denoiser))
+            spec = None if rec is None else rec["spectrum"][kind]
+            if not spec or not spec["freq"]:
+                continue
+            freq, power = np.asarray(spec["freq"])[1:], np.asarray(spec["power"])[1:]
+            ax.semilogy(freq, np.maximum(power, 1e-30), label=s)
+            drawn = True
+        ax.axvline(0.125, color="gray", lw=0.8, ls="--")
+        ax.set_xlabel("cycles / pixel", fontsize=8)
+        ax.set_ylabel("power", fontsize=8)
+        ax.set_title(f"{label}, {spp} spp", fontsize=9)
+        ax.legend(fontsize=7)
+    if not drawn:
+        return None
+    fig.suptitle(f"{title}: radially averaged error spectrum")
+    path = out / f"spectra_{slug}.png"
+    _save(fig, path)
+    return path
+
+
+def _crops(slug: str, title: str, rows: list[dict], records: dict, out: Path) -> Path | None:
+    from matplotlib.figure import Figure
+
+    spp = min(r["spp"] for r in rows)
+    denoiser = sorted({r["denoiser"] for r in rows})[0]
+    images = []
+    for s in _strategies(rows):
+        rec = records.get((slug, s, spp, denoiser))
+        if rec is None or not rec.get("crop") or not (out / rec["crop"]).exists():
+            continue
+        with np.load(out / rec["crop"]) as data:
+            images.append((s, {k.replace("__", "/"): data[k] for k in data.files}))
+    if not images:
+        return None
+    columns = ["reference", "raw"] + sorted(k for k in images[0][1] if k.startswith("denoised/"))
+    fig = Figure(figsize=(1.9 * len(columns), 1.9 * len(images) + 0.4))
+    for i, (strategy, crop) in enumerate(images):
+        for j, col in enumerate(columns):
+            ax = fig.add_subplot(len(images), len(columns), i * len(columns) + j + 1)
+            if col in crop:
+                ax.imshow(crop[col], interpolation="nearest")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(col.removeprefix("denoised/"), fontsize=8)
+            if j == 0:
+                ax.set_ylabel(strategy, fontsize=8)
+    fig.suptitle(f"{title}, {spp} spp: centre crops", fontsize=9)
+    path = out / f"crops_{slug}.png"
+    _save(fig, path)
+    return path
+
+
+def write_charts(rows: Sequence[dict], records: Sequence[dict], out_dir: str | Path) -> list[Path]:
+    """Draw every chart for the rows (whole-image region only); return the files written."""
+    out = Path(out_dir)
+    by_slug: dict[str, list[dict]] = defaultdict(list)
+    for row in rows:
+        if row["region"] == "all":
+            by_slug[_group_slug(_group_key(row))].append(row)
+    lookup = {}
+    for rec in records:
+        c = rec["cell"]
+        if c["region"] == "all":
+            lookup[(_group_slug((c["scene"], c["motion"], c["depth"], c["region"])), c["strategy"], c["spp"], c["denoiser"])] = rec
+    written = []
+    for slug, group in sorted(by_slug.items()):
+        title = _group_title(_group_key(group[0]))
+        written.append(_error_vs_time(slug, title, group, out))
+        for chart in (_spectra, _crops):
+            path = chart(slug, title, group, lookup, out)
+            if path is not None:
+                written.append(path)
+    return written
+
+
+def write_report(out_dir: str | Path, records: Sequence[dict] | None = None, title: str | None = None,
+                 charts: bool = True) -> str:
+    """Write ``table.csv``, ``table.md`` and the charts into ``out_dir``; return the Markdown.
+
+    Args:
+        out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
+        records: the runner's records; read from ``out_dir`` when None.
+        title: heading of ``table.md`` (default: the folder's name).
+        charts: draw the PNG charts too.
+    """
+    from benchmarks.runner import load_records
+
+    out = Path(out_dir)
+    records = load_records(out) if records is None else list(records)
+    rows = summarize(records)
+    text = markdown_table(rows, title or f"bnerr bench: {out.name}")
+    with atomic_write(out / "table.csv") as tmp:
+        Path(tmp).write_text(_csv_text(rows))
+    with atomic_write(out / "table.md") as tmp:
+        Path(tmp).write_text(text)
+    if charts:
+        write_charts(rows, records, out)
+    return text
+
+
+if __name__ == "__main__":
+    import sys
+
+    print(write_report(sys.argv[1]))

@@ -1,0 +1,130 @@
+"""Tests of benchmarks.report: rows, ratios to white, flags, CSV, Markdown and charts from records."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from benchmarks import report
+from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
+from bnerr.metrics import paired_ratio
+
+_METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
+
+
+def _record(strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region="all", motion=1, crop=None):
+    """A runner record whose per-frame metric pairs are (value * count, count) for 2 sets x 3 frames."""
+    count = 3 * 16 * 16
+
+    def pairs(values):
+        return [[[v * count, count] for v in row] for row in values]
+
+    def flat(value):
+        return [[value] * 3] * 2
+
+    cell = dict(scene=scene, strategy=strategy, spp=spp, denoiser=denoiser, motion=motion, depth=None,
+                region=region, frames=3, warmup=2, width=16, height=16, seed_sets=2, reference_spp=64)
+    per_metric = {m: pairs(flat(0.5)) for m in _METRICS}
+    return {
+        "key": str(sorted(cell.items())),
+        "cell": cell,
+        "dimensions": 4,
+        "t": [2, 3, 4],
+        "raw": {**per_metric, "mse": pairs(raw_mse), "mse_blur1": pairs(raw_mse)},
+        "den": {**per_metric, "mse": pairs(den_mse)},
+        "denoiser_params": {"sigma": 1.0},
+        "timings": {"render_ms": [[10.0 * spp] * 3] * 2, "perm_ms": [[1.0] * 3] * 2, "denoise_ms": [[2.0] * 3] * 2},
+        "reference": {"spp": 64, "floor": 1e-5, "version": "test"},
+        "spectrum": {
+            "raw": {"freq": [0.0, 0.25, 0.5], "power": [0.0, 1.0, 2.0]},
+            "den": {"freq": [0.0, 0.25, 0.5], "power": [0.0, 0.1, 0.01]},
+        },
+        "crop": crop,
+    }
+
+
+_WHITE = [[1.0, 2.0, 3.0], [1.5, 2.5, 3.5]]
+_TEMPORAL = [[0.5, 1.1, 1.4], [0.8, 1.2, 1.8]]
+_WORSE = [[2.0, 4.1, 6.3], [3.1, 5.0, 7.2]]
+
+
+def _records():
+    return [
+        _record("white", 1, "gaussian", _WHITE, _WHITE),
+        _record("temporal", 1, "gaussian", _TEMPORAL, _WHITE),
+        _record("oracle", 1, "gaussian", _WORSE, _WHITE),
+        _record("white", 4, "gaussian", _WHITE, _WHITE),
+        _record("temporal", 4, "gaussian", _TEMPORAL, _WHITE),
+    ]
+
+
+def test_rows_pair_each_strategy_with_white_on_the_same_cell():
+    rows = summarize(_records())
+    assert len(rows) == 5 and all(set(r) == set(COLUMNS) for r in rows)
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == 1)
+    want = paired_ratio(np.asarray(_TEMPORAL), np.asarray(_WHITE))
+    assert temporal["den_mse_ratio"] == pytest.approx(np.mean(_TEMPORAL) / np.mean(_WHITE))
+    assert (temporal["den_mse_ratio_lo"], temporal["den_mse_ratio_hi"]) == pytest.approx((want.lo, want.hi))
+    assert temporal["raw_mse_ratio"] == pytest.approx(1.0)
+    assert temporal["worse_than_white"] is False
+    assert temporal["total_ms"] == pytest.approx(10.0 + 1.0 + 2.0)
+    white = next(r for r in rows if r["strategy"] == "white" and r["spp"] == 1)
+    assert white["den_mse_ratio"] == pytest.approx(1.0) and white["worse_than_white"] is False
+    assert white["den_mse"] == pytest.approx(np.mean(_WHITE))
+    assert white["den_mse_lo"] < white["den_mse"] < white["den_mse_hi"]
+
+
+def test_a_strategy_is_flagged_only_when_its_interval_lies_above_white():
+    rows = summarize(_records())
+    oracle = next(r for r in rows if r["strategy"] == "oracle")
+    assert oracle["den_mse_ratio_lo"] > 1.0 and oracle["worse_than_white"] is True
+    text = markdown_table(rows)
+    flagged = text.split("## Worse than white beyond the interval")[1]
+    assert "oracle" in flagged and "temporal" not in flagged
+
+
+def test_no_white_record_leaves_the_ratio_empty():
+    rows = summarize([_record("temporal", 1, "gaussian", _TEMPORAL, _WHITE)])
+    assert rows[0]["den_mse_ratio"] is None and rows[0]["worse_than_white"] is None
+
+
+def test_markdown_shows_ratios_per_scene_and_spp():
+    text = markdown_table(summarize(_records()), "T")
+    assert text.startswith("# T")
+    assert "### direct" in text
+    header = next(line for line in text.splitlines() if line.startswith("| spp | denoiser |"))
+    assert header == "| spp | denoiser | white | temporal | oracle |"
+    ratio = np.mean(_TEMPORAL) / np.mean(_WHITE)
+    assert f"| 1 | gaussian | {np.mean(_WHITE):.4g} | {ratio:.3f} [" in text
+    assert "(worse)" in text
+
+
+def test_write_report_writes_csv_markdown_and_charts(tmp_path):
+    crop = tmp_path / "crops"
+    crop.mkdir()
+    image = np.zeros((8, 8, 3), np.uint8)
+    np.savez_compressed(crop / "c.npz", reference=image, raw=image, denoised__gaussian=image)
+    records = [dict(r, crop="crops/c.npz") for r in _records()]
+    text = write_report(tmp_path, records, title="T")
+    assert (tmp_path / "table.md").read_text() == text
+    with open(tmp_path / "table.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 5 and tuple(rows[0]) == COLUMNS
+    assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(np.mean(_WHITE))
+    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops_direct.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    assert not list(tmp_path.glob(".*.tmp*"))  # atomic writes leave no temporary files
+
+
+def test_conditions_get_their_own_sections_and_charts(tmp_path):
+    records = _records() + [
+        _record("white", 1, "gaussian", _WHITE, _WHITE, motion=0),
+        _record("temporal", 1, "gaussian", _TEMPORAL, _WHITE, motion=0),
+        _record("white", 1, "gaussian", _WHITE, _WHITE, region="edges"),
+        _record("temporal", 1, "gaussian", _WORSE, _WHITE, region="edges"),
+    ]
+    text = write_report(tmp_path, records)
+    assert "### direct (static camera)" in text and "### direct (object edges only)" in text
+    assert (tmp_path / "error_vs_time_direct_m0.png").exists()
+    assert not (tmp_path / "error_vs_time_direct_edges.png").exists()  # charts: whole image only
+    assert report.summarize(records)[-1]["worse_than_white"] is True
