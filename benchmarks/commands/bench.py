@@ -1,0 +1,106 @@
+"""``bnerr bench``: run a named suite (with overrides), write its results and print the table.
+
+Examples::
+
+    bnerr bench --suite quick
+    bnerr bench --suite quality --scenes direct cornell --spp 1 4 --out /tmp/q --resume
+    bnerr bench --suite stability --res 48x48 --frames 4
+
+Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
+records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.report`). References are
+cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the results already in
+the output folder and measures only the missing cells.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from bnerr.errors import DtypeError, check_positive_int
+
+__all__ = ["register"]
+
+
+def _names(values: list[str] | None) -> list[str] | None:
+    """Accept both ``--scenes a b`` and ``--scenes a,b``."""
+    if values is None:
+        return None
+    return [v for item in values for v in item.split(",") if v]
+
+
+def _ints(values: list[str] | None, flag: str) -> list[int] | None:
+    names = _names(values)
+    if names is None:
+        return None
+    try:
+        return [check_positive_int(int(v), flag) for v in names]
+    except ValueError as err:
+        raise DtypeError(f"{flag}: expected positive integers, got {values!r}") from err
+
+
+def _res(text: str | None) -> tuple[int, int] | None:
+    if text is None:
+        return None
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError as err:
+        raise DtypeError(f"--res: expected WIDTHxHEIGHT such as 128x128, got {text!r}") from err
+    return check_positive_int(width, "--res width"), check_positive_int(height, "--res height")
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    from benchmarks.suites import SUITES
+
+    parser = subparsers.add_parser(
+        "bench",
+        help="run a benchmark suite and write tables and charts",
+        description=__doc__.split("\n\n")[0]
+        + "\n\nSuites:\n" + "\n".join(f"  {s.name:10s} {s.description}" for s in SUITES.values()),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--suite", default="quick", choices=sorted(SUITES), help="named suite (default quick)")
+    parser.add_argument("--scenes", nargs="+", metavar="NAME", help="override the scenes")
+    parser.add_argument("--strategies", nargs="+", metavar="NAME", help="override the strategies")
+    parser.add_argument("--spp", nargs="+", metavar="N", help="override the samples per pixel")
+    parser.add_argument("--denoisers", nargs="+", metavar="NAME", help="override the denoisers")
+    parser.add_argument("--frames", type=int, help="measured frames per seed set")
+    parser.add_argument("--warmup", type=int, help="frames rendered before measuring (not measured)")
+    parser.add_argument("--seed-sets", type=int, help="independent seed sets")
+    parser.add_argument("--reference-spp", type=int, help="samples per pixel of the references")
+    parser.add_argument("--res", help="resolution WIDTHxHEIGHT")
+    parser.add_argument("--out", type=Path, help="output folder (default results/<suite>)")
+    parser.add_argument("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
+    parser.add_argument("--resume", action="store_true", help="keep existing results, measure only missing cells")
+    parser.add_argument("--no-charts", action="store_true", help="write the tables only")
+    parser.add_argument("--quiet", action="store_true", help="no progress bar, no table on stdout")
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from benchmarks import report, runner, suites
+
+    suite = suites.get_suite(args.suite)
+    out = args.out or Path("results") / suite.name
+    if suite.scripts:
+        text = runner.run_speed(suite, out, progress=not args.quiet)
+    else:
+        suite = suites.resolve(
+            suite,
+            scenes=_names(args.scenes),
+            strategies=_names(args.strategies),
+            spp=_ints(args.spp, "--spp"),
+            denoisers=_names(args.denoisers),
+            frames=None if args.frames is None else check_positive_int(args.frames, "--frames"),
+            warmup=None if args.warmup is None else check_positive_int(args.warmup, "--warmup", minimum=0),
+            res=_res(args.res),
+            seed_sets=None if args.seed_sets is None else check_positive_int(args.seed_sets, "--seed-sets"),
+            reference_spp=None if args.reference_spp is None else check_positive_int(args.reference_spp, "--reference-spp"),
+            **runner.known_names(),
+        )
+        records = runner.run_suite(suite, out, cache_dir=args.cache, resume=args.resume, progress=not args.quiet)
+        text = report.write_report(out, records, title=f"bnerr bench --suite {suite.name}", charts=not args.no_charts)
+    if not args.quiet:
+        print(text)
+    print(f"results written to {out}")
+    return 0
