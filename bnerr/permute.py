@@ -1,0 +1,458 @@
+"""The seed permutation of Heitz & Belcour 2019: the block sorting pass and histogram sampling.
+
+Heitz & Belcour, "Distributing Monte Carlo Errors as a Blue Noise in Screen Space by Permuting
+Pixel Seeds Between Frames", EGSR 2019 (Computer Graphics Forum 38(4)); METHODS.md section 4.
+
+- :func:`sort_pass` (the temporal algorithm's core, the talk's "for each 4x4 block: sort the frame
+  pixels, sort the blue-noise pixels, NewSequences(BlueNoisePixels[i]) = Sequences(FramePixels[i])"):
+  inside each ``B x B`` block, the seed whose pixel had the k-th smallest luminance moves to the
+  pixel with the k-th smallest mask value. A bijection inside every block, whatever the values.
+- :func:`histogram_select` (the paper's section 3, the "a-posteriori theory"): from K candidate
+  estimates per pixel, the index of the one at rank ``floor(b * K)`` of their sorted values, ``b``
+  the pixel's mask value. The ``oracle`` strategy is built on it.
+- :func:`sort_pass_reference`: the slow, obviously correct twin of :func:`sort_pass` (a Python
+  loop over blocks with Python's stable ``sorted``); the tests check that they agree exactly.
+
+**Order.** Values are compared as float32 (float64 input is rounded to float32 first, which can
+only turn near-ties into ties). ``-0.0`` equals ``+0.0``, ``-inf`` is the smallest value, ``+inf``
+the largest finite-or-infinite one, and every NaN (any sign or payload) is larger than ``+inf``
+and equal to every other NaN. Equal values keep the order of their pixels in the block, row-major
+(a stable sort). The mask is ordered the same way. Internally a float is compared through its
+*ordered key*: its bit pattern as an int32, with negative values' magnitude bits flipped, so that
+signed integer comparison orders floats; NaN is first mapped to one canonical NaN. Integer
+comparisons are exact and identical on every device.
+
+**Borders.** Blocks at the right and bottom borders may be partial (``H`` or ``W`` not a multiple
+of ``B``); a partial block sorts only its own pixels.
+
+**Speed.** What depends only on the mask and the block size (each block's pixels in mask order)
+is computed once into a :class:`SortPlan` (:func:`plan_sort`) and cached, keyed by the mask
+tensor's identity and version, so that passing the same mask tensor every frame reuses it. On the
+CPU the pass runs in an optional C kernel (:mod:`bnerr._sortnative`, about 3 ms at 1920x1080 on
+two threads); elsewhere, or without a C compiler, in torch (a row sort of packed 64-bit keys; a
+few tens of ms at 1080p on CPU, fast on CUDA). All paths give bit-identical output.
+
+Not for: sorting by anything but one scalar per pixel (pass your own key as ``values [H, W]``,
+e.g. a demodulated luminance), or permutations that cross block boundaries (that is
+:mod:`bnerr.retarget`).
+"""
+
+from __future__ import annotations
+
+import threading
+import weakref
+from dataclasses import dataclass, replace
+
+import torch
+import torch.nn.functional as F
+
+from bnerr import _sortnative
+from bnerr.errors import (
+    DtypeError,
+    ShapeError,
+    ValueRangeError,
+    check_dtype,
+    check_finite,
+    check_positive_int,
+    check_shape,
+    check_tensor,
+)
+
+__all__ = [
+    "LUMINANCE_WEIGHTS",
+    "SortPass",
+    "SortPlan",
+    "histogram_select",
+    "luminance",
+    "plan_sort",
+    "sort_pass",
+    "sort_pass_reference",
+]
+
+#: Rec. 709 / sRGB luminance weights of linear R, G, B (ITU-R BT.709-6, item 3.2).
+LUMINANCE_WEIGHTS: tuple[float, float, float] = (0.2126, 0.7152, 0.0722)
+
+_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
+_MIN_BLOCK, _MAX_BLOCK = 2, 8
+_INT32_MIN = -(2**31)
+_CANONICAL_NAN = 0x7FC00000
+_PAD_KEY = 2**31 - 1  # above the canonical NaN's key: padding sorts after every real pixel
+_POSITION_BITS = 6  # block positions 0 .. 63 (B <= 8)
+
+
+# --------------------------------------------------------------------------------------------------
+# Checks and keys
+
+
+def _check_block(block: object) -> int:
+    if isinstance(block, bool) or not isinstance(block, int):
+        raise DtypeError(f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block!r}")
+    if not _MIN_BLOCK <= block <= _MAX_BLOCK:
+        raise ValueRangeError(f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block}")
+    return block
+
+
+def _check_values(values: object, height: int, width: int) -> torch.Tensor:
+    """``values [H, W]`` or ``[C, H, W]`` (C = 1 or 3), floating point, matching ``H x W``."""
+    check_tensor(values, "values")
+    if values.ndim == 2:
+        size = check_shape(values, "H W", "values")
+    elif values.ndim == 3 and values.shape[0] in (1, 3):
+        size = check_shape(values, "C H W", "values")
+    else:
+        raise ShapeError(
+            f"values: expected [H, W] or [C, H, W] with C = 1 or 3, got shape {list(values.shape)}"
+        )
+    check_dtype(values, _FLOATS, "values")
+    if (size["H"], size["W"]) != (height, width):
+        raise ShapeError(
+            f"values: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
+        )
+    return values
+
+
+def _check_seeds(seeds: object) -> tuple[int, int]:
+    size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
+    check_dtype(seeds, torch.int64, "seeds")
+    return size["H"], size["W"]
+
+
+def _check_mask(mask: object, height: int, width: int, device: torch.device) -> torch.Tensor:
+    size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
+    check_dtype(mask, _FLOATS, "mask")
+    if (size["H"], size["W"]) != (height, width):
+        raise ShapeError(
+            f"mask: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
+        )
+    if mask.device != device:
+        raise ValueRangeError(f"mask: expected a tensor on {device} like seeds, got {mask.device}")
+    return mask
+
+
+def _ordered_keys(x: torch.Tensor) -> torch.Tensor:
+    """int32 keys whose signed order is the float32 order of ``x`` (see the module docstring)."""
+    bits = x.to(torch.float32).contiguous().view(torch.int32)
+    nan = (bits & 0x7FFFFFFF) > 0x7F800000
+    bits = torch.where(nan, torch.full_like(bits, _CANONICAL_NAN), bits)
+    bits = torch.where(bits == _INT32_MIN, torch.zeros_like(bits), bits)  # -0.0 -> +0.0
+    return torch.where(bits < 0, bits ^ 0x7FFFFFFF, bits)
+
+
+def luminance(values: torch.Tensor) -> torch.Tensor:
+    """Rec. 709 luminance ``0.2126 R + 0.7152 G + 0.0722 B`` of linear RGB, as float32.
+
+    Args:
+        values: ``[3, H, W]`` linear RGB, ``[1, H, W]`` or ``[H, W]`` (already a scalar per pixel),
+            any floating dtype.
+
+    Returns:
+        ``[H, W]`` float32 on ``values``' device, computed as ``(w0 * R + w1 * G) + w2 * B`` in
+        float32 (this operation order is part of the contract: the native sort kernel repeats it
+        bit for bit). NaN or infinite channels give NaN or infinite luminance, which the sort
+        orders deterministically.
+    """
+    check_tensor(values, "values")
+    if values.ndim == 3 and values.shape[0] == 1:
+        values = values[0]
+    if values.ndim == 2:
+        check_dtype(values, _FLOATS, "values")
+        return values.to(torch.float32)
+    check_shape(values, "3 H W", "values")
+    check_dtype(values, _FLOATS, "values")
+    rgb = values.to(torch.float32)
+    w0, w1, w2 = LUMINANCE_WEIGHTS
+    return w0 * rgb[0] + w1 * rgb[1] + w2 * rgb[2]
+
+
+# --------------------------------------------------------------------------------------------------
+# The plan: what depends only on the mask and the block size
+
+
+@dataclass(frozen=True, eq=False)
+class SortPlan:
+    """Each block's pixels in mask order, for one mask image and one block size.
+
+    Attributes:
+        block: block size B (2..8).
+        height, width: the image size ``H x W`` the plan is for.
+        order: ``[nby * nbx, B * B]`` uint8 on the mask's device; row ``by * nbx + bx`` lists the
+            block's positions ``a * B + b`` (row ``a``, column ``b`` inside the block) by
+            increasing mask value, ties by position; positions outside the image (partial blocks)
+            come last. ``nby = ceil(H / B)``, ``nbx = ceil(W / B)``.
+
+    Build it with :func:`plan_sort`. Reuse it while the mask image is the same (for a mask tiled
+    at a per-frame offset, one plan per offset). It holds ``H * W`` bytes (2 MB at 1080p).
+    """
+
+    block: int
+    height: int
+    width: int
+    order: torch.Tensor
+
+    @property
+    def device(self) -> torch.device:
+        return self.order.device
+
+    def to(self, device: torch.device | str) -> "SortPlan":
+        """The same plan on ``device``."""
+        return replace(self, order=self.order.to(device))
+
+
+def _blocks(x: torch.Tensor, block: int, fill: int) -> torch.Tensor:
+    """``[H, W]`` -> ``[nby * nbx, B * B]``: pad to whole blocks with ``fill``, one row per block."""
+    h, w = x.shape
+    pad_h, pad_w = -h % block, -w % block
+    if pad_h or pad_w:
+        x = F.pad(x[None], (0, pad_w, 0, pad_h), value=fill)[0]
+    nby, nbx = x.shape[0] // block, x.shape[1] // block
+    return x.reshape(nby, block, nbx, block).permute(0, 2, 1, 3).reshape(nby * nbx, block * block)
+
+
+def _unblocks(x: torch.Tensor, block: int, height: int, width: int) -> torch.Tensor:
+    """Inverse of :func:`_blocks` (without the padding)."""
+    nby, nbx = -(-height // block), -(-width // block)
+    full = x.reshape(nby, nbx, block, block).permute(0, 2, 1, 3).reshape(nby * block, nbx * block)
+    return full[:height, :width]
+
+
+def _block_order(keys: torch.Tensor, block: int) -> torch.Tensor:
+    """Per block, positions sorted by (key, position): ``[nby * nbx, B * B]`` int64.
+
+    Keys are packed with their position into distinct int64s, so one unstable row sort is a
+    stable sort of the keys; padding gets the largest key and sorts last.
+    """
+    packed = _blocks(keys, block, _PAD_KEY).to(torch.int64) << _POSITION_BITS
+    packed |= torch.arange(block * block, device=keys.device)
+    return packed.sort(dim=1).values & ((1 << _POSITION_BITS) - 1)
+
+
+def plan_sort(mask: torch.Tensor, block: int = 4) -> SortPlan:
+    """Precompute the mask side of :func:`sort_pass` for one mask image and block size.
+
+    Args:
+        mask: ``[H, W]`` floating point, the frame's mask values (already tiled and offset, e.g.
+            ``bnerr.masks.tile_mask(M, H, W, frame_offset(t, T))``); NaN and infinities are
+            ordered like values.
+        block: B in 2..8.
+
+    Returns:
+        A :class:`SortPlan` on ``mask``'s device.
+    """
+    size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
+    check_dtype(mask, _FLOATS, "mask")
+    block = _check_block(block)
+    order = _block_order(_ordered_keys(mask), block).to(torch.uint8).contiguous()
+    return SortPlan(block=block, height=size["H"], width=size["W"], order=order)
+
+
+class _PlanCache:
+    """The last few plans, keyed by the mask tensor's identity, version counter and block size.
+
+    A weak reference proves that the tensor is still the same object (ids are reused after garbage
+    collection) and ``Tensor._version`` changes on every in-place write, so a mask edited in place
+    gets a fresh plan. Inference-mode tensors have no version counter and are not cached.
+    """
+
+    def __init__(self, capacity: int = 8) -> None:
+        self.capacity = capacity
+        self.entries: dict[tuple[int, int], tuple[weakref.ref, int, SortPlan]] = {}
+        self.lock = threading.Lock()
+
+    def get(self, mask: torch.Tensor, block: int) -> SortPlan:
+        try:
+            version = mask._version
+        except RuntimeError:  # inference tensor
+            return plan_sort(mask, block)
+        key = (id(mask), block)
+        with self.lock:
+            hit = self.entries.get(key)
+        if hit is not None and hit[0]() is mask and hit[1] == version:
+            return hit[2]
+        plan = plan_sort(mask, block)
+        with self.lock:
+            self.entries.pop(key, None)
+            while len(self.entries) >= self.capacity:
+                self.entries.pop(next(iter(self.entries)))
+            self.entries[key] = (weakref.ref(mask), version, plan)
+        return plan
+
+
+_PLANS = _PlanCache()
+
+
+# --------------------------------------------------------------------------------------------------
+# The sorting pass
+
+
+def _sort_torch(seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan) -> torch.Tensor:
+    """The torch path: sort each block's packed (key, position), then move seeds rank by rank."""
+    block, (h, w) = plan.block, seeds.shape
+    source = _block_order(_ordered_keys(lum), block)  # position of the k-th smallest value
+    blocks = _blocks(seeds, block, -1)
+    out = torch.empty_like(blocks).scatter_(1, plan.order.long(), blocks.gather(1, source))
+    return _unblocks(out, block, h, w).contiguous()
+
+
+def _resolve_plan(mask: torch.Tensor | SortPlan, block: int, h: int, w: int, device) -> SortPlan:
+    if isinstance(mask, SortPlan):
+        if mask.block != block:
+            raise ValueRangeError(f"block: expected the plan's block size {mask.block}, got {block}")
+        if (mask.height, mask.width) != (h, w):
+            raise ShapeError(
+                f"mask: expected a plan for H x W = {h} x {w} like seeds, "
+                f"got one for {mask.height} x {mask.width}"
+            )
+        if mask.device != device:
+            raise ValueRangeError(f"mask: expected a plan on {device} like seeds, got {mask.device}")
+        return mask
+    return _PLANS.get(_check_mask(mask, h, w, device), block)
+
+
+def sort_pass(
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    mask: torch.Tensor | SortPlan,
+    block: int = 4,
+) -> torch.Tensor:
+    """Permute seeds inside each ``B x B`` block so that their values follow the mask's order.
+
+    In each block, the seed of the pixel with the k-th smallest value moves to the pixel with the
+    k-th smallest mask value (Heitz & Belcour 2019, section 5, "sorting pass"). Rendered again, the
+    frame's error inside each block then follows the mask: blue noise if the mask is blue noise.
+
+    Args:
+        seeds: ``[H, W]`` int64, the seed image that rendered ``values``.
+        values: ``[H, W]`` floating point (the sort key, e.g. luminance), or ``[3, H, W]`` linear
+            RGB (its Rec. 709 :func:`luminance` is taken), or ``[1, H, W]``. Compared as float32;
+            NaN and infinities are allowed (see the module docstring for the order).
+        mask: ``[H, W]`` floating point, the frame's mask values already tiled and offset; or a
+            :class:`SortPlan` from :func:`plan_sort`. A mask tensor's plan is cached while the
+            same tensor object is passed unchanged.
+        block: block size B, an integer in 2..8 (the paper uses 4). Blocks at the right and
+            bottom borders may be partial.
+
+    Returns:
+        ``[H, W]`` int64 on ``seeds``' device, a new tensor: inside every block, a permutation of
+        the block's input seeds. Bit-identical for equal inputs, on every path and thread count.
+
+    Raises:
+        ShapeError: shapes that do not match. DtypeError: seeds not int64, values or mask not
+        floating point, block not an int. ValueRangeError: block outside 2..8, tensors on
+        different devices.
+    """
+    h, w = _check_seeds(seeds)
+    block = _check_block(block)
+    values = _check_values(values, h, w)
+    if values.device != seeds.device:
+        raise ValueRangeError(f"values: expected a tensor on {seeds.device} like seeds, got {values.device}")
+    plan = _resolve_plan(mask, block, h, w, seeds.device)
+    if seeds.numel() == 0:
+        return seeds.clone()
+    if seeds.device.type == "cpu":
+        rgb = values.ndim == 3 and values.shape[0] == 3
+        planar = values.to(torch.float32) if rgb else luminance(values)
+        out = _sortnative.run(seeds, planar, plan)
+        if out is not None:
+            return out
+    return _sort_torch(seeds, luminance(values), plan)
+
+
+class SortPass(torch.nn.Module):
+    """Module form of :func:`sort_pass` holding the block size (kornia's ``MedianBlur`` shape).
+
+    ``SortPass(block=4)(seeds, values, mask)`` equals ``sort_pass(seeds, values, mask, 4)``.
+    """
+
+    def __init__(self, block: int = 4) -> None:
+        super().__init__()
+        self.block = _check_block(block)
+
+    def forward(self, seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor | SortPlan) -> torch.Tensor:
+        return sort_pass(seeds, values, mask, self.block)
+
+    def extra_repr(self) -> str:
+        return f"block={self.block}"
+
+
+def _python_key(value: float) -> tuple[int, float]:
+    """Sort key of one float for the reference: NaN after everything, else the value itself."""
+    return (1, 0.0) if value != value else (0, value)
+
+
+def sort_pass_reference(
+    seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor, block: int = 4
+) -> torch.Tensor:
+    """The slow twin of :func:`sort_pass`: a Python loop over blocks with Python's stable sort.
+
+    Same arguments, checks and result as :func:`sort_pass` (``mask`` must be a tensor). Values
+    and mask go through float32 exactly as in the fast op; Python compares ``-0.0 == 0.0`` and
+    orders infinities natively, and NaN is keyed after everything. For tests and for reading,
+    not for use: it takes seconds on a 256 x 256 image.
+    """
+    h, w = _check_seeds(seeds)
+    block = _check_block(block)
+    values = _check_values(values, h, w)
+    mask = _check_mask(mask, h, w, seeds.device)
+    lum = luminance(values).cpu().tolist()
+    mvals = mask.to(torch.float32).cpu().tolist()
+    src = seeds.cpu().tolist()
+    out = [row[:] for row in src]
+    for y0 in range(0, h, block):
+        for x0 in range(0, w, block):
+            pixels = [
+                (y, x) for y in range(y0, min(y0 + block, h)) for x in range(x0, min(x0 + block, w))
+            ]
+            by_value = sorted(pixels, key=lambda p: _python_key(lum[p[0]][p[1]]))
+            by_mask = sorted(pixels, key=lambda p: _python_key(mvals[p[0]][p[1]]))
+            for (vy, vx), (my, mx) in zip(by_value, by_mask):
+                out[my][mx] = src[vy][vx]
+    return torch.tensor(out, dtype=torch.int64, device=seeds.device).reshape(h, w)
+
+
+# --------------------------------------------------------------------------------------------------
+# Histogram sampling
+
+
+def histogram_select(candidates: torch.Tensor, mask: torch.Tensor) -> torch.Tensor:
+    """Per pixel, the index of the candidate at rank ``floor(b * K)`` of the sorted candidates.
+
+    Heitz & Belcour 2019, section 3 ("histogram sampling"; the talk's "sample the sorted list
+    using the random number provided by the blue-noise texture"): with ``b`` a blue-noise mask
+    value, the chosen estimates' errors inherit the mask's spatial correlation, and since
+    ``floor(b * K)`` is uniform over the ranks when ``b`` is uniform, each pixel's chosen estimate
+    has the distribution of one plain estimate.
+
+    Args:
+        candidates: ``[K, H, W]`` floating point, K >= 1 candidate values per pixel (e.g. the
+            luminance of K renders with distinct seeds); compared as float32 in the order of the
+            module docstring (NaN after ``+inf``; ties by candidate index).
+        mask: ``[H, W]`` floating point, finite, the frame's mask values ``b``; the rank
+            ``floor(b * K)`` is clamped to ``[0, K - 1]`` (so ``b >= 1`` picks the largest).
+
+    Returns:
+        ``[H, W]`` int64 in ``[0, K)`` on ``candidates``' device.
+
+    Raises:
+        ShapeError, DtypeError as :func:`sort_pass`; NonFiniteError if the mask holds NaN or inf.
+    """
+    size = check_shape(check_tensor(candidates, "candidates"), "K H W", "candidates")
+    check_dtype(candidates, _FLOATS, "candidates")
+    msize = check_shape(check_tensor(mask, "mask"), "H W", "mask")
+    check_dtype(mask, _FLOATS, "mask")
+    if (msize["H"], msize["W"]) != (size["H"], size["W"]):
+        raise ShapeError(
+            f"mask: expected H x W = {size['H']} x {size['W']} like candidates, "
+            f"got {msize['H']} x {msize['W']}"
+        )
+    if mask.device != candidates.device:
+        raise ValueRangeError(f"mask: expected a tensor on {candidates.device}, got {mask.device}")
+    check_positive_int(size["K"], "candidates.shape[0]")
+    check_finite(mask, "mask")
+    k = size["K"]
+    # (key, candidate index) packed into one int64: distinct, so the sort is stable by index.
+    packed = (_ordered_keys(candidates).to(torch.int64) << 32) | torch.arange(
+        k, device=candidates.device
+    ).view(k, 1, 1)
+    ranked = packed.sort(dim=0).values
+    rank = torch.floor(mask.to(torch.float64) * k).clamp_(0, k - 1).to(torch.int64)
+    return ranked.gather(0, rank[None])[0] & 0xFFFFFFFF
