@@ -1,0 +1,286 @@
+"""Tests for bnerr.strategies: the interface, seeds that stay a permutation, and the statistical
+claims of the method on an analytic integrand (a moving soft-shadow edge)."""
+
+import math
+
+import pytest
+import torch
+from kornia.filters import gaussian_blur2d
+
+from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
+from bnerr.frame import Frame
+from bnerr.masks import frame_offset, load_mask, tile_mask
+from bnerr.metrics import blurred_mse
+from bnerr.permute import histogram_select, luminance
+from bnerr.sequences import BNDSSampler
+from bnerr.strategies import (
+    STRATEGIES,
+    BNDSStrategy,
+    OracleStrategy,
+    TemporalStrategy,
+    WhiteStrategy,
+    make_strategy,
+    pixel_seeds,
+)
+
+# --------------------------------------------------------------------------------------------------
+# Cheap stand-in renders
+
+
+def _hash_render(record: list | None = None, special: bool = False):
+    """A render whose every buffer is a fixed function of the pixel's seed (like a real renderer,
+    whose pixel estimate is a function of its seed); optionally NaN and inf in some pixels."""
+
+    def render(seeds: torch.Tensor, sampler) -> Frame:
+        if record is not None:
+            record.append((seeds.clone(), sampler))
+        h, w = seeds.shape
+        u = ((seeds * 2654435761) % 1000003).float() / 1000003
+        color = torch.stack([u, u * u, 1 - u])
+        if special:
+            color[0][seeds % 97 == 0] = float("nan")
+            color[1][seeds % 89 == 0] = float("inf")
+        return Frame(
+            color=color,
+            albedo=torch.stack([1 - u, u, u * 0.5]),
+            depth=(seeds % 7).float()[None],
+            timings={"render": 1.0},
+        )
+
+    return render
+
+
+def _block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
+    h, w = x.shape
+    return [
+        sorted(x[y : y + block, c : c + block].reshape(-1).tolist())
+        for y in range(0, h, block)
+        for c in range(0, w, block)
+    ]
+
+
+# --------------------------------------------------------------------------------------------------
+# Interface and invariants
+
+
+def test_names_are_sorted_and_complete():
+    assert STRATEGIES == tuple(sorted(STRATEGIES))
+    assert set(STRATEGIES) == {"white", "bnds", "temporal", "temporal_sort", "oracle"}
+
+
+def test_pixel_seeds_are_distinct_32bit_and_keyed():
+    a = pixel_seeds(37, 53, key=5)
+    assert a.shape == (37, 53) and a.dtype == torch.int64
+    assert a.unique().numel() == 37 * 53
+    assert int(a.min()) >= 0 and int(a.max()) < 2**32
+    assert torch.equal(a, pixel_seeds(37, 53, key=5))
+    assert (a != pixel_seeds(37, 53, key=6)).float().mean() > 0.99
+
+
+@pytest.mark.parametrize("name", ["temporal", "temporal_sort"])
+def test_temporal_seed_image_stays_a_permutation_over_100_frames(name):
+    record: list = []
+    strategy = make_strategy(name, 37, 53, seed=3, block=4)
+    render = _hash_render(record, special=True)
+    for t in range(100):
+        strategy.frame(t, render)
+    initial = record[0][0]
+    for seeds, _ in record:
+        assert torch.equal(seeds.reshape(-1).sort().values, initial.reshape(-1).sort().values)
+        if name == "temporal_sort":  # seeds never leave their block
+            assert _block_multisets(seeds, 4) == _block_multisets(initial, 4)
+    assert initial.unique().numel() == 37 * 53
+    assert not torch.equal(record[-1][0], initial)
+
+
+def test_white_seeds_are_fresh_and_distinct_every_frame():
+    record: list = []
+    strategy = make_strategy("white", 16, 24, seed=1)
+    for t in range(3):
+        strategy.frame(t, _hash_render(record))
+    seeds = [s for s, _ in record]
+    assert all(s.unique().numel() == 16 * 24 for s in seeds)
+    assert (seeds[0] != seeds[1]).float().mean() > 0.99
+    assert isinstance(record[0][1], type(make_strategy("temporal", 4, 4).sampler))  # same sampler
+
+
+def test_bnds_dithers_by_the_vector_mask_at_the_frame_offset():
+    record: list = []
+    mask = torch.rand(2, 64, 64, generator=torch.Generator().manual_seed(0))
+    strategy = BNDSStrategy(20, 30, seed=2, mask=mask)
+    for t in range(3):
+        strategy.frame(t, _hash_render(record))
+    samplers = [s for _, s in record]
+    assert all(isinstance(s, BNDSSampler) for s in samplers)
+    assert [s.offset for s in samplers] == [frame_offset(t, 64) for t in range(3)]
+    assert len({s.seed0 for s in samplers}) == 3  # a fresh shared sequence every frame
+    assert record[0][0].unique().numel() == 20 * 30
+
+
+def test_oracle_selects_by_histogram_sampling_and_assembles_every_buffer():
+    record: list = []
+    strategy = OracleStrategy(12, 18, seed=0, mask=load_mask("scalar", 64), K=5)
+    out = strategy.frame(4, _hash_render(record))
+    frames = [_hash_render()(s, None) for s, _ in record]
+    assert len(frames) == 5
+    assert all(s.unique().numel() == 12 * 18 for s, _ in record)
+    b = tile_mask(load_mask("scalar", 64), 12, 18, frame_offset(4, 64))
+    choice = histogram_select(torch.stack([luminance(f.color) for f in frames]), b)
+    for name in ("color", "albedo", "depth"):
+        stacked = torch.stack([getattr(f, name) for f in frames])
+        want = stacked.gather(0, choice[None, None].expand(1, stacked.shape[1], 12, 18))[0]
+        assert torch.equal(getattr(out, name), want)
+    assert out.timings["render"] == 5.0  # summed over the candidates
+    assert out.timings["strategy"] == strategy.overhead_ms >= 0
+
+
+@pytest.mark.parametrize("name", STRATEGIES)
+def test_same_arguments_give_identical_frames(name):
+    outs = []
+    for _ in range(2):
+        strategy = make_strategy(name, 9, 11, seed=4, K=3, mask_dims=None) if name != "bnds" else BNDSStrategy(
+            9, 11, seed=4, mask=torch.rand(2, 64, 64, generator=torch.Generator().manual_seed(1)))
+        frames = [strategy.frame(t, _hash_render()) for t in range(3)]
+        outs.append(torch.stack([f.color for f in frames]))
+        assert strategy.overhead_ms >= 0 and frames[-1].timings["strategy"] == strategy.overhead_ms
+    assert torch.equal(outs[0], outs[1])
+
+
+def test_bad_input_raises_typed_errors():
+    with pytest.raises(UnknownNameError, match=r"unknown strategy 'blue'"):
+        make_strategy("blue", 8, 8)
+    with pytest.raises(UnknownNameError, match=r"unknown per-pixel sampler 'bnds'"):
+        make_strategy("white", 8, 8, sampler="bnds")
+    with pytest.raises(ValueRangeError, match=r"block: expected an integer in \[2, 8\], got 9"):
+        make_strategy("temporal", 8, 8, block=9)
+    with pytest.raises(ValueRangeError, match=r"height: expected an integer >= 1, got 0"):
+        make_strategy("white", 0, 8)
+    with pytest.raises(UnknownNameError, match=r"mask \('scalar', 32\): expected one of the shipped masks"):
+        make_strategy("temporal", 8, 8, mask_size=32)
+    strategy = make_strategy("white", 8, 8)
+    with pytest.raises(ShapeError, match=r"render: expected a 8 x 8 frame, got 4 x 4"):
+        strategy.frame(0, lambda seeds, sampler: Frame(color=torch.zeros(3, 4, 4)))
+    with pytest.raises(DtypeError, match=r"render: expected a Frame, got Tensor"):
+        strategy.frame(0, lambda seeds, sampler: torch.zeros(3, 8, 8))
+    with pytest.raises(ValueRangeError, match=r"t: expected an integer >= 0, got -1"):
+        strategy.frame(-1, _hash_render())
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_state_follows_the_render_device():
+    cpu = make_strategy("temporal", 33, 47, seed=1)
+    gpu = make_strategy("temporal", 33, 47, seed=1)
+    render = _hash_render(special=True)
+    for t in range(5):
+        a = cpu.frame(t, render)
+        b = gpu.frame(t, lambda s, smp: _hash_render(special=True)(s.cuda(), smp).to("cuda"))
+        assert torch.equal(a.color, b.color.cpu())
+    assert gpu.seeds.device.type == "cuda" and torch.equal(gpu.seeds.cpu(), cpu.seeds)
+
+
+# --------------------------------------------------------------------------------------------------
+# The analytic integrand: a soft shadow whose penumbra edge moves across the image
+#
+# Pixel (y, x) of frame t sees a fraction c_t(y, x) of an area light: a ramp from 0 to 1 over
+# 0.75 W pixels whose edge follows a sine in y and moves 1.5 pixels to the right per frame. One
+# sample per pixel draws two dimensions from the sampler: the light point is visible iff
+# u0 < c, and the light's radiance there is 0.5 + u1 (mean 1). The reference is exactly c.
+
+SIZE = 64
+FRAMES = 16
+MEASURED = range(8, FRAMES)  # the temporal strategies start from white noise; frames 8..15 count
+TILE = 8  # 8x8 tiles (two 4x4 sort blocks across) are the independent units of the statistics
+
+
+def _coverage(t: int) -> torch.Tensor:
+    y = torch.arange(SIZE, dtype=torch.float64).view(SIZE, 1)
+    x = torch.arange(SIZE, dtype=torch.float64).view(1, SIZE)
+    edge = 0.1 * SIZE + 0.15 * SIZE * torch.sin(2 * math.pi * y / SIZE) + 1.5 * t
+    return ((x - edge) / (0.75 * SIZE) + 0.5).clamp(0, 1)
+
+
+def _soft_shadow_render(t: int):
+    c = _coverage(t).reshape(-1)
+    ys, xs = torch.meshgrid(torch.arange(SIZE), torch.arange(SIZE), indexing="ij")
+    pixel = torch.stack([ys.reshape(-1), xs.reshape(-1)], dim=1)
+
+    def render(seeds: torch.Tensor, sampler) -> Frame:
+        u = sampler.sample(seeds.reshape(-1), torch.zeros(SIZE * SIZE, dtype=torch.int64), 0, 2, pixel)
+        value = (u[:, 0].double() < c).double() * (0.5 + u[:, 1].double())
+        return Frame(color=value.float().view(1, SIZE, SIZE).expand(3, SIZE, SIZE).contiguous())
+
+    return render
+
+
+def _errors(strategy) -> torch.Tensor:
+    """``[F, H, W]`` float64 errors (one channel; all three are equal) of the measured frames."""
+    errs = []
+    for t in range(FRAMES):
+        frame = strategy.frame(t, _soft_shadow_render(t))
+        if t in MEASURED:
+            errs.append(frame.color[0].double() - _coverage(t))
+    return torch.stack(errs)
+
+
+def _blur(errors: torch.Tensor, sigma: float) -> torch.Tensor:
+    """The blur of :func:`bnerr.metrics.blurred_mse` (kornia, reflect border) applied per frame."""
+    kernel = 2 * math.ceil(3 * sigma) + 1
+    return gaussian_blur2d(errors[:, None], (kernel, kernel), (sigma, sigma), border_type="reflect")[:, 0]
+
+
+def _tiles(squared: torch.Tensor) -> torch.Tensor:
+    """Mean over frames and over each TILE x TILE tile: ``[(H / TILE) * (W / TILE)]``."""
+    per_pixel = squared.mean(dim=0)
+    return per_pixel.view(SIZE // TILE, TILE, SIZE // TILE, TILE).mean(dim=(1, 3)).reshape(-1)
+
+
+def _paired(a: torch.Tensor, b: torch.Tensor) -> tuple[float, float]:
+    """Mean and standard error of the tile-paired difference ``a - b`` (same tile, same coverage)."""
+    d = a - b
+    return float(d.mean()), float(d.std() / math.sqrt(d.numel()))
+
+
+@pytest.fixture(scope="module", params=["owen_sobol", "white"])
+def analytic(request):
+    sampler = request.param
+    names = ["white", "temporal", "temporal_sort", "oracle"]
+    errors = {name: _errors(make_strategy(name, SIZE, SIZE, seed=0, sampler=sampler)) for name in names}
+    bnds_mask = torch.rand(2, 64, 64, generator=torch.Generator().manual_seed(9))
+    errors["bnds_random_mask"] = _errors(BNDSStrategy(SIZE, SIZE, seed=0, mask=bnds_mask))
+    return errors
+
+
+def test_blur_matches_the_project_metric(analytic):
+    e = analytic["white"][0]
+    ours = float(_blur(e[None], 1.0).square().mean())
+    assert ours == pytest.approx(float(blurred_mse(e[None], torch.zeros_like(e[None]), 1.0)), rel=1e-9)
+
+
+def test_raw_mse_is_the_same_for_every_strategy(analytic):
+    # Moving errors around never changes their amplitude: every strategy's raw MSE must equal
+    # white's within 4 standard errors of the tile-paired difference. (A random "vector mask"
+    # makes bnds a plain Cranley-Patterson rotation: unbiased, same variance.)
+    white = _tiles(analytic["white"].square())
+    for name, errors in analytic.items():
+        diff, se = _paired(_tiles(errors.square()), white)
+        assert abs(diff) <= 4 * se, (name, diff, se)
+
+
+def test_temporal_beats_white_after_a_sigma1_blur_and_the_oracle_beats_temporal(analytic):
+    blurred = {name: _tiles(_blur(e, 1.0).square()) for name, e in analytic.items()}
+    diff, se = _paired(blurred["temporal"], blurred["white"])
+    assert diff < -4 * se, (diff, se)
+    diff, se = _paired(blurred["oracle"], blurred["temporal"])
+    assert diff < -4 * se, (diff, se)
+    # The sorting pass alone helps too.
+    diff, se = _paired(blurred["temporal_sort"], blurred["white"])
+    assert diff < -4 * se, (diff, se)
+
+
+def test_retargeting_carries_the_gain_to_the_sigma2_scale(analytic):
+    # Seeds never leave their 4x4 block in the sorting pass, so the error summed over a block stays
+    # white and a sigma-2 blur (wider than the block) sees little gain; retargeting moves seeds
+    # across blocks (METHODS.md section 4).
+    blurred = {name: _tiles(_blur(e, 2.0).square()) for name, e in analytic.items()}
+    diff, se = _paired(blurred["temporal"], blurred["temporal_sort"])
+    assert diff < -4 * se, (diff, se)
