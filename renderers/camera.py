@@ -75,13 +75,14 @@ def generate_rays(cam: CameraFrame, px: torch.Tensor, py: torch.Tensor) -> tuple
         px, py: ``[N]`` float32 pixel coordinates (x right, y down), in [0, W] x [0, H].
 
     Returns:
-        ``origin [N, 3]`` and unit ``direction [N, 3]``.
+        ``origin [3, N]`` and unit ``direction [3, N]`` (component-major, like every ray in
+        :mod:`renderers`).
     """
     sx = (2.0 * px / cam.width - 1.0) * cam.tan_x
     sy = (1.0 - 2.0 * py / cam.height) * cam.tan_y
-    direction = sx[:, None] * cam.right + sy[:, None] * cam.up + cam.forward
-    direction = direction / direction.norm(dim=-1, keepdim=True)
-    return cam.origin.expand_as(direction), direction
+    direction = sx * cam.right[:, None] + sy * cam.up[:, None] + cam.forward[:, None]
+    direction = direction * torch.rsqrt(sx * sx + sy * sy + 1.0)  # right, up, forward orthonormal
+    return cam.origin[:, None].expand_as(direction), direction
 
 
 def project(cam: CameraFrame, points: torch.Tensor, *, directions: bool = False
@@ -90,16 +91,16 @@ def project(cam: CameraFrame, points: torch.Tensor, *, directions: bool = False
 
     Args:
         cam: the resolved camera.
-        points: ``[N, 3]`` world positions, or world directions if ``directions``.
+        points: ``[3, N]`` world positions, or world directions if ``directions``.
 
     Returns:
         ``px [N]``, ``py [N]`` and ``in_front [N]`` (bool: strictly in front of the camera; the
         coordinates are meaningless elsewhere).
     """
-    v = points if directions else points - cam.origin
-    z = v @ cam.forward
+    v = points if directions else points - cam.origin[:, None]
+    z = cam.forward @ v
     in_front = z > 0
     z_safe = torch.where(in_front, z, torch.ones_like(z))
-    sx = (v @ cam.right) / (z_safe * cam.tan_x)
-    sy = (v @ cam.up) / (z_safe * cam.tan_y)
+    sx = (cam.right @ v) / (z_safe * cam.tan_x)
+    sy = (cam.up @ v) / (z_safe * cam.tan_y)
     return (sx + 1.0) * 0.5 * cam.width, (1.0 - sy) * 0.5 * cam.height, in_front

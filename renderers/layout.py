@@ -13,25 +13,33 @@ camera ray's first hit). The layout, dimension by dimension::
 
     0, 1                 pixel jitter (x, y) inside the pixel (box filter)
     then for each vertex k = 0 .. B-1, in order:
-      [1 if medium]      free-flight distance on the segment that ends at vertex k
-      [1 if > 1 light]   which light next-event estimation samples (uniform choice)
-      2                  position on that light (u, v of the rectangle)
+      2                  position on the light that next-event estimation samples (u, v)
       2 (not at k=B-1)   direction of the next segment: cosine-weighted BSDF sample on a
                          surface, uniform sphere sample of the isotropic phase function in the
                          medium
+      at even k only:    the one-dimensional decisions of vertices k and k+1, in the order
+                         [distance k, choice k, distance k+1, choice k+1], those that exist:
+                         "distance j" is the free-flight distance on the segment ending at
+                         vertex j (medium scenes), "choice j" the uniform choice of the light
+                         vertex j samples (scenes with several lights)
+
+Every 2D decision starts at an even dimension, so it receives a (dim 2j, dim 2j+1) pair: the
+pairs that Owen-scrambled Sobol makes (0, m, 2)-nets (bnerr.sequences pads by 2D pairs).
+Bundling the 1D decisions of two vertices keeps that alignment without unused dimensions.
 
 The last vertex samples no direction: a path of ``max_depth`` segments can only close through
 next-event estimation, so its light sample carries the full weight and the direction sample would
 be wasted work (and a wasted dimension). Earlier vertices combine the light sample and the
 direction sample by multiple importance sampling. So ``direct`` (one light, depth 2, no medium) has
-``D = 2 + 2 = 4``: pixel jitter and one light sample, the case where dithered sampling shines.
+``D = 2 + 2 = 4``: pixel jitter and one light sample, the case where dithered sampling shines;
+``cornell`` (depth 6) has ``2 + 5 * 2 + 4 * 2 = 20``.
 
 Not for: scenes with Russian roulette or adaptive path lengths, whose D is not fixed.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from bnerr.errors import check_positive_int
 
@@ -51,10 +59,27 @@ class Layout:
     max_depth: int
     lights: int = 1
     medium: bool = False
+    _table: tuple = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         check_positive_int(self.max_depth, "max_depth", minimum=2)
         check_positive_int(self.lights, "lights", minimum=1)
+        vertices = self.max_depth - 1
+        light, direction = [0] * vertices, [None] * vertices
+        distance, choice = [None] * vertices, [None] * vertices
+        d = 2
+        for k in range(vertices):
+            light[k], d = d, d + 2
+            if k < vertices - 1:
+                direction[k], d = d, d + 2
+            if k % 2 == 0:
+                for j in (k, k + 1):
+                    if j < vertices and self.medium:
+                        distance[j], d = d, d + 1
+                    if j < vertices and self.lights > 1:
+                        choice[j], d = d, d + 1
+        table = (tuple(light), tuple(direction), tuple(distance), tuple(choice), d)
+        object.__setattr__(self, "_table", table)
 
     @property
     def vertices(self) -> int:
@@ -66,58 +91,38 @@ class Layout:
         """First of the two pixel-jitter dimensions (always 0)."""
         return 0
 
-    @property
-    def _light_dims(self) -> int:
-        return (1 if self.lights > 1 else 0) + 2
-
-    @property
-    def _stride(self) -> int:
-        """Dimensions of a vertex that also samples a direction."""
-        return (1 if self.medium else 0) + self._light_dims + 2
-
-    def vertex(self, k: int) -> int:
-        """First dimension of vertex ``k`` (0 <= k < vertices)."""
-        return 2 + k * self._stride
-
-    def distance(self, k: int) -> int | None:
-        """Free-flight distance dimension of the segment ending at vertex ``k`` (None: no medium)."""
-        return self.vertex(k) if self.medium else None
-
-    def light_choice(self, k: int) -> int | None:
-        """Light-choice dimension at vertex ``k`` (None when the scene has one light)."""
-        if self.lights == 1:
-            return None
-        return self.vertex(k) + (1 if self.medium else 0)
-
     def light(self, k: int) -> int:
         """First of the two light-position dimensions at vertex ``k``."""
-        return self.vertex(k) + (1 if self.medium else 0) + (1 if self.lights > 1 else 0)
+        return self._table[0][k]
 
     def direction(self, k: int) -> int | None:
         """First of the two direction dimensions at vertex ``k`` (None at the last vertex)."""
-        if k == self.vertices - 1:
-            return None
-        return self.light(k) + 2
+        return self._table[1][k]
+
+    def distance(self, k: int) -> int | None:
+        """Free-flight distance dimension of the segment ending at vertex ``k`` (None: no medium)."""
+        return self._table[2][k]
+
+    def light_choice(self, k: int) -> int | None:
+        """Light-choice dimension at vertex ``k`` (None when the scene has one light)."""
+        return self._table[3][k]
 
     @property
     def dimensions(self) -> int:
         """D, the number of dimensions one path consumes."""
-        last = (1 if self.medium else 0) + self._light_dims
-        return 2 + (self.vertices - 1) * self._stride + last
+        return self._table[4]
 
     def describe(self) -> list[str]:
-        """One line per dimension saying what it feeds, for ``bnerr scenes`` and docs."""
-        lines = ["0: pixel jitter x", "1: pixel jitter y"]
+        """One line per dimension, in order, saying what it feeds (for ``bnerr scenes``)."""
+        names = {0: "pixel jitter x", 1: "pixel jitter y"}
         for k in range(self.vertices):
-            d = self.distance(k)
-            if d is not None:
-                lines.append(f"{d}: vertex {k} free-flight distance")
-            c = self.light_choice(k)
-            if c is not None:
-                lines.append(f"{c}: vertex {k} light choice")
-            lo = self.light(k)
-            lines += [f"{lo}: vertex {k} light u", f"{lo + 1}: vertex {k} light v"]
-            w = self.direction(k)
-            if w is not None:
-                lines += [f"{w}: vertex {k} direction u", f"{w + 1}: vertex {k} direction v"]
-        return lines
+            names[self.light(k)] = f"vertex {k} light u"
+            names[self.light(k) + 1] = f"vertex {k} light v"
+            if self.direction(k) is not None:
+                names[self.direction(k)] = f"vertex {k} direction u"
+                names[self.direction(k) + 1] = f"vertex {k} direction v"
+            if self.distance(k) is not None:
+                names[self.distance(k)] = f"vertex {k} free-flight distance"
+            if self.light_choice(k) is not None:
+                names[self.light_choice(k)] = f"vertex {k} light choice"
+        return [f"{d}: {names[d]}" for d in range(self.dimensions)]
