@@ -54,7 +54,14 @@ from collections.abc import Callable
 
 import torch
 
-from bnerr.errors import DtypeError, ShapeError, check_name, check_positive_int, check_tensor
+from bnerr.errors import (
+    DtypeError,
+    ShapeError,
+    ValueRangeError,
+    check_name,
+    check_positive_int,
+    check_tensor,
+)
 from bnerr.frame import Frame
 from bnerr.masks import frame_offset, load_mask, shipped_masks, tile_mask
 from bnerr.permute import SortPass, SortPlan, histogram_select, luminance, plan_sort
@@ -89,18 +96,25 @@ _CACHE_BYTES = 64 << 20
 # Seeds
 
 
-def _mul32(x: torch.Tensor, c: int) -> torch.Tensor:
-    """``x * c mod 2^32`` for int64 ``x`` in [0, 2^32), in two 16-bit halves (no int64 overflow)."""
-    return (x * (c & 0xFFFF) + (((x * (c >> 16)) & 0xFFFF) << 16)) & _MASK32
+def _signed(word: int) -> int:
+    """A 32-bit word as the int32 with the same bits."""
+    word &= _MASK32
+    return word - (1 << 32) if word >= 1 << 31 else word
 
 
 def _mix32(x: torch.Tensor) -> torch.Tensor:
-    """lowbias32 (Wellons), a bijection of [0, 2^32): distinct inputs give distinct outputs."""
-    x = x ^ (x >> 16)
-    x = _mul32(x, 0x7FEB352D)
-    x = x ^ (x >> 15)
-    x = _mul32(x, 0x846CA68B)
-    return x ^ (x >> 16)
+    """lowbias32 (Wellons) on int32 words read as unsigned, a bijection of 32-bit words.
+
+    int32 multiplication wraps modulo 2^32 on every torch backend (the same two's-complement
+    arithmetic :mod:`bnerr.sequences` relies on and tests); right shifts are masked to be logical.
+    In place on ``x`` (int32); int32 rather than masked int64 halves the memory traffic.
+    """
+    x ^= (x >> 16) & 0xFFFF
+    x *= _signed(0x7FEB352D)
+    x ^= (x >> 15) & 0x1FFFF
+    x *= _signed(0x846CA68B)
+    x ^= (x >> 16) & 0xFFFF
+    return x
 
 
 def _mix32_host(x: int) -> int:
@@ -127,7 +141,7 @@ def pixel_seeds(
     """Distinct 32-bit seeds for every pixel: ``lowbias32((y * W + x + key) mod 2^32)``.
 
     Args:
-        height, width: H, W >= 1 (H * W <= 2^32).
+        height, width: H, W >= 1 (H * W <= 2^31).
         key: any int; different keys give unrelated seed images.
         device: where the seeds are made.
 
@@ -136,8 +150,10 @@ def pixel_seeds(
     """
     height = check_positive_int(height, "height")
     width = check_positive_int(width, "width")
-    index = torch.arange(height * width, dtype=torch.int64, device=device)
-    return _mix32((index + (key & _MASK32)) & _MASK32).view(height, width)
+    if height * width > 1 << 31:
+        raise ValueRangeError(f"height * width: expected at most 2^31 pixels, got {height * width}")
+    words = torch.arange(height * width, dtype=torch.int32, device=device).add_(_signed(key))
+    return (_mix32(words).to(torch.int64) & _MASK32).view(height, width)
 
 
 def _sync(device: torch.device) -> None:

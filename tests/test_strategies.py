@@ -17,8 +17,7 @@ from bnerr.strategies import (
     STRATEGIES,
     BNDSStrategy,
     OracleStrategy,
-    TemporalStrategy,
-    WhiteStrategy,
+    _mix32_host,
     make_strategy,
     pixel_seeds,
 )
@@ -75,6 +74,10 @@ def test_pixel_seeds_are_distinct_32bit_and_keyed():
     assert int(a.min()) >= 0 and int(a.max()) < 2**32
     assert torch.equal(a, pixel_seeds(37, 53, key=5))
     assert (a != pixel_seeds(37, 53, key=6)).float().mean() > 0.99
+    # Bit-exact against a pure-Python lowbias32 (the int32 wrap-around the fast version relies on).
+    key = 2**32 - 700
+    want = [_mix32_host(i + key) for i in range(37 * 53)]
+    assert pixel_seeds(37, 53, key=key).reshape(-1).tolist() == want
 
 
 @pytest.mark.parametrize("name", ["temporal", "temporal_sort"])
