@@ -29,8 +29,9 @@ of ``B``); a partial block sorts only its own pixels.
 is computed once into a :class:`SortPlan` (:func:`plan_sort`) and cached, keyed by the mask
 tensor's identity and version, so that passing the same mask tensor every frame reuses it. On the
 CPU the pass runs in an optional C kernel (:mod:`bnerr._sortnative`, about 3 ms at 1920x1080 on
-two threads); elsewhere, or without a C compiler, in torch (a row sort of packed 64-bit keys; a
-few tens of ms at 1080p on CPU, fast on CUDA). All paths give bit-identical output.
+two threads, built with the system C compiler at first use; ``BNERR_NATIVE=0`` turns it off);
+elsewhere, or without a C compiler, in torch (a row sort of packed 64-bit keys; a few tens of ms
+at 1080p on CPU, fast on CUDA). All paths give bit-identical output.
 
 Not for: sorting by anything but one scalar per pixel (pass your own key as ``values [H, W]``,
 e.g. a demodulated luminance), or permutations that cross block boundaries (that is

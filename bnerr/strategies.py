@@ -49,6 +49,7 @@ renderer that draws its own random numbers.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 
@@ -63,7 +64,7 @@ from bnerr.errors import (
     check_tensor,
 )
 from bnerr.frame import Frame
-from bnerr.masks import frame_offset, load_mask, shipped_masks, tile_mask
+from bnerr.masks import frame_offset, load_mask, r2_step, shipped_masks, tile_mask
 from bnerr.permute import SortPass, SortPlan, histogram_select, luminance, plan_sort
 from bnerr.retarget import Retarget, load_retarget
 from bnerr.sequences import Sampler, make_sampler
@@ -154,6 +155,12 @@ def pixel_seeds(
         raise ValueRangeError(f"height * width: expected at most 2^31 pixels, got {height * width}")
     words = torch.arange(height * width, dtype=torch.int32, device=device).add_(_signed(key))
     return (_mix32(words).to(torch.int64) & _MASK32).view(height, width)
+
+
+def _offset_cycle(size: int) -> int:
+    """How many distinct offsets ``frame_offset(t, T)`` takes: the lcm of T / gcd(step_i, T)."""
+    dy, dx = r2_step(size)
+    return math.lcm(size // math.gcd(dy, size), size // math.gcd(dx, size))
 
 
 def _sync(device: torch.device) -> None:
@@ -268,8 +275,10 @@ class TemporalStrategy(Strategy):
 
     State: the seed image S_t, a permutation of S_0 forever. Per frame: render S_t, then sort
     against the mask at offset o_t and, with ``retarget=True``, apply the retargeting field at
-    o_t. Mask plans and retargeting indices are cached per offset (the offsets cycle with period
-    T / gcd(step, T): 16 frames for T = 64) within a 64 MB budget.
+    o_t. The offsets cycle (16 distinct ones for T = 64, 128 for T = 128); the mask plans (1 byte
+    per pixel) and the retargeting indices (4 bytes per pixel) of every offset are cached when a
+    full cycle of them fits in 64 MB each, and not at all otherwise (a cache smaller than the cycle
+    would never hit). At 1920x1080 with T = 64 the plans are cached and the indices are not.
     """
 
     def __init__(self, height: int, width: int, *, seed: int = 0, sampler: str = "owen_sobol",
@@ -281,10 +290,10 @@ class TemporalStrategy(Strategy):
         self.mask = mask
         self.mask_size = mask.shape[-1]
         self.sorter = SortPass(block)
-        plan_slots = _CACHE_BYTES // (height * width)
+        cycle = _offset_cycle(self.mask_size)
         self._plans: dict[tuple, SortPlan] = {}
-        self._plan_slots = plan_slots
-        index_slots = _CACHE_BYTES // (8 * height * width)
+        self._plan_slots = cycle if cycle * height * width <= _CACHE_BYTES else 0
+        index_slots = cycle if cycle * 4 * height * width <= _CACHE_BYTES else 0
         self.retarget = None if retarget is None else Retarget(retarget, cache=index_slots)
         self.seeds = pixel_seeds(height, width, _stream_key(self.seed, 0, _STREAM_TEMPORAL), self.device)
 
@@ -294,9 +303,9 @@ class TemporalStrategy(Strategy):
         if plan is None:
             tiled = tile_mask(self.mask.to(device), self.height, self.width, offset)
             plan = plan_sort(tiled, self.sorter.block)
-            if len(self._plans) >= self._plan_slots:
-                self._plans.pop(next(iter(self._plans)), None)
             if self._plan_slots:
+                if len(self._plans) >= self._plan_slots:  # another device: start over
+                    self._plans.clear()
                 self._plans[key] = plan
         return plan
 
