@@ -41,6 +41,8 @@ from pathlib import Path
 
 import torch
 
+from bnerr.errors import ValueRangeError
+
 __all__ = ["available", "load", "run", "status"]
 
 _SOURCE = r"""
@@ -72,6 +74,7 @@ typedef struct {
     const uint8_t *order;       /* [nblocks, B*B]: padded-local position (a*B+b) by mask rank */
     int64_t *out;
     int64_t H, W, by0, by1;
+    int err;                    /* set when the plan holds a position outside its block */
 } job_t;
 
 static inline int32_t load_bits(const job_t *j, int64_t idx) {
@@ -91,7 +94,7 @@ static inline int32_t load_bits(const job_t *j, int64_t idx) {
 }
 
 /* One block, any size (partial blocks at the right and bottom borders). */
-static void block_scalar(const job_t *j, const int B, int64_t by, int64_t bx, int64_t nbx) {
+static void block_scalar(job_t *j, const int B, int64_t by, int64_t bx, int64_t nbx) {
     const int n = B * B;
     const int64_t y0 = by * B, x0 = bx * B;
     const int bh = (int)(j->H - y0 < B ? j->H - y0 : B);
@@ -110,6 +113,7 @@ static void block_scalar(const job_t *j, const int B, int64_t by, int64_t bx, in
         int r = 0;
         for (int k = 0; k < m; ++k) r += key[k] < key[i];
         const int p = ord[r], q = pos[i];
+        if (p >= n || p / B >= bh || p % B >= bw) { j->err = 1; continue; }
         j->out[(y0 + p / B) * j->W + x0 + p % B] = j->seeds[(y0 + q / B) * j->W + x0 + q % B];
     }
 }
@@ -117,7 +121,7 @@ static void block_scalar(const job_t *j, const int B, int64_t by, int64_t bx, in
 /* Full blocks of one block row, 16 blocks per step, one block per SIMD lane. B is a compile-time
    constant after inlining, so the loops below unroll. */
 static inline __attribute__((always_inline))
-void row_vector(const job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx) {
+void row_vector(job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx) {
     const int n = B * B;
     const int64_t y0 = by * B, W = j->W;
     for (int64_t bx0 = 0; bx0 < nbx_full; bx0 += 16) {
@@ -144,13 +148,14 @@ void row_vector(const job_t *j, const int B, int64_t by, int64_t nbx_full, int64
             const uint8_t *ord = j->order + (by * nbx + bx0 + l) * n;
             for (int i = 0; i < n; ++i) {
                 const int p = ord[rank[i][l]];
+                if (p >= n) { j->err = 1; continue; }
                 j->out[(y0 + p / B) * W + x0 + p % B] = j->seeds[(y0 + i / B) * W + x0 + i % B];
             }
         }
     }
 }
 
-static inline __attribute__((always_inline)) void rows(const job_t *j, const int B) {
+static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
     const int64_t nby_full = j->H / B, nbx_full = j->W / B, nbx = (j->W + B - 1) / B;
     for (int64_t by = j->by0; by < j->by1; ++by) {
         if (by < nby_full) {
@@ -162,13 +167,13 @@ static inline __attribute__((always_inline)) void rows(const job_t *j, const int
     }
 }
 
-static void rows2(const job_t *j) { rows(j, 2); }
-static void rows3(const job_t *j) { rows(j, 3); }
-static void rows4(const job_t *j) { rows(j, 4); }
-static void rows5(const job_t *j) { rows(j, 5); }
-static void rows6(const job_t *j) { rows(j, 6); }
-static void rows7(const job_t *j) { rows(j, 7); }
-static void rows8(const job_t *j) { rows(j, 8); }
+static void rows2(job_t *j) { rows(j, 2); }
+static void rows3(job_t *j) { rows(j, 3); }
+static void rows4(job_t *j) { rows(j, 4); }
+static void rows5(job_t *j) { rows(j, 5); }
+static void rows6(job_t *j) { rows(j, 6); }
+static void rows7(job_t *j) { rows(j, 7); }
+static void rows8(job_t *j) { rows(j, 8); }
 
 typedef struct { job_t job; int B; } task_t;
 
@@ -186,7 +191,8 @@ static void *run_task(void *arg) {
     return 0;
 }
 
-/* Returns 0 on success. Threads split the block rows; blocks are independent, so the result does
+/* Returns 0 on success, 2 if the plan was malformed (nothing written out of bounds), 1 on bad
+   sizes. Threads split the block rows; blocks are independent, so the result does
    not depend on the thread count. */
 int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0, float w1, float w2,
                     const int64_t *seeds, const uint8_t *order, int64_t *out,
@@ -199,7 +205,7 @@ int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0,
     task_t tasks[64];
     pthread_t ids[64];
     for (int i = 0; i < threads; ++i) {
-        job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, out, H, W, nby * i / threads, nby * (i + 1) / threads};
+        job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, out, H, W, nby * i / threads, nby * (i + 1) / threads, 0};
         tasks[i].job = jb;
         tasks[i].B = B;
     }
@@ -211,6 +217,8 @@ int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0,
     for (int i = started + 1; i < threads; ++i) run_task(&tasks[i]);  /* thread creation failed */
     run_task(&tasks[0]);
     for (int i = 1; i <= started; ++i) pthread_join(ids[i], 0);
+    for (int i = 0; i < threads; ++i)
+        if (tasks[i].job.err) return 2;
     return 0;
 }
 """
@@ -358,6 +366,8 @@ def run(seeds: torch.Tensor, values: torch.Tensor, plan) -> torch.Tensor | None:
         planes, weights = [values.data_ptr(), None, None], [1.0, 0.0, 0.0]
     threads = torch.get_num_threads() if h * w >= 1 << 16 else 1
     code = fn(*planes, *weights, seeds.data_ptr(), order.data_ptr(), out.data_ptr(), h, w, plan.block, threads)
+    if code == 2:
+        raise ValueRangeError("mask: expected a plan made by plan_sort, got one whose order leaves its blocks")
     return out if code == 0 else None
 
 

@@ -182,13 +182,23 @@ class SortPlan:
             come last. ``nby = ceil(H / B)``, ``nbx = ceil(W / B)``.
 
     Build it with :func:`plan_sort`. Reuse it while the mask image is the same (for a mask tiled
-    at a per-frame offset, one plan per offset). It holds ``H * W`` bytes (2 MB at 1080p).
+    at a per-frame offset, one plan per offset). It holds ``H * W`` bytes (2 MB at 1080p). A
+    hand-made plan is checked for shape and dtype only (the native kernel also refuses positions
+    outside their block rather than write out of bounds).
     """
 
     block: int
     height: int
     width: int
     order: torch.Tensor
+
+    def __post_init__(self) -> None:
+        _check_block(self.block)
+        check_positive_int(self.height, "SortPlan.height", minimum=0)
+        check_positive_int(self.width, "SortPlan.width", minimum=0)
+        blocks = -(-self.height // self.block) * -(-self.width // self.block)
+        check_shape(check_tensor(self.order, "SortPlan.order"), f"{blocks} {self.block ** 2}", "SortPlan.order")
+        check_dtype(self.order, torch.uint8, "SortPlan.order")
 
     @property
     def device(self) -> torch.device:

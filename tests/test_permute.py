@@ -217,6 +217,17 @@ def test_sort_pass_rejects_bad_input_with_typed_errors():
         SortPass(0)
 
 
+def test_hand_made_plans_are_checked():
+    with pytest.raises(ShapeError, match=r"SortPlan.order: expected shape \[4, 16\]"):
+        SortPlan(block=4, height=8, width=8, order=torch.zeros(4, 9, dtype=torch.uint8))
+    with pytest.raises(DtypeError, match=r"SortPlan.order: expected dtype uint8, got int64"):
+        SortPlan(block=4, height=8, width=8, order=torch.zeros(4, 16, dtype=torch.int64))
+    if _sortnative.available():  # the kernel refuses a position outside the (partial) block
+        bad = SortPlan(block=4, height=5, width=5, order=torch.full((4, 16), 15, dtype=torch.uint8))
+        with pytest.raises(ValueRangeError, match=r"mask: expected a plan made by plan_sort"):
+            sort_pass(torch.arange(25).view(5, 5), torch.rand(5, 5), bad, 4)
+
+
 def test_empty_image_passes_through():
     seeds = torch.zeros(0, 5, dtype=torch.int64)
     assert sort_pass(seeds, torch.zeros(0, 5), torch.zeros(0, 5)).shape == (0, 5)
