@@ -74,12 +74,12 @@ def _mitsuba_worker(variant: str, scene_name: str, width: int, height: int, spp:
     from renderers import get_scene
     from renderers.mitsuba import to_mitsuba
 
-    if threads:
-        mi.Thread.set_thread_count(threads)
-    scene = mi.load_dict(to_mitsuba(get_scene(scene_name, animated=False), 0,
-                                    width=width, height=height, spp=spp))
     import drjit as dr
 
+    if threads:
+        dr.set_thread_count(threads)  # Mitsuba 3 renders on drjit's thread pool in every variant
+    scene = mi.load_dict(to_mitsuba(get_scene(scene_name, animated=False), 0,
+                                    width=width, height=height, spp=spp))
     def timed(seed: int) -> float:
         start = time.perf_counter()
         image = mi.render(scene, spp=spp, seed=seed)

@@ -1,0 +1,68 @@
+"""Tests for renderers.scenes: the registry, D per scene, animation and static variants."""
+
+import pytest
+import torch
+
+from bnerr.errors import UnknownNameError
+from bnerr.sequences import make_sampler
+from renderers import SCENES, get_scene, render
+from renderers.scene import Sphere
+
+EXPECTED = {  # name: (D, max_depth, lights, medium)
+    "direct": (4, 2, 1, False),
+    "indirect": (8, 3, 1, False),
+    "cornell": (20, 6, 1, False),
+    "snooker": (10, 3, 2, False),
+    "snooker_plain": (10, 3, 2, False),
+    "medium": (40, 9, 1, True),
+}
+
+
+def test_registry_and_dimensions():
+    assert set(SCENES) == set(EXPECTED)
+    for name, (dims, depth, lights, medium) in EXPECTED.items():
+        scene = get_scene(name)
+        assert scene.name == name and scene.description
+        assert (scene.dimensions, scene.max_depth, len(scene.lights), scene.medium is not None) == (
+            dims, depth, lights, medium), name
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_animated_and_static_variants(name):
+    animated, static = get_scene(name), get_scene(name, animated=False)
+    assert animated.animated and not static.animated
+    assert animated.camera.pose(0) == static.camera.pose(0) == static.camera.pose(40)
+    assert animated.camera.pose(40) != animated.camera.pose(0)  # every scene moves its camera
+    for shape in static.shapes:
+        if isinstance(shape, Sphere):
+            assert shape.center.at(40) == shape.center.at(0)
+
+
+def test_snooker_variants_differ_only_in_the_felt_texture():
+    textured, plain = get_scene("snooker"), get_scene("snooker_plain")
+    assert textured.shapes[0].material.textured and not plain.shapes[0].material.textured
+    assert textured.shapes[1:] == plain.shapes[1:]
+    assert plain.shapes[0].material.albedo == pytest.approx(textured.shapes[0].material.albedo.mean())
+
+
+def test_balls_roll_without_overlapping():
+    scene = get_scene("snooker")
+    balls = [s for s in scene.shapes if isinstance(s, Sphere)]
+    assert any(b.center.at(0) != b.center.at(1) for b in balls)
+    for t in range(0, 121, 5):
+        for i, a in enumerate(balls):
+            for b in balls[i + 1:]:
+                gap = sum((p - q) ** 2 for p, q in zip(a.center.at(t), b.center.at(t))) ** 0.5
+                assert gap >= a.radius + b.radius, (t, a.name, b.name)
+
+
+@pytest.mark.parametrize("name", sorted(EXPECTED))
+def test_every_scene_renders(name):
+    frame = render(get_scene(name), 1, torch.arange(48, dtype=torch.int64).view(6, 8), make_sampler("white"), 2)
+    assert torch.isfinite(frame.color).all() and (frame.color >= 0).all()
+    assert frame.color.mean() > 0.005  # lit and in view
+
+
+def test_unknown_scene():
+    with pytest.raises(UnknownNameError, match="unknown scene 'Cornell': expected one of cornell"):
+        get_scene("Cornell")
