@@ -14,8 +14,8 @@ works, found through ``DRJIT_LIBLLVM_PATH``) is reported as an error string inst
 benchmark; without Mitsuba installed the Mitsuba entries say so.
 
 Both sides use all the threads they are given: torch's intra-op threads for us (``threads``,
-default: torch's current setting), Mitsuba's thread pool (default: all cores, or ``threads``). Timings depend on the machine and on its load: report them
-with both.
+default: torch's current setting), Mitsuba's thread pool (default: all cores, or ``threads``).
+Timings depend on the machine and on its load: report them with both.
 """
 
 from __future__ import annotations

@@ -66,8 +66,9 @@ class SceneTensors:
 
     Static (Python) layout: ``sphere_ids``, ``rect_ids``, ``box_ids`` (object id of each row),
     ``textures`` ((object id, texel offset, cells u, cells v) per textured object),
-    ``light_ids`` (object id of each light row), ``num_objects``, ``num_lights``. ``torch.compile`` specializes on these, so a compiled stage is reused for every
-    frame of a scene.
+    ``light_ids`` (object id of each light row), ``num_objects``, ``num_lights``.
+    ``torch.compile`` specializes on these, so a compiled stage is reused for every frame of a
+    scene.
     """
 
     spheres: torch.Tensor

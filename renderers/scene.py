@@ -254,7 +254,8 @@ class Rectangle:
     def __post_init__(self) -> None:
         u, v = np.asarray(_vec3(self.u, "u")), np.asarray(_vec3(self.v, "v"))
         if np.linalg.norm(np.cross(u, v)) <= 1e-12:
-            raise ValueRangeError(f"Rectangle {self.name!r}: expected non-parallel u and v, got {self.u}, {self.v}")
+            raise ValueRangeError(
+                f"Rectangle {self.name!r}: expected non-parallel u and v, got {self.u}, {self.v}")
         if self.emission is not None:
             e = _vec3(self.emission, "emission")
             if min(e) < 0:
@@ -376,7 +377,8 @@ class Scene:
         check_positive_int(self.max_depth, "max_depth", minimum=2)
         for shape in self.shapes:
             if not isinstance(shape, (Sphere, Rectangle, Box)):
-                raise DtypeError(f"Scene {self.name!r} shapes: expected Sphere, Rectangle or Box, got {type(shape).__name__}")
+                raise DtypeError(f"Scene {self.name!r} shapes: expected Sphere, Rectangle or Box, "
+                                 f"got {type(shape).__name__}")
         if not self.lights:
             raise ValueRangeError(f"Scene {self.name!r}: expected at least one emitting Rectangle, got none")
         object.__setattr__(

@@ -220,3 +220,14 @@ def test_compiled_matches_eager_and_is_deterministic():
     assert torch.equal(a.color, b.color)
     torch.testing.assert_close(a.color, eager.color, rtol=1e-4, atol=1e-5)
     torch.testing.assert_close(a.albedo, eager.albedo, rtol=1e-4, atol=1e-5)
+
+
+def test_compile_switch(monkeypatch):
+    monkeypatch.delenv("BNERR_COMPILE", raising=False)
+    assert not tracer._use_compile(None, tracer.AUTO_COMPILE_PATHS - 1)
+    assert tracer._use_compile(None, tracer.AUTO_COMPILE_PATHS)
+    assert not tracer._use_compile(False, 10**12) and tracer._use_compile(True, 1)
+    monkeypatch.setenv("BNERR_COMPILE", "0")
+    assert not tracer._use_compile(None, 10**12)
+    monkeypatch.setenv("BNERR_COMPILE", "1")
+    assert tracer._use_compile(None, 1)
