@@ -53,10 +53,13 @@ than a few dozen primitives (see :mod:`renderers.geometry`).
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
 import math
 import os
 import time
 import warnings
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import torch
@@ -402,6 +405,48 @@ def _padded(n: int) -> int:
     return max(1024, 1 << (n - 1).bit_length())
 
 
+@contextlib.contextmanager
+def _intra_op_threads(n: int) -> Iterator[None]:
+    """Set torch's intra-op thread count for the duration of the block, then restore it."""
+    before = torch.get_num_threads()
+    if n != before:
+        torch.set_num_threads(n)
+    try:
+        yield
+    finally:
+        if n != before:
+            torch.set_num_threads(before)
+
+
+def _run_ranges(work: Callable[[tuple[int, int]], None], ranges: list[tuple[int, int]],
+                device: torch.device) -> None:
+    """Run ``work`` on every pixel range, in parallel over chunks on CPU.
+
+    Torch's own intra-op parallelism opens an OpenMP region per op, whose barrier waits for the
+    slowest thread: a few hundred regions per chunk, so on a loaded machine every descheduled
+    thread stalls all of them (measured: 2 threads 6x slower than 1 on cornell). Chunks are
+    independent, so instead each of ``torch.get_num_threads()`` Python threads traces whole
+    chunks with single-threaded ops (the kernels release the GIL), like Mitsuba's block
+    scheduler. Every range writes its own pixels, in a fixed order within the range, so the
+    result does not depend on the thread count or the scheduling. The first and the last range
+    run alone first, so that ``torch.compile`` sees every lane count before threads share it.
+    """
+    workers = torch.get_num_threads() if device.type == "cpu" else 1
+    if workers == 1 or len(ranges) <= 2:
+        for pixel_range in ranges:
+            work(pixel_range)
+        return
+    with _intra_op_threads(1):
+        work(ranges[0])
+        work(ranges[-1])
+        # OpenMP keeps its thread count per thread: a fresh worker would open regions of the
+        # machine's default size inside compiled kernels unless told otherwise.
+        with concurrent.futures.ThreadPoolExecutor(workers, initializer=torch.set_num_threads,
+                                                   initargs=(1,)) as pool:
+            for _ in pool.map(work, ranges[1:-1]):
+                pass
+
+
 def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int, *,
            chunk: int = DEFAULT_CHUNK, compile: bool | None = None) -> Frame:
     """Render frame ``t`` of ``scene``: the mean of ``spp`` paths per pixel.
@@ -469,8 +514,10 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
 
     per_chunk = min(spp, chunk)  # sample indices per chunk
     pixels_per_chunk = max(1, chunk // per_chunk)
-    for p0 in range(0, n_pixels, pixels_per_chunk):
-        p1 = min(n_pixels, p0 + pixels_per_chunk)
+    ranges = [(p0, min(n_pixels, p0 + pixels_per_chunk)) for p0 in range(0, n_pixels, pixels_per_chunk)]
+
+    def work(pixel_range: tuple[int, int]) -> None:
+        p0, p1 = pixel_range
         pix = torch.arange(p0, p1, device=device)
         done = 0
         for s0 in range(0, spp, per_chunk):
@@ -487,11 +534,12 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
                 px = torch.cat([px, px[:1].expand(pad)])
                 py = torch.cat([py, py[:1].expand(pad)])
             paths = trace(st, cam, layout, px, py, u, step)
-            paths = PathResult(paths.radiance[:, :n], paths.albedo[:, :n], paths.normal[:, :n])
-            _merge(mean[:, p0:p1], m2[:, p0:p1], done, paths.radiance.view(3, p1 - p0, ns))
-            albedo[:, p0:p1] += paths.albedo.view(3, p1 - p0, ns).sum(-1)
-            normal[:, p0:p1] += paths.normal.view(3, p1 - p0, ns).sum(-1)
+            _merge(mean[:, p0:p1], m2[:, p0:p1], done, paths.radiance[:, :n].view(3, p1 - p0, ns))
+            albedo[:, p0:p1] += paths.albedo[:, :n].view(3, p1 - p0, ns).sum(-1)
+            normal[:, p0:p1] += paths.normal[:, :n].view(3, p1 - p0, ns).sum(-1)
             done += ns
+
+    _run_ranges(work, ranges, device)
 
     cam_prev = camera_frame(scene.camera, t - 1, width, height, device)
     depth = torch.empty(n_pixels, **f32)

@@ -231,3 +231,18 @@ def test_compile_switch(monkeypatch):
     assert not tracer._use_compile(None, 10**12)
     monkeypatch.setenv("BNERR_COMPILE", "1")
     assert tracer._use_compile(None, 1)
+
+
+@pytest.mark.parametrize("name", ["cornell", "medium"])
+def test_result_does_not_depend_on_the_thread_count(name):
+    scene = get_scene(name)
+    seeds = seeds_for(16, 16)
+    serial = render(scene, 0, seeds, WHITE, 4, chunk=128)
+    torch.set_num_threads(3)  # chunk-parallel: 8 ranges over 3 worker threads
+    try:
+        parallel = render(scene, 0, seeds, WHITE, 4, chunk=128)
+    finally:
+        torch.set_num_threads(1)
+    assert torch.get_num_threads() == 1
+    for key, value in serial.buffers().items():
+        assert torch.equal(value, parallel.buffers()[key]), key
