@@ -8,7 +8,8 @@ threads and 0.60 ms on an RTX 2080 for their 1080p sort):
 - the straightforward torch version, reshape into blocks + two stable argsorts + gather/scatter,
   measured in the same run and interleaved with the above, so the ratio survives a busy machine;
 - the torch fallback path of ``sort_pass`` (what runs without a C compiler);
-- the plan (mask side, once per mask offset) and the retargeting pass (every frame, uncached).
+- the plan (mask side, once per mask offset) and the retargeting pass (every frame), with the
+  native gather and with torch gather indices (uncached).
 
 Each figure is the median of ``repeats`` runs after one warm-up, with ``threads`` torch threads
 (the native kernel uses as many threads). Timings depend on the machine and on what else runs on
@@ -27,7 +28,7 @@ import torch
 from bnerr import _sortnative
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.permute import _sort_torch, luminance, plan_sort, sort_pass
-from bnerr.retarget import Retarget, load_retarget
+from bnerr.retarget import Retarget, load_retarget, retarget_sources
 
 __all__ = ["argsort_sort_pass", "main", "measure"]
 
@@ -82,8 +83,9 @@ def measure(
     """Time the permutation passes; returns milliseconds by name plus context.
 
     Keys: ``sort_pass_lum_ms``, ``sort_pass_rgb_ms``, ``argsort_ms``, ``ratio`` (argsort over
-    sort_pass_lum), ``torch_path_ms``, ``plan_ms``, ``retarget_ms``, and ``native`` (the C
-    kernel's status), ``threads``, ``device``, ``size``.
+    sort_pass_lum), ``torch_path_ms``, ``plan_ms``, ``retarget_ms`` (as the temporal strategy
+    runs it: the native gather where available), ``retarget_torch_ms`` (torch gather indices,
+    uncached), and ``native`` (the C kernels' status), ``threads``, ``device``, ``size``.
     """
     device = torch.device(device)
     before = torch.get_num_threads()
@@ -101,15 +103,22 @@ def measure(
             # Random floats, no ties or NaN: every stable sort agrees, so the baseline must too.
             if not torch.equal(fast, argsort_sort_pass(seeds, lum, mask, block)):
                 raise RuntimeError("speed_permute: the argsort baseline disagrees with sort_pass")
-        retarget = Retarget(load_retarget(mask_size).to(device))
+        field = load_retarget(mask_size).to(device)
+        retarget = Retarget(field)
         offsets = [frame_offset(t, mask_size) for t in range(16)]
         counter = iter(range(1 << 62))
+
+        def retarget_torch() -> torch.Tensor:
+            src = retarget_sources(height, width, field, offsets[next(counter) % 16])
+            return seeds.reshape(-1).index_select(0, src)
+
         fns: dict[str, Callable[[], object]] = {
             "sort_pass_lum_ms": lambda: sort_pass(seeds, lum, plan, block),
             "sort_pass_rgb_ms": lambda: sort_pass(seeds, color, plan, block),
             "argsort_ms": lambda: argsort_sort_pass(seeds, lum, mask, block),
             "torch_path_ms": lambda: _sort_torch(seeds, lum, plan),
             "retarget_ms": lambda: retarget(seeds, offsets[next(counter) % 16]),
+            "retarget_torch_ms": retarget_torch,
         }
         result: dict[str, float | str] = dict(_interleaved(fns, repeats, device))
         result["plan_ms"] = _interleaved({"plan": lambda: plan_sort(mask, block)}, max(3, repeats // 10), device)["plan"]
@@ -139,7 +148,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  sort_pass, color [3, H, W]       {r['sort_pass_rgb_ms']:8.2f} ms")
     print(f"  reshape + argsort baseline       {r['argsort_ms']:8.2f} ms   ({r['ratio']:.1f}x the sort pass)")
     print(f"  sort_pass torch path (fallback)  {r['torch_path_ms']:8.2f} ms")
-    print(f"  retargeting pass (uncached)      {r['retarget_ms']:8.2f} ms")
+    print(f"  retargeting pass                 {r['retarget_ms']:8.2f} ms")
+    print(f"  retargeting pass, torch indices  {r['retarget_torch_ms']:8.2f} ms")
     print(f"  mask plan (once per offset)      {r['plan_ms']:8.2f} ms")
     return 0
 

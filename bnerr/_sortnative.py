@@ -1,4 +1,4 @@
-"""Optional native CPU kernel for :func:`bnerr.permute.sort_pass`, built at first use.
+"""Optional native CPU kernels for the sorting and retargeting passes, built at first use.
 
 Why a C kernel: the sorting pass is a few integer operations per pixel, so its cost is memory
 traffic and per-op overhead. Eager torch needs about ten full passes over the image (keys, block
@@ -19,6 +19,11 @@ except for the optional luminance, which it computes in float32 in the same oper
 bit-identical to the torch path. A self-check against the torch path runs once at load time;
 any mismatch disables the kernel with a warning.
 
+The retargeting pass (:func:`bnerr.retarget.retarget`) is the second kernel: one pass that reads
+the tile's displacement and copies each seed, instead of building a full index image in torch
+first, then a walk along the border band that pairs the targets whose source is off screen with
+the unclaimed sources (the torch version of that pairing costs more than the whole gather).
+
 Set ``BNERR_NATIVE=0`` to never build or use it (the torch path is used instead). Without a C
 compiler, on platforms without pthreads, or when the build fails, the torch path is used
 silently; :func:`status` says why.
@@ -37,13 +42,15 @@ import subprocess
 import tempfile
 import threading
 import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import torch
 
 from bnerr.errors import ValueRangeError
 
-__all__ = ["available", "load", "run", "status"]
+__all__ = ["available", "load", "retarget", "sort_pass", "status"]
 
 _SOURCE = r"""
 #include <stdint.h>
@@ -191,34 +198,113 @@ static void *run_task(void *arg) {
     return 0;
 }
 
+/* Run fn on tasks[0 .. n-1] (stride bytes apart), tasks 1.. on new threads, task 0 on this one;
+   a task whose thread cannot be created runs here. */
+static void run_parallel(void *(*fn)(void *), char *tasks, size_t stride, int n) {
+    pthread_t ids[64];
+    int started = 0;
+    for (int i = 1; i < n; ++i) {
+        if (pthread_create(&ids[i], 0, fn, tasks + i * stride) != 0) break;
+        started = i;
+    }
+    for (int i = started + 1; i < n; ++i) fn(tasks + i * stride);
+    fn(tasks);
+    for (int i = 1; i <= started; ++i) pthread_join(ids[i], 0);
+}
+
+static int clamp_threads(int threads, int64_t rows) {
+    if (threads < 1) threads = 1;
+    if (threads > 64) threads = 64;
+    if (threads > rows) threads = (int)rows;
+    return threads;
+}
+
 /* Returns 0 on success, 2 if the plan was malformed (nothing written out of bounds), 1 on bad
-   sizes. Threads split the block rows; blocks are independent, so the result does
-   not depend on the thread count. */
+   sizes. Threads split the block rows; blocks are independent, so the result does not depend on
+   the thread count. */
 int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0, float w1, float w2,
                     const int64_t *seeds, const uint8_t *order, int64_t *out,
                     int64_t H, int64_t W, int B, int threads) {
     if (B < 2 || B > 8 || H < 1 || W < 1) return 1;
     const int64_t nby = (H + B - 1) / B;
-    if (threads < 1) threads = 1;
-    if (threads > 64) threads = 64;
-    if (threads > nby) threads = (int)nby;
+    threads = clamp_threads(threads, nby);
     task_t tasks[64];
-    pthread_t ids[64];
     for (int i = 0; i < threads; ++i) {
         job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, out, H, W, nby * i / threads, nby * (i + 1) / threads, 0};
         tasks[i].job = jb;
         tasks[i].B = B;
     }
-    int started = 0;
-    for (int i = 1; i < threads; ++i) {
-        if (pthread_create(&ids[i], 0, run_task, &tasks[i]) != 0) break;
-        started = i;
-    }
-    for (int i = started + 1; i < threads; ++i) run_task(&tasks[i]);  /* thread creation failed */
-    run_task(&tasks[0]);
-    for (int i = 1; i <= started; ++i) pthread_join(ids[i], 0);
+    run_parallel(run_task, (char *)tasks, sizeof(task_t), threads);
     for (int i = 0; i < threads; ++i)
         if (tasks[i].job.err) return 2;
+    return 0;
+}
+
+/* The retargeting pass. Interior (parallel over rows): out[p] = seeds[p + d(q)],
+   q = ((y + oy) mod T, (x + ox) mod T), for every target whose source is on screen. Border
+   (one thread, only the band of width `reach` along the border): the targets whose source is off
+   screen take the sources that no target claims, both in row-major order. A source s is claimed
+   iff its preimage s + e(u), u = tile coordinate of s, e = the inverse field, is on screen. */
+typedef struct {
+    const int64_t *seeds;
+    const int32_t *d;           /* [2, T, T]: dy then dx */
+    int64_t *out;
+    int64_t H, W, T, oy, ox, y0, y1;
+} rjob_t;
+
+static void *retarget_rows(void *arg) {
+    const rjob_t *j = (const rjob_t *)arg;
+    const int64_t H = j->H, W = j->W, T = j->T;
+    for (int64_t y = j->y0; y < j->y1; ++y) {
+        const int64_t qy = (y + j->oy) % T;
+        const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
+        int64_t qx = j->ox;
+        for (int64_t x = 0; x < W; ++x) {
+            const int64_t sy = y + dy[qx], sx = x + dx[qx];
+            if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+            if (++qx == T) qx = 0;
+        }
+    }
+    return 0;
+}
+
+/* Next pixel of the border band of width r, row-major. */
+static inline void band_step(int64_t *y, int64_t *x, int64_t H, int64_t W, int64_t r) {
+    if (++*x >= W) { *x = 0; ++*y; }
+    if (!(*y < r || *y >= H - r) && *x >= r && *x < W - r) *x = W - r;
+}
+
+static inline int on_screen(const int32_t *f, int64_t y, int64_t x, int64_t H, int64_t W,
+                            int64_t T, int64_t oy, int64_t ox) {
+    const int64_t u = ((y + oy) % T) * T + (x + ox) % T;
+    const int64_t sy = y + f[u], sx = x + f[T * T + u];
+    return sy >= 0 && sy < H && sx >= 0 && sx < W;
+}
+
+/* Returns 0 on success, 1 on bad sizes, 3 if the fields are not inverse permutations. */
+int bnerr_retarget(const int64_t *seeds, const int32_t *d, const int32_t *inv, int64_t *out,
+                   int64_t H, int64_t W, int64_t T, int64_t oy, int64_t ox, int64_t reach, int threads) {
+    if (H < 1 || W < 1 || T < 1 || oy < 0 || oy >= T || ox < 0 || ox >= T || reach < 0) return 1;
+    threads = clamp_threads(threads, H);
+    rjob_t jobs[64];
+    for (int i = 0; i < threads; ++i) {
+        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, H * i / threads, H * (i + 1) / threads};
+        jobs[i] = jb;
+    }
+    run_parallel(retarget_rows, (char *)jobs, sizeof(rjob_t), threads);
+    if (reach == 0) return 0;
+    int64_t fy = 0, fx = -1;  /* cursor over candidate free sources */
+    int64_t y = 0, x = -1;    /* cursor over targets */
+    for (;;) {
+        band_step(&y, &x, H, W, reach);
+        if (y >= H) break;
+        if (on_screen(d, y, x, H, W, T, oy, ox)) continue;
+        do {
+            band_step(&fy, &fx, H, W, reach);
+            if (fy >= H) return 3;
+        } while (on_screen(inv, fy, fx, H, W, T, oy, ox));
+        out[y * W + x] = seeds[fy * W + fx];
+    }
     return 0;
 }
 """
@@ -293,17 +379,26 @@ def _library() -> tuple[ctypes.CDLL | None, str]:
     return None, f"the C compiler {compiler} could not build the kernel"
 
 
-def _bind(lib: ctypes.CDLL):
-    fn = lib.bnerr_sort_pass
-    p = ctypes.c_void_p
-    fn.argtypes = [p, p, p, ctypes.c_float, ctypes.c_float, ctypes.c_float, p, p, p,
-                   ctypes.c_int64, ctypes.c_int64, ctypes.c_int, ctypes.c_int]
-    fn.restype = ctypes.c_int
-    return fn
+@dataclass(frozen=True)
+class _Kernels:
+    sort_pass: Callable
+    retarget: Callable
 
 
-def load():
-    """The bound C function, building it on first use; None when unavailable (see :func:`status`)."""
+def _bind(lib: ctypes.CDLL) -> _Kernels:
+    p, i64 = ctypes.c_void_p, ctypes.c_int64
+    sort = lib.bnerr_sort_pass
+    sort.argtypes = [p, p, p, ctypes.c_float, ctypes.c_float, ctypes.c_float, p, p, p,
+                     i64, i64, ctypes.c_int, ctypes.c_int]
+    sort.restype = ctypes.c_int
+    gather = lib.bnerr_retarget
+    gather.argtypes = [p, p, p, p, i64, i64, i64, i64, i64, i64, ctypes.c_int]
+    gather.restype = ctypes.c_int
+    return _Kernels(sort, gather)
+
+
+def load() -> _Kernels | None:
+    """The bound C functions, building them on first use; None when unavailable (see :func:`status`)."""
     if _state["loaded"]:
         return _state["fn"]
     with _lock:
@@ -319,8 +414,8 @@ def load():
             fn = _bind(lib) if lib is not None else None
         _state.update(loaded=True, fn=fn, why=why)
         if fn is not None and not _self_check():
-            _state.update(fn=None, why="self-check against the torch path failed; kernel disabled")
-            warnings.warn(f"bnerr: native sort kernel disabled: {_state['why']}", RuntimeWarning)
+            _state.update(fn=None, why="self-check against the torch path failed; kernels disabled")
+            warnings.warn(f"bnerr: native kernels disabled: {_state['why']}", RuntimeWarning)
         return _state["fn"]
 
 
@@ -337,20 +432,26 @@ def _self_check() -> bool:
         seeds = torch.randperm(h * w, generator=gen).view(h, w)
         plan = plan_sort(torch.rand(h, w, generator=gen), block)
         want = _sort_torch(seeds, luminance(color), plan)
-        got = run(seeds, color, plan)
+        got = sort_pass(seeds, color, plan)
         if got is None or not torch.equal(got, want):
             return False
-    return True
+    from bnerr.retarget import inverse_field, optimize_retarget, retarget_sources
+
+    field = optimize_retarget(torch.rand(16, 16, generator=gen), (3, 5), iterations=40, temperature=1.0)
+    seeds = torch.randperm(37 * 29, generator=gen).view(37, 29)
+    want = seeds.reshape(-1)[retarget_sources(37, 29, field, (4, 9)).long()].view(37, 29)
+    got = retarget(seeds, field, inverse_field(field), (4, 9))
+    return got is not None and torch.equal(got, want)
 
 
-def run(seeds: torch.Tensor, values: torch.Tensor, plan) -> torch.Tensor | None:
+def sort_pass(seeds: torch.Tensor, values: torch.Tensor, plan) -> torch.Tensor | None:
     """Sort pass with the kernel: ``seeds [H, W]`` int64, ``values [H, W]`` or ``[3, H, W]`` float32.
 
     The caller has checked shapes and dtypes; this only makes the buffers contiguous CPU memory.
     Returns None when the kernel is unavailable.
     """
-    fn = load()
-    if fn is None:
+    kernels = load()
+    if kernels is None:
         return None
     from bnerr.permute import LUMINANCE_WEIGHTS
 
@@ -365,9 +466,39 @@ def run(seeds: torch.Tensor, values: torch.Tensor, plan) -> torch.Tensor | None:
     else:
         planes, weights = [values.data_ptr(), None, None], [1.0, 0.0, 0.0]
     threads = torch.get_num_threads() if h * w >= 1 << 16 else 1
-    code = fn(*planes, *weights, seeds.data_ptr(), order.data_ptr(), out.data_ptr(), h, w, plan.block, threads)
+    code = kernels.sort_pass(
+        *planes, *weights, seeds.data_ptr(), order.data_ptr(), out.data_ptr(), h, w, plan.block, threads
+    )
     if code == 2:
         raise ValueRangeError("mask: expected a plan made by plan_sort, got one whose order leaves its blocks")
+    return out if code == 0 else None
+
+
+def retarget(seeds: torch.Tensor, displacement: torch.Tensor, inverse: torch.Tensor,
+             offset: tuple[int, int]) -> torch.Tensor | None:
+    """The retargeting pass with the kernel (the rule of :func:`bnerr.retarget.retarget`).
+
+    ``displacement`` and ``inverse`` are a checked ``[2, T, T]`` field and its inverse (the
+    displacement from each tile position back to the target that takes it). Returns the new
+    ``[H, W]`` int64 seed image, or None when the kernel is unavailable.
+    """
+    kernels = load()
+    if kernels is None:
+        return None
+    seeds = seeds.contiguous()
+    field = displacement.to("cpu", torch.int32).contiguous()
+    back = inverse.to("cpu", torch.int32).contiguous()
+    size = field.shape[-1]
+    reach = int(field.abs().max())
+    h, w = seeds.shape
+    out = torch.empty((h, w), dtype=torch.int64)
+    threads = torch.get_num_threads() if h * w >= 1 << 16 else 1
+    code = kernels.retarget(
+        seeds.data_ptr(), field.data_ptr(), back.data_ptr(), out.data_ptr(),
+        h, w, size, offset[0] % size, offset[1] % size, reach, threads,
+    )
+    if code == 3:
+        raise RuntimeError("retarget: the field and its inverse disagree (not a permutation)")
     return out if code == 0 else None
 
 

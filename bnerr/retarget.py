@@ -23,7 +23,8 @@ seed moved to p then carries the old mask value ``M(q + d(q))``, close to the ne
   candidate sources, and the optimum is about 40% lower in energy than annealing reaches. The
   shipped permutations (``bnerr/data/retarget_<T>.npy``, made by ``bnerr retarget``) are exact.
 - :func:`retarget` / :class:`Retarget`: apply a displacement field to a seed image at a frame's
-  offset. The lift of a tile permutation to the infinite plane is a bijection; on a finite screen
+  offset (on the CPU in the optional C kernel of :mod:`bnerr._sortnative`, else with torch
+  gather indices; identical results). The lift of a tile permutation to the infinite plane is a bijection; on a finite screen
   the few targets near the border whose source lies outside the screen take the seeds that no
   target claimed (both sets ordered row-major and paired in order), so the result is always a
   permutation of the input seeds. Those border pixels lose what earlier frames learned.
@@ -42,6 +43,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from bnerr import _sortnative
 from bnerr.errors import (
     DtypeError,
     FileFormatError,
@@ -62,6 +64,7 @@ __all__ = [
     "METHODS",
     "Retarget",
     "check_displacement",
+    "inverse_field",
     "load_retarget",
     "optimize_retarget",
     "retarget",
@@ -385,6 +388,43 @@ def _band(height: int, width: int, margin: int, device: torch.device) -> torch.T
     return torch.cat([top, middle, top + (height - margin) * width])
 
 
+def _border_pairs(
+    height: int, width: int, displacement: torch.Tensor, offset: tuple[int, int]
+) -> tuple[torch.Tensor, torch.Tensor] | None:
+    """``(lost, free)``: flat indices of the targets whose source is off screen and of the sources
+    no target claims, both row-major and equally many; None when every source is on screen.
+
+    Only targets within ``reach`` (the largest displacement) of the border can point outside, only
+    sources within ``reach`` of it can go unclaimed, and those can only be claimed by targets within
+    ``2 * reach``; so only that band is examined.
+    """
+    size = displacement.shape[-1]
+    device = displacement.device
+    oy, ox = offset[0] % size, offset[1] % size
+    reach = int(displacement.abs().max()) if displacement.numel() else 0
+    if reach == 0:
+        return None
+    targets = _band(height, width, 2 * reach, device)
+    ty, tx = targets // width, targets % width
+    qy, qx = (ty + oy) % size, (tx + ox) % size
+    sy, sx = ty + displacement[0, qy, qx], tx + displacement[1, qy, qx]
+    inside = (sy >= 0) & (sy < height) & (sx >= 0) & (sx < width)
+    if bool(inside.all()):
+        return None
+    pool = _band(height, width, reach, device)
+    taken = sy[inside] * width + sx[inside]
+    pos = torch.searchsorted(pool, taken).clamp_(max=pool.numel() - 1)
+    claimed = torch.zeros(pool.numel(), dtype=torch.bool, device=device)
+    claimed[pos[pool[pos] == taken]] = True
+    free = pool[~claimed]
+    lost = targets[~inside]
+    # The lift of a tile permutation is a bijection of the plane, so the in-screen sources are
+    # distinct and exactly as many sources go unclaimed as targets point outside.
+    if free.numel() != lost.numel():
+        raise RuntimeError(f"retarget: {lost.numel()} targets outside but {free.numel()} free seeds")
+    return lost, free
+
+
 def retarget_sources(
     height: int, width: int, displacement: torch.Tensor, offset: tuple[int, int]
 ) -> torch.Tensor:
@@ -415,30 +455,35 @@ def retarget_sources(
     tile = (displacement[0] * width + displacement[1]).to(index).roll((-oy, -ox), dims=(0, 1))
     field = tile.repeat(-(-height // size), -(-width // size))[:height, :width]
     src = torch.arange(height * width, dtype=index, device=device).view(height, width).add_(field).reshape(-1)
-    if reach == 0:
-        return src
-    # Border: only targets within `reach` of the border can point outside, only sources within
-    # `reach` of it can go unclaimed, and those can only be claimed by targets within 2 * reach.
-    targets = _band(height, width, 2 * reach, device)
-    ty, tx = targets // width, targets % width
-    qy, qx = (ty + oy) % size, (tx + ox) % size
-    sy, sx = ty + displacement[0, qy, qx], tx + displacement[1, qy, qx]
-    inside = (sy >= 0) & (sy < height) & (sx >= 0) & (sx < width)
-    if bool(inside.all()):
-        return src
-    pool = _band(height, width, reach, device)
-    taken = sy[inside] * width + sx[inside]
-    pos = torch.searchsorted(pool, taken).clamp_(max=pool.numel() - 1)
-    claimed = torch.zeros(pool.numel(), dtype=torch.bool, device=device)
-    claimed[pos[pool[pos] == taken]] = True
-    free = pool[~claimed]
-    lost = targets[~inside]
-    # The lift of a tile permutation is a bijection of the plane, so the in-screen sources are
-    # distinct and exactly as many sources go unclaimed as targets point outside.
-    if free.numel() != lost.numel():
-        raise RuntimeError(f"retarget: {lost.numel()} targets outside but {free.numel()} free seeds")
-    src[lost] = free.to(index)
+    pairs = _border_pairs(height, width, displacement, offset)
+    if pairs is not None:
+        src[pairs[0]] = pairs[1].to(index)
     return src
+
+
+def inverse_field(displacement: torch.Tensor) -> torch.Tensor:
+    """The inverse of a checked field: at tile position u, the displacement ``e(u) = -d(q)`` back
+    to the target q that takes the source at u (``q + d(q) = u mod T``). ``[2, T, T]`` int64."""
+    size = displacement.shape[-1]
+    q = torch.arange(size, device=displacement.device)
+    src = (((q[:, None] + displacement[0]) % size) * size + (q[None, :] + displacement[1]) % size).reshape(-1)
+    owner = torch.empty_like(src)
+    owner[src] = torch.arange(size * size, device=displacement.device)
+    return -displacement.reshape(2, -1)[:, owner].reshape(2, size, size)
+
+
+def _gather(
+    seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int], inverse: torch.Tensor | None = None
+) -> torch.Tensor:
+    """Apply a checked field: the native kernel on the CPU where available, else torch indices."""
+    h, w = seeds.shape
+    if seeds.device.type == "cpu" and _sortnative.available():
+        back = inverse_field(displacement) if inverse is None else inverse
+        out = _sortnative.retarget(seeds, displacement, back, offset)
+        if out is not None:
+            return out
+    src = retarget_sources(h, w, displacement, offset)
+    return seeds.reshape(-1).index_select(0, src).reshape(h, w)
 
 
 def retarget(seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
@@ -461,16 +506,16 @@ def retarget(seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int,
     d = check_displacement(displacement, radius=None)
     if seeds.numel() == 0:
         return seeds.clone()
-    src = retarget_sources(size["H"], size["W"], d.to(seeds.device), offset)
-    return seeds.reshape(-1).index_select(0, src).reshape(size["H"], size["W"])
+    return _gather(seeds, d.to(seeds.device), offset)
 
 
 class Retarget(torch.nn.Module):
     """Module form of :func:`retarget` holding one checked field; ``forward(seeds, offset)``.
 
-    The gather indices of the last ``cache`` (screen size, offset, device) combinations are kept,
-    so that a loop whose offsets cycle (T / gcd of the step, 16 frames for T = 64) computes each
-    only once. Each entry holds ``H * W`` int64 (16 MB at 1080p); ``cache=0`` keeps none.
+    Where the gather runs in torch (no native kernel, or not on the CPU), the gather indices of
+    the last ``cache`` (screen size, offset, device) combinations are kept, so that a loop whose
+    offsets cycle (16 distinct ones for T = 64) computes each only once. Each entry holds
+    ``H * W`` int32 (8 MB at 1080p); ``cache=0`` keeps none.
     """
 
     def __init__(self, displacement: torch.Tensor, cache: int = 0) -> None:
@@ -478,6 +523,7 @@ class Retarget(torch.nn.Module):
         self.register_buffer("displacement", check_displacement(displacement, radius=None))
         self.cache = check_positive_int(cache, "cache", minimum=0)
         self._sources: dict[tuple, torch.Tensor] = {}
+        self._inverse: torch.Tensor | None = None
 
     def forward(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
         size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
@@ -488,12 +534,15 @@ class Retarget(torch.nn.Module):
         t = self.displacement.shape[-1]
         key = (size["H"], size["W"], offset[0] % t, offset[1] % t, seeds.device)
         src = self._sources.get(key)
-        if src is None:
+        if src is None and self.cache and not (seeds.device.type == "cpu" and _sortnative.available()):
             src = retarget_sources(size["H"], size["W"], self.displacement.to(seeds.device), key[2:4])
-            if self.cache:
-                while len(self._sources) >= self.cache:
-                    self._sources.pop(next(iter(self._sources)))
-                self._sources[key] = src
+            while len(self._sources) >= self.cache:
+                self._sources.pop(next(iter(self._sources)))
+            self._sources[key] = src
+        if src is None:
+            if self._inverse is None or self._inverse.device != seeds.device:
+                self._inverse = inverse_field(self.displacement.to(seeds.device))
+            return _gather(seeds, self.displacement.to(seeds.device), offset, self._inverse)
         return seeds.reshape(-1).index_select(0, src).reshape(size["H"], size["W"])
 
     def extra_repr(self) -> str:

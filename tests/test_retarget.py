@@ -9,6 +9,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from benchmarks.cli import main as cli_main
+from bnerr import _sortnative
 from bnerr.errors import DtypeError, FileFormatError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.masks import frame_offset, load_mask, r2_step
 from bnerr.retarget import (
@@ -19,6 +20,7 @@ from bnerr.retarget import (
     optimize_retarget,
     retarget,
     retarget_energy,
+    retarget_sources,
     save_retarget,
     shipped_retargets,
 )
@@ -72,9 +74,12 @@ def _retarget_reference(seeds: torch.Tensor, field: torch.Tensor, offset: tuple[
 def test_retarget_is_a_permutation_and_equals_the_loop_reference(h, w, size, oy, ox, seed):
     field = _random_field(size, seed)
     seeds = torch.randperm(h * w, generator=torch.Generator().manual_seed(seed)).view(h, w) + 100
-    out = retarget(seeds, field, (oy, ox))
+    out = retarget(seeds, field, (oy, ox))  # the native gather where available
+    by_indices = seeds.reshape(-1)[retarget_sources(h, w, field, (oy, ox)).long()].view(h, w)
     assert torch.equal(out.reshape(-1).sort().values, seeds.reshape(-1).sort().values)
-    assert torch.equal(out, _retarget_reference(seeds, field, (oy, ox)))
+    want = _retarget_reference(seeds, field, (oy, ox))
+    assert torch.equal(out, want)
+    assert torch.equal(by_indices, want)
 
 
 def test_shipped_field_keeps_seeds_a_permutation_over_100_frames():
@@ -99,7 +104,10 @@ def test_interior_pixels_move_by_the_field():
     assert int(out[y, x]) == int(seeds[y + field[0, qy, qx], x + field[1, qy, qx]])
 
 
-def test_module_and_function_agree_with_and_without_cache():
+def test_module_and_function_agree_with_and_without_cache(monkeypatch):
+    # The index cache serves the torch path: take the native kernel away.
+    monkeypatch.setattr(_sortnative, "available", lambda: False)
+    monkeypatch.setattr(_sortnative, "retarget", lambda *args: None)
     field = _random_field(16, 3)
     seeds = torch.randperm(30 * 20).view(30, 20)
     cached, uncached = Retarget(field, cache=2), Retarget(field)
