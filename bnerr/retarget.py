@@ -23,11 +23,13 @@ seed moved to p then carries the old mask value ``M(q + d(q))``, close to the ne
   candidate sources, and the optimum is about 40% lower in energy than annealing reaches. The
   shipped permutations (``bnerr/data/retarget_<T>.npy``, made by ``bnerr retarget``) are exact.
 - :func:`retarget` / :class:`Retarget`: apply a displacement field to a seed image at a frame's
-  offset (on the CPU in the optional C kernel of :mod:`bnerr._sortnative`, else with torch
-  gather indices; identical results). The lift of a tile permutation to the infinite plane is a bijection; on a finite screen
-  the few targets near the border whose source lies outside the screen take the seeds that no
-  target claimed (both sets ordered row-major and paired in order), so the result is always a
-  permutation of the input seeds. Those border pixels lose what earlier frames learned.
+  offset. The lift of a tile permutation to the infinite plane is a bijection; on a finite
+  screen the few targets near the border whose source lies outside the screen take the seeds
+  that no target claimed (both sets ordered row-major and paired in order), so the result is
+  always a permutation of the input seeds. Those border pixels lose what earlier frames learned.
+  On the CPU this runs in the optional C kernel of :mod:`bnerr._sortnative` (a source is
+  unclaimed iff its preimage under :func:`inverse_field` is off screen); elsewhere with torch
+  gather indices (:func:`retarget_sources`). Both give identical results.
 - :func:`load_retarget`: the shipped displacement field for the shipped scalar mask of size T.
 
 Not for: masks other than the one a field was optimized for (run :func:`optimize_retarget` on
