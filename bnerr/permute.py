@@ -362,7 +362,7 @@ def sort_pass(
     if seeds.device.type == "cpu":
         rgb = values.ndim == 3 and values.shape[0] == 3
         planar = values.to(torch.float32) if rgb else luminance(values)
-        out = _sortnative.run(seeds, planar, plan)
+        out = _sortnative.sort_pass(seeds, planar, plan)
         if out is not None:
             return out
     return _sort_torch(seeds, luminance(values), plan)
