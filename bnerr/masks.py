@@ -203,7 +203,7 @@ def void_and_cluster(size: int, seed: int = 0, sigma: float = 1.5) -> torch.Tens
     Args:
         size: T, 1 to 512. Cost is O(T^4): about a second for 128 on one core.
         seed: integer in [0, 2**64), picks the initial pattern.
-        sigma: Gaussian filter width in pixels, in [0.1, T]; Ulichney's 1.5 by default.
+        sigma: Gaussian filter width in pixels, in [0.1, 100]; Ulichney's 1.5 by default.
 
     Returns:
         ``[T, T]`` float32 on the CPU, values ``(rank + 0.5) / T^2``: every rank 0..T^2-1 appears
@@ -211,7 +211,7 @@ def void_and_cluster(size: int, seed: int = 0, sigma: float = 1.5) -> torch.Tens
     """
     size = _check_size(size)
     seed = _check_seed(seed)
-    sigma = float(check_range(sigma, "sigma", 0.1, float(size)))
+    sigma = float(check_range(sigma, "sigma", 0.1, 100.0))
     n = size * size
     kernel2 = _toroidal_kernel(size, sigma)
     ones = np.zeros((size, size), dtype=bool)

@@ -9,8 +9,6 @@ generation took. The shipped masks in ``bnerr/data`` were made with it (see its 
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
 import time
 from pathlib import Path
 
@@ -18,6 +16,7 @@ import numpy as np
 import torch
 
 from bnerr.errors import FileFormatError
+from bnerr.io import atomic_write, write_exr, write_png
 from bnerr.masks import vector_mask, void_and_cluster
 from bnerr.spectrum import low_frequency_fraction
 
@@ -75,35 +74,29 @@ def run(args: argparse.Namespace) -> int:
 
 
 def write_mask(path: Path, mask: torch.Tensor) -> None:
-    """Write ``mask [T, T]`` or ``[D, T, T]`` by extension, atomically.
+    """Write ``mask [T, T]`` or ``[D, T, T]`` by extension, atomically (bnerr.io.atomic_write).
 
     ``.npy``: the float32 array as is (what :func:`bnerr.masks.load_mask` reads). ``.exr``: one
-    buffer ``mask`` of 1 (scalar) or D (vector) float32 channels. ``.png``: a
-    preview, grey for a scalar mask, the first three channels as RGB for a vector mask (zero-padded
-    for D = 2), written with exposure 0.
+    buffer ``mask`` (channel ``mask.0`` for a scalar mask, ``mask.0 .. mask.<D-1>`` for a vector
+    mask), exact float32. ``.png``: an 8-bit preview whose stored values are ``round(255 v)`` (the
+    usual blue-noise texture convention): grey for a scalar mask, the first three channels as RGB
+    for a vector mask (blue channel 0 for D = 2).
     """
     suffix = path.suffix.lower()
     if suffix == ".npy":
-        fd, tmp = tempfile.mkstemp(dir=path.parent if str(path.parent) else ".", suffix=".npy.tmp")
-        try:
-            with os.fdopen(fd, "wb") as f:
-                np.save(f, mask.numpy().astype(np.float32), allow_pickle=False)
-            os.replace(tmp, path)
-        except BaseException:
-            os.unlink(tmp)
-            raise
+        with atomic_write(path) as tmp:
+            np.save(tmp, mask.numpy().astype(np.float32), allow_pickle=False)
         return
-    try:
-        from bnerr import io as bio
-    except ImportError as err:
-        raise FileFormatError(f"{path}: writing {suffix} needs bnerr.io, which is not available") from err
     channels = mask.unsqueeze(0) if mask.ndim == 2 else mask
     if suffix == ".exr":
-        bio.write_exr(path, {"mask": channels.contiguous()})
-    else:
-        rgb = channels[:3] if channels.shape[0] >= 3 else channels
-        if rgb.shape[0] == 1:
-            rgb = rgb.expand(3, -1, -1)
-        elif rgb.shape[0] == 2:
-            rgb = torch.cat([rgb, torch.zeros_like(rgb[:1])])
-        bio.write_png(path, rgb.contiguous(), exposure=0.0)
+        write_exr(path, {"mask": channels.contiguous()})
+        return
+    rgb = channels[:3]
+    if rgb.shape[0] == 1:
+        rgb = rgb.expand(3, -1, -1)
+    elif rgb.shape[0] == 2:
+        rgb = torch.cat([rgb, torch.zeros_like(rgb[:1])])
+    # write_png encodes linear values with the sRGB curve; decode first so that the stored 8-bit
+    # values are the mask values themselves.
+    linear = torch.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    write_png(path, linear.contiguous(), exposure=0.0, tonemap="clamp")
