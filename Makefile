@@ -13,8 +13,10 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e '.[dev,reference]'
 	touch $(STAMP)
 
+# The quick suite writes to out/quick (ignored by git), so running it never edits the
+# committed results/; `bnerr bench --suite NAME` (default --out results/NAME) regenerates those.
 run: $(STAMP)
-	$(BIN)/bnerr demo
+	$(BIN)/bnerr bench --suite quick --out out/quick
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
