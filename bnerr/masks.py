@@ -159,7 +159,9 @@ def _relax_initial_pattern(ones: np.ndarray, energy: np.ndarray, kernel2: np.nda
             return
 
 
-def _remove_clusters(ones: np.ndarray, energy: np.ndarray, kernel2: np.ndarray, rank: np.ndarray) -> None:
+def _remove_clusters(
+    ones: np.ndarray, energy: np.ndarray, kernel2: np.ndarray, rank: np.ndarray
+) -> None:
     """Phase 1: remove the tightest cluster one by one; ranks count down from #ones - 1 to 0."""
     size = ones.shape[0]
     # Energy of the ones, -inf on the zeros: argmax is the tightest cluster, and subtracting the
@@ -172,7 +174,9 @@ def _remove_clusters(ones: np.ndarray, energy: np.ndarray, kernel2: np.ndarray, 
         score.flat[cluster] = -np.inf
 
 
-def _fill_voids(ones: np.ndarray, energy: np.ndarray, kernel2: np.ndarray, rank: np.ndarray) -> None:
+def _fill_voids(
+    ones: np.ndarray, energy: np.ndarray, kernel2: np.ndarray, rank: np.ndarray
+) -> None:
     """Phases 2 and 3: fill the largest void one by one; ranks count up from #ones to T^2 - 1.
 
     Ulichney's phase 3 inverts the pattern and removes its tightest clusters. On the torus the
@@ -333,7 +337,8 @@ def _swap_gain(
     off_y = (q // size - p // size + size // 2) % size - size // 2
     off_x = (q % size - p % size + size // 2) % size - size // 2
     inside = (np.abs(off_y) <= reach) & (np.abs(off_x) <= reach)
-    w_pq = np.where(inside, table[np.clip(off_y + reach, 0, 2 * reach), np.clip(off_x + reach, 0, 2 * reach)], 0.0)
+    at = table[np.clip(off_y + reach, 0, 2 * reach), np.clip(off_x + reach, 0, 2 * reach)]
+    w_pq = np.where(inside, at, 0.0)
     f_pq = _value_similarity(values[p], values[q], dims, sigma_s)
     change = moved[:k] + moved[k:] - own[:k] - own[k:] - 2.0 * w_pq * (1.0 - f_pq)
     return 2.0 * change  # each unordered pair appears twice in E = sum over p != q
@@ -398,7 +403,9 @@ def vector_mask(
     table = np.zeros((2 * reach + 1, 2 * reach + 1))
     table[dy + reach, dx + reach] = weight
     if sigma_i > size / 4:
-        raise ValueRangeError(f"sigma_i: expected a value in [0.5, {size / 4}] (size / 4), got {sigma_i}")
+        raise ValueRangeError(
+            f"sigma_i: expected a value in [0.5, {size / 4}] (size / 4), got {sigma_i}"
+        )
 
     n = size * size
     base = ((np.arange(n) + 0.5) / n).astype(np.float32).astype(np.float64)
@@ -434,12 +441,20 @@ def vector_mask_energy(
     dy, dx, weight, reach = _gf_window(sigma_i, radius)
     if size < 2 * reach + 1:
         raise ValueRangeError(f"mask: expected T >= {2 * reach + 1} for this kernel, got {size}")
-    v = mask.to(torch.float64)
-    dims = v.shape[0]
-    total = torch.zeros((), dtype=torch.float64, device=v.device)
-    for wy, wx, w in zip(dy.tolist(), dx.tolist(), weight.tolist()):
-        dist2 = (v - torch.roll(v, shifts=(wy, wx), dims=(1, 2))).square().sum(dim=0)
-        total = total + w * torch.exp(-dist2 ** (dims / 4.0) / sigma_s**2).sum()
+    dims = mask.shape[0]
+    v = mask.to(torch.float64).reshape(dims, size * size)
+    pixel = torch.arange(size * size, device=mask.device)
+    y, x = pixel // size, pixel % size
+    offsets = torch.from_numpy(np.stack([dy, dx, weight])).to(device=mask.device)
+    total = torch.zeros((), dtype=torch.float64, device=mask.device)
+    # A few large gathers rather than one roll per offset: with many small ops, torch's thread pool
+    # spends seconds waking up on a loaded machine. Chunks keep the [D, N, w] gather under ~4M.
+    step = max(1, (1 << 22) // (dims * size * size))
+    for wy, wx, w in offsets.split(step, dim=1):
+        wy, wx = wy.long(), wx.long()
+        near = ((y[:, None] + wy) % size) * size + (x[:, None] + wx) % size  # [N, w]
+        dist2 = (v[:, :, None] - v[:, near]).square().sum(dim=0)  # [N, w]
+        total = total + (torch.exp(-dist2 ** (dims / 4.0) / sigma_s**2) @ w).sum()
     return float(total)
 
 
@@ -515,7 +530,7 @@ def _data_dir() -> resources.abc.Traversable:
 
 
 def shipped_masks() -> list[tuple]:
-    """The masks shipped as package data: ``("scalar", T)`` and ``("vector", T, D)`` tuples, sorted."""
+    """The shipped masks, sorted: ``("scalar", T)`` and ``("vector", T, D)`` tuples."""
     found = []
     data = _data_dir()
     if not data.is_dir():
@@ -564,7 +579,9 @@ def load_mask(kind: str, size: int, dims: int | None = None) -> torch.Tensor:
     try:
         array = np.load(io.BytesIO(resource.read_bytes()), allow_pickle=False)
     except (OSError, ValueError) as err:
-        raise FileFormatError(f"{resource}: expected a .npy array, got unreadable data ({err})") from err
+        raise FileFormatError(
+            f"{resource}: expected a .npy array, got unreadable data ({err})"
+        ) from err
     if array.shape != shape or array.dtype != np.float32:
         raise FileFormatError(
             f"{resource}: expected float32 of shape {list(shape)}, "

@@ -11,9 +11,9 @@ summary: for white noise it is the share of frequencies inside that disc, about
 ``pi * 0.125^2 ~= 0.049`` (exactly ``count(0 < |f| < cutoff) / (T_h T_w - 1)`` in expectation,
 the lattice count of the disc; 0.0469 for 64x64 tiles); a good blue-noise mask measures close to 0.
 
-Not for: spectral estimation with windowing or overlap (Welch). Tiles are taken as they are, which is
-right for masks that tile toroidally and for error images, whose structure we want to see at the
-tile scale; a non-periodic image with strong gradients leaks energy across the tile edges.
+Not for: spectral estimation with windowing or overlap (Welch). Tiles are taken as they are,
+which is right for masks that tile toroidally and for error images, whose structure we want to see
+at the tile scale; a non-periodic image with strong gradients leaks energy across the tile edges.
 """
 
 from __future__ import annotations
@@ -22,7 +22,14 @@ import math
 
 import torch
 
-from bnerr.errors import ShapeError, check_dtype, check_finite, check_positive_int, check_range, check_tensor
+from bnerr.errors import (
+    ShapeError,
+    check_dtype,
+    check_finite,
+    check_positive_int,
+    check_range,
+    check_tensor,
+)
 
 __all__ = ["low_frequency_fraction", "radial_power_spectrum"]
 

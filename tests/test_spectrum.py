@@ -1,4 +1,4 @@
-"""Tests of bnerr.spectrum: periodogram normalisation, white-noise control, sinusoids, input checks."""
+"""Tests of bnerr.spectrum: periodogram normalisation, white-noise control, sinusoids, checks."""
 
 from __future__ import annotations
 
@@ -27,13 +27,15 @@ def test_white_noise_fraction_matches_its_expectation():
     # share is Beta-distributed with mean (bins in the disc) / (bins - 1). Compare the average over
     # fixed-seed images with it, within 4 standard errors measured from the same images.
     tile, cutoff = 64, 0.125
-    fractions = torch.tensor([low_frequency_fraction(_white(s, 64, 64), tile, cutoff) for s in range(24)])
+    fractions = torch.tensor(
+        [low_frequency_fraction(_white(s, 64, 64), tile, cutoff) for s in range(24)]
+    )
     expected = _disc_count(tile, cutoff) / (tile * tile - 1)
     stderr = float(fractions.std()) / math.sqrt(fractions.numel())
     assert abs(float(fractions.mean()) - expected) < 4 * stderr
     # ... and the lattice count is pi * cutoff^2 up to the disc's boundary cells: every unit cell
-    # centred on a counted bin lies within radius r + sqrt(2)/2, and the disc of radius r - sqrt(2)/2
-    # is covered by cells of counted bins (or the DC bin).
+    # centred on a counted bin lies within radius r + sqrt(2)/2, and the disc of radius
+    # r - sqrt(2)/2 is covered by cells of counted bins (or the DC bin).
     r = cutoff * tile
     count = _disc_count(tile, cutoff)
     assert math.pi * (r - 0.5**0.5) ** 2 - 1 <= count <= math.pi * (r + 0.5**0.5) ** 2

@@ -65,8 +65,11 @@ def run(args: argparse.Namespace) -> int:
     write_mask(args.out, mask)
     kind = "scalar" if mask.ndim == 2 else f"vector D={mask.shape[0]}"
     print(f"{kind} mask {args.size}x{args.size}, seed {args.seed}: {seconds:.2f} s -> {args.out}")
-    print(f"low-frequency fraction (< 0.125 cycles/pixel): {low_frequency_fraction(mask, tile=args.size):.6f}"
-          "  (white noise ~0.049, blue noise ~0)")
+    fraction = low_frequency_fraction(mask, tile=args.size)
+    print(
+        f"low-frequency fraction (< 0.125 cycles/pixel): {fraction:.6f}"
+        "  (white noise ~0.049, blue noise ~0)"
+    )
     if mask.ndim == 3:
         per_channel = " ".join(f"{low_frequency_fraction(c, tile=args.size):.4f}" for c in mask)
         print(f"  per channel: {per_channel}")
