@@ -6,16 +6,20 @@ tracer and with Mitsuba 3's ``scalar_rgb`` and ``llvm_ad_rgb`` variants, and rep
 (pixels x spp) per second for each, and our ratio to each. The work differs in one way that
 favours Mitsuba slightly: it traces one more ray per path (a BSDF sample at the last vertex).
 
-Each renderer gets one warm-up render (our ``torch.compile``, Mitsuba's LLVM kernel compilation)
-and then ``repeats`` timed renders; the figures are from the fastest (the least disturbed by
-other processes on a shared machine) and the median. Mitsuba runs in a subprocess per variant, so
-that a missing or crashing LLVM (LLVM 15 and 16 crash on some processors; Debian's libllvm19
-works, found through ``DRJIT_LIBLLVM_PATH``) is reported as an error string instead of ending the
-benchmark; without Mitsuba installed the Mitsuba entries say so.
+Each renderer gets one warm-up render (our ``torch.compile``, Mitsuba's LLVM kernel compilation),
+then ``repeats`` rounds; a round renders once with each renderer, back to back, so that the
+load of a shared machine, which drifts over seconds, hits the renderers of a round alike. Each
+Mitsuba variant lives in its own subprocess for the whole measurement (it answers "render" on
+stdin with the seconds it took), so that a missing or crashing LLVM (LLVM 15 and 16 crash on
+some processors; Debian's libllvm19 works, found through ``DRJIT_LIBLLVM_PATH``) is reported as an
+error string instead of ending the benchmark; without Mitsuba the Mitsuba entries say so.
+Reported: each renderer's fastest and median time, samples per second at the fastest, and the
+median over rounds of our per-round speed ratio.
 
-Both sides use all the threads they are given: torch's intra-op threads for us (``threads``,
-default: torch's current setting), Mitsuba's thread pool (default: all cores, or ``threads``).
-Timings depend on the machine and on its load: report them with both.
+Both sides use the threads they are given: torch's thread count for us (``threads``, default:
+torch's current setting; the tracer runs that many chunks at once), drjit's thread pool for
+Mitsuba (default: all cores, or ``threads``). Timings depend on the machine and on its load:
+report them with both.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ import os
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -37,100 +42,158 @@ __all__ = ["main", "measure", "measure_mitsuba", "measure_ours"]
 DEFAULT_LLVM = "/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 
-def _seeds(width: int, height: int) -> torch.Tensor:
-    from bnerr.strategies import pixel_seeds
-
-    return pixel_seeds(height, width, 0)
-
-
-def measure_ours(scene_name: str, width: int, height: int, spp: int, repeats: int = 3,
-                 compile: bool = True, sampler: str = "white") -> dict[str, float]:
-    """Seconds per render of our tracer: ``{"best_s", "median_s", "warmup_s", "samples_per_s"}``."""
-    from bnerr.sequences import make_sampler
-    from renderers import get_scene, render
-
-    scene = get_scene(scene_name, animated=False)
-    seeds = _seeds(width, height)
-    s = make_sampler(sampler)
-    start = time.perf_counter()
-    render(scene, 0, seeds, s, spp, compile=compile)
-    warmup = time.perf_counter() - start
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        render(scene, 0, seeds, s, spp, compile=compile)
-        times.append(time.perf_counter() - start)
+def _figures(times: list[float], warmup: float, samples: int) -> dict[str, float]:
     best = min(times)
     return {"best_s": best, "median_s": statistics.median(times), "warmup_s": warmup,
-            "samples_per_s": width * height * spp / best}
+            "samples_per_s": samples / best}
 
 
-def _mitsuba_worker(variant: str, scene_name: str, width: int, height: int, spp: int,
-                    repeats: int, threads: int | None) -> dict[str, float]:
-    """Runs inside the subprocess: time ``mi.render`` of the exported scene."""
+class _Ours:
+    """Our tracer on one scene: ``warm()`` once, then ``__call__()`` -> seconds per render."""
+
+    def __init__(self, scene_name: str, width: int, height: int, spp: int, compile: bool,
+                 sampler: str = "white") -> None:
+        from bnerr.sequences import make_sampler
+        from bnerr.strategies import pixel_seeds
+        from renderers import get_scene
+
+        self.scene = get_scene(scene_name, animated=False)
+        self.seeds = pixel_seeds(height, width, 0)
+        self.sampler = make_sampler(sampler)
+        self.spp, self.compile = spp, compile
+
+    def __call__(self) -> float:
+        from renderers import render
+
+        start = time.perf_counter()
+        render(self.scene, 0, self.seeds, self.sampler, self.spp, compile=self.compile)
+        return time.perf_counter() - start
+
+
+class _Mitsuba:
+    """A Mitsuba variant in a subprocess that renders the scene on request."""
+
+    def __init__(self, variant: str, scene_name: str, width: int, height: int, spp: int,
+                 threads: int | None, timeout: float) -> None:
+        self.variant, self.timeout = variant, timeout
+        self.error: str | None = None
+        self.proc: subprocess.Popen | None = None
+        self.warmup = 0.0
+        from renderers.mitsuba import mitsuba_available
+
+        if not mitsuba_available():
+            self.error = "mitsuba is not installed (pip install 'bnerr[reference]')"
+            return
+        env = dict(os.environ)
+        if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in env:
+            if not Path(DEFAULT_LLVM).exists():
+                self.error = (f"no LLVM for drjit: install Debian's libllvm19 ({DEFAULT_LLVM}) "
+                              "or set DRJIT_LIBLLVM_PATH")
+                return
+            env["DRJIT_LIBLLVM_PATH"] = DEFAULT_LLVM
+        args = [sys.executable, "-m", "benchmarks.throughput", "--serve", variant, scene_name,
+                str(width), str(height), str(spp), str(threads or 0)]
+        # stderr to a file: a full pipe would block a chatty child while we wait on stdout.
+        self.stderr = tempfile.TemporaryFile(mode="w+")
+        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=self.stderr, text=True, env=env,
+                                     cwd=Path(__file__).resolve().parent.parent)
+        reply = self._read()
+        if reply is not None:
+            self.warmup = reply
+
+    def _read(self) -> float | None:
+        line = self.proc.stdout.readline()
+        try:
+            return float(line)
+        except ValueError:
+            self.proc.kill()
+            self.proc.wait(timeout=self.timeout)
+            self.stderr.seek(0)
+            err = self.stderr.read()
+            tail = (err or line).strip().splitlines()[-1:] or [f"exit code {self.proc.returncode}"]
+            self.error = f"{self.variant} failed (exit code {self.proc.returncode}): {tail[0]}"
+            return None
+
+    def __call__(self) -> float | None:
+        if self.error is not None:
+            return None
+        self.proc.stdin.write("render\n")
+        self.proc.stdin.flush()
+        return self._read()
+
+    def close(self) -> None:
+        if self.proc is not None:
+            if self.proc.poll() is None:
+                self.proc.stdin.close()
+                self.proc.wait(timeout=self.timeout)
+            self.stderr.close()
+
+
+def _serve(variant: str, scene_name: str, width: int, height: int, spp: int, threads: int | None) -> None:
+    """Runs inside the subprocess: load the scene, render once, then once per ``render`` line."""
+    import drjit as dr
     import mitsuba as mi
 
     mi.set_variant(variant)
     from renderers import get_scene
     from renderers.mitsuba import to_mitsuba
 
-    import drjit as dr
-
     if threads:
         dr.set_thread_count(threads)  # Mitsuba 3 renders on drjit's thread pool in every variant
     scene = mi.load_dict(to_mitsuba(get_scene(scene_name, animated=False), 0,
                                     width=width, height=height, spp=spp))
-    def timed(seed: int) -> float:
+    seed = 0
+
+    def timed() -> float:
+        nonlocal seed
         start = time.perf_counter()
         image = mi.render(scene, spp=spp, seed=seed)
-        dr.eval(image)  # the LLVM variant is lazy: wait for the kernels
+        dr.eval(image)  # the LLVM variant is lazy: wait for its kernels
         dr.sync_thread()
+        seed += 1
         return time.perf_counter() - start
 
-    warmup = timed(0)
-    times = [timed(k + 1) for k in range(repeats)]
-    best = min(times)
-    return {"best_s": best, "median_s": statistics.median(times), "warmup_s": warmup,
-            "samples_per_s": width * height * spp / best}
+    print(timed(), flush=True)
+    for line in sys.stdin:
+        if line.strip() == "render":
+            print(timed(), flush=True)
+
+
+def measure_ours(scene_name: str, width: int, height: int, spp: int, repeats: int = 3,
+                 compile: bool = True, sampler: str = "white") -> dict[str, float]:
+    """Our tracer alone: ``{"best_s", "median_s", "warmup_s", "samples_per_s"}``."""
+    ours = _Ours(scene_name, width, height, spp, compile, sampler)
+    warmup = ours()
+    return _figures([ours() for _ in range(repeats)], warmup, width * height * spp)
 
 
 def measure_mitsuba(variant: str, scene_name: str, width: int, height: int, spp: int,
                     repeats: int = 3, threads: int | None = None, timeout: float = 900.0
                     ) -> dict[str, float] | str:
-    """Mitsuba's figures (as :func:`measure_ours`) from a subprocess, or an error string."""
-    from renderers.mitsuba import mitsuba_available
-
-    if not mitsuba_available():
-        return "mitsuba is not installed (pip install 'bnerr[reference]')"
-    env = dict(os.environ)
-    if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in env:
-        if not Path(DEFAULT_LLVM).exists():
-            return f"no LLVM for drjit: install Debian's libllvm19 ({DEFAULT_LLVM}) or set DRJIT_LIBLLVM_PATH"
-        env["DRJIT_LIBLLVM_PATH"] = DEFAULT_LLVM
-    args = [sys.executable, "-m", "benchmarks.throughput", "--worker", variant, scene_name,
-            str(width), str(height), str(spp), str(repeats), str(threads or 0)]
+    """One Mitsuba variant alone: figures as :func:`measure_ours`, or an error string."""
+    worker = _Mitsuba(variant, scene_name, width, height, spp, threads, timeout)
     try:
-        done = subprocess.run(args, capture_output=True, text=True, timeout=timeout, env=env,
-                              cwd=Path(__file__).resolve().parent.parent)
-    except subprocess.TimeoutExpired:
-        return f"{variant}: timed out after {timeout:.0f} s"
-    lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
-    if done.returncode != 0 or not lines:
-        tail = (done.stderr or done.stdout).strip().splitlines()[-1:] or [f"exit code {done.returncode}"]
-        return f"{variant} failed (exit code {done.returncode}): {tail[0]}"
-    return json.loads(lines[-1])
+        times = [worker() for _ in range(repeats)] if worker.error is None else []
+        if worker.error is not None:
+            return worker.error
+        return _figures(times, worker.warmup, width * height * spp)
+    finally:
+        worker.close()
 
 
 def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, height: int = 256,
-            spp: int = 32, repeats: int = 3, compile: bool = True,
+            spp: int = 32, repeats: int = 5, compile: bool = True,
             variants: Sequence[str] = ("scalar_rgb", "llvm_ad_rgb"), threads: int | None = None
             ) -> dict[str, object]:
-    """Throughput of our tracer and of Mitsuba 3 on each scene, side by side.
+    """Throughput of our tracer and of Mitsuba 3 on each scene, in interleaved rounds.
 
     Returns ``{"settings": {...}, scene: {"bnerr": figures, "mitsuba_<variant>": figures or an
-    error string, "ratio_<variant>": ours / Mitsuba's samples per second (None if Mitsuba
-    failed)}}``, figures being ``{"best_s", "median_s", "warmup_s", "samples_per_s"}``.
+    error string, "ratio_<variant>": median over rounds of Mitsuba's time / ours (our speed-up;
+    None if Mitsuba failed)}}``, figures being ``{"best_s", "median_s", "warmup_s",
+    "samples_per_s"}`` (samples per second at the best time).
     """
+    before = torch.get_num_threads()
     if threads:
         torch.set_num_threads(threads)
     out: dict[str, object] = {"settings": {
@@ -138,23 +201,43 @@ def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, hei
         "torch_threads": torch.get_num_threads(), "cpu_count": os.cpu_count(),
         "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
     }}
-    for name in scenes:
-        ours = measure_ours(name, width, height, spp, repeats, compile)
-        row: dict[str, object] = {"bnerr": ours}
-        for variant in variants:
-            theirs = measure_mitsuba(variant, name, width, height, spp, repeats, threads)
-            row[f"mitsuba_{variant}"] = theirs
-            row[f"ratio_{variant}"] = (ours["samples_per_s"] / theirs["samples_per_s"]
-                                       if isinstance(theirs, dict) else None)
-        out[name] = row
+    samples = width * height * spp
+    try:
+        for name in scenes:
+            ours = _Ours(name, width, height, spp, compile)
+            ours_warmup = ours()
+            workers = {v: _Mitsuba(v, name, width, height, spp, threads, 900.0) for v in variants}
+            ours_times: list[float] = []
+            their_times: dict[str, list[float]] = {v: [] for v in variants}
+            ratios: dict[str, list[float]] = {v: [] for v in variants}
+            try:
+                for _ in range(repeats):
+                    mine = ours()
+                    ours_times.append(mine)
+                    for v, worker in workers.items():
+                        theirs = worker()
+                        if theirs is not None:
+                            their_times[v].append(theirs)
+                            ratios[v].append(theirs / mine)
+            finally:
+                for worker in workers.values():
+                    worker.close()
+            row: dict[str, object] = {"bnerr": _figures(ours_times, ours_warmup, samples)}
+            for v, worker in workers.items():
+                ok = worker.error is None and their_times[v]
+                row[f"mitsuba_{v}"] = _figures(their_times[v], worker.warmup, samples) if ok else worker.error
+                row[f"ratio_{v}"] = statistics.median(ratios[v]) if ok else None
+            out[name] = row
+    finally:
+        torch.set_num_threads(before)
     return out
 
 
 def _print(result: dict[str, object]) -> None:
     settings = result["settings"]
-    print(f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, best of "
-          f"{settings['repeats']}, torch threads {settings['torch_threads']}, "
-          f"compile {settings['compile']}, load average {settings['load_average']}")
+    print(f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, {settings['repeats']} "
+          f"interleaved rounds, torch threads {settings['torch_threads']}, compile {settings['compile']}, "
+          f"load average {settings['load_average']}")
     for name, row in result.items():
         if name == "settings":
             continue
@@ -164,23 +247,22 @@ def _print(result: dict[str, object]) -> None:
                       f"(best {value['best_s']:.3f} s, median {value['median_s']:.3f} s, "
                       f"warm-up {value['warmup_s']:.1f} s)")
             elif key.startswith("ratio"):
-                print(f"{name:8s} {key:22s} {'n/a' if value is None else f'{value:8.2f}x'}")
+                print(f"{name:8s} {key:22s} {'n/a' if value is None else f'{value:8.2f}x'} (median per round)")
             else:
                 print(f"{name:8s} {key:22s} {value}")
 
 
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
-    if argv[:1] == ["--worker"]:
-        variant, scene, w, h, spp, repeats, threads = argv[1:8]
-        figures = _mitsuba_worker(variant, scene, int(w), int(h), int(spp), int(repeats), int(threads) or None)
-        print(json.dumps(figures))
+    if argv[:1] == ["--serve"]:
+        variant, scene, w, h, spp, threads = argv[1:7]
+        _serve(variant, scene, int(w), int(h), int(spp), int(threads) or None)
         return 0
     p = argparse.ArgumentParser(prog="python -m benchmarks.throughput", description=__doc__.split("\n\n")[0])
     p.add_argument("--scenes", nargs="+", default=["direct", "cornell"])
     p.add_argument("--res", default="256x256", metavar="WxH")
     p.add_argument("--spp", type=int, default=32)
-    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--repeats", type=int, default=5, help="interleaved rounds")
     p.add_argument("--threads", type=int, default=None, help="threads for both renderers")
     p.add_argument("--no-compile", dest="compile", action="store_false", help="our tracer in eager mode")
     p.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])

@@ -368,9 +368,9 @@ class _CompiledStep:
 
     Dynamo specializes on the scene's static layout, on which arguments are None (first and
     last vertex) and on the lane count, so a process that renders several scenes needs more
-    than dynamo's default 8 variants of one function: calls raise that limit locally. Lane
-    counts are padded to a power of two by :func:`render`, so a render compiles at most two
-    lane counts per variant.
+    than dynamo's default 8 variants of one function: :func:`render` raises that limit while it
+    runs (:data:`RECOMPILE_LIMIT`). Lane counts are padded to a power of two, so a render
+    compiles at most two lane counts per variant.
     """
 
     def __init__(self) -> None:
@@ -380,8 +380,7 @@ class _CompiledStep:
     def __call__(self, *args):
         if not self.failed:
             try:
-                with torch._dynamo.config.patch(recompile_limit=256):
-                    return self._fn(*args)
+                return self._fn(*args)
             except Exception as err:  # any compiler failure: inductor, C++ toolchain, dynamo
                 warnings.warn(f"renderers: torch.compile failed, tracing in eager mode ({type(err).__name__}: {err})",
                               RuntimeWarning, stacklevel=2)
@@ -390,6 +389,10 @@ class _CompiledStep:
 
 
 _COMPILED: _CompiledStep | None = None
+
+#: Variants of the compiled stage dynamo may keep while :func:`render` runs (3 per scene and lane
+#: count; its default of 8 would silently fall back to eager after three scenes).
+RECOMPILE_LIMIT = 256
 
 
 def _compiled_step() -> _CompiledStep:
@@ -419,32 +422,30 @@ def _intra_op_threads(n: int) -> Iterator[None]:
 
 
 def _run_ranges(work: Callable[[tuple[int, int]], None], ranges: list[tuple[int, int]],
-                device: torch.device) -> None:
-    """Run ``work`` on every pixel range, in parallel over chunks on CPU.
+                workers: int) -> None:
+    """Run ``work`` on every pixel range, ``workers`` ranges at a time (caller: one op thread).
 
     Torch's own intra-op parallelism opens an OpenMP region per op, whose barrier waits for the
     slowest thread: a few hundred regions per chunk, so on a loaded machine every descheduled
     thread stalls all of them (measured: 2 threads 6x slower than 1 on cornell). Chunks are
-    independent, so instead each of ``torch.get_num_threads()`` Python threads traces whole
-    chunks with single-threaded ops (the kernels release the GIL), like Mitsuba's block
+    independent, so :func:`render` runs its ops single-threaded and lets each of ``workers``
+    Python threads trace whole chunks (the kernels release the GIL), like Mitsuba's block
     scheduler. Every range writes its own pixels, in a fixed order within the range, so the
     result does not depend on the thread count or the scheduling. The first and the last range
     run alone first, so that ``torch.compile`` sees every lane count before threads share it.
     """
-    workers = torch.get_num_threads() if device.type == "cpu" else 1
     if workers == 1 or len(ranges) <= 2:
         for pixel_range in ranges:
             work(pixel_range)
         return
-    with _intra_op_threads(1):
-        work(ranges[0])
-        work(ranges[-1])
-        # OpenMP keeps its thread count per thread: a fresh worker would open regions of the
-        # machine's default size inside compiled kernels unless told otherwise.
-        with concurrent.futures.ThreadPoolExecutor(workers, initializer=torch.set_num_threads,
-                                                   initargs=(1,)) as pool:
-            for _ in pool.map(work, ranges[1:-1]):
-                pass
+    work(ranges[0])
+    work(ranges[-1])
+    # OpenMP keeps its thread count per thread: a fresh worker would open regions of the
+    # machine's default size inside compiled kernels unless told otherwise.
+    with concurrent.futures.ThreadPoolExecutor(workers, initializer=torch.set_num_threads,
+                                               initargs=(1,)) as pool:
+        for _ in pool.map(work, ranges[1:-1]):
+            pass
 
 
 def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int, *,
@@ -471,9 +472,11 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
             Compiled and eager results agree to float rounding, not bit for bit; each is
             bit-identical between runs.
 
-    Threads: the work runs on torch's intra-op threads. On a small machine shared with other
-    processes, OpenMP's barriers stall whenever a thread is descheduled (measured: 60x slower with
-    2 threads on a loaded 2-core machine); ``torch.set_num_threads(1)`` avoids that.
+    Threads: ``torch.get_num_threads()`` chunks are traced at once, each by single-threaded ops
+    (torch's thread count is 1 while ``render`` runs and is restored after). Torch's per-op
+    OpenMP parallelism stalls at every op's barrier on a loaded machine (measured 6x slower with
+    2 threads on a shared 2-core machine); whole chunks per thread do not (see ``_run_ranges``).
+    The result does not depend on the thread count.
 
     Returns:
         A :class:`bnerr.frame.Frame` with color, variance (None if spp = 1), albedo, normal,
@@ -498,7 +501,17 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
     check_positive_int(spp, "spp")
     check_positive_int(chunk, "chunk")
 
-    height, width = size["H"], size["W"]
+    workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
+    with _intra_op_threads(1):
+        frame = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
+    frame.timings["render"] = (time.perf_counter() - start) * 1e3
+    return frame
+
+
+def _render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int, chunk: int,
+            compile: bool | None, workers: int) -> Frame:
+    """:func:`render` after its checks, with torch's ops on one thread."""
+    height, width = seeds.shape
     device = seeds.device
     st = scene_tensors(scene, t, device)
     cam = camera_frame(scene.camera, t, width, height, device)
@@ -539,7 +552,11 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
             normal[:, p0:p1] += paths.normal[:, :n].view(3, p1 - p0, ns).sum(-1)
             done += ns
 
-    _run_ranges(work, ranges, device)
+    if step is vertex_step:
+        _run_ranges(work, ranges, workers)
+    else:
+        with torch._dynamo.config.patch(recompile_limit=RECOMPILE_LIMIT):
+            _run_ranges(work, ranges, workers)
 
     cam_prev = camera_frame(scene.camera, t - 1, width, height, device)
     depth = torch.empty(n_pixels, **f32)
@@ -555,10 +572,9 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
         return x.reshape(-1, height, width).contiguous()
 
     variance = image(m2 / ((spp - 1) * spp)) if spp > 1 else None
-    elapsed = (time.perf_counter() - start) * 1e3
     return Frame(color=image(mean), albedo=image(albedo / spp), normal=image(normal / spp),
                  depth=image(depth), motion=image(motion), object_id=image(object_id),
-                 variance=variance, timings={"render": elapsed})
+                 variance=variance)
 
 
 def _merge(mean: torch.Tensor, m2: torch.Tensor, n_a: int, x: torch.Tensor) -> None:
