@@ -349,8 +349,9 @@ def _center_buffers(st: SceneTensors, cam: CameraFrame, cam_prev: CameraFrame, p
 
 
 #: With ``compile=None`` and ``BNERR_COMPILE`` unset, renders of at least this many paths are
-#: compiled: a 1080p frame at 4 spp, where the 8x gain repays even a cold compile (about a minute).
-AUTO_COMPILE_PATHS = 1 << 23
+#: compiled (4.2 M: 1080p at 2 spp, 512 x 512 at 16 spp): from there the 8x gain repays a warm
+#: compile (10 to 25 s) within the render, and a cold one (about a minute) within a few frames.
+AUTO_COMPILE_PATHS = 1 << 22
 
 
 def _use_compile(compile: bool | None, paths: int) -> bool:
@@ -382,8 +383,8 @@ class _CompiledStep:
             try:
                 return self._fn(*args)
             except Exception as err:  # any compiler failure: inductor, C++ toolchain, dynamo
-                warnings.warn(f"renderers: torch.compile failed, tracing in eager mode ({type(err).__name__}: {err})",
-                              RuntimeWarning, stacklevel=2)
+                warnings.warn("renderers: torch.compile failed, tracing in eager mode "
+                              f"({type(err).__name__}: {err})", RuntimeWarning, stacklevel=2)
                 self.failed = True
         return vertex_step(*args)
 
