@@ -34,8 +34,8 @@ import importlib.util
 import numpy as np
 import torch
 
-from bnerr.errors import DtypeError, check_positive_int
-from renderers.scene import Box, Rectangle, Scene, Sphere
+from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
+from renderers.scene import Rectangle, Scene, Sphere
 
 __all__ = ["mitsuba_available", "render_mitsuba", "to_mitsuba"]
 
@@ -167,8 +167,6 @@ def render_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: in
     check_positive_int(passes, "passes")
     check_positive_int(spp, "spp")
     if spp % passes:
-        from bnerr.errors import ValueRangeError
-
         raise ValueRangeError(f"passes: expected a divisor of spp = {spp}, got {passes}")
     mi = _mi(variant)
     per_pass = spp // passes
@@ -179,5 +177,8 @@ def render_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: in
     ])  # [passes, H, W, 3]
     mean = images.mean(0)
     variance = images.var(0, unbiased=True) / passes if passes > 1 else None
-    to_chw = lambda x: x.permute(2, 0, 1).to(torch.float32).contiguous()  # noqa: E731
-    return to_chw(mean), (to_chw(variance) if variance is not None else None)
+    return _chw(mean), (_chw(variance) if variance is not None else None)
+
+
+def _chw(x: torch.Tensor) -> torch.Tensor:
+    return x.permute(2, 0, 1).to(torch.float32).contiguous()
