@@ -7,7 +7,9 @@
   over frames t with a static variant; ``scene.dimensions`` is D and ``scene.max_depth`` the
   depth in Mitsuba's convention.
 - :mod:`renderers.scene`: the scene description; :mod:`renderers.layout`: which dimension feeds
-  what; :mod:`renderers.mitsuba`: the same scene as a Mitsuba 3 dictionary (optional dependency).
+  what; :mod:`renderers.mitsuba`: the same scene as a Mitsuba 3 dictionary (optional dependency);
+  :mod:`renderers.compare`: the statistical test that two Monte Carlo images agree, used by the
+  Mitsuba cross-check.
 
 This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmarks`.
 """
