@@ -37,8 +37,8 @@ from bnerr.metrics import bootstrap_interval, paired_ratio
 
 __all__ = ["COLUMNS", "markdown_table", "summarize", "write_charts", "write_report"]
 
-_CELL = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "width", "height",
-         "frames", "warmup", "seed_sets")
+_CELL = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "sampler", "width",
+         "height", "frames", "warmup", "seed_sets")
 _RATIO = ("den_mse", "raw_mse", "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2")
 _INTERVAL = ("raw_mse", "den_mse")
 
@@ -131,21 +131,25 @@ def _csv_text(rows: Sequence[dict]) -> str:
 
 
 def _group_key(row: dict) -> tuple:
-    return (row["scene"], row["motion"], row["depth"], row["region"])
+    return (row["scene"], row["motion"], row["depth"], row["region"], row["sampler"])
 
 
 def _group_title(key: tuple) -> str:
-    scene, motion, depth, region = key
-    parts = [f"motion x{motion}" if motion != 1 else None, "static camera" if motion == 0 else None,
-             f"depth {depth}" if depth is not None else None, "object edges only" if region == "edges" else None]
-    extra = [p for p in parts if p and not (motion == 0 and p.startswith("motion"))]
+    scene, motion, depth, region, sampler = key
+    extra = [
+        "static camera" if motion == 0 else (f"motion x{motion}" if motion != 1 else None),
+        f"max depth {depth}" if depth is not None else None,
+        "object edges only" if region == "edges" else None,
+        f"{sampler} sequences" if sampler != "owen_sobol" else None,
+    ]
+    extra = [e for e in extra if e]
     return scene + (f" ({', '.join(extra)})" if extra else "")
 
 
 def _group_slug(key: tuple) -> str:
-    scene, motion, depth, region = key
-    return scene + ("" if motion == 1 else f"_m{motion}") + ("" if depth is None else f"_d{depth}") + (
-        "" if region == "all" else f"_{region}")
+    scene, motion, depth, region, sampler = key
+    return (scene + ("" if motion == 1 else f"_m{motion}") + ("" if depth is None else f"_d{depth}")
+            + ("" if region == "all" else f"_{region}") + ("" if sampler == "owen_sobol" else f"_{sampler}"))
 
 
 def _strategies(rows: Iterable[dict]) -> list[str]:
@@ -228,7 +232,7 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
     for row in rows:
         groups[_group_key(row)].append(row)
     lines = [f"# {title}", ""]
-    for key in sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3])):
+    for key in sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4])):
         lines += _group_markdown(key, groups[key])
     flagged = [r for r in rows if r["worse_than_white"]]
     lines += ["## Worse than white beyond the interval", ""]
@@ -360,7 +364,8 @@ def write_charts(rows: Sequence[dict], records: Sequence[dict], out_dir: str | P
     for rec in records:
         c = rec["cell"]
         if c["region"] == "all":
-            lookup[(_group_slug((c["scene"], c["motion"], c["depth"], c["region"])), c["strategy"], c["spp"], c["denoiser"])] = rec
+            slug = _group_slug((c["scene"], c["motion"], c["depth"], c["region"], c["sampler"]))
+            lookup[(slug, c["strategy"], c["spp"], c["denoiser"])] = rec
     written = []
     for slug, group in sorted(by_slug.items()):
         title = _group_title(_group_key(group[0]))

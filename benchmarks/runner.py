@@ -3,7 +3,7 @@
 For each **run** (scene x strategy x spp x motion/depth condition, see :mod:`benchmarks.suites`)
 and each independent seed set, the runner builds the strategy, lets it drive the renderer for
 ``warmup + frames`` frames (the warmup frames are rendered but not measured, so that the temporal
-strategies have converged), and, for each measured frame, compares the raw frame and every
+strategies have converged; stateless strategies skip them, see :class:`Parts`), and, for each measured frame, compares the raw frame and every
 denoiser's output with the reference of that frame (:class:`bnerr.metrics.FrameMetrics`), once per
 pixel region. One run yields one record per cell (denoiser x region): per-frame metric pairs (so
 that the report can bootstrap intervals and pair strategies on the same frames), per-frame
@@ -93,8 +93,12 @@ class Parts:
     Attributes:
         get_scene: ``(name, animated) -> scene``; the scene has ``dimensions`` and ``max_depth``.
         render: ``(scene, t, seeds [H, W] int64, sampler, spp) -> Frame``.
-        make_strategy: ``(name, scene, height, width, seed) -> Strategy`` with
+        make_strategy: ``(name, scene, height, width, seed, sampler) -> Strategy`` with
             ``frame(t, render) -> Frame`` and ``overhead_ms``.
+        stateful: ``(strategy) -> bool``: whether a frame depends on the earlier frames (the
+            temporal strategies). Only those render the warmup frames; a stateless strategy's
+            frame t is the same whether or not frames 0..t-1 were rendered, so the runner skips
+            them (the oracle's warmup would cost K renders per frame for nothing).
         make_denoiser: ``(name, params) -> Denoiser`` (``params`` from :func:`tune_denoiser`,
             or None for a denoiser without parameters).
         tune_denoiser: ``(name, frames, references) -> TuneResult | None``: grid-search the
@@ -107,7 +111,8 @@ class Parts:
 
     get_scene: Callable[[str, bool], Any]
     render: Callable[..., Frame]
-    make_strategy: Callable[[str, Any, int, int, int], Any]
+    make_strategy: Callable[[str, Any, int, int, int, str], Any]
+    stateful: Callable[[Any], bool]
     make_denoiser: Callable[[str, dict | None], Any]
     tune_denoiser: Callable[[str, list[Frame], list[torch.Tensor]], Any]
     reference_sampler: Callable[[], Any]
@@ -138,10 +143,17 @@ def real_parts() -> Parts:
     def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
         return tuning.tune(name, frames, refs) if name in tuning.GRIDS else None
 
-    def make_strategy(name: str, scene: Any, height: int, width: int, seed: int):
+    def make_strategy(name: str, scene: Any, height: int, width: int, seed: int, sampler: str):
         from bnerr import strategies
 
-        return strategies.make_strategy(name, height, width, seed=seed, dimensions=scene.dimensions)
+        return strategies.make_strategy(
+            name, height, width, seed=seed, sampler=sampler, dimensions=scene.dimensions
+        )
+
+    def stateful(strategy: Any) -> bool:
+        from bnerr import strategies
+
+        return isinstance(strategy, strategies.TemporalStrategy)
 
     def reference_sampler():
         # Owen-scrambled Sobol converges faster than white noise at equal spp, so the reference
@@ -153,6 +165,7 @@ def real_parts() -> Parts:
         get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
         render=renderers.render,
         make_strategy=make_strategy,
+        stateful=stateful,
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
@@ -176,6 +189,7 @@ class Cell:
     motion: int
     depth: int | None
     region: str
+    sampler: str
     frames: int
     warmup: int
     width: int
@@ -200,6 +214,7 @@ class Run:
     spp: int
     motion: int
     depth: int | None
+    sampler: str
     frames: int
     warmup: int
     width: int
@@ -214,33 +229,36 @@ class Run:
     def cells(self) -> list[Cell]:
         common = dict(
             scene=self.scene, strategy=self.strategy, spp=self.spp, motion=self.motion,
-            depth=self.depth, frames=self.frames, warmup=self.warmup, width=self.width,
+            depth=self.depth, sampler=self.sampler, frames=self.frames, warmup=self.warmup, width=self.width,
             height=self.height, seed_sets=self.seed_sets, reference_spp=self.reference_spp,
         )
         return [Cell(denoiser=d, region=r, **common) for d in self.denoisers for r in self.regions]
 
     @property
     def label(self) -> str:
-        extra = (f" motion={self.motion}" if self.motion != 1 else "") + (
-            f" depth={self.depth}" if self.depth is not None else ""
+        extra = (
+            (f" motion={self.motion}" if self.motion != 1 else "")
+            + (f" depth={self.depth}" if self.depth is not None else "")
+            + (f" sampler={self.sampler}" if self.sampler != "owen_sobol" else "")
         )
         return f"{self.scene} {self.strategy} {self.spp}spp{extra}"
 
 
 def _sweep_runs(sweep: Sweep, crops: bool) -> list[Run]:
-    renders: dict[tuple[int, int | None], list[str]] = {}
+    renders: dict[tuple[int, int | None, str], list[str]] = {}
     for cond in sweep.conditions:
-        regions = renders.setdefault((cond.motion, cond.depth), [])
+        regions = renders.setdefault((cond.motion, cond.depth, cond.sampler), [])
         if cond.region not in regions:
             regions.append(cond.region)
     runs = []
     for scene in sweep.scenes:
-        for (motion, depth), regions in renders.items():
+        for (motion, depth, sampler), regions in renders.items():
             for spp in sweep.spp:
                 for strategy in sweep.strategies:
                     runs.append(
                         Run(
                             scene=scene, strategy=strategy, spp=spp, motion=motion, depth=depth,
+                            sampler=sampler,
                             frames=sweep.frames, warmup=sweep.warmup, width=sweep.res[0],
                             height=sweep.res[1], seed_sets=sweep.seed_sets,
                             reference_spp=sweep.reference_spp, denoisers=sweep.denoisers,
@@ -532,9 +550,13 @@ def measure_run(
     measurement = _Measurement(run, {name: denoisers[name] for name in run.denoisers})
     render = _TimedRender(parts, scene, run.spp)
     for group in range(run.seed_sets):
-        strategy = parts.make_strategy(run.strategy, scene, run.height, run.width, group)
+        strategy = parts.make_strategy(run.strategy, scene, run.height, run.width, group, run.sampler)
         measurement.start_seed_set()
-        for t in range(run.warmup + run.frames):
+        first = 0 if parts.stateful(strategy) else run.warmup
+        if on_frame is not None:
+            for _ in range(first):  # the skipped warmup frames count as done
+                on_frame()
+        for t in range(first, run.warmup + run.frames):
             render.t_render, render.ms = _t_render(run, t), 0.0
             frame = strategy.frame(t, render)
             if on_frame is not None:
@@ -549,7 +571,7 @@ def measure_run(
 def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
     """Save the tonemapped crops of a run as one compressed ``.npz``; return its name."""
     depth = "" if run.depth is None else f"_d{run.depth}"
-    name = f"{run.scene}_{run.strategy}_{run.spp}spp_m{run.motion}{depth}.npz"
+    name = f"{run.scene}_{run.strategy}_{run.spp}spp_m{run.motion}{depth}_{run.sampler}.npz"
     crops_dir.mkdir(parents=True, exist_ok=True)
     with atomic_write(crops_dir / name) as tmp:
         with open(tmp, "wb") as handle:
@@ -562,9 +584,9 @@ def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
 
 
 def _tuning_key(run: Run) -> str:
-    """What the tuned parameters depend on besides spp: scene, condition and resolution."""
+    """What the tuned parameters depend on besides spp: scene, condition, sampler and resolution."""
     depth = "" if run.depth is None else f"/d{run.depth}"
-    return f"{run.scene}/m{run.motion}{depth}/{run.width}x{run.height}"
+    return f"{run.scene}/m{run.motion}{depth}/{run.sampler}/{run.width}x{run.height}"
 
 
 def tune_denoisers(run: Run, parts: Parts, references: ReferenceCache, store: Any) -> dict[str, Any]:
@@ -581,7 +603,7 @@ def tune_denoisers(run: Run, parts: Parts, references: ReferenceCache, store: An
     if missing:
         scene = _scene_for(run, parts)
         render = _TimedRender(parts, scene, run.spp)
-        strategy = parts.make_strategy("white", scene, run.height, run.width, _TUNING_SEED_SET)
+        strategy = parts.make_strategy("white", scene, run.height, run.width, _TUNING_SEED_SET, run.sampler)
         frames, refs = [], []
         for t in range(run.warmup, run.warmup + min(run.frames, 4)):
             render.t_render = _t_render(run, t)

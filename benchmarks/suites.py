@@ -34,10 +34,13 @@ from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 
-__all__ = ["REGIONS", "SUITES", "Condition", "Suite", "Sweep", "get_suite", "resolve"]
+__all__ = ["REGIONS", "SAMPLERS", "SUITES", "Condition", "Suite", "Sweep", "get_suite", "resolve"]
 
 #: Pixel regions the metrics can be restricted to.
 REGIONS: tuple[str, ...] = ("all", "edges")
+
+#: Per-pixel samplers a strategy can draw its sequences from (``bnds`` always uses its own).
+SAMPLERS: tuple[str, ...] = ("owen_sobol", "white")
 
 
 @dataclass(frozen=True)
@@ -52,17 +55,23 @@ class Condition:
             2 is direct lighting, ``depth - 1`` scattering vertices), or None for the scene's own.
         region: ``"all"`` pixels, or ``"edges"``: pixels within one pixel of an object-id
             discontinuity of the reference (:func:`bnerr.metrics.edge_mask`).
+        sampler: the per-pixel sequences of white, temporal, temporal_sort and oracle:
+            ``"owen_sobol"`` (the strategies' default) or ``"white"`` (a hash). ``bnds`` ignores it.
+            It matters: a seed's error must carry over to the neighbouring pixel it is moved to,
+            and the stratified error of Owen-scrambled Sobol carries over less than white noise's.
     """
 
     motion: int = 1
     depth: int | None = None
     region: str = "all"
+    sampler: str = "owen_sobol"
 
     def __post_init__(self) -> None:
         check_positive_int(self.motion, "Condition.motion", minimum=0)
         if self.depth is not None:
             check_positive_int(self.depth, "Condition.depth", minimum=2)
         check_name(self.region, REGIONS, "region")
+        check_name(self.sampler, SAMPLERS, "per-pixel sampler")
 
 
 @dataclass(frozen=True)
@@ -108,7 +117,7 @@ class Sweep:
     @property
     def runs(self) -> int:
         """Number of strategy runs (one per scene x strategy x spp x motion/depth x seed set)."""
-        renders = {(c.motion, c.depth) for c in self.conditions}
+        renders = {(c.motion, c.depth, c.sampler) for c in self.conditions}
         return len(self.scenes) * len(self.strategies) * len(self.spp) * len(renders) * self.seed_sets
 
 
@@ -132,7 +141,7 @@ class Suite:
     crops: bool = True
 
 
-_ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_untextured", "medium")
+_ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
 _ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle")
 _ALL_DENOISERS = ("gaussian", "bilateral", "joint_bilateral", "guided", "median", "atrous", "unet", "oidn")
 
@@ -181,7 +190,7 @@ SUITES: dict[str, Suite] = {
         sweeps=(
             # Texture: the paper's failure case, against the same table without its texture.
             Sweep(
-                scenes=("snooker", "snooker_untextured"),
+                scenes=("snooker", "snooker_plain"),
                 strategies=("white", "temporal", "temporal_sort", "oracle"),
                 spp=(1, 4),
                 denoisers=("gaussian", "atrous"),

@@ -34,9 +34,10 @@ def _ints(values: list[str] | None, flag: str) -> list[int] | None:
     if names is None:
         return None
     try:
-        return [check_positive_int(int(v), flag) for v in names]
+        numbers = [int(v) for v in names]
     except ValueError as err:
         raise DtypeError(f"{flag}: expected positive integers, got {values!r}") from err
+    return [check_positive_int(n, flag) for n in numbers]
 
 
 def _res(text: str | None) -> tuple[int, int] | None:
@@ -72,14 +73,23 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", type=Path, help="output folder (default results/<suite>)")
     parser.add_argument("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
     parser.add_argument("--resume", action="store_true", help="keep existing results, measure only missing cells")
+    parser.add_argument(
+        "--threads", type=int,
+        help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
+        "machine, where OpenMP barriers stall whenever a thread is descheduled",
+    )
     parser.add_argument("--no-charts", action="store_true", help="write the tables only")
     parser.add_argument("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    import torch
+
     from benchmarks import report, runner, suites
 
+    if args.threads is not None:
+        torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     suite = suites.get_suite(args.suite)
     out = args.out or Path("results") / suite.name
     if suite.scripts:

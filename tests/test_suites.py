@@ -1,0 +1,108 @@
+"""Tests of benchmarks.suites: the named suites as data, their checks, and the CLI overrides."""
+
+import dataclasses
+
+import pytest
+
+from benchmarks.suites import REGIONS, SUITES, Condition, Sweep, get_suite, resolve
+from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
+
+
+def _cells(suite):
+    for sweep in suite.sweeps:
+        for scene in sweep.scenes:
+            for strategy in sweep.strategies:
+                for spp in sweep.spp:
+                    for denoiser in sweep.denoisers:
+                        for cond in sweep.conditions:
+                            yield scene, strategy, spp, denoiser, cond
+
+
+def test_every_suite_is_named_as_its_key_and_has_work():
+    assert sorted(SUITES) == ["quality", "quick", "speed", "stability"]
+    for name, suite in SUITES.items():
+        assert suite.name == name and suite.description
+        assert bool(suite.sweeps) != bool(suite.scripts), name  # cells or scripts, not both
+    assert get_suite("quick") is SUITES["quick"]
+
+
+def test_quick_brackets_the_method_with_white_and_oracle():
+    cells = list(_cells(get_suite("quick")))
+    assert {c[1] for c in cells} >= {"white", "temporal", "oracle"}
+    assert {c[0] for c in cells} == {"direct", "indirect"}
+    assert all(s.warmup > 0 for s in get_suite("quick").sweeps)
+
+
+def test_quality_covers_every_scene_strategy_and_denoiser_at_1_4_16_spp():
+    import denoisers
+    import renderers
+
+    cells = list(_cells(get_suite("quality")))
+    assert {c[0] for c in cells} == set(renderers.SCENES)
+    assert {c[1] for c in cells} == {"white", "bnds", "temporal", "temporal_sort", "oracle"}
+    assert {c[2] for c in cells} == {1, 4, 16}
+    assert {c[3] for c in cells} == set(denoisers.DENOISERS)
+
+
+def test_stability_varies_each_failure_axis():
+    import renderers
+
+    suite = get_suite("stability")
+    cells = list(_cells(suite))
+    scenes = {c[0] for c in cells}
+    assert {"snooker", "snooker_plain"} <= scenes <= set(renderers.SCENES)
+    conds = {c[4] for c in cells}
+    assert {c.region for c in conds} == set(REGIONS)
+    assert {0, 1} < {c.motion for c in conds} and max(c.motion for c in conds) > 1
+    depths = sorted(c.depth for c in conds if c.depth is not None)
+    assert depths[0] == 2 and depths[-1] == 9  # 1 to 8 bounces
+    assert min(c[2] for c in cells) == 1 and max(c[2] for c in cells) == 64
+    assert all("white" in s.strategies for s in suite.sweeps)  # every ratio has its baseline
+
+
+def test_speed_names_existing_scripts():
+    import importlib
+
+    for script in get_suite("speed").scripts:
+        importlib.import_module(f"benchmarks.{script}")
+
+
+def test_resolve_overrides_every_sweep():
+    suite = resolve(get_suite("stability"), scenes=["direct"], spp=[2], frames=3, warmup=0, res=(16, 8))
+    for sweep in suite.sweeps:
+        assert sweep.scenes == ("direct",) and sweep.spp == (2,)
+        assert (sweep.frames, sweep.warmup, sweep.res) == (3, 0, (16, 8))
+    original = get_suite("stability")
+    assert resolve(original) == original
+    assert original.sweeps[0].scenes != ("direct",)  # the registry itself is untouched
+
+
+def test_resolve_checks_names_against_the_registries():
+    with pytest.raises(UnknownNameError, match="unknown scene 'nope': expected one of a, b"):
+        resolve(get_suite("quick"), scenes=["a", "nope"], known_scenes=["a", "b"])
+    with pytest.raises(UnknownNameError, match="unknown suite 'fast'"):
+        get_suite("fast")
+
+
+def test_bad_configurations_raise_typed_errors():
+    sweep = get_suite("quick").sweeps[0]
+    with pytest.raises(ValueRangeError, match="Sweep.strategies: expected at least one entry"):
+        dataclasses.replace(sweep, strategies=())
+    with pytest.raises(ValueRangeError, match="Sweep.spp: expected an integer >= 1, got 0"):
+        dataclasses.replace(sweep, spp=(1, 0))
+    with pytest.raises(DtypeError, match="Sweep.frames: expected an integer"):
+        dataclasses.replace(sweep, frames=2.5)
+    with pytest.raises(UnknownNameError, match="unknown region 'rim'"):
+        Condition(region="rim")
+    with pytest.raises(ValueRangeError, match="Condition.depth: expected an integer >= 2, got 1"):
+        Condition(depth=1)
+    with pytest.raises(ValueRangeError, match="Condition.motion: expected an integer >= 0"):
+        Condition(motion=-1)
+
+
+def test_runs_count_renders_not_denoisers_or_regions():
+    sweep = Sweep(
+        scenes=("a", "b"), strategies=("white", "temporal"), spp=(1, 4), denoisers=("x", "y", "z"),
+        seed_sets=2, conditions=(Condition(), Condition(region="edges"), Condition(motion=0)),
+    )
+    assert sweep.runs == 2 * 2 * 2 * 2 * 2
