@@ -77,6 +77,8 @@ RESULTS_FILE = "cells.jsonl"
 TUNED_PARAMS_FILE = "tuned_params.json"
 
 _REFERENCE_SALT = 0x5EED_BA5E  # keeps reference seeds apart from every strategy's seeds
+_REFERENCE_FORMAT = "r1"  # bump when the reference seeds, sampler or file layout change
+_REFERENCES_IN_MEMORY = 16  # a run revisits its measured frames once per seed set
 _TUNING_SEED_SET = 1_000_003  # the white frames the denoisers are tuned on: no measured run uses it
 _SPECTRUM_TILE = 64
 _CROP = 64
@@ -314,8 +316,8 @@ class ReferenceCache:
     """High-spp references, rendered on first use and kept as EXR files.
 
     The file name holds every input of the render: scene, motion/depth condition, the frame the
-    renderer sees, resolution, spp and the renderer version. Static scenes (motion 0) share one
-    reference across frames.
+    renderer sees, resolution, spp, the reference format and the renderer version. Static scenes
+    (motion 0) share one reference across frames. The last few are also kept in memory.
 
     Args:
         root: cache folder (``cache/references`` by default in the CLI; git-ignored).
@@ -330,7 +332,7 @@ class ReferenceCache:
     def path(self, scene: str, motion: int, depth: int | None, t_render: int, width: int, height: int, spp: int) -> Path:
         depth_tag = "d" if depth is None else f"d{depth}"
         version = self.parts.renderer_version.replace("/", "_")
-        name = f"{scene}_m{motion}_{depth_tag}_t{t_render}_{width}x{height}_spp{spp}_{version}.exr"
+        name = f"{scene}_m{motion}_{depth_tag}_t{t_render}_{width}x{height}_spp{spp}_{_REFERENCE_FORMAT}_{version}.exr"
         return self.root / scene / name
 
     def get(self, run: Run, scene: Any, t_render: int) -> Frame:
@@ -351,7 +353,9 @@ class ReferenceCache:
             frame = self.parts.render(scene, t_render, seeds, self.parts.reference_sampler(), run.reference_spp)
             path.parent.mkdir(parents=True, exist_ok=True)
             write_frame(path, frame)
-        self._memory = {key: frame}  # keep one: runs walk the frames in order
+        if len(self._memory) >= _REFERENCES_IN_MEMORY:
+            self._memory.pop(next(iter(self._memory)))
+        self._memory[key] = frame
         return frame
 
 

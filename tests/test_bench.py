@@ -21,7 +21,7 @@ def _args(tmp_path, *extra):
     return [
         "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,temporal", "--spp", "1",
         "--denoisers", "gaussian", "--frames", "2", "--warmup", "1", "--res", "16x12",
-        "--reference-spp", "8", "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"),
+        "--reference-spp", "8", "--seed-sets", "1", "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"),
         "--quiet", *extra,
     ]
 
@@ -33,7 +33,8 @@ def test_bench_writes_the_tables_and_charts_with_the_overrides(tmp_path, capsys)
     assert sorted((r["cell"]["strategy"], r["cell"]["denoiser"]) for r in records) == [
         ("temporal", "gaussian"), ("white", "gaussian")]
     cell = records[0]["cell"]
-    assert (cell["width"], cell["height"], cell["frames"], cell["warmup"], cell["reference_spp"]) == (16, 12, 2, 1, 8)
+    got = tuple(cell[k] for k in ("width", "height", "frames", "warmup", "reference_spp", "seed_sets"))
+    assert got == (16, 12, 2, 1, 8, 1)
     assert (out / "table.csv").exists() and "### direct" in (out / "table.md").read_text()
     assert (out / "error_vs_time_direct.png").exists()
     assert f"results written to {out}" in capsys.readouterr().out

@@ -45,7 +45,7 @@ def _parts(**changes):
 
 def _suite(**sweep):
     base = dict(scenes=("direct",), strategies=("white", "temporal"), spp=(1,), denoisers=("gaussian", "median"),
-                frames=2, warmup=1, res=(16, 12), reference_spp=16)
+                frames=2, warmup=1, res=(16, 12), reference_spp=16, seed_sets=2)
     base.update(sweep)
     return Suite(name="tiny", description="test", sweeps=(Sweep(**base),))
 
@@ -123,7 +123,7 @@ def test_every_cell_gets_a_record_with_per_frame_pairs(tiny):
         assert rec["t"] == [1, 2]  # warmup frame 0 is rendered, not measured
         assert set(rec["raw"]) == set(rec["den"]) == set(_suite().sweeps[0].metrics)
         s = torch.tensor(rec["raw"]["mse"])
-        assert s.shape == (1, 2, 2) and torch.all(s[..., 1] == 3 * 16 * 12)
+        assert s.shape == (2, 2, 2) and torch.all(s[..., 1] == 3 * 16 * 12)  # [seed sets, frames, 2]
         assert rec["dimensions"] == 4
         assert rec["reference"]["spp"] == 16 and rec["reference"]["floor"] > 0
 
@@ -140,7 +140,7 @@ def test_timings_cover_render_permutation_and_denoise(tiny):
     for rec in records:
         for name in ("render_ms", "perm_ms", "denoise_ms"):
             values = torch.tensor(rec["timings"][name])
-            assert values.shape == (1, 2) and bool((values >= 0).all())
+            assert values.shape == (2, 2) and bool((values >= 0).all())
         assert min(min(row) for row in rec["timings"]["render_ms"]) > 0
 
 
@@ -156,9 +156,9 @@ def test_denoisers_are_tuned_once_on_white_noise_and_shared(tiny):
 def test_references_are_cached_per_measured_frame(tiny):
     _, cache, _, renders = tiny
     assert len(list(cache.rglob("*.exr"))) == 2  # frames 1 and 2; the warmup frame needs none
-    # 2 references + 2 white tuning frames + white's 2 measured frames (stateless: its warmup is
-    # skipped) + temporal's warmup and 2 measured frames
-    assert renders == 2 + 2 + 2 + 3
+    # 2 references + 2 white tuning frames + per seed set: white's 2 measured frames (stateless:
+    # its warmup is skipped) and temporal's warmup and 2 measured frames
+    assert renders == 2 + 2 + 2 * (2 + 3)
 
 
 def test_rerun_with_resume_measures_nothing(tiny):
@@ -170,8 +170,8 @@ def test_rerun_with_resume_measures_nothing(tiny):
 
 def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):
     _, cache, records, _ = tiny
-    # References are cached: 2 tuning frames + 2 white frames, then the temporal run dies.
-    parts = _parts(render=_Counting(real_parts().render, fail_after=4))
+    # References are cached: 2 tuning frames + 2 x 2 white frames, then the temporal run dies.
+    parts = _parts(render=_Counting(real_parts().render, fail_after=6))
     with pytest.raises(KeyboardInterrupt):
         run_suite(_suite(), tmp_path, parts=parts, cache_dir=cache, progress=False)
     partial = load_records(tmp_path)
@@ -195,3 +195,15 @@ def test_static_scenes_share_one_reference_and_edges_restrict_pixels(tmp_path):
     assert len(list(cache.rglob("*.exr"))) == 1
     counts = {r["cell"]["region"]: torch.tensor(r["raw"]["mse"])[..., 1] for r in records}
     assert bool((counts["edges"] < counts["all"]).all()) and bool((counts["edges"] > 0).all())
+
+
+def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):
+    # The speed scripts time 1080p work for minutes; their own tests cover them. Here only the
+    # plumbing: every script's measure() is called and its nested figures land in JSON and Markdown.
+    import benchmarks.speed_masks as speed_masks
+
+    monkeypatch.setattr(speed_masks, "measure", lambda: {"scalar_64": {"seconds": 0.5, "low": torch.tensor(0.01)}})
+    text = runner.run_speed(Suite("speed", "timings", scripts=("speed_masks",)), tmp_path, progress=False)
+    stored = json.loads((tmp_path / "speed.json").read_text())
+    assert stored == {"speed_masks": {"scalar_64": {"seconds": 0.5, "low": pytest.approx(0.01)}}}
+    assert "| scalar_64/seconds | 0.5 |" in text and (tmp_path / "speed.md").read_text() == text

@@ -4,7 +4,7 @@ import dataclasses
 
 import pytest
 
-from benchmarks.suites import REGIONS, SUITES, Condition, Sweep, get_suite, resolve
+from benchmarks.suites import REGIONS, SAMPLERS, SUITES, Condition, Sweep, get_suite, resolve
 from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 
 
@@ -53,6 +53,7 @@ def test_stability_varies_each_failure_axis():
     assert {"snooker", "snooker_plain"} <= scenes <= set(renderers.SCENES)
     conds = {c[4] for c in cells}
     assert {c.region for c in conds} == set(REGIONS)
+    assert {c.sampler for c in conds} == set(SAMPLERS)
     assert {0, 1} < {c.motion for c in conds} and max(c.motion for c in conds) > 1
     depths = sorted(c.depth for c in conds if c.depth is not None)
     assert depths[0] == 2 and depths[-1] == 9  # 1 to 8 bounces
@@ -98,6 +99,8 @@ def test_bad_configurations_raise_typed_errors():
         Condition(depth=1)
     with pytest.raises(ValueRangeError, match="Condition.motion: expected an integer >= 0"):
         Condition(motion=-1)
+    with pytest.raises(UnknownNameError, match="unknown per-pixel sampler 'sobol'"):
+        Condition(sampler="sobol")
 
 
 def test_runs_count_renders_not_denoisers_or_regions():
