@@ -31,7 +31,14 @@ from pathlib import Path
 
 import torch
 
-from bnerr.errors import FileFormatError, ShapeError, ValueRangeError, check_positive_int, check_shape
+from bnerr.errors import (
+    FileFormatError,
+    ShapeError,
+    ValueRangeError,
+    check_name,
+    check_positive_int,
+    check_shape,
+)
 from bnerr.frame import Frame
 from denoisers.base import check_frame
 from denoisers.unet import (
@@ -45,15 +52,19 @@ from denoisers.unet import (
 
 __all__ = [
     "CHECKPOINT_FORMAT",
+    "LOSSES",
     "TrainConfig",
     "TrainResult",
     "TrainingSet",
     "learning_rate",
     "load_checkpoint",
+    "loss_value",
     "make_training_set",
     "train",
 ]
 
+#: Training losses (see :func:`loss_value`).
+LOSSES = ("l1_log", "relmse")
 #: Format tag of checkpoint files, checked on resume.
 CHECKPOINT_FORMAT = "bnerr-unet-checkpoint-v1"
 
@@ -71,6 +82,9 @@ class TrainConfig:
         seed: seeds the initial weights and every batch.
         widths: the U-Net's channel widths (see :class:`~denoisers.unet.UNet`).
         checkpoint_every: steps between checkpoints.
+        loss: ``"l1_log"`` (L1 in the log domain, OIDN's choice) or ``"relmse"`` (relative MSE
+            in the exposed linear domain, ``(p - t)^2 / (t^2 + 0.01)``).
+        residual: the network adds its output to its log input color (see :mod:`denoisers.unet`).
     """
 
     steps: int = 3000
@@ -81,8 +95,11 @@ class TrainConfig:
     seed: int = 0
     widths: tuple[int, ...] = DEFAULT_WIDTHS
     checkpoint_every: int = 100
+    loss: str = "l1_log"
+    residual: bool = True
 
     def __post_init__(self) -> None:
+        check_name(self.loss, LOSSES, "training loss")
         check_positive_int(self.steps, "TrainConfig.steps")
         check_positive_int(self.batch_size, "TrainConfig.batch_size")
         check_positive_int(self.crop, "TrainConfig.crop", minimum=8)
@@ -158,6 +175,23 @@ def make_training_set(pairs: Sequence[tuple[Frame, torch.Tensor]]) -> TrainingSe
         inputs.append(network_input(frame.color, frame.albedo, frame.normal, exposure))
         targets.append(torch.log1p(reference.clamp_min(0.0) * exposure))
     return TrainingSet(torch.stack(inputs).cpu(), torch.stack(targets).cpu())
+
+
+def loss_value(prediction: torch.Tensor, target: torch.Tensor, kind: str) -> torch.Tensor:
+    """The training loss between network output and target, both in the log domain ``[B, 3, h, w]``.
+
+    ``l1_log``: mean absolute difference of the log values. ``relmse``: relative MSE of the
+    exposed linear values ``p = expm1(prediction)``, ``t = expm1(target)``:
+    ``mean((p - t)^2 / (t^2 + 0.01))``, the project's relMSE metric; its minimizer is a weighted
+    posterior mean (the MSE-optimal estimate up to the weights), where L1 gives the median, which
+    lies below the mean for the skewed posteriors of low-spp Monte Carlo noise. The prediction is
+    clamped at 12 (exp(12) is 10^5 times mid-grey) so that an early wild output cannot overflow.
+    """
+    if kind == "l1_log":
+        return (prediction - target).abs().mean()
+    p = torch.expm1(prediction.clamp(max=12.0))
+    t = torch.expm1(target)
+    return ((p - t).square() / (t.square() + 0.01)).mean()
 
 
 def learning_rate(config: TrainConfig, step: int) -> float:
@@ -265,7 +299,7 @@ def train(
     ckpt = Path(checkpoint) if checkpoint is not None else None
 
     torch.manual_seed(config.seed)
-    model = UNet(config.widths)
+    model = UNet(config.widths, residual=config.residual)
     count = sum(p.numel() for p in model.parameters())
     if count > MAX_PARAMETERS:
         raise ValueRangeError(
@@ -290,7 +324,7 @@ def train(
         for group in opt.param_groups:
             group["lr"] = learning_rate(config, step)
         x, target = _batch(data, config, step)
-        loss = (model(x) - target).abs().mean()
+        loss = loss_value(model(x), target, config.loss)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import itertools
 import json
-import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +40,7 @@ from bnerr.errors import (
     check_shape,
 )
 from bnerr.frame import Frame
+from bnerr.io import atomic_write
 from denoisers import get_denoiser
 from denoisers.base import Denoiser
 
@@ -59,11 +59,15 @@ PARAMS_FORMAT = "bnerr-tuned-params-v1"
 
 #: The search grid of each tunable filter: parameter -> candidate values (small on purpose).
 GRIDS: dict[str, dict[str, tuple]] = {
-    "atrous": {"iterations": (3, 4, 5), "sigma_color": (1.0, 4.0, 16.0, 64.0)},
-    "bilateral": {"sigma_color": (0.25, 0.5, 1.0, 2.0, 4.0), "sigma_space": (1.0, 2.0, 3.0)},
+    "atrous": {"iterations": (1, 2, 3, 5), "sigma_color": (1.0, 4.0, 16.0, 64.0)},
+    "bilateral": {"sigma_color": (0.5, 1.0, 2.0, 4.0, 8.0), "sigma_space": (1.0, 2.0, 3.0)},
     "gaussian": {"sigma": (0.5, 0.75, 1.0, 1.5, 2.0, 3.0)},
-    "guided": {"radius": (1, 2, 3, 5), "eps": (1e-4, 1e-3, 1e-2, 1e-1)},
-    "joint_bilateral": {"sigma_color": (0.05, 0.1, 0.2, 0.5), "sigma_space": (1.0, 2.0, 3.0)},
+    "guided": {"eps": (1e-2, 1e-1, 1.0, 10.0), "radius": (1, 2, 3, 5)},
+    "joint_bilateral": {
+        "sigma_color": (2.0, 4.0, 8.0),
+        "sigma_feature": (0.3, 1.0),
+        "sigma_space": (1.0, 2.0, 3.0),
+    },
     "median": {"kernel_size": (3, 5)},
 }
 
@@ -141,12 +145,8 @@ def tune(
 
 def _atomic_write_text(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    with atomic_write(path) as tmp:
         tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 class ParamStore:

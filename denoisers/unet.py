@@ -3,8 +3,11 @@
 Architecture (after OIDN's ``UNet``, training/model.py of the OIDN repository; Ronneberger et al.
 2015 for the U-Net): 3 x 3 convolutions with ReLU, 2 x 2 max-pooling down, nearest-neighbour
 upsampling, skip connections concatenated, the last skip being the network input itself, and a
-final 3 x 3 convolution without activation. The network predicts the denoised color directly (not
-a kernel, not a residual), as OIDN does.
+final 3 x 3 convolution without activation. The network predicts the denoised color itself (not
+a filter kernel), as OIDN does, but as a correction added to its (log) input color: residual
+learning (Zhang et al. 2017, "Beyond a Gaussian Denoiser", DnCNN). Measured here on the held-out
+Cornell box at 64 x 64, 4 spp, after the same 1500 training steps: 0.49 times the noisy MSE with
+the residual, 1.53 without (the plain network blurred the light).
 
 Input, ``[9, H, W]``: transformed color, albedo, normal. The color transform is OIDN's recipe for
 HDR input: scale by an auto-exposure (so that a dark and a bright scene look alike to the network),
@@ -19,7 +22,6 @@ replacement for OIDN.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -29,6 +31,7 @@ from torch import nn
 
 from bnerr.errors import DtypeError, FileFormatError, ValueRangeError, check_shape
 from bnerr.frame import Frame
+from bnerr.io import atomic_write
 from denoisers.base import Denoiser
 
 __all__ = [
@@ -99,10 +102,13 @@ class UNet(nn.Module):
     mirrors it with two convolutions per level after each upsampling and concatenation (with the
     pooled encoder output of that level, and with the network input at full resolution). H and W
     need not be multiples of 8: the input is padded by replication and the output cropped.
+    With ``residual`` the output is the last convolution plus the input's first 3 channels (the
+    log color).
     """
 
-    def __init__(self, widths: Sequence[int] = DEFAULT_WIDTHS, in_channels: int = 9) -> None:
+    def __init__(self, widths: Sequence[int] = DEFAULT_WIDTHS, in_channels: int = 9, residual: bool = True) -> None:
         super().__init__()
+        self.residual = bool(residual)
         if len(widths) != 4 or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in widths):
             raise ValueRangeError(f"UNet: widths: expected 4 positive integers, got {list(widths)}")
         c0, c1, c2, c3 = widths
@@ -138,7 +144,8 @@ class UNet(nn.Module):
         y = relu(self.dec2_b(relu(self.dec2_a(y))))
         y = torch.cat([F.interpolate(y, scale_factor=2.0, mode="nearest"), skip0], 1)  # 1
         y = relu(self.dec1_b(relu(self.dec1_a(y))))
-        return self.out(y)[..., :h, :w]
+        y = self.out(y) + x[:, :3] if self.residual else self.out(y)
+        return y[..., :h, :w]
 
 
 def unet_denoise(
@@ -158,17 +165,13 @@ def unet_denoise(
 
 
 def atomic_torch_save(obj: object, path: Path) -> None:
-    """``torch.save`` to a temporary file in ``path``'s folder, then rename it over ``path``.
+    """``torch.save`` through :func:`bnerr.io.atomic_write` (creating ``path``'s folder).
 
     A crash mid-write leaves the previous file intact, never a truncated one.
     """
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
+    with atomic_write(path) as tmp:
         torch.save(obj, tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def save_weights(model: UNet, path: str | Path, meta: dict | None = None) -> None:
@@ -176,6 +179,7 @@ def save_weights(model: UNet, path: str | Path, meta: dict | None = None) -> Non
     payload = {
         "format": WEIGHTS_FORMAT,
         "widths": list(model.widths),
+        "residual": model.residual,
         "state_dict": model.state_dict(),
         "meta": dict(meta or {}),
     }
@@ -198,11 +202,11 @@ def load_weights(path: str | Path) -> UNet:
     if not isinstance(payload, dict) or payload.get("format") != WEIGHTS_FORMAT:
         got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
         raise FileFormatError(f"{path}: expected format {WEIGHTS_FORMAT!r}, got {got!r}")
-    model = UNet(tuple(payload["widths"]))
     try:
+        model = UNet(tuple(payload["widths"]), residual=bool(payload["residual"]))
         model.load_state_dict(payload["state_dict"])
-    except (RuntimeError, KeyError, TypeError) as err:
-        raise FileFormatError(f"{path}: expected U-Net weights for widths {payload['widths']}, got {err}") from None
+    except (RuntimeError, KeyError, TypeError, ValueError) as err:
+        raise FileFormatError(f"{path}: expected U-Net widths, residual flag and weights, got {err!r}") from None
     return model.eval()
 
 
@@ -231,7 +235,7 @@ class UNetDenoiser(Denoiser):
         device = frame.color.device
         key = "cpu" if device.type == "cpu" else device
         if key not in self._models:
-            self._models[key] = UNet(self.model.widths).to(device)
+            self._models[key] = UNet(self.model.widths, residual=self.model.residual).to(device)
             self._models[key].load_state_dict(self.model.state_dict())
             self._models[key].eval()
         return unet_denoise(self._models[key], frame.color, frame.albedo, frame.normal)

@@ -87,8 +87,8 @@ def test_feature_guided_filters_keep_geometry_edges_that_gaussian_blurs():
     frame, clean = _two_surfaces(noise=0.0, gradient=0.0)
     edge = slice(10, 14)  # the two columns either side of the material / normal / depth edge
     for out in (
-        joint_bilateral_filter(frame.color, frame.albedo, frame.normal, 0.05, 2.0),
-        atrous_filter(frame.color, frame.albedo, frame.normal, frame.depth),
+        joint_bilateral_filter(frame.color, frame.albedo, frame.normal, 2.0, 0.05, 100.0),
+        atrous_filter(frame.color, frame.normal, frame.depth),
     ):
         assert float((out - clean)[:, :, edge].abs().max()) < 1e-3
     blurred = gaussian_filter(frame.color, 2.0)
@@ -107,7 +107,7 @@ def test_atrous_does_not_mix_background_and_surfaces():
     frame.albedo[:, :, :4] = 0.0
     frame.depth[:, :, :4] = 0.0
     frame.color[:, :, :4] = 3.0
-    out = atrous_filter(frame.color, frame.albedo, frame.normal, frame.depth)
+    out = atrous_filter(frame.color, frame.normal, frame.depth)
     torch.testing.assert_close(out[:, :, :4], frame.color[:, :, :4], rtol=1e-5, atol=1e-5)
     assert float((out[:, :, 4:] - clean[:, :, 4:]).abs().max()) < 1e-3
 

@@ -5,18 +5,28 @@ import math
 import pytest
 import torch
 
-from bnerr.errors import FileFormatError, ShapeError, ValueRangeError
+from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
 from denoisers import MissingBufferError
 from denoisers.train import (
     TrainConfig,
     learning_rate,
     load_checkpoint,
+    loss_value,
     make_training_set,
     train,
 )
 
 TINY = TrainConfig(steps=6, batch_size=2, crop=8, warmup=2, checkpoint_every=2, widths=(4, 4, 4, 4))
+
+
+@pytest.fixture(autouse=True)
+def one_thread():
+    """Tiny networks: one thread is faster than two, which spin-wait when other jobs share the CPU."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
 
 
 def _pairs(count=4, size=16, seed=0):
@@ -125,3 +135,16 @@ def test_bad_training_input_raises():
         TrainConfig(crop=12)
     with pytest.raises(ValueRangeError, match="expected at most 500000 parameters"):
         train(make_training_set([(frame, ref)]), TrainConfig(crop=8, widths=(64, 128, 256, 256)), progress=False)
+
+
+def test_losses():
+    t = torch.log1p(torch.tensor([[0.0, 0.5, 4.0]]))
+    p = torch.log1p(torch.tensor([[0.1, 0.5, 2.0]]))
+    assert float(loss_value(t, t, "l1_log")) == 0.0 and float(loss_value(t, t, "relmse")) == 0.0
+    torch.testing.assert_close(loss_value(p, t, "l1_log"), (p - t).abs().mean())
+    expected = (0.1**2 / 0.01 + 0.0 + 2.0**2 / 16.01) / 3
+    torch.testing.assert_close(loss_value(p, t, "relmse"), torch.tensor(expected), rtol=1e-5, atol=0)
+    # A wild prediction is clamped instead of overflowing.
+    assert math.isfinite(float(loss_value(torch.full((1, 3), 1e4), t, "relmse")))
+    with pytest.raises(UnknownNameError, match="unknown training loss 'l2'"):
+        TrainConfig(loss="l2")

@@ -1,5 +1,6 @@
 """Tests of denoisers/tuning.py: the grid search and the stored-parameters file."""
 
+import functools
 import json
 
 import pytest
@@ -7,8 +8,11 @@ import torch
 
 from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
+from denoisers import get_denoiser
 from denoisers.filters import Gaussian, Median
 from denoisers.tuning import GRIDS, PARAMS_FORMAT, ParamStore, grid_points, tune, tuned_denoiser
+
+from _scene_renders import SCENES, mse, scene_renders
 
 
 def _noisy_frames(count, noise, seed=0, size=32):
@@ -81,7 +85,7 @@ def test_store_round_trip_and_lookup(tmp_path):
     again = tmp_path / "again.json"
     loaded.save(again)
     assert again.read_text() == path.read_text()
-    assert not list(tmp_path.glob("**/.*tmp"))  # the atomic write leaves no temporary behind
+    assert not list(tmp_path.glob("**/.*tmp*"))  # the atomic write leaves no temporary behind
 
 
 def test_store_errors(tmp_path):
@@ -100,3 +104,23 @@ def test_store_errors(tmp_path):
         ParamStore.load(bad)
     with pytest.raises(FileFormatError, match="got no such file"):
         ParamStore.load(tmp_path / "missing.json")
+
+
+@functools.cache
+def _tuned(scene, name):
+    tune_frame, _, reference = scene_renders(scene)
+    return tune(name, [tune_frame], [reference])
+
+
+@pytest.mark.parametrize("name", sorted(GRIDS))
+@pytest.mark.parametrize("scene", SCENES)
+def test_tuned_filters_lower_mse_on_every_scene_at_4spp(scene, name, request):
+    """Tuned on one white-noise frame, measured on an independent one (64 x 64, 4 spp)."""
+    if (scene, name) == ("cornell", "median"):
+        request.applymarker(pytest.mark.xfail(strict=True, reason=(
+            "a median erodes the corners of the Cornell box's light (radiance 17 next to 0.5); "
+            "those few pixels cost more than all the noise the median removes"
+        )))
+    _, frame, reference = scene_renders(scene)
+    denoised = get_denoiser(name, **_tuned(scene, name).params)(frame)
+    assert mse(denoised, reference) < mse(frame.color, reference)

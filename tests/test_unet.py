@@ -5,7 +5,10 @@ import torch
 
 from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
 from bnerr.frame import Frame
+from denoisers import get_denoiser
+from denoisers.tuning import GRIDS, tune
 from denoisers.unet import (
+    DEFAULT_WEIGHTS,
     DEFAULT_WIDTHS,
     MAX_PARAMETERS,
     UNet,
@@ -17,6 +20,11 @@ from denoisers.unet import (
     save_weights,
     unet_denoise,
 )
+
+from _scene_renders import SCENES, mse, scene_renders
+
+#: Held-out scenes on which the shipped U-Net beats every tuned filter (see weights/README.md).
+HELD_OUT_WINS = SCENES
 
 
 def _frame(h=20, w=28, seed=0, scale=1.0):
@@ -83,9 +91,13 @@ def test_bad_weights_raise(tmp_path):
     (tmp_path / "junk.pt").write_bytes(b"\x00garbage")
     with pytest.raises(FileFormatError, match="junk.pt: expected a U-Net weights file, got an unreadable file"):
         UNetDenoiser(weights=tmp_path / "junk.pt")
-    torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4], "state_dict": {}}, tmp_path / "e.pt")
-    with pytest.raises(FileFormatError, match="e.pt: expected U-Net weights for widths"):
+    torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4], "residual": True, "state_dict": {}},
+               tmp_path / "e.pt")
+    with pytest.raises(FileFormatError, match="e.pt: expected U-Net widths, residual flag and weights, got"):
         load_weights(tmp_path / "e.pt")
+    torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4]}, tmp_path / "k.pt")
+    with pytest.raises(FileFormatError, match="KeyError"):
+        load_weights(tmp_path / "k.pt")
     torch.save([1, 2], tmp_path / "l.pt")
     with pytest.raises(FileFormatError, match="expected format 'bnerr-unet-weights-v1', got 'list'"):
         load_weights(tmp_path / "l.pt")
@@ -93,3 +105,33 @@ def test_bad_weights_raise(tmp_path):
         UNetDenoiser(weights=3)
     with pytest.raises(ValueRangeError, match="UNet: widths: expected 4 positive integers"):
         UNet((4, 4, 4))
+
+
+# ------------------------------------------------------------------------------------------------
+# The shipped weights, on the benchmark's scenes (all held out from training).
+
+
+def test_shipped_weights_load_and_record_their_command():
+    payload = torch.load(DEFAULT_WEIGHTS, weights_only=True)
+    command = payload["meta"]["command"]
+    assert payload["meta"]["finished"] and command.startswith("bnerr train ")
+    readme = (DEFAULT_WEIGHTS.parent / "README.md").read_text()
+    assert f"`{command}`" in readme or f"\n{command}\n" in readme
+    assert parameter_count(UNetDenoiser().model.widths) <= MAX_PARAMETERS
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_unet_lowers_mse_on_every_scene_at_4spp(scene):
+    _, frame, reference = scene_renders(scene)
+    assert mse(UNetDenoiser()(frame), reference) < mse(frame.color, reference)
+
+
+@pytest.mark.parametrize("scene", HELD_OUT_WINS)
+def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene):
+    """Filters tuned on this very scene (one white-noise frame); the U-Net never saw it."""
+    tune_frame, frame, reference = scene_renders(scene)
+    best = min(
+        mse(get_denoiser(name, **tune(name, [tune_frame], [reference]).params)(frame), reference)
+        for name in GRIDS
+    )
+    assert mse(UNetDenoiser()(frame), reference) < best

@@ -1,0 +1,136 @@
+"""``bnerr train``: render a training set with our renderer and train the U-Net denoiser.
+
+    bnerr train --out denoisers/weights/unet.pt --mix white --steps 3000
+
+Steps: (1) render ``--scenes`` random held-out scenes (``benchmarks.training_data``), cached in
+``OUT.data.pt`` so that a resumed run does not render again; (2) train
+(:func:`denoisers.train.train`) with a checkpoint in ``OUT.ckpt`` every ``--checkpoint-every``
+steps; (3) write the weights to ``OUT`` with the command line, the settings and the loss curve in
+their metadata. ``--resume`` continues an interrupted run from its checkpoint; the result is the
+same as an uninterrupted run. ``--minutes`` caps the wall time of this call (the run then stops
+at a checkpoint and writes the weights so far; ``--resume`` continues it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+__all__ = ["canonical_command", "load_or_render", "register", "run"]
+
+DATA_FORMAT = "bnerr-training-set-v1"
+
+
+def load_or_render(spec, path: Path, progress: bool):
+    """The :class:`~denoisers.train.TrainingSet` of ``spec``: read from ``path`` if it holds
+    that spec's data, else rendered and written there (atomically)."""
+    import torch
+
+    from benchmarks.training_data import make_pairs
+    from denoisers.train import TrainingSet, make_training_set
+    from denoisers.unet import atomic_torch_save
+
+    if path.exists():
+        try:
+            cached = torch.load(path, map_location="cpu", weights_only=True)
+        except Exception:  # a damaged cache is rendered again, never trusted
+            cached = None
+        if isinstance(cached, dict) and cached.get("format") == DATA_FORMAT and cached.get("spec") == asdict(spec):
+            return TrainingSet(cached["inputs"], cached["targets"])
+    data = make_training_set(make_pairs(spec, progress=progress))
+    atomic_torch_save(
+        {"format": DATA_FORMAT, "spec": asdict(spec), "inputs": data.inputs, "targets": data.targets}, path
+    )
+    return data
+
+
+def canonical_command(args: argparse.Namespace) -> str:
+    """The full command line that reproduces this run's weights (every setting spelled out)."""
+    return (
+        f"bnerr train --out {args.out} --mix {args.mix} --steps {args.steps} --scenes {args.scenes} "
+        f"--size {args.size} --reference-spp {args.reference_spp} --batch-size {args.batch_size} "
+        f"--crop {args.crop} --lr {args.lr} --loss {args.loss} --checkpoint-every {args.checkpoint_every} "
+        f"--seed {args.seed} --threads {args.threads}"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    import torch
+
+    before = torch.get_num_threads()
+    torch.set_num_threads(args.threads)
+    try:
+        return _run(args)
+    finally:
+        torch.set_num_threads(before)
+
+
+def _run(args: argparse.Namespace) -> int:
+    from benchmarks.training_data import TrainingSpec
+    from denoisers.train import TrainConfig, train
+    from denoisers.unet import save_weights
+
+    start = time.perf_counter()
+    out = Path(args.out)
+    spec = TrainingSpec(
+        scenes=args.scenes, size=args.size, reference_spp=args.reference_spp, mix=args.mix, seed=args.seed
+    )
+    config = TrainConfig(
+        steps=args.steps, batch_size=args.batch_size, crop=args.crop, lr=args.lr, seed=args.seed,
+        checkpoint_every=args.checkpoint_every, loss=args.loss,
+    )
+    data = load_or_render(spec, out.with_name(out.name + ".data.pt"), progress=not args.no_progress)
+    render_s = time.perf_counter() - start
+    limit = None if args.minutes is None else max(args.minutes * 60.0 - render_s, 0.0)
+    result = train(
+        data, config, out.with_name(out.name + ".ckpt"), resume=args.resume, time_limit_s=limit,
+        progress=not args.no_progress,
+    )
+    total_s = time.perf_counter() - start
+    command = canonical_command(args)
+    save_weights(
+        result.model,
+        out,
+        meta={
+            "command": command,
+            "spec": asdict(spec),
+            "config": asdict(config),
+            "step": result.step,
+            "finished": result.finished,
+            "losses": [list(x) for x in result.losses],
+            "seconds_this_call": {"render": render_s, "train": result.seconds, "total": total_s},
+        },
+    )
+    state = "finished" if result.finished else f"stopped at step {result.step} of {config.steps} (--resume continues)"
+    print(f"{state}; render {render_s:.0f} s, train {result.seconds:.0f} s, total {total_s:.0f} s -> {out}")
+    for step, loss in result.losses:
+        print(f"  step {step:6d}  loss {loss:.5f}")
+    return 0
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "train", help="render training data and train the U-Net denoiser", description=__doc__.split("\n\n")[0]
+    )
+    p.add_argument("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
+    p.add_argument("--mix", default="white", choices=("white", "white+blue"), help="noise of the training inputs")
+    p.add_argument("--steps", type=int, default=3000, help="optimizer steps of the full run")
+    p.add_argument("--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)")
+    p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
+    p.add_argument("--scenes", type=int, default=96, help="random training scenes (one pair each)")
+    p.add_argument("--size", type=int, default=64, help="training image side in pixels")
+    p.add_argument("--reference-spp", type=int, default=256, help="spp of the training references")
+    p.add_argument("--batch-size", type=int, default=16)
+    p.add_argument("--crop", type=int, default=64, help="crop side (multiple of 8, at most --size)")
+    p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
+    p.add_argument("--loss", default="l1_log", choices=("l1_log", "relmse"), help="training loss")
+    p.add_argument("--checkpoint-every", type=int, default=100)
+    p.add_argument(
+        "--threads", type=int, default=1,
+        help="torch threads (1: on 2 shared cores, two threads that wait on each other are slower)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seeds the scenes, the weights and the batches")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.set_defaults(func=run)

@@ -1,0 +1,83 @@
+"""Time each denoiser on a 1920 x 1080 frame: ``python -m benchmarks.speed_denoise``.
+
+The frame is synthetic (random color, albedo, normal, depth): the filters' and networks' cost does
+not depend on the image content. Each denoiser runs once to warm up (allocations, OIDN's device,
+oneDNN's kernel choice) and then ``repeats`` times; the median is reported. Denoisers whose
+optional extra is missing are skipped and reported as such.
+
+Timings depend on the machine and on what else runs on it; report them with the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from collections.abc import Sequence
+
+import torch
+
+from bnerr.frame import Frame
+
+__all__ = ["main", "measure", "synthetic_frame"]
+
+
+def synthetic_frame(height: int = 1080, width: int = 1920, seed: int = 0) -> Frame:
+    """A random frame with every buffer a denoiser may read (color, albedo, normal, depth)."""
+    g = torch.Generator().manual_seed(seed)
+    return Frame(
+        color=torch.rand(3, height, width, generator=g).square() * 4.0,
+        albedo=torch.rand(3, height, width, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, height, width, generator=g), dim=0),
+        depth=torch.rand(1, height, width, generator=g) + 1.0,
+    )
+
+
+def measure(
+    names: Sequence[str] | None = None,
+    height: int = 1080,
+    width: int = 1920,
+    repeats: int = 3,
+) -> dict[str, float | None]:
+    """Median seconds per frame of each denoiser (default parameters) at ``height x width``.
+
+    Returns ``{name: seconds}``; None for a denoiser that could not be built here (a missing extra
+    or missing weights).
+    """
+    from bnerr.errors import FileFormatError
+    from denoisers import DENOISERS, MissingExtraError, get_denoiser
+
+    frame = synthetic_frame(height, width)
+    results: dict[str, float | None] = {}
+    for name in names if names is not None else list(DENOISERS):
+        try:
+            denoiser = get_denoiser(name)
+        except (MissingExtraError, FileFormatError):
+            results[name] = None
+            continue
+        denoiser(frame)  # warm-up
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            denoiser(frame)
+            times.append(time.perf_counter() - start)
+        results[name] = statistics.median(times)
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.speed_denoise", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--size", nargs=2, type=int, default=(1920, 1080), metavar=("W", "H"))
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--denoiser", action="append", help="only these (repeatable)")
+    args = parser.parse_args(argv)
+    width, height = args.size
+    print(f"denoise time at {width}x{height}, {torch.get_num_threads()} torch threads, median of {args.repeats}")
+    for name, seconds in measure(args.denoiser, height, width, args.repeats).items():
+        print(f"  {name:16s} {'unavailable' if seconds is None else f'{seconds:8.3f} s'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

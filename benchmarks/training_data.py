@@ -1,0 +1,303 @@
+"""Training data for the U-Net, made with our own renderer: random scenes, noisy renders, references.
+
+Every scene here is drawn at random from its integer seed (numpy's PCG64, so the same seed gives the
+same scene on every machine) out of the renderer's declarative scene description
+(:mod:`renderers.scene`): a room with a random subset of walls, random constant or textured
+albedos (checker, felt), one to three spheres and boxes, one or two rectangle lights of random
+size, color and power, a random camera inside the room, a random maximum path depth, and
+sometimes a homogeneous medium. The benchmark's named scenes (``renderers.SCENES``) are never
+drawn or used: :func:`check_held_out` verifies it, by name and by content.
+
+Each training pair is a noisy render at a random low spp with white-noise seeds (or, for the
+``white+blue`` mix, half of them with the blue-noise dithered sampler of Georgiev & Fajardo 2016,
+the ``bnds`` sampler) and a reference of the same scene at high spp with other seeds. The
+reference is itself a Monte Carlo estimate; its residual noise is independent of the input's, so
+it adds a constant to the L1 loss and does not bias what the network learns toward it (the
+Noise2Noise argument, Lehtinen et al. 2018, exact for L2, nearly so for L1 at high spp).
+
+This module lives in :mod:`benchmarks` because :mod:`denoisers` must not import :mod:`renderers`.
+
+Not for: benchmarking (the benchmark renders its named scenes); training a production denoiser
+(the scenes are simple boxes and spheres with diffuse materials).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from bnerr.errors import ValueRangeError, check_name, check_positive_int
+from bnerr.frame import Frame
+from renderers.scene import (
+    Box,
+    Camera,
+    Checker,
+    Diffuse,
+    Felt,
+    Fixed,
+    HomogeneousMedium,
+    Rectangle,
+    Scene,
+    Sphere,
+    affine,
+)
+
+__all__ = [
+    "MIXES",
+    "TrainingSpec",
+    "check_held_out",
+    "make_pairs",
+    "pixel_seeds",
+    "random_scene",
+    "render_pair",
+]
+
+#: Noise mixes of ``bnerr train --mix``.
+MIXES = ("white", "white+blue")
+#: Input spp of the training renders and how often each is drawn (4 spp, the benchmark's headline
+#: setting, most often).
+SPP_CHOICES = (1, 2, 4, 4, 8, 16)
+
+_NAME_PREFIX = "train-"
+
+
+@dataclass(frozen=True)
+class TrainingSpec:
+    """What :func:`make_pairs` renders.
+
+    Attributes:
+        scenes: number of random scenes (one pair each).
+        size: image side in pixels (square images).
+        reference_spp: spp of each reference.
+        mix: ``"white"`` or ``"white+blue"`` (every other pair rendered with the bnds sampler).
+        seed: first scene seed; scene ``i`` uses seed ``seed + i``.
+    """
+
+    scenes: int = 96
+    size: int = 64
+    reference_spp: int = 256
+    mix: str = "white"
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_positive_int(self.scenes, "TrainingSpec.scenes")
+        check_positive_int(self.size, "TrainingSpec.size", minimum=8)
+        check_positive_int(self.reference_spp, "TrainingSpec.reference_spp")
+        check_name(self.mix, MIXES, "training mix")
+        check_positive_int(self.seed, "TrainingSpec.seed", minimum=0)
+
+
+# ----------------------------------------------------------------------------------------------
+# Random scenes
+
+
+def _albedo(rng: np.random.Generator, lo: float = 0.05, hi: float = 0.85) -> tuple[float, float, float]:
+    """A random RGB albedo, each channel in [lo, hi]: a tinted grey, or (half the time) a
+    saturated color with one or two strong channels, like a snooker table's felt and balls."""
+    if rng.uniform() < 0.5:
+        grey = rng.uniform(lo, hi)
+        tint = rng.uniform(-1.0, 1.0, 3) * rng.uniform(0.0, 0.6)
+        return tuple(float(np.clip(grey * (1.0 + t), lo, hi)) for t in tint)  # type: ignore[return-value]
+    strong = rng.uniform(0.3, 1.0) * hi
+    weak = rng.uniform(0.0, 0.4) * strong
+    mask = rng.permutation([True, rng.uniform() < 0.3, False])
+    return tuple(float(np.clip(strong if m else weak * rng.uniform(0.5, 1.0), lo, hi)) for m in mask)  # type: ignore
+
+
+def _material(rng: np.random.Generator, textured: bool) -> Diffuse:
+    """Constant albedo, or (on rectangles) a checker or felt texture."""
+    kind = rng.integers(3) if textured else 0
+    if kind == 0:
+        return Diffuse(_albedo(rng))
+    cells = int(rng.integers(2, 24))
+    if kind == 1:
+        return Diffuse(Checker(_albedo(rng), _albedo(rng), cells, int(rng.integers(2, 24))))
+    return Diffuse(
+        Felt(_albedo(rng, 0.1, 0.7), 8 * cells, 8 * cells, grain=float(rng.uniform(0.05, 0.4)),
+             nap=float(rng.uniform(0.0, 0.2)), bands=int(rng.integers(1, 8)), seed=int(rng.integers(1 << 16)))
+    )
+
+
+def _frame_towards(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit ``u``, ``v`` with ``u x v = normal`` (a right-handed frame around ``normal``)."""
+    helper = np.array([0.0, 1.0, 0.0]) if abs(normal[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    u = np.cross(helper, normal)
+    u /= np.linalg.norm(u)
+    return u, np.cross(normal, u)
+
+
+def _light(rng: np.random.Generator, index: int, room: float, height: float, ceiling_only: bool) -> Rectangle:
+    """A rectangle light of random size, color and power, on the ceiling or free, facing inward."""
+    half = rng.uniform(0.1, 0.45) * room * np.array([1.0, rng.uniform(0.3, 1.0)])
+    temperature = rng.uniform(-0.35, 0.35)  # warm (red) to cool (blue) white
+    color = np.array([1.0 + temperature, 1.0, 1.0 - temperature])
+    area = 4.0 * half[0] * half[1]
+    # Power spans 1.5 decades: auto-exposure must see bright and dark scenes.
+    power = 10.0 ** rng.uniform(0.5, 2.0) * room * room
+    emission = tuple(float(c) for c in color * power / area)
+    if rng.uniform() < 0.6 or ceiling_only:  # ceiling light facing down
+        center = (rng.uniform(-0.5, 0.5) * room, height - 1e-3, rng.uniform(-0.7, 0.3) * room)
+        normal = np.array([0.0, -1.0, 0.0])
+    else:  # a free panel above the floor, aimed at a point near the room's middle
+        angle = rng.uniform(0.0, 2.0 * math.pi)
+        center = (0.8 * room * math.sin(angle), rng.uniform(0.5, 0.9) * height, 0.8 * room * math.cos(angle))
+        aim = np.array([rng.uniform(-0.3, 0.3) * room, rng.uniform(0.0, 0.3) * height, 0.0])
+        normal = aim - np.asarray(center)
+        normal /= np.linalg.norm(normal)
+    u, v = _frame_towards(normal)
+    def vec(x) -> tuple[float, float, float]:
+        return tuple(float(c) for c in x)  # type: ignore[return-value]
+
+    return Rectangle(
+        f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), Diffuse((0.0, 0.0, 0.0)), emission
+    )
+
+
+def _room(rng: np.random.Generator, room: float, height: float) -> list[Rectangle]:
+    """Floor (always), back wall, side walls and ceiling (each sometimes); open front.
+
+    Without walls the background is black, as around the benchmark's snooker table and fog box.
+    """
+    r, h = room, height
+    walls = [Rectangle("floor", (0.0, 0.0, 0.0), (r, 0.0, 0.0), (0.0, 0.0, -r), _material(rng, True))]
+    if rng.uniform() < 0.6:
+        walls.append(Rectangle("back", (0.0, h / 2, -r), (r, 0.0, 0.0), (0.0, h / 2, 0.0), _material(rng, True)))
+    if rng.uniform() < 0.5:
+        walls.append(Rectangle("left", (-r, h / 2, 0.0), (0.0, h / 2, 0.0), (0.0, 0.0, r), _material(rng, True)))
+    if rng.uniform() < 0.5:
+        walls.append(Rectangle("right", (r, h / 2, 0.0), (0.0, 0.0, r), (0.0, h / 2, 0.0), _material(rng, True)))
+    if rng.uniform() < 0.5:
+        walls.append(Rectangle("ceiling", (0.0, h, 0.0), (r, 0.0, 0.0), (0.0, 0.0, r), _material(rng, True)))
+    return walls
+
+
+def _objects(rng: np.random.Generator, room: float, x_range: tuple[float, float]) -> list[Sphere | Box]:
+    """One to three spheres and boxes standing on the floor, x within ``x_range`` (of ``room``)."""
+    shapes: list[Sphere | Box] = []
+    for i in range(int(rng.integers(1, 4))):
+        x = rng.uniform(*x_range) * room
+        z = rng.uniform(-0.7, 0.3) * room
+        size = rng.uniform(0.12, 0.3) * room
+        if rng.uniform() < 0.5:
+            shapes.append(Sphere(f"sphere{i}", Fixed((x, size, z)), size, _material(rng, False)))
+        else:
+            scale = (size * rng.uniform(0.5, 1.0), size * rng.uniform(0.5, 1.5), size * rng.uniform(0.5, 1.0))
+            to_world = affine((x, scale[1], z), ((0.0, 1.0, 0.0), rng.uniform(0.0, 90.0)), scale)
+            shapes.append(Box(f"box{i}", to_world, _material(rng, False)))
+    return shapes
+
+
+def random_scene(seed: int) -> Scene:
+    """A random static scene drawn from ``seed`` (same seed, same scene, on every machine).
+
+    Scene units: the room spans x, z in [-room, room] (room in [2, 5]) and y in [0, height];
+    the front (+z) is open and the camera stands inside, looking toward -z.
+    """
+    check_positive_int(seed, "random_scene: seed", minimum=0)
+    rng = np.random.default_rng([seed, 0x5EED])
+    room = rng.uniform(2.0, 5.0)
+    height = room * rng.uniform(0.8, 1.6)
+    medium = None
+    x_range = (-0.6, 0.6)
+    if rng.uniform() < 0.3:
+        # A fog box over one side of the room, below the ceiling lights; the objects stand on the
+        # other side (their extent is at most 0.45 room), since no shape may lie inside a medium.
+        side = 1.0 if rng.uniform() < 0.5 else -1.0
+        lo = (min(0.3 * side, 0.95 * side) * room, 1e-2, -room * 0.95)
+        hi = (max(0.3 * side, 0.95 * side) * room, height * rng.uniform(0.4, 0.95), room * 0.5)
+        medium = HomogeneousMedium(lo, hi, float(10.0 ** rng.uniform(-1.3, 0.2)), _albedo(rng, 0.5, 0.99))
+        x_range = (-0.6, -0.15) if side > 0 else (0.15, 0.6)
+    shapes: list = _room(rng, room, height) + _objects(rng, room, x_range)
+    lights = 1 + int(rng.uniform() < 0.35)
+    shapes += [_light(rng, i, room, height, ceiling_only=medium is not None) for i in range(lights)]
+    eye = (rng.uniform(-0.5, 0.5) * room, rng.uniform(0.15, 0.8) * height, rng.uniform(0.6, 0.95) * room)
+    # Looking down at the objects, or (40 %) up at the back wall and ceiling, so that lights are
+    # often seen directly, as in the Cornell box: a denoiser must learn to keep them sharp.
+    look_up = rng.uniform() < 0.4
+    target_y = rng.uniform(0.5, 1.0) if look_up else rng.uniform(0.05, 0.4)
+    target = (rng.uniform(-0.3, 0.3) * room, target_y * height, rng.uniform(-0.6, 0.0) * room)
+    camera = Camera(Fixed(eye), Fixed(target), (0.0, 1.0, 0.0), float(rng.uniform(35.0, 75.0)))
+    return Scene(
+        name=f"{_NAME_PREFIX}{seed}",
+        description=f"random training scene {seed}",
+        camera=camera,
+        shapes=tuple(shapes),
+        max_depth=int(rng.integers(2, 6)),
+        medium=medium,
+        animated=False,
+    )
+
+
+def check_held_out(scenes: Sequence[Scene], named: Sequence[Scene]) -> None:
+    """Raise :class:`ValueRangeError` if a training scene is, by name or content, a named scene."""
+    names = {s.name for s in named}
+    contents = {(s.shapes, s.camera.frozen(), s.medium) for s in named}
+    for scene in scenes:
+        if scene.name in names or (scene.shapes, scene.camera.frozen(), scene.medium) in contents:
+            raise ValueRangeError(
+                f"training scene {scene.name!r}: expected a held-out scene, got benchmark scene content"
+            )
+
+
+# ----------------------------------------------------------------------------------------------
+# Rendering pairs
+
+
+def pixel_seeds(height: int, width: int, key: int) -> torch.Tensor:
+    """Distinct seeds ``[H, W]`` int64 for one render, different for every ``key``.
+
+    ``key * H * W + pixel index``, masked to 31 bits: distinct within a render, and renders with
+    different keys share no seed as long as ``key * H * W`` stays below 2^31.
+    """
+    index = torch.arange(height * width, dtype=torch.int64).reshape(height, width)
+    return (index + key * height * width) & 0x7FFFFFFF
+
+
+def render_pair(
+    scene: Scene, size: int, spp: int, reference_spp: int, key: int, blue: bool = False
+) -> tuple[Frame, torch.Tensor]:
+    """A noisy render of ``scene`` at ``spp`` and its reference color ``[3, size, size]``.
+
+    The noisy render uses white-noise seeds ``pixel_seeds(.., 2 key)`` with the white sampler, or
+    with ``blue`` the bnds sampler (vector mask of the scene's dimensions, offset and ``seed0``
+    from ``key``); the reference uses ``pixel_seeds(.., 2 key + 1)`` and the white sampler.
+    """
+    import renderers
+    from bnerr.sequences import make_sampler
+
+    if blue:
+        from bnerr.masks import load_mask
+
+        # The shipped vector masks have 2, 4 or 8 dimensions; use the largest the scene fills.
+        dims = max(d for d in (2, 4, 8) if d <= scene.dimensions)
+        mask = load_mask("vector", 64, dims)
+        sampler = make_sampler("bnds", mask=mask, offset=(key % 64, (7 * key) % 64), seed0=key)
+    else:
+        sampler = make_sampler("white")
+    frame = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key), sampler, spp)
+    reference = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key + 1), make_sampler("white"), reference_spp)
+    return frame, reference.color
+
+
+def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, torch.Tensor]]:
+    """Render the training set described by ``spec``: one (noisy frame, reference) per scene.
+
+    Pair ``i``: scene ``random_scene(spec.seed + i)``, input spp drawn from :data:`SPP_CHOICES`
+    by the scene seed, blue noise for odd ``i`` when ``spec.mix == "white+blue"``.
+    """
+    import renderers
+    from tqdm.auto import tqdm
+
+    pairs = []
+    scenes = [random_scene(spec.seed + i) for i in range(spec.scenes)]
+    check_held_out(scenes, [renderers.get_scene(name, animated=False) for name in renderers.SCENES])
+    for i, scene in enumerate(tqdm(scenes, desc="render training set", disable=not progress)):
+        seed = spec.seed + i
+        spp = SPP_CHOICES[np.random.default_rng([seed, 0x5BB]).integers(len(SPP_CHOICES))]
+        blue = spec.mix == "white+blue" and i % 2 == 1
+        pairs.append(render_pair(scene, spec.size, int(spp), spec.reference_spp, key=seed + 1, blue=blue))
+    return pairs

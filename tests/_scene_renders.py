@@ -1,0 +1,48 @@
+"""Small white-noise renders of the benchmark's named scenes, shared by the denoiser tests.
+
+Not a test module: ``tests/test_tuning.py``, ``test_unet.py`` and ``test_oidn.py`` import it, and
+the cache below makes one pytest session render each scene once. Every render is deterministic
+(fixed seeds), so the tests that use them are too.
+
+Each scene gets, at ``SIZE x SIZE`` and ``SPP`` samples per pixel with the white sampler: a frame
+to tune on (seed key 1), an independent frame to measure on (key 3), and a reference at
+``REFERENCE_SPP`` (key 1000). The reference's own noise adds the same constant to every MSE
+measured against it (it is independent of the frames), so it does not favour any denoiser; it
+only makes the comparison a little noisier.
+
+64 x 64 rather than smaller: at 32 x 32 the Cornell box's light is three pixels tall and the
+noise of its partly covered edge pixels is 98 % of the image's squared error, so every test
+would measure only that edge.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import torch
+
+import renderers
+from benchmarks.training_data import pixel_seeds
+from bnerr.frame import Frame
+from bnerr.sequences import make_sampler
+
+SIZE = 64
+SPP = 4
+REFERENCE_SPP = 128
+SCENES = tuple(renderers.SCENES)
+
+
+@functools.cache
+def scene_renders(name: str) -> tuple[Frame, Frame, torch.Tensor]:
+    """``(tuning frame, measured frame, reference color [3, SIZE, SIZE])`` of scene ``name``."""
+    scene = renderers.get_scene(name, animated=False)
+
+    def render(key: int, spp: int) -> Frame:
+        return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), spp)
+
+    return render(1, SPP), render(3, SPP), render(1000, REFERENCE_SPP).color
+
+
+def mse(image: torch.Tensor, reference: torch.Tensor) -> float:
+    """Mean squared error over pixels and channels, accumulated in float64."""
+    return float((image.double() - reference.double()).square().mean())

@@ -1,0 +1,69 @@
+"""Tests of benchmarks/commands/denoise.py: ``bnerr denoise`` on frame files."""
+
+import pytest
+import torch
+
+from benchmarks.cli import main
+from benchmarks.commands.denoise import parse_params
+from bnerr.errors import DtypeError
+from bnerr.frame import Frame
+from bnerr.io import read_frame, write_frame
+from denoisers import get_denoiser
+from denoisers.tuning import ParamStore, TuneResult
+
+
+def _frame_file(tmp_path, drop=()):
+    g = torch.Generator().manual_seed(0)
+    buffers = dict(
+        color=torch.rand(3, 10, 12, generator=g) * 2,
+        albedo=torch.rand(3, 10, 12, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, 10, 12, generator=g), dim=0),
+        depth=torch.rand(1, 10, 12, generator=g) + 1,
+    )
+    for name in drop:
+        buffers.pop(name)
+    frame = Frame(**buffers, timings={"render": 12.5})
+    path = tmp_path / "frame.exr"
+    write_frame(path, frame)
+    return path, read_frame(path)
+
+
+def test_denoise_writes_the_denoised_frame(tmp_path):
+    path, frame = _frame_file(tmp_path)
+    out = tmp_path / "out.exr"
+    assert main(["denoise", "--denoiser", "gaussian", "--in", str(path), "--out", str(out), "--params", "sigma=1.5"]) == 0
+    result = read_frame(out)
+    assert torch.equal(result.color, get_denoiser("gaussian", sigma=1.5)(frame))
+    assert torch.equal(result.albedo, frame.albedo) and torch.equal(result.depth, frame.depth)
+    assert result.timings["render"] == 12.5 and result.timings["denoise"] > 0
+
+
+def test_denoise_with_tuned_parameters(tmp_path):
+    path, frame = _frame_file(tmp_path)
+    store = ParamStore()
+    store.put(TuneResult("median", {"kernel_size": 5}, 0.1, 0.2, 1), "cornell", 4)
+    store.save(tmp_path / "p.json")
+    out = tmp_path / "out.exr"
+    args = ["denoise", "--denoiser", "median", "--in", str(path), "--out", str(out), "--tuned", str(tmp_path / "p.json")]
+    assert main(args + ["--scene", "cornell", "--spp", "4"]) == 0
+    assert torch.equal(read_frame(out).color, get_denoiser("median", kernel_size=5)(frame))
+    assert main(args) == 2  # --tuned without --scene and --spp
+
+
+def test_bad_input_exits_with_a_named_error(tmp_path, capsys):
+    path, _ = _frame_file(tmp_path, drop=("depth",))
+    out = str(tmp_path / "out.exr")
+    assert main(["denoise", "--denoiser", "atrous", "--in", str(path), "--out", out]) == 2
+    assert "without depth" in capsys.readouterr().err
+    assert main(["denoise", "--denoiser", "box", "--in", str(path), "--out", out]) == 2
+    assert "unknown denoiser 'box'" in capsys.readouterr().err
+    assert main(["denoise", "--denoiser", "gaussian", "--in", str(tmp_path / "none.exr"), "--out", out]) == 2
+    assert "none.exr" in capsys.readouterr().err
+
+
+def test_parse_params():
+    assert parse_params(["sigma=1.5", "kernel_size=3", "weights=w.pt"]) == {
+        "sigma": 1.5, "kernel_size": 3, "weights": "w.pt"
+    }
+    with pytest.raises(DtypeError, match="--params: expected KEY=VALUE, got 'sigma'"):
+        parse_params(["sigma"])

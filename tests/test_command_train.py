@@ -1,0 +1,32 @@
+"""Tests of benchmarks/commands/train.py: ``bnerr train`` end to end on a tiny configuration."""
+
+import torch
+
+from benchmarks.cli import main
+from denoisers.unet import load_weights
+
+TINY = ["--scenes", "2", "--size", "8", "--reference-spp", "2", "--steps", "4", "--crop", "8",
+        "--batch-size", "2", "--checkpoint-every", "2", "--no-progress"]
+
+
+def test_train_writes_weights_with_their_command_and_resumes(tmp_path, capsys):
+    out = tmp_path / "w.pt"
+    assert main(["train", "--out", str(out), *TINY]) == 0
+    assert "finished" in capsys.readouterr().out
+    payload = torch.load(out, weights_only=True)
+    meta = payload["meta"]
+    assert meta["finished"] and meta["step"] == 4 and [s for s, _ in meta["losses"]] == [2, 4]
+    assert meta["command"].startswith(f"bnerr train --out {out} --mix white --steps 4 --scenes 2 --size 8")
+    assert (tmp_path / "w.pt.data.pt").exists() and (tmp_path / "w.pt.ckpt").exists()
+    first = load_weights(out).state_dict()
+    # Resuming a finished run (the cached data is reused, nothing is trained again) keeps the weights.
+    assert main(["train", "--out", str(out), *TINY, "--resume"]) == 0
+    again = load_weights(out).state_dict()
+    assert all(torch.equal(first[k], again[k]) for k in first)
+
+
+def test_corrupt_checkpoint_is_a_clean_error(tmp_path, capsys):
+    out = tmp_path / "w.pt"
+    (tmp_path / "w.pt.ckpt").write_bytes(b"garbage")
+    assert main(["train", "--out", str(out), *TINY, "--resume"]) == 2
+    assert "w.pt.ckpt: expected a training checkpoint" in capsys.readouterr().err

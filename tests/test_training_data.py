@@ -1,0 +1,102 @@
+"""Tests of benchmarks/training_data.py: random held-out scenes and the rendered training pairs."""
+
+import numpy as np
+import pytest
+import torch
+
+import renderers
+from benchmarks.training_data import (
+    TrainingSpec,
+    check_held_out,
+    make_pairs,
+    pixel_seeds,
+    random_scene,
+    render_pair,
+)
+from bnerr.errors import UnknownNameError, ValueRangeError
+from renderers.scene import Box, Rectangle, Sphere
+
+
+def _bounds(shape):
+    """Axis-aligned bounds (lo, hi) of a sphere, box or rectangle."""
+    if isinstance(shape, Sphere):
+        c = np.asarray(shape.center.at(0))
+        return c - shape.radius, c + shape.radius
+    if isinstance(shape, Box):
+        m = np.asarray(shape.to_world)
+        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) @ m.T
+        return corners.min(0), corners.max(0)
+    c, u, v = (np.asarray(x) for x in (shape.center, shape.u, shape.v))
+    corners = np.array([c + a * u + b * v for a in (-1, 1) for b in (-1, 1)])
+    return corners.min(0), corners.max(0)
+
+
+def test_same_seed_same_scene_and_seeds_differ():
+    assert random_scene(7) == random_scene(7)
+    assert random_scene(7) != random_scene(8)
+    assert len({random_scene(i).shapes for i in range(20)}) == 20
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_scenes_are_valid_and_media_hold_no_shapes(seed):
+    scene = random_scene(seed)
+    assert scene.name == f"train-{seed}" and not scene.animated
+    assert 1 <= len(scene.lights) <= 2 and 2 <= scene.max_depth <= 5
+    if scene.medium is not None:
+        lo, hi = np.asarray(scene.medium.bounds_min), np.asarray(scene.medium.bounds_max)
+        for shape in scene.shapes:
+            s_lo, s_hi = _bounds(shape)
+            overlap = np.all(s_lo < hi) and np.all(s_hi > lo)
+            assert not overlap, (seed, shape.name)
+        eye = np.asarray(scene.camera.origin.at(0))
+        assert not (np.all(eye > lo) and np.all(eye < hi))
+
+
+def test_the_population_covers_what_the_benchmark_needs():
+    scenes = [random_scene(i) for i in range(100)]
+    assert {s.max_depth for s in scenes} == {2, 3, 4, 5}
+    assert 5 <= sum(s.medium is not None for s in scenes) <= 40
+    textured = sum(any(isinstance(x, Rectangle) and x.material.textured for x in s.shapes) for s in scenes)
+    assert textured >= 50
+    assert any(len(s.lights) == 2 for s in scenes) and any(len(s.lights) == 1 for s in scenes)
+
+
+def test_benchmark_scenes_are_held_out():
+    named = [renderers.get_scene(name, animated=False) for name in renderers.SCENES]
+    check_held_out([random_scene(i) for i in range(50)], named)
+    with pytest.raises(ValueRangeError, match="training scene 'cornell': expected a held-out scene"):
+        check_held_out([named[0]], named)
+
+
+def test_pixel_seeds_are_distinct_within_and_across_keys():
+    a, b = pixel_seeds(16, 12, 3), pixel_seeds(16, 12, 4)
+    assert a.dtype == torch.int64 and a.shape == (16, 12)
+    assert len(torch.cat([a.flatten(), b.flatten()]).unique()) == 2 * 16 * 12
+
+
+def test_render_pair_is_deterministic_and_consistent():
+    scene = random_scene(1)
+    frame, ref = render_pair(scene, size=8, spp=2, reference_spp=8, key=5)
+    again, ref_again = render_pair(scene, size=8, spp=2, reference_spp=8, key=5)
+    assert torch.equal(frame.color, again.color) and torch.equal(ref, ref_again)
+    assert frame.color.shape == ref.shape == (3, 8, 8)
+    assert frame.albedo is not None and frame.normal is not None
+    assert not torch.equal(frame.color, ref)
+
+
+def test_make_pairs_and_bad_specs():
+    pairs = make_pairs(TrainingSpec(scenes=2, size=8, reference_spp=4, seed=3), progress=False)
+    assert len(pairs) == 2 and pairs[0][0].color.shape == (3, 8, 8)
+    with pytest.raises(UnknownNameError, match="unknown training mix 'pink'"):
+        TrainingSpec(mix="pink")
+    with pytest.raises(ValueRangeError, match="TrainingSpec.size: expected an integer >= 8, got 4"):
+        TrainingSpec(size=4)
+
+
+def test_blue_noise_pairs_use_the_bnds_sampler():
+    scene = random_scene(1)
+    white, ref = render_pair(scene, size=8, spp=2, reference_spp=4, key=5)
+    blue, ref_blue = render_pair(scene, size=8, spp=2, reference_spp=4, key=5, blue=True)
+    assert torch.equal(ref, ref_blue) and not torch.equal(white.color, blue.color)
+    pairs = make_pairs(TrainingSpec(scenes=2, size=8, reference_spp=2, mix="white+blue", seed=0), progress=False)
+    assert torch.equal(pairs[0][0].color, make_pairs(TrainingSpec(scenes=1, size=8, reference_spp=2), progress=False)[0][0].color)
