@@ -128,3 +128,18 @@ def test_conditions_get_their_own_sections_and_charts(tmp_path):
     assert (tmp_path / "error_vs_time_direct_m0.png").exists()
     assert not (tmp_path / "error_vs_time_direct_edges.png").exists()  # charts: whole image only
     assert report.summarize(records)[-1]["worse_than_white"] is True
+
+
+def test_raw_mse_differences_from_white_are_listed_once_per_run():
+    records = _records() + [
+        _record("bnds", 1, "gaussian", _WHITE, _WORSE),
+        _record("bnds", 1, "median", _WHITE, _WORSE),
+        _record("bnds", 4, "gaussian", _WHITE, _WORSE),
+    ]
+    rows = summarize(records)
+    bnds = {r["denoiser"]: r["raw_differs_from_white"] for r in rows if r["strategy"] == "bnds"}
+    assert bnds == {"gaussian": True, "median": None}  # no white median record: nothing to compare
+    assert not any(r["raw_differs_from_white"] for r in rows if r["strategy"] == "temporal")
+    section = markdown_table(rows).split("## Raw MSE different from white beyond the interval")[1]
+    section = section.split("## Worse than white")[0]
+    assert section.count("| direct | direct | bnds | 1 |") == 1 and section.count("| direct | direct | bnds | 4 |") == 1
