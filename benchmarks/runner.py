@@ -3,9 +3,9 @@
 For each **run** (scene x strategy x spp x motion/depth condition, see :mod:`benchmarks.suites`)
 and each independent seed set, the runner builds the strategy, lets it drive the renderer for
 ``warmup + frames`` frames (the warmup frames are rendered but not measured, so that the temporal
-strategies have converged; stateless strategies skip them, see :class:`Parts`), and, for each measured frame, compares the raw frame and every
-denoiser's output with the reference of that frame (:class:`bnerr.metrics.FrameMetrics`), once per
-pixel region. One run yields one record per cell (denoiser x region): per-frame metric pairs (so
+strategies have converged; stateless strategies skip them, see :class:`Parts`), and, for each
+measured frame, compares the raw frame and every denoiser's output with the reference of that
+frame (:class:`bnerr.metrics.FrameMetrics`), once per pixel region. One run yields one record per cell (denoiser x region): per-frame metric pairs (so
 that the report can bootstrap intervals and pair strategies on the same frames), per-frame
 timings, and the error spectra.
 
@@ -329,15 +329,18 @@ class ReferenceCache:
         self.parts = parts
         self._memory: dict[str, Frame] = {}
 
-    def path(self, scene: str, motion: int, depth: int | None, t_render: int, width: int, height: int, spp: int) -> Path:
-        depth_tag = "d" if depth is None else f"d{depth}"
+    def path(self, run: Run, t_render: int) -> Path:
+        """The cache file of ``run``'s reference at renderer frame ``t_render``."""
+        depth = "d" if run.depth is None else f"d{run.depth}"
         version = self.parts.renderer_version.replace("/", "_")
-        name = f"{scene}_m{motion}_{depth_tag}_t{t_render}_{width}x{height}_spp{spp}_{_REFERENCE_FORMAT}_{version}.exr"
-        return self.root / scene / name
+        size = f"{run.width}x{run.height}"
+        name = (f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{size}_spp{run.reference_spp}"
+                f"_{_REFERENCE_FORMAT}_{version}.exr")
+        return self.root / run.scene / name
 
     def get(self, run: Run, scene: Any, t_render: int) -> Frame:
         """The reference Frame of ``scene`` at renderer frame ``t_render`` for ``run``'s settings."""
-        path = self.path(run.scene, run.motion, run.depth, t_render, run.width, run.height, run.reference_spp)
+        path = self.path(run, t_render)
         key = str(path)
         if key in self._memory:
             return self._memory[key]
@@ -602,8 +605,7 @@ def tune_denoisers(run: Run, parts: Parts, references: ReferenceCache, store: An
     unchanged (issue 5, "fair parameters").
     """
     key = _tuning_key(run)
-    missing = [d for d in run.denoisers if d not in store.entries or key not in store.entries[d]
-               or str(run.spp) not in store.entries[d][key]]
+    missing = [d for d in run.denoisers if _stored(store, d, key, run.spp) is None]
     if missing:
         scene = _scene_for(run, parts)
         render = _TimedRender(parts, scene, run.spp)
@@ -617,14 +619,12 @@ def tune_denoisers(run: Run, parts: Parts, references: ReferenceCache, store: An
             result = parts.tune_denoiser(name, frames, refs)
             if result is not None:
                 store.put(result, key, run.spp)
-    return {
-        name: parts.make_denoiser(name, store.params(name, key, run.spp) if _stored(store, name, key, run.spp) else None)
-        for name in run.denoisers
-    }
+    return {name: parts.make_denoiser(name, _stored(store, name, key, run.spp)) for name in run.denoisers}
 
 
-def _stored(store: Any, name: str, key: str, spp: int) -> bool:
-    return str(spp) in store.entries.get(name, {}).get(key, {})
+def _stored(store: Any, name: str, key: str, spp: int) -> dict | None:
+    """The stored parameters, or None for a denoiser without any (nothing to tune)."""
+    return store.params(name, key, spp) if str(spp) in store.entries.get(name, {}).get(key, {}) else None
 
 
 # --------------------------------------------------------------------------------------------------

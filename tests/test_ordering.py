@@ -110,9 +110,12 @@ def ordering(tmp_path_factory, cache):
     return _index(run_suite(suite, tmp_path_factory.mktemp("ordering"), cache_dir=cache, progress=False))
 
 
-def _ratio(records, a, b, kind, level, **cell):
-    key = lambda s: (cell["scene"], cell["spp"], cell["denoiser"], s, cell.get("motion", 1), cell.get("region", "all"))  # noqa: E731
-    return paired_ratio(np.asarray(records[key(a)][kind]["mse"]), np.asarray(records[key(b)][kind]["mse"]), level=level)
+def _ratio(records, a, b, kind, level, scene, spp, denoiser, motion=1, region="all"):
+    """Paired ratio of strategy ``a``'s MSE to ``b``'s (``kind`` raw or den) on one cell."""
+    def stats(strategy):
+        return np.asarray(records[scene, spp, denoiser, strategy, motion, region][kind]["mse"])
+
+    return paired_ratio(stats(a), stats(b), level=level)
 
 
 @pytest.mark.slow

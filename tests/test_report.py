@@ -23,7 +23,8 @@ def _record(strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region
         return [[value] * 3] * 2
 
     cell = dict(scene=scene, strategy=strategy, spp=spp, denoiser=denoiser, motion=motion, depth=None,
-                region=region, sampler="owen_sobol", frames=3, warmup=2, width=16, height=16, seed_sets=2, reference_spp=64)
+                region=region, sampler="owen_sobol", frames=3, warmup=2, width=16, height=16, seed_sets=2,
+                reference_spp=64)
     per_metric = {m: pairs(flat(0.5)) for m in _METRICS}
     return {
         "key": str(sorted(cell.items())),

@@ -40,6 +40,10 @@ def _ints(values: list[str] | None, flag: str) -> list[int] | None:
     return [check_positive_int(n, flag) for n in numbers]
 
 
+def _count(value: int | None, flag: str, minimum: int = 1) -> int | None:
+    return None if value is None else check_positive_int(value, flag, minimum=minimum)
+
+
 def _res(text: str | None) -> tuple[int, int] | None:
     if text is None:
         return None
@@ -101,11 +105,11 @@ def run(args: argparse.Namespace) -> int:
             strategies=_names(args.strategies),
             spp=_ints(args.spp, "--spp"),
             denoisers=_names(args.denoisers),
-            frames=None if args.frames is None else check_positive_int(args.frames, "--frames"),
-            warmup=None if args.warmup is None else check_positive_int(args.warmup, "--warmup", minimum=0),
+            frames=_count(args.frames, "--frames"),
+            warmup=_count(args.warmup, "--warmup", minimum=0),
             res=_res(args.res),
-            seed_sets=None if args.seed_sets is None else check_positive_int(args.seed_sets, "--seed-sets"),
-            reference_spp=None if args.reference_spp is None else check_positive_int(args.reference_spp, "--reference-spp"),
+            seed_sets=_count(args.seed_sets, "--seed-sets"),
+            reference_spp=_count(args.reference_spp, "--reference-spp"),
             **runner.known_names(),
         )
         records = runner.run_suite(suite, out, cache_dir=args.cache, resume=args.resume, progress=not args.quiet)
