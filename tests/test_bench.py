@@ -62,3 +62,8 @@ def test_bench_reports_bad_overrides_as_errors(tmp_path, capsys, flag, value, me
     args[args.index(flag) + 1] = value
     assert main(args) == 2
     assert message in capsys.readouterr().err
+
+
+def test_the_speed_suite_takes_no_cell_overrides(tmp_path, capsys):
+    assert main(["bench", "--suite", "speed", "--spp", "4", "--out", str(tmp_path), "--quiet"]) == 2
+    assert "--suite speed: expected no cell overrides (it runs timing scripts), got --spp" in capsys.readouterr().err

@@ -17,9 +17,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from bnerr.errors import DtypeError, check_positive_int
+from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 
 __all__ = ["register"]
+
+_OVERRIDES = ("scenes", "strategies", "spp", "denoisers", "frames", "warmup", "seed_sets", "reference_spp", "res")
 
 
 def _names(values: list[str] | None) -> list[str] | None:
@@ -60,7 +62,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "bench",
         help="run a benchmark suite and write tables and charts",
-        description=__doc__.split("\n\n")[0]
+        description="Run a named benchmark suite (with overrides), write its tables and charts, print the table."
         + "\n\nSuites:\n" + "\n".join(f"  {s.name:10s} {s.description}" for s in SUITES.values()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -97,6 +99,12 @@ def run(args: argparse.Namespace) -> int:
     suite = suites.get_suite(args.suite)
     out = args.out or Path("results") / suite.name
     if suite.scripts:
+        given = [f"--{name.replace('_', '-')}" for name in _OVERRIDES if getattr(args, name) is not None]
+        if given or args.resume:
+            raise ValueRangeError(
+                f"--suite {suite.name}: expected no cell overrides (it runs timing scripts), got "
+                f"{', '.join(given + (['--resume'] if args.resume else []))}"
+            )
         text = runner.run_speed(suite, out, progress=not args.quiet)
     else:
         suite = suites.resolve(
