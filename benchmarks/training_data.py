@@ -10,10 +10,11 @@ drawn or used: :func:`check_held_out` verifies it, by name and by content.
 
 Each training pair is a noisy render at a random low spp with white-noise seeds (or, for the
 ``white+blue`` mix, half of them with the blue-noise dithered sampler of Georgiev & Fajardo 2016,
-the ``bnds`` sampler) and a reference of the same scene at high spp with other seeds. The
-reference is itself a Monte Carlo estimate; its residual noise is independent of the input's, so
-it adds a constant to the L1 loss and does not bias what the network learns toward it (the
-Noise2Noise argument, Lehtinen et al. 2018, exact for L2, nearly so for L1 at high spp).
+the ``bnds`` sampler) and a reference of the same scene at 64 spp (by default) with other seeds.
+The reference is itself a Monte Carlo estimate, but its noise is independent of the input's: under
+an L2 loss it only adds a constant and the optimum is unchanged (Lehtinen et al. 2018,
+"Noise2Noise"); under L1 the optimum is the median of the reference's noise instead of its mean,
+nearly the same at 16 times the input's spp.
 
 This module lives in :mod:`benchmarks` because :mod:`denoisers` must not import :mod:`renderers`.
 
@@ -77,9 +78,9 @@ class TrainingSpec:
         seed: first scene seed; scene ``i`` uses seed ``seed + i``.
     """
 
-    scenes: int = 96
+    scenes: int = 128
     size: int = 64
-    reference_spp: int = 256
+    reference_spp: int = 64
     mix: str = "white"
     seed: int = 0
 
@@ -131,7 +132,12 @@ def _frame_towards(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _light(rng: np.random.Generator, index: int, room: float, height: float, ceiling_only: bool) -> Rectangle:
-    """A rectangle light of random size, color and power, on the ceiling or free, facing inward."""
+    """A rectangle light of random size, color and power: on the ceiling, free and aimed at the
+    room's middle, or (often) standing in front of the back wall, facing the camera.
+
+    Its own albedo (what the albedo buffer shows on it) is black or, as for the Cornell box's
+    light, a diffuse color like the surface it sits in.
+    """
     half = rng.uniform(0.1, 0.45) * room * np.array([1.0, rng.uniform(0.3, 1.0)])
     temperature = rng.uniform(-0.35, 0.35)  # warm (red) to cool (blue) white
     color = np.array([1.0 + temperature, 1.0, 1.0 - temperature])
@@ -139,9 +145,15 @@ def _light(rng: np.random.Generator, index: int, room: float, height: float, cei
     # Power spans 1.5 decades: auto-exposure must see bright and dark scenes.
     power = 10.0 ** rng.uniform(0.5, 2.0) * room * room
     emission = tuple(float(c) for c in color * power / area)
-    if rng.uniform() < 0.6 or ceiling_only:  # ceiling light facing down
+    material = Diffuse((0.0, 0.0, 0.0)) if rng.uniform() < 0.5 else Diffuse(_albedo(rng, 0.3, 0.9))
+    kind = rng.uniform()
+    if kind < 0.45 or ceiling_only:  # ceiling light facing down
         center = (rng.uniform(-0.5, 0.5) * room, height - 1e-3, rng.uniform(-0.7, 0.3) * room)
         normal = np.array([0.0, -1.0, 0.0])
+    elif kind < 0.75:  # a panel in front of the back wall, facing the camera: seen directly
+        center = (rng.uniform(-0.6, 0.6) * room, rng.uniform(0.3, 0.9) * height, rng.uniform(-0.95, -0.7) * room)
+        normal = np.array([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.1), 1.0])
+        normal /= np.linalg.norm(normal)
     else:  # a free panel above the floor, aimed at a point near the room's middle
         angle = rng.uniform(0.0, 2.0 * math.pi)
         center = (0.8 * room * math.sin(angle), rng.uniform(0.5, 0.9) * height, 0.8 * room * math.cos(angle))
@@ -149,12 +161,11 @@ def _light(rng: np.random.Generator, index: int, room: float, height: float, cei
         normal = aim - np.asarray(center)
         normal /= np.linalg.norm(normal)
     u, v = _frame_towards(normal)
+
     def vec(x) -> tuple[float, float, float]:
         return tuple(float(c) for c in x)  # type: ignore[return-value]
 
-    return Rectangle(
-        f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), Diffuse((0.0, 0.0, 0.0)), emission
-    )
+    return Rectangle(f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), material, emission)
 
 
 def _room(rng: np.random.Generator, room: float, height: float) -> list[Rectangle]:

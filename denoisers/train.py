@@ -64,7 +64,7 @@ __all__ = [
 ]
 
 #: Training losses (see :func:`loss_value`).
-LOSSES = ("l1_log", "relmse")
+LOSSES = ("l1_log", "l1_log+l1", "l1_log+mse", "relmse")
 #: Format tag of checkpoint files, checked on resume.
 CHECKPOINT_FORMAT = "bnerr-unet-checkpoint-v1"
 
@@ -87,9 +87,9 @@ class TrainConfig:
         residual: the network adds its output to its log input color (see :mod:`denoisers.unet`).
     """
 
-    steps: int = 3000
+    steps: int = 2500
     batch_size: int = 16
-    crop: int = 64
+    crop: int = 48
     lr: float = 2e-3
     warmup: int = 100
     seed: int = 0
@@ -187,10 +187,15 @@ def loss_value(prediction: torch.Tensor, target: torch.Tensor, kind: str) -> tor
     lies below the mean for the skewed posteriors of low-spp Monte Carlo noise. The prediction is
     clamped at 12 (exp(12) is 10^5 times mid-grey) so that an early wild output cannot overflow.
     """
+    l1_log = (prediction - target).abs().mean()
     if kind == "l1_log":
-        return (prediction - target).abs().mean()
+        return l1_log
     p = torch.expm1(prediction.clamp(max=12.0))
     t = torch.expm1(target)
+    if kind == "l1_log+l1":
+        return l1_log + (p - t).abs().mean()
+    if kind == "l1_log+mse":
+        return l1_log + 0.01 * (p - t).square().mean()
     return ((p - t).square() / (t.square() + 0.01)).mean()
 
 

@@ -14,7 +14,7 @@ HDR input: scale by an auto-exposure (so that a dark and a bright scene look ali
 then a log transform (``log1p``), which compresses fireflies. The network's output is mapped back
 by the inverse transform.
 
-Much smaller than OIDN's (about 0.3 M parameters instead of about 0.9 M at the default widths;
+Much smaller than OIDN's (0.37 M parameters instead of about 0.9 M at the default widths;
 ``MAX_PARAMETERS`` is the project's cap): it has to train in minutes on two CPU cores. It is a
 baseline that shows what a learned denoiser does with white and blue-noise input, not a
 replacement for OIDN.
@@ -56,7 +56,7 @@ WEIGHTS_FORMAT = "bnerr-unet-weights-v1"
 #: The project's cap on the network's size (the issue: "at most about 0.5 M parameters").
 MAX_PARAMETERS = 500_000
 #: Default channel widths: full, 1/2, 1/4, 1/8 resolution (the bottleneck).
-DEFAULT_WIDTHS = (24, 40, 56, 72)
+DEFAULT_WIDTHS = (32, 48, 64, 80)
 
 _KEY = 0.18  # mid-grey: auto-exposure maps the image's log-average luminance to it
 _BIN = 16  # auto-exposure averages luminance over 16 x 16 pixel bins first, as OIDN does

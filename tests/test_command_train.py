@@ -17,7 +17,7 @@ def test_train_writes_weights_with_their_command_and_resumes(tmp_path, capsys):
     meta = payload["meta"]
     assert meta["finished"] and meta["step"] == 4 and [s for s, _ in meta["losses"]] == [2, 4]
     assert meta["command"].startswith(f"bnerr train --out {out} --mix white --steps 4 --scenes 2 --size 8")
-    assert (tmp_path / "w.pt.data.pt").exists() and (tmp_path / "w.pt.ckpt").exists()
+    assert (tmp_path / "w.pt.data").exists() and (tmp_path / "w.pt.ckpt").exists()
     first = load_weights(out).state_dict()
     # Resuming a finished run (the cached data is reused, nothing is trained again) keeps the weights.
     assert main(["train", "--out", str(out), *TINY, "--resume"]) == 0

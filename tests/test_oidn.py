@@ -10,6 +10,8 @@ from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.oidn import MissingExtraError, oidn_denoise
 
+from _scene_renders import SCENES, mse, scene_renders
+
 pyoidn = pytest.importorskip("pyoidn", reason="needs the optional extra 'reference'")
 pytestmark = pytest.mark.reference
 
@@ -51,3 +53,9 @@ def test_missing_extra_names_it(monkeypatch):
     with pytest.raises(MissingExtraError, match=r"oidn: expected the optional extra 'reference'.*pyoidn"):
         get_denoiser("oidn")
     assert issubclass(MissingExtraError, ImportError)
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_oidn_lowers_mse_on_every_scene_at_4spp(scene):
+    _, frame, reference = scene_renders(scene)
+    assert mse(get_denoiser("oidn")(frame), reference) < mse(frame.color, reference)

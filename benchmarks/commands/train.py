@@ -1,9 +1,9 @@
 """``bnerr train``: render a training set with our renderer and train the U-Net denoiser.
 
-    bnerr train --out denoisers/weights/unet.pt --mix white --steps 3000
+    bnerr train --out denoisers/weights/unet.pt --mix white
 
 Steps: (1) render ``--scenes`` random held-out scenes (``benchmarks.training_data``), cached in
-``OUT.data.pt`` so that a resumed run does not render again; (2) train
+``OUT.data`` so that a resumed run does not render again; (2) train
 (:func:`denoisers.train.train`) with a checkpoint in ``OUT.ckpt`` every ``--checkpoint-every``
 steps; (3) write the weights to ``OUT`` with the command line, the settings and the loss curve in
 their metadata. ``--resume`` continues an interrupted run from its checkpoint; the result is the
@@ -81,7 +81,7 @@ def _run(args: argparse.Namespace) -> int:
         steps=args.steps, batch_size=args.batch_size, crop=args.crop, lr=args.lr, seed=args.seed,
         checkpoint_every=args.checkpoint_every, loss=args.loss,
     )
-    data = load_or_render(spec, out.with_name(out.name + ".data.pt"), progress=not args.no_progress)
+    data = load_or_render(spec, out.with_name(out.name + ".data"), progress=not args.no_progress)
     render_s = time.perf_counter() - start
     limit = None if args.minutes is None else max(args.minutes * 60.0 - render_s, 0.0)
     result = train(
@@ -116,14 +116,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
     p.add_argument("--mix", default="white", choices=("white", "white+blue"), help="noise of the training inputs")
-    p.add_argument("--steps", type=int, default=3000, help="optimizer steps of the full run")
+    p.add_argument("--steps", type=int, default=2500, help="optimizer steps of the full run")
     p.add_argument("--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)")
     p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
-    p.add_argument("--scenes", type=int, default=96, help="random training scenes (one pair each)")
+    p.add_argument("--scenes", type=int, default=128, help="random training scenes (one pair each)")
     p.add_argument("--size", type=int, default=64, help="training image side in pixels")
-    p.add_argument("--reference-spp", type=int, default=256, help="spp of the training references")
+    p.add_argument("--reference-spp", type=int, default=64, help="spp of the training references")
     p.add_argument("--batch-size", type=int, default=16)
-    p.add_argument("--crop", type=int, default=64, help="crop side (multiple of 8, at most --size)")
+    p.add_argument("--crop", type=int, default=48, help="crop side (multiple of 8, at most --size)")
     p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
     p.add_argument("--loss", default="l1_log", choices=("l1_log", "relmse"), help="training loss")
     p.add_argument("--checkpoint-every", type=int, default=100)
