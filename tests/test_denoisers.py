@@ -7,19 +7,8 @@ import denoisers
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
 from denoisers import DENOISERS, Denoiser, MissingBufferError, check_frame, get_denoiser
-from denoisers.unet import DEFAULT_WEIGHTS
 
 NAMES = ["atrous", "bilateral", "gaussian", "guided", "joint_bilateral", "median", "oidn", "unet"]
-
-# The unet denoiser loads the shipped default weights, which issue 5 ships as a trained artifact.
-_NO_WEIGHTS = pytest.mark.skipif(
-    not DEFAULT_WEIGHTS.exists(), reason=f"{DEFAULT_WEIGHTS} is not shipped yet (issue 5)"
-)
-
-
-def _param(name, *rest):
-    values = (name, *rest)
-    return pytest.param(*values, marks=_NO_WEIGHTS) if name == "unet" else (values if rest else name)
 
 
 def _frame(h=12, w=10, seed=0, **drop):
@@ -42,7 +31,7 @@ def test_registry_names_sorted_and_complete():
         assert cls.name == name and issubclass(cls, Denoiser)
 
 
-@pytest.mark.parametrize("name", [_param(n) for n in NAMES])
+@pytest.mark.parametrize("name", NAMES)
 def test_every_denoiser_maps_frame_to_color(name):
     frame = _frame()
     out = get_denoiser(name)(frame)
@@ -59,8 +48,8 @@ def test_unknown_name_and_parameter_raise():
 
 @pytest.mark.parametrize(
     "name, missing",
-    [_param(*c) for c in [("joint_bilateral", "albedo"), ("guided", "normal"), ("atrous", "depth"),
-                          ("unet", "albedo"), ("oidn", "normal")]],
+    [("joint_bilateral", "albedo"), ("guided", "normal"), ("atrous", "depth"), ("unet", "albedo"),
+     ("oidn", "normal")],
 )
 def test_missing_buffer_is_named(name, missing):
     frame = _frame(**{missing: True})

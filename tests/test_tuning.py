@@ -11,7 +11,6 @@ from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.filters import Gaussian, Median
 from denoisers.tuning import GRIDS, PARAMS_FORMAT, ParamStore, grid_points, tune, tuned_denoiser
-from denoisers.unet import DEFAULT_WEIGHTS
 
 from _scene_renders import SCENES, mse, scene_renders
 
@@ -89,7 +88,6 @@ def test_store_round_trip_and_lookup(tmp_path):
     assert not list(tmp_path.glob("**/.*tmp*"))  # the atomic write leaves no temporary behind
 
 
-@pytest.mark.skipif(not DEFAULT_WEIGHTS.exists(), reason=f"{DEFAULT_WEIGHTS} is not shipped yet (issue 5)")
 def test_untunable_denoiser_needs_no_stored_entry():
     assert tuned_denoiser("unet", "snooker", 4, ParamStore()).name == "unet"  # nothing to tune
 

@@ -107,15 +107,7 @@ def test_bad_weights_raise(tmp_path):
 # ------------------------------------------------------------------------------------------------
 # The shipped weights, on the benchmark's scenes (all held out from training).
 
-#: The default weights are a trained artifact that issue 5 ships; until they land, the tests of
-#: the shipped network say so instead of failing on a missing file.
-needs_shipped_weights = pytest.mark.skipif(
-    not DEFAULT_WEIGHTS.exists(), reason=f"{DEFAULT_WEIGHTS} is not shipped yet (issue 5)"
-)
 
-
-
-@needs_shipped_weights
 def test_shipped_weights_load_and_record_their_command():
     payload = torch.load(DEFAULT_WEIGHTS, weights_only=True)
     command = payload["meta"]["command"]
@@ -125,14 +117,12 @@ def test_shipped_weights_load_and_record_their_command():
     assert parameter_count(UNetDenoiser().model.widths) <= MAX_PARAMETERS
 
 
-@needs_shipped_weights
 @pytest.mark.parametrize("scene", SCENES)
 def test_unet_lowers_mse_on_every_scene_at_4spp(scene):
     _, frame, reference = scene_renders(scene)
     assert mse(UNetDenoiser()(frame), reference) < mse(frame.color, reference)
 
 
-@needs_shipped_weights
 @pytest.mark.parametrize("scene", SCENES)
 def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene, request):
     """Filters tuned on this very scene (one white-noise frame); the U-Net never saw it."""
