@@ -46,6 +46,7 @@ from denoisers.unet import (
     MAX_PARAMETERS,
     UNet,
     atomic_torch_save,
+    load_torch_file,
     auto_exposure,
     network_input,
 )
@@ -231,15 +232,7 @@ def load_checkpoint(path: str | Path) -> dict:
         FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr checkpoint.
     """
     path = Path(path)
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise FileFormatError(f"{path}: expected a training checkpoint, got no such file") from None
-    except Exception as err:  # torch raises many types on a damaged file
-        raise FileFormatError(f"{path}: expected a training checkpoint, got an unreadable file ({err})") from None
-    if not isinstance(state, dict) or state.get("format") != CHECKPOINT_FORMAT:
-        got = state.get("format") if isinstance(state, dict) else type(state).__name__
-        raise FileFormatError(f"{path}: expected format {CHECKPOINT_FORMAT!r}, got {got!r}")
+    state = load_torch_file(path, "a training checkpoint", CHECKPOINT_FORMAT)
     missing = {"config", "step", "model", "optimizer", "losses", "running"} - set(state)
     if missing:
         raise FileFormatError(f"{path}: expected checkpoint entries {sorted(missing)}, got none")

@@ -42,6 +42,7 @@ __all__ = [
     "WEIGHTS_FORMAT",
     "atomic_torch_save",
     "auto_exposure",
+    "load_torch_file",
     "load_weights",
     "network_input",
     "parameter_count",
@@ -186,6 +187,25 @@ def save_weights(model: UNet, path: str | Path, meta: dict | None = None) -> Non
     atomic_torch_save(payload, Path(path))
 
 
+def load_torch_file(path: Path, what: str, fmt: str) -> dict:
+    """Read a dict saved with ``torch.save`` whose ``"format"`` entry is ``fmt`` (on the CPU).
+
+    Raises:
+        FileFormatError: naming ``path`` and ``what`` was expected, if the file is missing,
+            unreadable, corrupt, or of another format.
+    """
+    try:
+        payload = torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise FileFormatError(f"{path}: expected {what}, got no such file") from None
+    except Exception as err:  # torch raises many types on a damaged file
+        raise FileFormatError(f"{path}: expected {what}, got an unreadable file ({err})") from None
+    if not isinstance(payload, dict) or payload.get("format") != fmt:
+        got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
+        raise FileFormatError(f"{path}: expected format {fmt!r}, got {got!r}")
+    return payload
+
+
 def load_weights(path: str | Path) -> UNet:
     """Build a :class:`UNet` from a weights file written by :func:`save_weights` (on the CPU).
 
@@ -193,15 +213,7 @@ def load_weights(path: str | Path) -> UNet:
         FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr U-Net file.
     """
     path = Path(path)
-    try:
-        payload = torch.load(path, map_location="cpu", weights_only=True)
-    except FileNotFoundError:
-        raise FileFormatError(f"{path}: expected a U-Net weights file, got no such file") from None
-    except Exception as err:  # torch raises many types on a damaged file
-        raise FileFormatError(f"{path}: expected a U-Net weights file, got an unreadable file ({err})") from None
-    if not isinstance(payload, dict) or payload.get("format") != WEIGHTS_FORMAT:
-        got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
-        raise FileFormatError(f"{path}: expected format {WEIGHTS_FORMAT!r}, got {got!r}")
+    payload = load_torch_file(path, "a U-Net weights file", WEIGHTS_FORMAT)
     try:
         model = UNet(tuple(payload["widths"]), residual=bool(payload["residual"]))
         model.load_state_dict(payload["state_dict"])
