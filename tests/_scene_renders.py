@@ -43,6 +43,24 @@ def scene_renders(name: str) -> tuple[Frame, Frame, torch.Tensor]:
     return render(1, SPP), render(3, SPP), render(1000, REFERENCE_SPP).color
 
 
+#: Seed keys of the extra measured frames of :func:`measured_frames` (none used above).
+MEASURED_KEYS = tuple(range(21, 29))
+
+
+@functools.cache
+def measured_frames(name: str) -> tuple[Frame, ...]:
+    """Eight more independent white-noise frames of scene ``name`` (same size, spp and time).
+
+    For comparisons whose difference is small next to the frame-to-frame spread of one 64 x 64
+    frame's error: measured on one frame, such a comparison is a coin toss.
+    """
+    scene = renderers.get_scene(name, animated=False)
+    return tuple(
+        renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), SPP)
+        for key in MEASURED_KEYS
+    )
+
+
 def mse(image: torch.Tensor, reference: torch.Tensor) -> float:
     """Mean squared error over pixels and channels, accumulated in float64."""
     return float((image.double() - reference.double()).square().mean())

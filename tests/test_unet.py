@@ -1,10 +1,13 @@
 """Tests of denoisers/unet.py: the network, its input transform, its weights files."""
 
+import functools
+
 import pytest
 import torch
 
 from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
 from bnerr.frame import Frame
+from bnerr.metrics import paired_ratio
 from denoisers import get_denoiser
 from denoisers.tuning import GRIDS, tune
 from denoisers.unet import (
@@ -21,7 +24,7 @@ from denoisers.unet import (
     unet_denoise,
 )
 
-from _scene_renders import SCENES, mse, scene_renders
+from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
 
 def _frame(h=20, w=28, seed=0, scale=1.0):
@@ -123,17 +126,34 @@ def test_unet_lowers_mse_on_every_scene_at_4spp(scene):
     assert mse(UNetDenoiser()(frame), reference) < mse(frame.color, reference)
 
 
+@functools.cache
+def _held_out_comparison(scene):
+    """U-Net MSE / best tuned filter's MSE on eight frames the filters were not tuned on.
+
+    The filters are tuned on this very scene (one white-noise frame); the U-Net never saw it. The
+    best filter is picked by its mean MSE on the measured frames themselves, which favours the
+    filters. The ratio's interval is a paired bootstrap over the frames.
+    """
+    tune_frame, _, reference = scene_renders(scene)
+    frames = measured_frames(scene)
+    filters = {name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params) for name in GRIDS}
+    per_frame = {name: [mse(d(f), reference) for f in frames] for name, d in filters.items()}
+    best = min(per_frame, key=lambda name: sum(per_frame[name]))
+    unet = UNetDenoiser()
+    return paired_ratio([mse(unet(f), reference) for f in frames], per_frame[best])
+
+
 @pytest.mark.parametrize("scene", SCENES)
-def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene, request):
-    """Filters tuned on this very scene (one white-noise frame); the U-Net never saw it."""
+def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene):
+    assert _held_out_comparison(scene).value < 1.0
+
+
+@pytest.mark.parametrize("scene", SCENES)
+def test_unet_beats_the_best_tuned_filter_beyond_the_interval(scene, request):
     if scene == "snooker_plain":
         request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "measured: U-Net 0.198 x the noisy MSE, a-trous tuned on this scene 0.190 "
-            "(see denoisers/weights/README.md)"
+            "measured: U-Net / a-trous (tuned on this scene) = 0.95, interval reaches above 1: "
+            "a tie on an untextured, mostly flat scene that a-trous' normal and depth guides "
+            "already separate well (denoisers/weights/README.md)"
         )))
-    tune_frame, frame, reference = scene_renders(scene)
-    best = min(
-        mse(get_denoiser(name, **tune(name, [tune_frame], [reference]).params)(frame), reference)
-        for name in GRIDS
-    )
-    assert mse(UNetDenoiser()(frame), reference) < best
+    assert _held_out_comparison(scene).hi < 1.0
