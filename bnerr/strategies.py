@@ -69,6 +69,10 @@ from bnerr.permute import SortPass, SortPlan, histogram_select, luminance, plan_
 from bnerr.retarget import Retarget, load_retarget
 from bnerr.sequences import Sampler, make_sampler
 
+# The samplers' lowbias32 hash on a Python int (for keys shared by every pixel), and int32 words.
+from bnerr.sequences import _lowbias32_host as _mix32_host
+from bnerr.sequences import _signed
+
 __all__ = [
     "STRATEGIES",
     "BNDSStrategy",
@@ -97,12 +101,6 @@ _CACHE_BYTES = 64 << 20
 # Seeds
 
 
-def _signed(word: int) -> int:
-    """A 32-bit word as the int32 with the same bits."""
-    word &= _MASK32
-    return word - (1 << 32) if word >= 1 << 31 else word
-
-
 def _mix32(x: torch.Tensor) -> torch.Tensor:
     """lowbias32 (Wellons) on int32 words read as unsigned, a bijection of 32-bit words.
 
@@ -116,15 +114,6 @@ def _mix32(x: torch.Tensor) -> torch.Tensor:
     x *= _signed(0x846CA68B)
     x ^= (x >> 16) & 0xFFFF
     return x
-
-
-def _mix32_host(x: int) -> int:
-    x &= _MASK32
-    x ^= x >> 16
-    x = (x * 0x7FEB352D) & _MASK32
-    x ^= x >> 15
-    x = (x * 0x846CA68B) & _MASK32
-    return x ^ (x >> 16)
 
 
 def _stream_key(seed: int, t: int, stream: int, k: int = 0) -> int:
