@@ -743,7 +743,9 @@ def run_speed(suite: Suite, out_dir: str | Path, *, progress: bool = True) -> st
         Path(tmp).write_text(json.dumps(figures, indent=1, sort_keys=True) + "\n")
     lines = [f"# bnerr bench --suite {suite.name}", "", suite.description, ""]
     for script, values in figures.items():
-        lines += [f"## {script}", "", "| figure | value |", "|---|---|"]
+        doc = (importlib.import_module(f"benchmarks.{script}").measure.__doc__ or "").strip()
+        summary = " ".join(doc.split("\n\n")[0].split())  # what the figures are, with their units
+        lines += [f"## {script}", "", *([summary, ""] if summary else []), "| figure | value |", "|---|---|"]
         lines += [f"| {path} | {value} |" for path, value in _leaves(values)]
         lines.append("")
     text = "\n".join(lines)
