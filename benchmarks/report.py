@@ -8,7 +8,8 @@ a report can be rebuilt without rendering anything (``python -m benchmarks.repor
   low-frequency fraction, the ratio of each strategy to white noise on the same frames (paired
   bootstrap interval, :func:`bnerr.metrics.paired_ratio`), and the render, permutation and denoise
   milliseconds per frame.
-- ``table.md``: per scene and condition, each strategy's post-denoise MSE as a fraction of white's,
+- ``table.md``: the headline (temporal and oracle against white, per scene, spp and denoiser); per
+  scene and condition, each strategy's post-denoise MSE as a fraction of white's,
   the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time per frame; and the list
   of cells where a strategy is worse than white beyond its interval.
 - Charts (matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state):
@@ -35,7 +36,7 @@ import numpy as np
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
 
-__all__ = ["COLUMNS", "markdown_table", "summarize", "write_charts", "write_report"]
+__all__ = ["COLUMNS", "HEADLINE_STRATEGIES", "markdown_table", "summarize", "write_charts", "write_report"]
 
 _CELL = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "sampler", "width",
          "height", "frames", "warmup", "seed_sets")
@@ -245,13 +246,50 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     return lines + _table(["scene", "condition", "strategy", "spp", "raw MSE / white"], body) + [""]
 
 
+#: Strategies the headline compares with white, in its cells' order.
+HEADLINE_STRATEGIES: tuple[str, ...] = ("temporal", "oracle")
+
+
+def _headline_ratio(row: dict | None) -> str:
+    if row is None or row.get("den_mse_ratio") is None:
+        return "-"
+    value = f"{row['den_mse_ratio']:.2f}"
+    if row["den_mse_ratio_hi"] < 1.0:
+        return f"**{value}**"
+    return value + ("↑" if row["den_mse_ratio_lo"] > 1.0 else "")
+
+
+def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
+    """One line per scene, condition and spp; one column per denoiser; in each cell the
+    post-denoise MSE of temporal / oracle as a fraction of white's (the issue's headline figures)."""
+    denoisers = sorted({r["denoiser"] for rows in groups.values() for r in rows})
+    body = []
+    for key in order:
+        by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in groups[key]}
+        if not any(s in HEADLINE_STRATEGIES for _, _, s in by):
+            continue
+        for spp in sorted({r["spp"] for r in groups[key]}):
+            cells = [" / ".join(_headline_ratio(by.get((spp, d, s))) for s in HEADLINE_STRATEGIES) for d in denoisers]
+            body.append([_group_title(key), str(spp), *cells])
+    if not body:
+        return []
+    return [
+        "## Headline: " + " / ".join(HEADLINE_STRATEGIES) + " post-denoise MSE as a fraction of white's", "",
+        "Bold: below white beyond the 95% paired interval; ↑: above white beyond it; -: not measured. "
+        "Intervals and absolute values are in the sections below.", "",
+        *_table(["scene", "spp", *denoisers], body), "",
+    ]
+
+
 def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
-    """The readable report: one section per scene and condition, then the flagged cells."""
+    """The readable report: the headline, one section per scene and condition, then the flagged
+    cells."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
         groups[_group_key(row)].append(row)
-    lines = [f"# {title}", ""]
-    for key in sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4])):
+    order = sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4]))
+    lines = [f"# {title}", "", *_headline(groups, order)]
+    for key in order:
         lines += _group_markdown(key, groups[key])
     lines += _raw_differences(rows)
     flagged = [r for r in rows if r["worse_than_white"]]

@@ -100,6 +100,23 @@ def test_markdown_shows_ratios_per_scene_and_spp():
     assert "(worse)" in text
 
 
+def test_headline_gives_temporal_and_oracle_per_scene_spp_and_denoiser():
+    rows = summarize(_records())
+    lines = markdown_table(rows, "T").splitlines()
+    start = lines.index("| scene | spp | gaussian |")
+    by = {(r["strategy"], r["spp"]): r for r in rows}
+    temporal, oracle = by["temporal", 1], by["oracle", 1]
+    assert temporal["den_mse_ratio_hi"] < 1.0 < oracle["den_mse_ratio_lo"]  # the fixture's premise
+    # better beyond the interval: bold; worse beyond it: an arrow; not measured: a dash
+    assert lines[start + 2] == f"| direct | 1 | **{temporal['den_mse_ratio']:.2f}** / {oracle['den_mse_ratio']:.2f}↑ |"
+    assert lines[start + 3] == f"| direct | 4 | **{by['temporal', 4]['den_mse_ratio']:.2f}** / - |"
+
+
+def test_headline_is_left_out_without_the_compared_strategies():
+    rows = summarize([r for r in _records() if r["cell"]["strategy"] == "white"])
+    assert "## Headline" not in markdown_table(rows, "T")
+
+
 def test_write_report_writes_csv_markdown_and_charts(tmp_path):
     crop = tmp_path / "crops"
     crop.mkdir()
