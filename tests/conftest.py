@@ -2,6 +2,7 @@
 
 import os
 
+import pytest
 import torch
 from hypothesis import HealthCheck, settings
 
@@ -17,3 +18,17 @@ settings.register_profile(
 settings.load_profile("bnerr")
 
 torch.set_num_threads(min(2, os.cpu_count() or 1))
+
+
+@pytest.fixture(scope="module")
+def one_thread():
+    """Run a module on one torch thread (``pytestmark = pytest.mark.usefixtures("one_thread")``).
+
+    On a shared 2-core machine OpenMP's barriers stall whenever one of two threads is descheduled
+    (measured here: tests/test_ordering.py's renders took 407 s on 2 threads under load, 32 s on 1),
+    and tiny networks are faster on one thread anyway. Renders are bit-identical either way.
+    """
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)

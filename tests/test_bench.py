@@ -3,18 +3,11 @@
 import json
 
 import pytest
-import torch
 
 from benchmarks.cli import main
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """Render on one thread: OpenMP barriers stall on a loaded shared machine (bit-identical results)."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _args(tmp_path, *extra):

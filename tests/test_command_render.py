@@ -9,12 +9,7 @@ from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.io import read_frame
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_writes_one_exr_and_png_per_frame(tmp_path, capsys):

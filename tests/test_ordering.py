@@ -32,7 +32,6 @@ Expected orderings that do not hold are marked ``xfail(strict=True)`` with the m
 
 import numpy as np
 import pytest
-import torch
 
 from benchmarks.runner import run_suite
 from benchmarks.suites import Condition, Suite, Sweep
@@ -87,15 +86,7 @@ def _index(records):
     }
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """Render on one thread: on this shared 2-core machine OpenMP's barriers stall whenever one of
-    two threads is descheduled (measured here: this file's renders took 407 s on 2 threads under
-    load, 32 s on 1). Results are bit-identical either way."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 @pytest.fixture(scope="module")

@@ -17,13 +17,7 @@ from bnerr.errors import FileFormatError
 from bnerr.io import read_frame
 
 
-@pytest.fixture(scope="module", autouse=True)
-def one_thread():
-    """Render on one thread: OpenMP barriers stall on a loaded shared machine (bit-identical results)."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 class _Counting:

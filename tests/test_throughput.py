@@ -1,17 +1,11 @@
 """Tests for benchmarks.throughput: figures for both renderers, graceful without LLVM or Mitsuba."""
 
 import pytest
-import torch
 
 from benchmarks import throughput
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_measure_ours():

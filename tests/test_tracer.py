@@ -14,14 +14,7 @@ from renderers.compare import compare_images
 from renderers.geometry import intersect, scene_tensors
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    # Two OpenMP threads on a loaded two-core machine stall at every op's barrier (measured 60x
-    # slower); the results do not depend on the thread count.
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def seeds_for(height: int, width: int, key: int = 0) -> torch.Tensor:

@@ -20,13 +20,7 @@ from denoisers.train import (
 TINY = TrainConfig(steps=6, batch_size=2, crop=8, warmup=2, checkpoint_every=2, widths=(4, 4, 4, 4))
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    """Tiny networks: one thread is faster than two, which spin-wait when other jobs share the CPU."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _pairs(count=4, size=16, seed=0):
