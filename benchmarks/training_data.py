@@ -59,6 +59,9 @@ __all__ = [
 
 #: Noise mixes of ``bnerr train --mix``.
 MIXES = ("white", "white+blue")
+#: Per-pixel samplers of the white-noise training inputs (``bnerr train --sampler``):
+#: independent ``white`` values, or ``owen_sobol``, which every benchmark strategy renders with.
+SAMPLERS = ("white", "owen_sobol")
 #: Input spp of the training renders and how often each is drawn (4 spp, the benchmark's headline
 #: setting, most often).
 SPP_CHOICES = (1, 2, 4, 4, 8, 16)
@@ -75,6 +78,9 @@ class TrainingSpec:
         size: image side in pixels (square images).
         reference_spp: spp of each reference.
         mix: ``"white"`` or ``"white+blue"`` (every other pair rendered with the bnds sampler).
+        sampler: per-pixel sampler of the non-blue inputs, one of :data:`SAMPLERS`. A denoiser
+            learns the noise it is shown: Owen-Sobol error is smaller and differently distributed
+            than independent samples' at the same spp (denoisers/weights/README.md measures it).
         seed: first scene seed; scene ``i`` uses seed ``seed + i``.
     """
 
@@ -83,12 +89,14 @@ class TrainingSpec:
     reference_spp: int = 64
     mix: str = "white"
     seed: int = 0
+    sampler: str = "white"
 
     def __post_init__(self) -> None:
         check_positive_int(self.scenes, "TrainingSpec.scenes")
         check_positive_int(self.size, "TrainingSpec.size", minimum=8)
         check_positive_int(self.reference_spp, "TrainingSpec.reference_spp")
         check_name(self.mix, MIXES, "training mix")
+        check_name(self.sampler, SAMPLERS, "training sampler")
         check_positive_int(self.seed, "TrainingSpec.seed", minimum=0)
 
 
@@ -269,11 +277,13 @@ def pixel_seeds(height: int, width: int, key: int) -> torch.Tensor:
 
 
 def render_pair(
-    scene: Scene, size: int, spp: int, reference_spp: int, key: int, blue: bool = False
+    scene: Scene, size: int, spp: int, reference_spp: int, key: int, blue: bool = False,
+    sampler: str = "white",
 ) -> tuple[Frame, torch.Tensor]:
     """A noisy render of ``scene`` at ``spp`` and its reference color ``[3, size, size]``.
 
-    The noisy render uses white-noise seeds ``pixel_seeds(.., 2 key)`` with the white sampler, or
+    The noisy render uses white-noise seeds ``pixel_seeds(.., 2 key)`` with ``sampler`` (``white``
+    or ``owen_sobol``), or
     with ``blue`` the bnds sampler (vector mask of the scene's dimensions, offset and ``seed0``
     from ``key``); the reference uses ``pixel_seeds(.., 2 key + 1)`` and the white sampler.
     """
@@ -286,10 +296,10 @@ def render_pair(
         # The shipped vector masks have 2, 4 or 8 dimensions; use the largest the scene fills.
         dims = max(d for d in (2, 4, 8) if d <= scene.dimensions)
         mask = load_mask("vector", 64, dims)
-        sampler = make_sampler("bnds", mask=mask, offset=(key % 64, (7 * key) % 64), seed0=key)
+        noise = make_sampler("bnds", mask=mask, offset=(key % 64, (7 * key) % 64), seed0=key)
     else:
-        sampler = make_sampler("white")
-    frame = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key), sampler, spp)
+        noise = make_sampler(check_name(sampler, SAMPLERS, "training sampler"))
+    frame = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key), noise, spp)
     reference = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key + 1), make_sampler("white"), reference_spp)
     return frame, reference.color
 
@@ -298,7 +308,8 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
     """Render the training set described by ``spec``: one (noisy frame, reference) per scene.
 
     Pair ``i``: scene ``random_scene(spec.seed + i)``, input spp drawn from :data:`SPP_CHOICES`
-    by the scene seed, blue noise for odd ``i`` when ``spec.mix == "white+blue"``.
+    by the scene seed, blue noise for odd ``i`` when ``spec.mix == "white+blue"``, otherwise
+    ``spec.sampler``.
     """
     import renderers
     from tqdm.auto import tqdm
@@ -310,5 +321,6 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
         seed = spec.seed + i
         spp = SPP_CHOICES[np.random.default_rng([seed, 0x5BB]).integers(len(SPP_CHOICES))]
         blue = spec.mix == "white+blue" and i % 2 == 1
-        pairs.append(render_pair(scene, spec.size, int(spp), spec.reference_spp, key=seed + 1, blue=blue))
+        pairs.append(render_pair(scene, spec.size, int(spp), spec.reference_spp, key=seed + 1, blue=blue,
+                                 sampler=spec.sampler))
     return pairs

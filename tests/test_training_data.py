@@ -100,3 +100,15 @@ def test_blue_noise_pairs_use_the_bnds_sampler():
     assert torch.equal(ref, ref_blue) and not torch.equal(white.color, blue.color)
     pairs = make_pairs(TrainingSpec(scenes=2, size=8, reference_spp=2, mix="white+blue", seed=0), progress=False)
     assert torch.equal(pairs[0][0].color, make_pairs(TrainingSpec(scenes=1, size=8, reference_spp=2), progress=False)[0][0].color)
+
+
+def test_owen_sobol_inputs_keep_the_reference_and_are_checked():
+    scene = random_scene(1)
+    white, ref = render_pair(scene, size=8, spp=4, reference_spp=4, key=5)
+    sobol, ref_sobol = render_pair(scene, size=8, spp=4, reference_spp=4, key=5, sampler="owen_sobol")
+    assert torch.equal(ref, ref_sobol) and not torch.equal(white.color, sobol.color)
+    spec = TrainingSpec(scenes=1, size=8, reference_spp=4, sampler="owen_sobol")
+    white_spec = TrainingSpec(scenes=1, size=8, reference_spp=4)
+    assert torch.equal(make_pairs(spec, progress=False)[0][1], make_pairs(white_spec, progress=False)[0][1])
+    with pytest.raises(UnknownNameError, match="unknown training sampler 'sobol'"):
+        TrainingSpec(sampler="sobol")

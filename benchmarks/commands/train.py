@@ -49,7 +49,7 @@ def load_or_render(spec, path: Path, progress: bool):
 def canonical_command(args: argparse.Namespace) -> str:
     """The full command line that reproduces this run's weights (every setting spelled out)."""
     return (
-        f"bnerr train --out {args.out} --mix {args.mix} --steps {args.steps} --scenes {args.scenes} "
+        f"bnerr train --out {args.out} --mix {args.mix} --sampler {args.sampler} --steps {args.steps} --scenes {args.scenes} "
         f"--size {args.size} --reference-spp {args.reference_spp} --batch-size {args.batch_size} "
         f"--crop {args.crop} --lr {args.lr} --loss {args.loss} --checkpoint-every {args.checkpoint_every} "
         f"--seed {args.seed} --threads {args.threads}"
@@ -75,7 +75,8 @@ def _run(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     out = Path(args.out)
     spec = TrainingSpec(
-        scenes=args.scenes, size=args.size, reference_spp=args.reference_spp, mix=args.mix, seed=args.seed
+        scenes=args.scenes, size=args.size, reference_spp=args.reference_spp, mix=args.mix, seed=args.seed,
+        sampler=args.sampler,
     )
     config = TrainConfig(
         steps=args.steps, batch_size=args.batch_size, crop=args.crop, lr=args.lr, seed=args.seed,
@@ -116,6 +117,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
     p.add_argument("--mix", default="white", choices=("white", "white+blue"), help="noise of the training inputs")
+    p.add_argument("--sampler", default="white", choices=("white", "owen_sobol"),
+                   help="per-pixel sampler of the white-noise inputs (the benchmark renders with owen_sobol)")
     p.add_argument("--steps", type=int, default=2500, help="optimizer steps of the full run")
     p.add_argument("--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)")
     p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
