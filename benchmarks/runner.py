@@ -734,17 +734,18 @@ def run_speed(suite: Suite, out_dir: str | Path, *, progress: bool = True) -> st
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures: dict[str, Any] = {}
+    summaries: dict[str, str] = {}  # what each script's figures are, with their units
     for script in suite.scripts:
         if progress:
             print(f"bnerr bench --suite {suite.name}: {script} ...", flush=True)
         module = importlib.import_module(f"benchmarks.{script}")
         figures[script] = _jsonable(module.measure())
+        summaries[script] = " ".join((module.measure.__doc__ or "").strip().split("\n\n")[0].split())
     with atomic_write(out / "speed.json") as tmp:
         Path(tmp).write_text(json.dumps(figures, indent=1, sort_keys=True) + "\n")
     lines = [f"# bnerr bench --suite {suite.name}", "", suite.description, ""]
     for script, values in figures.items():
-        doc = (importlib.import_module(f"benchmarks.{script}").measure.__doc__ or "").strip()
-        summary = " ".join(doc.split("\n\n")[0].split())  # what the figures are, with their units
+        summary = summaries[script]
         lines += [f"## {script}", "", *([summary, ""] if summary else []), "| figure | value |", "|---|---|"]
         lines += [f"| {path} | {value} |" for path, value in _leaves(values)]
         lines.append("")

@@ -32,15 +32,16 @@ REFERENCE_SPP = 128
 SCENES = tuple(renderers.SCENES)
 
 
+def _render(name: str, key: int, spp: int) -> Frame:
+    """Scene ``name`` (static) at t = 0, seed key ``key``, white sampler, ``SIZE x SIZE``."""
+    scene = renderers.get_scene(name, animated=False)
+    return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), spp)
+
+
 @functools.cache
 def scene_renders(name: str) -> tuple[Frame, Frame, torch.Tensor]:
     """``(tuning frame, measured frame, reference color [3, SIZE, SIZE])`` of scene ``name``."""
-    scene = renderers.get_scene(name, animated=False)
-
-    def render(key: int, spp: int) -> Frame:
-        return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), spp)
-
-    return render(1, SPP), render(3, SPP), render(1000, REFERENCE_SPP).color
+    return _render(name, 1, SPP), _render(name, 3, SPP), _render(name, 1000, REFERENCE_SPP).color
 
 
 #: Seed keys of the extra measured frames of :func:`measured_frames` (none used above).
@@ -54,11 +55,7 @@ def measured_frames(name: str) -> tuple[Frame, ...]:
     For comparisons whose difference is small next to the frame-to-frame spread of one 64 x 64
     frame's error: measured on one frame, such a comparison is a coin toss.
     """
-    scene = renderers.get_scene(name, animated=False)
-    return tuple(
-        renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), SPP)
-        for key in MEASURED_KEYS
-    )
+    return tuple(_render(name, key, SPP) for key in MEASURED_KEYS)
 
 
 def mse(image: torch.Tensor, reference: torch.Tensor) -> float:

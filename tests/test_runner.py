@@ -196,8 +196,16 @@ def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):
     # plumbing: every script's measure() is called and its nested figures land in JSON and Markdown.
     import benchmarks.speed_masks as speed_masks
 
-    monkeypatch.setattr(speed_masks, "measure", lambda: {"scalar_64": {"seconds": 0.5, "low": torch.tensor(0.01)}})
+    def measure():
+        """Seconds per
+        mask.
+
+        Not in the report."""
+        return {"scalar_64": {"seconds": 0.5, "low": torch.tensor(0.01)}}
+
+    monkeypatch.setattr(speed_masks, "measure", measure)
     text = runner.run_speed(Suite("speed", "timings", scripts=("speed_masks",)), tmp_path, progress=False)
+    assert "## speed_masks\n\nSeconds per mask.\n\n| figure | value |" in text  # its first paragraph, one line
     stored = json.loads((tmp_path / "speed.json").read_text())
     assert stored == {"speed_masks": {"scalar_64": {"seconds": 0.5, "low": pytest.approx(0.01)}}}
     assert "| scalar_64/seconds | 0.5 |" in text and (tmp_path / "speed.md").read_text() == text
