@@ -4,9 +4,11 @@ Not a test module: ``tests/test_tuning.py``, ``test_unet.py`` and ``test_oidn.py
 the cache below makes one pytest session render each scene once. Every render is deterministic
 (fixed seeds), so the tests that use them are too.
 
-Each scene gets, at ``SIZE x SIZE`` and ``SPP`` samples per pixel with the white sampler: a frame
-to tune on (seed key 1), an independent frame to measure on (key 3), and a reference at
-``REFERENCE_SPP`` (key 1000). The reference's own noise adds the same constant to every MSE
+Each scene gets, at ``SIZE x SIZE`` and ``SPP`` samples per pixel with random per-pixel seeds
+("white noise") and a per-pixel sampler (``white``, independent samples, by default; or
+``owen_sobol``, the per-pixel sequence every strategy of the benchmark renders with): a frame to
+tune on (seed key 1), an independent frame to measure on (key 3), and a reference at
+``REFERENCE_SPP`` (key 1000, always the white sampler). The reference's own noise adds the same constant to every MSE
 measured against it (it is independent of the frames), so it does not favour any denoiser; it
 only makes the comparison a little noisier.
 
@@ -32,16 +34,22 @@ REFERENCE_SPP = 128
 SCENES = tuple(renderers.SCENES)
 
 
-def _render(name: str, key: int, spp: int) -> Frame:
-    """Scene ``name`` (static) at t = 0, seed key ``key``, white sampler, ``SIZE x SIZE``."""
+def _render(name: str, key: int, spp: int, sampler: str = "white") -> Frame:
+    """Scene ``name`` (static) at t = 0, seed key ``key``, per-pixel ``sampler``, ``SIZE x SIZE``."""
     scene = renderers.get_scene(name, animated=False)
-    return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler("white"), spp)
+    return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler(sampler), spp)
 
 
 @functools.cache
-def scene_renders(name: str) -> tuple[Frame, Frame, torch.Tensor]:
+def reference(name: str) -> torch.Tensor:
+    """Reference color ``[3, SIZE, SIZE]`` of scene ``name``."""
+    return _render(name, 1000, REFERENCE_SPP).color
+
+
+@functools.cache
+def scene_renders(name: str, sampler: str = "white") -> tuple[Frame, Frame, torch.Tensor]:
     """``(tuning frame, measured frame, reference color [3, SIZE, SIZE])`` of scene ``name``."""
-    return _render(name, 1, SPP), _render(name, 3, SPP), _render(name, 1000, REFERENCE_SPP).color
+    return _render(name, 1, SPP, sampler), _render(name, 3, SPP, sampler), reference(name)
 
 
 #: Seed keys of the extra measured frames of :func:`measured_frames` (none used above).
@@ -49,13 +57,13 @@ MEASURED_KEYS = tuple(range(21, 29))
 
 
 @functools.cache
-def measured_frames(name: str) -> tuple[Frame, ...]:
+def measured_frames(name: str, sampler: str = "white") -> tuple[Frame, ...]:
     """Eight more independent white-noise frames of scene ``name`` (same size, spp and time).
 
     For comparisons whose difference is small next to the frame-to-frame spread of one 64 x 64
     frame's error: measured on one frame, such a comparison is a coin toss.
     """
-    return tuple(_render(name, key, SPP) for key in MEASURED_KEYS)
+    return tuple(_render(name, key, SPP, sampler) for key in MEASURED_KEYS)
 
 
 def mse(image: torch.Tensor, reference: torch.Tensor) -> float:

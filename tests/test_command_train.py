@@ -39,3 +39,21 @@ def test_sampler_choice_reaches_the_training_set_and_the_command(tmp_path):
     assert meta["spec"]["sampler"] == "owen_sobol" and " --sampler owen_sobol " in meta["command"]
     data = torch.load(tmp_path / "w.pt.data", weights_only=True)
     assert data["spec"]["sampler"] == "owen_sobol"
+
+
+def test_cli_choices_are_the_libraries_names():
+    # The command spells its choices out so that ``bnerr`` starts without importing torch-heavy
+    # modules; this keeps them equal to the names the libraries accept.
+    import argparse
+
+    from benchmarks.commands.train import register
+    from benchmarks.training_data import MIXES, SAMPLERS
+    from denoisers.train import LOSSES
+
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    train = parser.parse_args(["train", "--out", "w.pt"])
+    assert train.loss == "l1_log+l1" and train.mix == "white" and train.sampler == "white"
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["train"]
+    choices = {a.dest: tuple(a.choices) for a in sub._actions if a.choices}
+    assert choices == {"mix": MIXES, "sampler": SAMPLERS, "loss": LOSSES}

@@ -9,6 +9,7 @@ from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRan
 from bnerr.frame import Frame
 from denoisers import MissingBufferError
 from denoisers.train import (
+    LOSSES,
     TrainConfig,
     learning_rate,
     load_checkpoint,
@@ -134,13 +135,15 @@ def test_bad_training_input_raises():
 def test_losses():
     t = torch.log1p(torch.tensor([[0.0, 0.5, 4.0]]))
     p = torch.log1p(torch.tensor([[0.1, 0.5, 2.0]]))
-    for kind in ("l1_log", "l1_log+l1", "relmse"):
+    for kind in LOSSES:
         assert float(loss_value(t, t, kind)) == 0.0
     torch.testing.assert_close(loss_value(p, t, "l1_log"), (p - t).abs().mean())
     expected = (0.1**2 / 0.01 + 0.0 + 2.0**2 / 16.01) / 3
     torch.testing.assert_close(loss_value(p, t, "relmse"), torch.tensor(expected), rtol=1e-5, atol=0)
     expected = float((p - t).abs().mean()) + (0.1 + 0.0 + 2.0) / 3
     torch.testing.assert_close(loss_value(p, t, "l1_log+l1"), torch.tensor(expected), rtol=1e-5, atol=0)
+    expected = float((p - t).abs().mean()) + (0.1**2 + 0.0 + 2.0**2) / 3
+    torch.testing.assert_close(loss_value(p, t, "l1_log+l2"), torch.tensor(expected), rtol=1e-5, atol=0)
     # A wild prediction is clamped instead of overflowing.
     assert math.isfinite(float(loss_value(torch.full((1, 3), 1e4), t, "relmse")))
     with pytest.raises(UnknownNameError, match="unknown training loss 'l2'"):
