@@ -58,7 +58,7 @@ MEASURED_KEYS = tuple(range(21, 29))
 
 @functools.cache
 def measured_frames(name: str, sampler: str = "white") -> tuple[Frame, ...]:
-    """Eight more independent white-noise frames of scene ``name`` (same size, spp and time).
+    """Eight more independent white-noise frames of scene ``name`` (same size, spp, time, sampler).
 
     For comparisons whose difference is small next to the frame-to-frame spread of one 64 x 64
     frame's error: measured on one frame, such a comparison is a coin toss.

@@ -16,7 +16,7 @@ def test_train_writes_weights_with_their_command_and_resumes(tmp_path, capsys):
     payload = torch.load(out, weights_only=True)
     meta = payload["meta"]
     assert meta["finished"] and meta["step"] == 4 and [s for s, _ in meta["losses"]] == [2, 4]
-    assert meta["command"].startswith(f"bnerr train --out {out} --mix white --sampler white --steps 4 --scenes 2 --size 8")
+    assert meta["command"].startswith(f"bnerr train --out {out} --mix white --sampler owen_sobol --steps 4 --scenes 2 --size 8")
     assert (tmp_path / "w.pt.data").exists() and (tmp_path / "w.pt.ckpt").exists()
     first = load_weights(out).state_dict()
     # Resuming a finished run (the cached data is reused, nothing is trained again) keeps the weights.
@@ -34,11 +34,11 @@ def test_corrupt_checkpoint_is_a_clean_error(tmp_path, capsys):
 
 def test_sampler_choice_reaches_the_training_set_and_the_command(tmp_path):
     out = tmp_path / "w.pt"
-    assert main(["train", "--out", str(out), *TINY, "--sampler", "owen_sobol"]) == 0
+    assert main(["train", "--out", str(out), *TINY, "--sampler", "white"]) == 0
     meta = torch.load(out, weights_only=True)["meta"]
-    assert meta["spec"]["sampler"] == "owen_sobol" and " --sampler owen_sobol " in meta["command"]
+    assert meta["spec"]["sampler"] == "white" and " --sampler white " in meta["command"]
     data = torch.load(tmp_path / "w.pt.data", weights_only=True)
-    assert data["spec"]["sampler"] == "owen_sobol"
+    assert data["spec"]["sampler"] == "white"
 
 
 def test_cli_choices_are_the_libraries_names():
@@ -53,7 +53,7 @@ def test_cli_choices_are_the_libraries_names():
     parser = argparse.ArgumentParser()
     register(parser.add_subparsers())
     train = parser.parse_args(["train", "--out", "w.pt"])
-    assert train.loss == "l1_log+l1" and train.mix == "white" and train.sampler == "white"
+    assert train.loss == "l1_log+l1" and train.mix == "white" and train.sampler == "owen_sobol"
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["train"]
     choices = {a.dest: tuple(a.choices) for a in sub._actions if a.choices}
     assert choices == {"mix": MIXES, "sampler": SAMPLERS, "loss": LOSSES}

@@ -126,16 +126,46 @@ def test_unet_lowers_mse_on_every_scene_at_4spp(scene):
     assert mse(UNetDenoiser()(frame), reference) < mse(frame.color, reference)
 
 
+#: Per-pixel samplers the held-out comparison runs with: independent samples, and the
+#: Owen-scrambled Sobol sequences every strategy of the benchmark renders with (and that the
+#: shipped weights were trained on).
+SAMPLERS = ("white", "owen_sobol")
+
+#: Comparisons measured not to hold at this test's size (64 x 64, 4 spp, eight frames), with why.
+#: Each is a strict xfail, so the suite says so as soon as one starts to hold.
+_NOT_BELOW_ONE = {
+    ("cornell", "owen_sobol"): (
+        "measured: U-Net / joint bilateral = 1.09 [0.90, 1.41] on 64 x 64 Owen-Sobol frames: the "
+        "error is a few pixels at the light's partly covered edge, and one or two frames where the "
+        "U-Net misses one decide the mean; at the benchmark's 128 x 128 it is 0.73 of a-trous "
+        "(denoisers/weights/README.md)"
+    ),
+}
+_NOT_BEYOND_INTERVAL = {
+    **_NOT_BELOW_ONE,
+    ("direct", "white"): (
+        "measured: U-Net / joint bilateral = 0.97 [0.91, 1.02] on independent-sample frames, which "
+        "these weights were not trained on; a tie on a direct-lighting scene the joint bilateral "
+        "filter's albedo and normal guides already denoise well"
+    ),
+    ("snooker", "owen_sobol"): "measured: U-Net / joint bilateral = 0.95 [0.90, 1.01]: a near tie",
+    ("snooker_plain", "owen_sobol"): (
+        "measured: U-Net / joint bilateral = 0.98 [0.91, 1.06]: a tie on an untextured, mostly flat "
+        "scene whose albedo and normal guides already separate its surfaces"
+    ),
+}
+
+
 @functools.cache
-def _held_out_comparison(scene):
+def _held_out_comparison(scene, sampler):
     """U-Net MSE / best tuned filter's MSE on eight frames the filters were not tuned on.
 
-    The filters are tuned on this very scene (one white-noise frame); the U-Net never saw it. The
-    best filter is picked by its mean MSE on the measured frames themselves, which favours the
-    filters. The ratio's interval is a paired bootstrap over the frames.
+    The filters are tuned on this very scene (one white-noise frame, same sampler); the U-Net
+    never saw it. The best filter is picked by its mean MSE on the measured frames themselves,
+    which favours the filters. The ratio's interval is a paired bootstrap over the frames.
     """
-    tune_frame, _, reference = scene_renders(scene)
-    frames = measured_frames(scene)
+    tune_frame, _, reference = scene_renders(scene, sampler)
+    frames = measured_frames(scene, sampler)
     filters = {name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params) for name in GRIDS}
     per_frame = {name: [mse(d(f), reference) for f in frames] for name, d in filters.items()}
     best = min(per_frame, key=lambda name: sum(per_frame[name]))
@@ -143,17 +173,21 @@ def _held_out_comparison(scene):
     return paired_ratio([mse(unet(f), reference) for f in frames], per_frame[best])
 
 
-@pytest.mark.parametrize("scene", SCENES)
-def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene):
-    assert _held_out_comparison(scene).value < 1.0
+def _expect_failure(request, known, scene, sampler):
+    reason = known.get((scene, sampler))
+    if reason is not None:
+        request.applymarker(pytest.mark.xfail(strict=True, reason=reason))
 
 
+@pytest.mark.parametrize("sampler", SAMPLERS)
 @pytest.mark.parametrize("scene", SCENES)
-def test_unet_beats_the_best_tuned_filter_beyond_the_interval(scene, request):
-    if scene == "snooker_plain":
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "measured: U-Net / a-trous (tuned on this scene) = 0.95, interval reaches above 1: "
-            "a tie on an untextured, mostly flat scene that a-trous' normal and depth guides "
-            "already separate well (denoisers/weights/README.md)"
-        )))
-    assert _held_out_comparison(scene).hi < 1.0
+def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene, sampler, request):
+    _expect_failure(request, _NOT_BELOW_ONE, scene, sampler)
+    assert _held_out_comparison(scene, sampler).value < 1.0
+
+
+@pytest.mark.parametrize("sampler", SAMPLERS)
+@pytest.mark.parametrize("scene", SCENES)
+def test_unet_beats_the_best_tuned_filter_beyond_the_interval(scene, sampler, request):
+    _expect_failure(request, _NOT_BEYOND_INTERVAL, scene, sampler)
+    assert _held_out_comparison(scene, sampler).hi < 1.0
