@@ -10,7 +10,8 @@ drawn or used: :func:`check_held_out` verifies it, by name and by content.
 
 Each training pair is a noisy render at a random low spp with white-noise seeds (or, for the
 ``white+blue`` mix, half of them with the blue-noise dithered sampler of Georgiev & Fajardo 2016,
-the ``bnds`` sampler) and a reference of the same scene at 64 spp (by default) with other seeds.
+the ``bnds`` sampler) and a reference of the same scene at ``reference_spp`` (64 by default here,
+256 for ``bnerr train``, which the shipped weights use) with other seeds.
 The reference is itself a Monte Carlo estimate, but its noise is independent of the input's: under
 an L2 loss it only adds a constant and the optimum is unchanged (Lehtinen et al. 2018,
 "Noise2Noise"); under L1 the optimum is the median of the reference's noise instead of its mean,

@@ -8,9 +8,9 @@ Each scene gets, at ``SIZE x SIZE`` and ``SPP`` samples per pixel with random pe
 ("white noise") and a per-pixel sampler (``white``, independent samples, by default; or
 ``owen_sobol``, the per-pixel sequence every strategy of the benchmark renders with): a frame to
 tune on (seed key 1), an independent frame to measure on (key 3), and a reference at
-``REFERENCE_SPP`` (key 1000, always the white sampler). The reference's own noise adds the same constant to every MSE
-measured against it (it is independent of the frames), so it does not favour any denoiser; it
-only makes the comparison a little noisier.
+``REFERENCE_SPP`` (key 1000, always the white sampler). The reference's own noise adds the same
+constant to every MSE measured against it (it is independent of the frames), so it does not
+favour any denoiser; it only makes the comparison a little noisier.
 
 64 x 64 rather than smaller: at 32 x 32 the Cornell box's light is three pixels tall and the
 noise of its partly covered edge pixels is 98 % of the image's squared error, so every test

@@ -128,7 +128,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--batch-size", type=int, default=16)
     p.add_argument("--crop", type=int, default=48, help="crop side (multiple of 8, at most --size)")
     p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
-    p.add_argument("--loss", default="l1_log+l1", choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"), help="training loss")
+    p.add_argument("--loss", default="l1_log+l1", choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"),
+                   help="training loss")
     p.add_argument("--checkpoint-every", type=int, default=100)
     p.add_argument(
         "--threads", type=int, default=2,
