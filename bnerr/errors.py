@@ -21,15 +21,24 @@ __all__ = [
     "NonFiniteError",
     "ShapeError",
     "UnknownNameError",
+    "FLOAT_DTYPES",
+    "INT_DTYPES",
     "ValueRangeError",
     "check_dtype",
     "check_finite",
     "check_name",
+    "check_offset",
     "check_positive_int",
     "check_range",
     "check_shape",
     "check_tensor",
 ]
+
+
+#: The floating dtypes bnerr's ops accept (computations run in float32 unless said otherwise).
+FLOAT_DTYPES: tuple[torch.dtype, ...] = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
+#: The signed integer dtypes bnerr's ops accept where an integer tensor is expected.
+INT_DTYPES: tuple[torch.dtype, ...] = (torch.int8, torch.int16, torch.int32, torch.int64)
 
 
 class BnerrError(Exception):
@@ -143,3 +152,14 @@ def check_name(name: object, known: Sequence[str], what: str) -> str:
     if not isinstance(name, str) or name not in known:
         raise UnknownNameError(f"unknown {what} {name!r}: expected one of {', '.join(sorted(known))}")
     return name
+
+
+def check_offset(offset: object, name: str = "offset") -> tuple[int, int]:
+    """A pair of Python integers ``(oy, ox)`` (a tuple or list; bools are refused)."""
+    if (
+        not isinstance(offset, (tuple, list))
+        or len(offset) != 2
+        or any(isinstance(o, bool) or not isinstance(o, int) for o in offset)
+    ):
+        raise DtypeError(f"{name}: expected a pair of integers (oy, ox), got {offset!r}")
+    return offset[0], offset[1]
