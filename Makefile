@@ -1,4 +1,4 @@
-# Two commands: `make run` and `make test`. Each creates .venv on first use and
+# Two commands: `make run` and `make test` (ruff lint and format check, then pytest). Each creates .venv on first use and
 # reinstalls only when pyproject.toml changed (the stamp file tracks it).
 PYTHON ?= python3.11
 VENV   := .venv
@@ -19,6 +19,8 @@ run: $(STAMP)
 	$(BIN)/bnerr bench --suite quick --out out/quick
 
 test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/ruff format --check .
 	$(BIN)/python -m pytest -q
 
 clean:
