@@ -1,7 +1,7 @@
-"""Image error metrics against a reference, their running means over frames, and bootstrap intervals.
+"""Image error metrics against a reference, their running means over frames, bootstrap intervals.
 
-What the benchmark measures (METHODS.md section 6): for a rendered (or denoised) image ``pred`` and
-the converged reference ``ref`` of the same frame, both ``[C, H, W]`` linear radiance,
+What the benchmark measures (docs/METHODS.md, section 6): for a rendered (or denoised) image
+``pred`` and the converged reference ``ref`` of the same frame, both ``[C, H, W]`` linear radiance,
 
 - ``mse``: ``mean(e^2)`` with ``e = pred - ref``;
 - ``relmse``: ``mean(e^2 / (ref^2 + 0.01))``, the relative MSE of pbrt/Mitsuba papers, which keeps
@@ -10,12 +10,13 @@ the converged reference ``ref`` of the same frame, both ``[C, H, W]`` linear rad
   data range: the target's range);
 - ``ssim``: scikit-image's ``structural_similarity`` (Wang et al. 2004, 7x7 uniform window) with
   ``data_range`` taken from the reference, channels averaged;
-- ``mse_blur1``, ``mse_blur2``: the MSE of the *error* after a Gaussian blur of sigma 1 and 2 pixels,
-  the halftoning model of the eye (Heitz & Belcour 2019, section 6; Georgiev & Fajardo 2016).
-  A blue-noise error loses most of its energy under the blur, a white one keeps ``1 / (4 pi sigma^2)``
-  of it. Kernel size ``2 * ceil(3 sigma) + 1`` (7 and 13 taps), kornia's ``gaussian_blur2d`` with
-  ``"reflect"`` border, which mirrors *without* repeating the edge pixel (numpy's ``"reflect"``,
-  scipy's ``"mirror"``), so that the border adds no spurious correlation to the error;
+- ``mse_blur1``, ``mse_blur2``: the MSE of the *error* after a Gaussian blur of sigma 1 and 2
+  pixels, the halftoning model of the eye (Heitz & Belcour 2019, section 6; Georgiev & Fajardo
+  2016). A blue-noise error loses most of its energy under the blur, a white one keeps
+  ``1 / (4 pi sigma^2)`` of it. Kernel size ``2 * ceil(3 sigma) + 1`` (7 and 13 taps), kornia's
+  ``gaussian_blur2d`` with ``"reflect"`` border, which mirrors *without* repeating the edge pixel
+  (numpy's ``"reflect"``, scipy's ``"mirror"``), so that the border adds no spurious correlation
+  to the error;
 - ``flip``: mean HDR-FLIP (Andersson et al. 2021, "Visualizing Errors in Rendered High Dynamic Range
   Images"), through the optional package ``flip-evaluator``;
 - ``lowfreq``: the fraction of the error's power below 0.125 cycles/pixel
@@ -25,7 +26,7 @@ Every metric may be restricted to a boolean pixel ``mask [H, W]`` (for example t
 object edges, :func:`edge_mask`): the blur is applied to the whole error image first, and only the
 masked pixels are averaged.
 
-**Update and compute** (STYLE.md habit 2, torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
+**Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
 Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
 pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores such as PSNR and SSIM), and
 the compute step is ``sum(numerators) / sum(denominators)`` over frames. One frame gives the
@@ -35,8 +36,14 @@ per-image value; many frames give the pooled running mean; a bootstrap resamples
 intervals (Efron & Tibshirani 1993) over frames, two-stage when frames come in independent seed
 sets (resample seed sets, then frames inside each), with a fixed ``torch.Generator`` seed so that
 the same inputs give the same interval. Frames of one temporal run are not independent (the seed
-image carries over), so the frame-level bootstrap is a within-run estimate; independent seed sets are
-the unit that makes it honest, and the suites use them where the budget allows.
+image carries over), so the frame-level bootstrap is a within-run estimate; independent seed sets
+are the unit that makes it honest, and the suites use them where the budget allows.
+
+**Determinism.** Every sum over pixels, tiles, frames and bootstrap resamples runs in a fixed
+order (:func:`bnerr.reduce.fixed_sum`), so every value here is bit-identical whatever torch's
+thread count (tests/test_metrics.py checks 1 against 2 threads); SSIM runs in scikit-image and
+FLIP in its own package, both single-threaded numpy. Across machines, float64 additions and
+kornia's blur are IEEE-exact operations in a fixed order, but the FFT library may differ.
 
 Not for: training losses (nothing here is differentiable on purpose: SSIM and FLIP leave torch),
 or perceptual claims beyond what FLIP and the blurred MSE model.
@@ -52,6 +59,7 @@ from dataclasses import dataclass
 import torch
 
 from bnerr.errors import (
+    FLOAT_DTYPES,
     ShapeError,
     ValueRangeError,
     check_dtype,
@@ -62,6 +70,7 @@ from bnerr.errors import (
     check_shape,
     check_tensor,
 )
+from bnerr.reduce import fixed_sum
 from bnerr.spectrum import low_frequency_fraction
 
 __all__ = [
@@ -86,9 +95,17 @@ __all__ = [
 BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
 
 #: Every metric :class:`FrameMetrics` knows, in table order. ``flip`` needs ``flip-evaluator``.
-METRICS: tuple[str, ...] = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq", "flip")
+METRICS: tuple[str, ...] = (
+    "mse",
+    "relmse",
+    "psnr",
+    "ssim",
+    "mse_blur1",
+    "mse_blur2",
+    "lowfreq",
+    "flip",
+)
 
-_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 _RELMSE_EPS = 0.01
 
 
@@ -97,13 +114,15 @@ _RELMSE_EPS = 0.01
 
 
 def _check_pair(pred: object, ref: object, mask: object = None) -> dict[str, int]:
-    """Check ``pred``, ``ref`` ([C, H, W], same shape, floating, finite) and ``mask`` ([H, W] bool)."""
+    """Check ``pred``, ``ref`` ([C, H, W], same shape, floating, finite), ``mask`` ([H, W] bool)."""
     size = check_shape(check_tensor(pred, "pred"), "C H W", "pred")
     check_shape(check_tensor(ref, "ref"), "C H W", "ref")
     if pred.shape != ref.shape:
-        raise ShapeError(f"pred: expected the shape of ref {list(ref.shape)}, got {list(pred.shape)}")
-    check_dtype(pred, _FLOATS, "pred")
-    check_dtype(ref, _FLOATS, "ref")
+        raise ShapeError(
+            f"pred: expected the shape of ref {list(ref.shape)}, got {list(pred.shape)}"
+        )
+    check_dtype(pred, FLOAT_DTYPES, "pred")
+    check_dtype(ref, FLOAT_DTYPES, "ref")
     check_finite(pred, "pred")
     check_finite(ref, "ref")
     if mask is not None:
@@ -131,24 +150,35 @@ def _check_blur_size(size: dict[str, int], sigma: float) -> int:
 
 
 def _masked_sum(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
-    """``(sum, count)`` of ``values [C, H, W]`` over all pixels or the masked ones: ``[2]`` float64."""
+    """``(sum, count)`` of ``values [C, H, W]`` over all or the masked pixels: ``[2]`` float64."""
     values = values.to(torch.float64)
     if mask is not None:
         values = values[:, mask]
-    return torch.stack([values.sum(), values.new_tensor(float(values.numel()))])
+    # A fixed-order sum: torch.sum's rounding depends on the thread count (bnerr.reduce).
+    return torch.stack([fixed_sum(values), values.new_tensor(float(values.numel()))])
 
 
-def _mse_update(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+def _mse_update(
+    pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
+) -> torch.Tensor:
     return _masked_sum((pred.to(torch.float64) - ref).square(), mask)
 
 
-def _relmse_update(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
+def _relmse_update(
+    pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
+) -> torch.Tensor:
     ref64 = ref.to(torch.float64)
-    return _masked_sum((pred.to(torch.float64) - ref64).square() / (ref64.square() + _RELMSE_EPS), mask)
+    return _masked_sum(
+        (pred.to(torch.float64) - ref64).square() / (ref64.square() + _RELMSE_EPS), mask
+    )
 
 
 def _blurred_mse_update(
-    pred: torch.Tensor, ref: torch.Tensor, sigma: float, kernel: int, mask: torch.Tensor | None = None
+    pred: torch.Tensor,
+    ref: torch.Tensor,
+    sigma: float,
+    kernel: int,
+    mask: torch.Tensor | None = None,
 ) -> torch.Tensor:
     from kornia.filters import gaussian_blur2d
 
@@ -166,14 +196,16 @@ def _value_update(value: float, device: torch.device) -> torch.Tensor:
 
 def _compute(stats: torch.Tensor) -> torch.Tensor:
     """``sum(numerator) / sum(denominator)`` over the leading axes of ``stats [..., 2]``."""
-    total = stats.reshape(-1, 2).sum(dim=0)
+    total = fixed_sum(stats.reshape(-1, 2), dim=0)
     return total[0] / total[1]
 
 
 def _psnr_value(mse_stats: torch.Tensor, ref: torch.Tensor, data_range: float | None) -> float:
     peak = float(ref.max() - ref.min()) if data_range is None else data_range
     if peak <= 0.0:
-        raise ValueRangeError(f"ref: expected a non-constant reference for the PSNR peak, got range {peak}")
+        raise ValueRangeError(
+            f"ref: expected a non-constant reference for the PSNR peak, got range {peak}"
+        )
     err = float(_compute(mse_stats))
     return math.inf if err == 0.0 else 10.0 * math.log10(peak * peak / err)
 
@@ -183,10 +215,14 @@ def _ssim_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
 
     size = min(ref.shape[-2:])
     if size < 7:
-        raise ShapeError(f"pred: expected H and W >= 7 for SSIM's 7x7 window, got {list(ref.shape[-2:])}")
+        raise ShapeError(
+            f"pred: expected H and W >= 7 for SSIM's 7x7 window, got {list(ref.shape[-2:])}"
+        )
     peak = float(ref.max() - ref.min())
     if peak <= 0.0:
-        raise ValueRangeError(f"ref: expected a non-constant reference for SSIM's data range, got {peak}")
+        raise ValueRangeError(
+            f"ref: expected a non-constant reference for SSIM's data range, got {peak}"
+        )
     ref_np = ref.detach().to("cpu", torch.float64).numpy()
     pred_np = pred.detach().to("cpu", torch.float64).numpy()
     score, smap = structural_similarity(ref_np, pred_np, data_range=peak, channel_axis=0, full=True)
@@ -196,7 +232,9 @@ def _ssim_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
     keep = mask.detach().cpu().numpy().copy()
     keep[:3, :] = keep[-3:, :] = keep[:, :3] = keep[:, -3:] = False
     if not keep.any():
-        raise ValueRangeError("mask: expected a selected pixel at least 3 pixels from the border for SSIM")
+        raise ValueRangeError(
+            "mask: expected a selected pixel at least 3 pixels from the border for SSIM"
+        )
     return float(smap[:, keep].mean())
 
 
@@ -214,7 +252,9 @@ def _flip_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
 
     # HDR-FLIP reads HxWxC linear RGB with non-negative values; a denoiser may undershoot below 0.
     def hwc(x: torch.Tensor):
-        return x.detach().to("cpu", torch.float32).clamp_min(0.0).permute(1, 2, 0).contiguous().numpy()
+        return (
+            x.detach().to("cpu", torch.float32).clamp_min(0.0).permute(1, 2, 0).contiguous().numpy()
+        )
 
     if ref.shape[0] != 3:
         raise ShapeError(f"pred: expected 3 channels (RGB) for FLIP, got {ref.shape[0]}")
@@ -284,7 +324,7 @@ def ssim(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
 def blurred_mse(
     pred: torch.Tensor, ref: torch.Tensor, sigma: float, mask: torch.Tensor | None = None
 ) -> torch.Tensor:
-    """MSE of the error after a Gaussian blur of ``sigma`` pixels: ``mean(G_sigma * (pred - ref))^2``.
+    """MSE of the error after a Gaussian blur of ``sigma`` px: ``mean(G_sigma * (pred - ref))^2``.
 
     Kernel ``2 ceil(3 sigma) + 1`` taps, reflect border (H and W must exceed half the kernel).
     Shapes and return as in :func:`mse`.
@@ -319,7 +359,9 @@ def lowfreq(pred: torch.Tensor, ref: torch.Tensor, tile: int = 64, cutoff: float
     tiles).
     """
     _check_pair(pred, ref)
-    return low_frequency_fraction(pred.to(torch.float64) - ref.to(torch.float64), tile=tile, cutoff=cutoff)
+    return low_frequency_fraction(
+        pred.to(torch.float64) - ref.to(torch.float64), tile=tile, cutoff=cutoff
+    )
 
 
 def edge_mask(object_id: torch.Tensor, radius: int = 1) -> torch.Tensor:
@@ -346,7 +388,9 @@ def edge_mask(object_id: torch.Tensor, radius: int = 1) -> torch.Tensor:
     edge[:, :-1] |= dx
     if radius > 0:
         size = 2 * radius + 1
-        edge = torch.nn.functional.max_pool2d(edge[None, None].float(), size, stride=1, padding=radius)
+        edge = torch.nn.functional.max_pool2d(
+            edge[None, None].float(), size, stride=1, padding=radius
+        )
         edge = edge[0, 0] > 0
     return edge
 
@@ -377,7 +421,7 @@ class Estimate:
 
 
 def _as_stats(values: object, name: str) -> torch.Tensor:
-    """Per-frame values ``[F]`` or ``[S, F]`` (or pairs ``[S, F, 2]``) -> ``[S, F, 2]`` float64 CPU."""
+    """Per-frame values ``[F]``, ``[S, F]`` or pairs ``[S, F, 2]`` -> ``[S, F, 2]`` float64 CPU."""
     x = torch.as_tensor(check_tensor(values, name) if isinstance(values, torch.Tensor) else values)
     x = x.detach().to("cpu", torch.float64)
     if x.ndim == 1:
@@ -411,8 +455,10 @@ def _resample(shape: tuple[int, int], resamples: int, seed: int) -> torch.Tensor
 
 
 def _resampled_values(stats: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
-    """``sum(num) / sum(den)`` for each resample: ``stats [S, F, 2]``, ``weights [R, N]`` -> ``[R]``."""
-    total = weights @ stats.reshape(-1, 2)  # [R, 2]
+    """``sum(num) / sum(den)`` per resample: ``stats [S, F, 2]``, ``weights [R, N]`` -> ``[R]``."""
+    # A fixed-order sum over frames instead of a matrix product, whose BLAS kernel's order of
+    # additions may depend on the thread count.
+    total = fixed_sum(weights[:, :, None] * stats.reshape(1, -1, 2), dim=1)  # [R, 2]
     return total[:, 0] / total[:, 1]
 
 
@@ -465,9 +511,9 @@ def paired_ratio(
 
     Frame i of ``values`` and frame i of ``baseline`` show the same scene frame (the same
     reference), rendered by two strategies; resampling the same frame indices for both removes the
-    frame-to-frame variation of the content from the interval (the comparison METHODS.md asks for:
-    "pairwise on the same scene and frames"). A ratio whose interval lies above 1 is worse than the
-    baseline beyond its statistical error.
+    frame-to-frame variation of the content from the interval (the comparison docs/METHODS.md asks
+    for: "pairwise on the same scene and frames"). A ratio whose interval lies above 1 is worse
+    than the baseline beyond its statistical error.
 
     Args:
         values, baseline: per-frame values of the same shape, ``[F]``, ``[S, F]`` or ``[S, F, 2]``
@@ -479,7 +525,8 @@ def paired_ratio(
     b = _as_stats(baseline, "baseline")
     if a.shape != b.shape:
         raise ShapeError(
-            f"values: expected the shape of baseline {list(b.shape)} (the same frames), got {list(a.shape)}"
+            f"values: expected the shape of baseline {list(b.shape)} (the same frames), "
+            f"got {list(a.shape)}"
         )
     weights = _resample(a.shape[:2], resamples, seed)
     samples = _resampled_values(a, weights) / _resampled_values(b, weights)
@@ -541,7 +588,12 @@ class FrameMetrics:
         return {name: float(_compute(stats)) for name, stats in row.items()}
 
     def _update_one(
-        self, name: str, pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None, size: dict
+        self,
+        name: str,
+        pred: torch.Tensor,
+        ref: torch.Tensor,
+        mask: torch.Tensor | None,
+        size: dict,
     ) -> torch.Tensor:
         if name == "mse":
             return _mse_update(pred, ref, mask)
@@ -576,7 +628,9 @@ class FrameMetrics:
         counts = torch.bincount(groups[order])
         counts = counts[counts > 0]
         if bool((counts != counts[0]).any()):
-            raise ShapeError(f"FrameMetrics: expected equal frames per seed set, got {counts.tolist()}")
+            raise ShapeError(
+                f"FrameMetrics: expected equal frames per seed set, got {counts.tolist()}"
+            )
         return stats[order].reshape(counts.numel(), int(counts[0]), 2)
 
     def values(self, name: str) -> torch.Tensor:
@@ -584,14 +638,22 @@ class FrameMetrics:
         stats = self.stats(name)
         return stats[..., 0] / stats[..., 1]
 
-    def compute(self, level: float = 0.95, resamples: int = 2000, seed: int = 0) -> dict[str, Estimate]:
+    def compute(
+        self, level: float = 0.95, resamples: int = 2000, seed: int = 0
+    ) -> dict[str, Estimate]:
         """Every metric's pooled mean over the frames with its bootstrap interval."""
         return {
-            name: bootstrap_interval(self.stats(name), level, resamples, seed) for name in self.names
+            name: bootstrap_interval(self.stats(name), level, resamples, seed)
+            for name in self.names
         }
 
     def ratio(
-        self, baseline: "FrameMetrics", name: str, level: float = 0.95, resamples: int = 2000, seed: int = 0
+        self,
+        baseline: FrameMetrics,
+        name: str,
+        level: float = 0.95,
+        resamples: int = 2000,
+        seed: int = 0,
     ) -> Estimate:
         """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames."""
         return paired_ratio(self.stats(name), baseline.stats(name), level, resamples, seed)

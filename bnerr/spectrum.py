@@ -1,10 +1,12 @@
 """Radially averaged power spectra of images, and the low-frequency energy fraction.
 
-This is how the project tells blue noise from white noise (METHODS.md section 6, "Spectrum"): an
-image (a blue-noise mask, or the error image of a render) is cut into ``T x T`` tiles, the mean of
-each tile is removed, and the periodogram ``|FFT(tile)|^2 / (T_h T_w)`` is averaged over tiles and
-channels. Normalised this way, white noise of variance ``s^2`` has a flat spectrum of height ``s^2``
-and the periodogram sums over frequencies to the tile's energy (Parseval).
+This is how the project tells blue noise from white noise (docs/METHODS.md, section 6,
+"Spectrum"): an image (a blue-noise mask, or the error image of a render) is cut into ``T x T``
+tiles, the mean of each tile is removed, and the periodogram ``|FFT(tile)|^2 / (T_h T_w)`` is
+averaged over tiles and channels. Normalised this way, white noise of variance ``s^2`` has a flat
+spectrum of height ``s^2`` and the periodogram sums over frequencies to the tile's energy
+(Parseval). Its sums run in a fixed order (:mod:`bnerr.reduce`): the result is the same whatever
+the thread count.
 
 The fraction of energy below a radial frequency of 0.125 cycles/pixel is the project's one-number
 summary: for white noise it is the share of frequencies inside that disc, about
@@ -23,6 +25,7 @@ import math
 import torch
 
 from bnerr.errors import (
+    FLOAT_DTYPES,
     ShapeError,
     check_dtype,
     check_finite,
@@ -30,10 +33,9 @@ from bnerr.errors import (
     check_range,
     check_tensor,
 )
+from bnerr.reduce import fixed_sum
 
 __all__ = ["low_frequency_fraction", "radial_power_spectrum"]
-
-_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 
 
 def _check_image(image: object, tile: object) -> torch.Tensor:
@@ -46,7 +48,7 @@ def _check_image(image: object, tile: object) -> torch.Tensor:
         )
     if image.numel() == 0:
         raise ShapeError(f"image: expected a non-empty image, got shape {list(image.shape)}")
-    check_dtype(image, _FLOATS, "image")
+    check_dtype(image, FLOAT_DTYPES, "image")
     check_finite(image, "image")
     check_positive_int(tile, "tile", minimum=2)
     return image if image.ndim == 3 else image.unsqueeze(0)
@@ -63,9 +65,12 @@ def _periodogram(image: torch.Tensor, tile: int) -> torch.Tensor:
     x = image[:, : ny * th, : nx * tw].to(torch.float64)
     # [C, ny, th, nx, tw] -> [C * ny * nx, th, tw]
     tiles = x.reshape(x.shape[0], ny, th, nx, tw).permute(0, 1, 3, 2, 4).reshape(-1, th, tw)
-    tiles = tiles - tiles.mean(dim=(-2, -1), keepdim=True)
+    # Sums in a fixed order (bnerr.reduce), so that the result does not depend on the threads.
+    means = fixed_sum(tiles.reshape(tiles.shape[0], -1), dim=1) / (th * tw)
+    tiles = tiles - means[:, None, None]
     spectrum = torch.fft.fft2(tiles)
-    return (spectrum.real.square() + spectrum.imag.square()).mean(dim=0) / (th * tw)
+    power = spectrum.real.square() + spectrum.imag.square()
+    return fixed_sum(power, dim=0) / power.shape[0] / (th * tw)
 
 
 def _radial_frequency(th: int, tw: int, device: torch.device) -> torch.Tensor:
@@ -124,8 +129,8 @@ def low_frequency_fraction(image: torch.Tensor, tile: int = 64, cutoff: float = 
     x = _check_image(image, tile)
     check_range(cutoff, "cutoff", 0.0, math.sqrt(0.5))
     power2d = _periodogram(x, tile)
-    total = float(power2d.sum())
+    total = float(fixed_sum(power2d))
     if total == 0.0:
         return 0.0
     radius = _radial_frequency(*power2d.shape, device=power2d.device)
-    return float(power2d[radius < cutoff].sum()) / total
+    return float(fixed_sum(power2d[radius < cutoff])) / total

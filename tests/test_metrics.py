@@ -34,17 +34,21 @@ def _pair(seed=0, shape=(3, 24, 20), noise=0.1):
     return pred, ref
 
 
-# -- per-image metrics ------------------------------------------------------------------------------
+# -- per-image metrics -----------------------------------------------------------------------------
 
 
 def test_mse_relmse_psnr_follow_their_formulas():
     pred, ref = _pair()
     e = (pred.double() - ref.double()) ** 2
     assert mse(pred, ref).item() == pytest.approx(e.mean().item(), rel=1e-12)
-    assert relmse(pred, ref).item() == pytest.approx((e / (ref.double() ** 2 + 0.01)).mean().item(), rel=1e-12)
+    assert relmse(pred, ref).item() == pytest.approx(
+        (e / (ref.double() ** 2 + 0.01)).mean().item(), rel=1e-12
+    )
     peak = (ref.max() - ref.min()).item()
     assert psnr(pred, ref) == pytest.approx(10 * math.log10(peak**2 / e.mean().item()), rel=1e-9)
-    assert psnr(pred, ref, data_range=1.0) == pytest.approx(-10 * math.log10(e.mean().item()), rel=1e-9)
+    assert psnr(pred, ref, data_range=1.0) == pytest.approx(
+        -10 * math.log10(e.mean().item()), rel=1e-9
+    )
     assert psnr(ref, ref) == math.inf
     assert mse(pred, ref).dtype == torch.float64
 
@@ -60,7 +64,10 @@ def test_mask_restricts_the_average_to_selected_pixels():
 def test_ssim_is_scikit_image_with_the_reference_range():
     pred, ref = _pair(shape=(3, 32, 32))
     want = structural_similarity(
-        ref.double().numpy(), pred.double().numpy(), data_range=float(ref.max() - ref.min()), channel_axis=0
+        ref.double().numpy(),
+        pred.double().numpy(),
+        data_range=float(ref.max() - ref.min()),
+        channel_axis=0,
     )
     assert ssim(pred, ref) == pytest.approx(want, rel=1e-12)
     assert ssim(ref, ref) == pytest.approx(1.0)
@@ -72,7 +79,7 @@ def _blur_twin(err: np.ndarray, sigma: float) -> np.ndarray:
     """Slow twin: explicit separable convolution with numpy's 'reflect' padding (no edge repeat)."""
     k = 2 * math.ceil(3 * sigma) + 1
     r = k // 2
-    taps = np.exp(-np.arange(-r, r + 1) ** 2 / (2 * sigma**2))
+    taps = np.exp(-(np.arange(-r, r + 1) ** 2) / (2 * sigma**2))
     taps /= taps.sum()
     pad = np.pad(err, ((0, 0), (r, r), (r, r)), mode="reflect")
     out = np.zeros_like(err)
@@ -136,21 +143,29 @@ def test_edge_mask_marks_pixels_next_to_an_id_change():
     assert not edge_mask(torch.zeros(5, 5)).any()
 
 
-# -- input checks -----------------------------------------------------------------------------------
+# -- input checks ----------------------------------------------------------------------------------
 
 
 def test_bad_inputs_raise_typed_errors():
     pred, ref = _pair()
-    with pytest.raises(ShapeError, match=r"pred: expected the shape of ref \[3, 24, 20\], got \[3, 24, 19\]"):
+    with pytest.raises(
+        ShapeError, match=r"pred: expected the shape of ref \[3, 24, 20\], got \[3, 24, 19\]"
+    ):
         mse(pred[..., :19], ref)
     with pytest.raises(ShapeError, match="ref: expected 3 dimensions"):
         mse(pred, ref[0])
     bad = pred.clone()
     bad[1, 2, 3] = float("nan")
-    with pytest.raises(NonFiniteError, match="pred: expected finite values, got 1 NaN and 0 infinite"):
+    with pytest.raises(
+        NonFiniteError, match="pred: expected finite values, got 1 NaN and 0 infinite"
+    ):
         relmse(bad, ref)
-    with pytest.raises(NonFiniteError, match="ref: expected finite values, got 0 NaN and 1 infinite"):
-        FrameMetrics(["mse"]).update(pred, ref.index_put((torch.tensor(0),) * 3, torch.tensor(math.inf)))
+    with pytest.raises(
+        NonFiniteError, match="ref: expected finite values, got 0 NaN and 1 infinite"
+    ):
+        FrameMetrics(["mse"]).update(
+            pred, ref.index_put((torch.tensor(0),) * 3, torch.tensor(math.inf))
+        )
     with pytest.raises(DtypeError, match="pred: expected dtype"):
         mse(pred.to(torch.int32), ref)
     with pytest.raises(ShapeError, match="mask: expected shape"):
@@ -169,11 +184,13 @@ def test_bad_inputs_raise_typed_errors():
         FrameMetrics(["msee"])
 
 
-# -- update / compute over frames -------------------------------------------------------------------
+# -- update / compute over frames ------------------------------------------------------------------
 
 
 def test_frame_metrics_update_returns_the_per_image_values():
-    acc = FrameMetrics(["mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq"], tile=16)
+    acc = FrameMetrics(
+        ["mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq"], tile=16
+    )
     pred, ref = _pair(shape=(3, 32, 32))
     row = acc.update(pred, ref)
     assert row["mse"] == pytest.approx(mse(pred, ref).item(), rel=1e-12)
@@ -192,13 +209,16 @@ def test_running_mean_over_frames_is_the_pooled_mean():
     pooled = torch.stack([(p.double() - r.double()).square().mean() for p, r in frames]).mean()
     result = acc.compute()
     assert result["mse"].value == pytest.approx(pooled.item(), rel=1e-12)
-    assert result["psnr"].value == pytest.approx(np.mean([psnr(p, r) for p, r in frames]), rel=1e-12)
+    assert result["psnr"].value == pytest.approx(
+        np.mean([psnr(p, r) for p, r in frames]), rel=1e-12
+    )
     assert result["mse"].lo <= result["mse"].value <= result["mse"].hi
     assert result["mse"].n == 5
 
 
 def test_masked_frames_pool_by_pixel_count():
-    # With masks of different sizes, the running value is sum(e^2) / sum(count), not a mean of means.
+    # With masks of different sizes, the running value is sum(e^2) / sum(count), not a mean of
+    # means.
     acc = FrameMetrics(["mse"])
     pred, ref = _pair()
     small = torch.zeros(24, 20, dtype=torch.bool)
@@ -221,7 +241,7 @@ def test_seed_sets_group_frames_and_must_be_rectangular():
         acc.stats("mse")
 
 
-# -- bootstrap --------------------------------------------------------------------------------------
+# -- bootstrap -------------------------------------------------------------------------------------
 
 
 def test_bootstrap_is_deterministic_and_brackets_the_mean():
@@ -248,7 +268,9 @@ def test_two_stage_bootstrap_is_wider_when_seed_sets_differ():
     # Seed sets with different means: the two-stage interval must see that spread, which a plain
     # bootstrap over the pooled frames understates.
     gen = torch.Generator().manual_seed(2)
-    values = torch.tensor([[1.0], [3.0], [5.0]], dtype=torch.float64) + 0.1 * torch.randn(3, 8, generator=gen)
+    values = torch.tensor([[1.0], [3.0], [5.0]], dtype=torch.float64) + 0.1 * torch.randn(
+        3, 8, generator=gen
+    )
     grouped = bootstrap_interval(values)
     flat = bootstrap_interval(values.flatten())
     assert grouped.value == pytest.approx(flat.value)
@@ -260,7 +282,12 @@ def test_paired_ratio_removes_the_shared_frame_variation():
     # ratio of 0.6 with no width at all, because the pairing cancels the content.
     content = torch.tensor([0.1, 5.0, 0.7, 2.0, 9.0, 0.3], dtype=torch.float64)
     exact = paired_ratio(0.6 * content, content)
-    assert (exact.value, exact.lo, exact.hi, exact.n) == (pytest.approx(0.6), pytest.approx(0.6), pytest.approx(0.6), 6)
+    assert (exact.value, exact.lo, exact.hi, exact.n) == (
+        pytest.approx(0.6),
+        pytest.approx(0.6),
+        pytest.approx(0.6),
+        6,
+    )
     gen = torch.Generator().manual_seed(4)
     noisy = 0.6 * content * (1 + 0.05 * torch.randn(6, generator=gen, dtype=torch.float64))
     r = paired_ratio(noisy, content)
@@ -286,3 +313,54 @@ def test_bootstrap_checks_its_arguments():
         bootstrap_interval([1.0, 2.0], level=1.5)
     with pytest.raises(NonFiniteError, match="values: expected finite"):
         bootstrap_interval([1.0, math.nan])
+
+
+# -- determinism across thread counts --------------------------------------------------------------
+
+
+def _all_metric_values(pred, ref, mask):
+    acc = FrameMetrics()
+    for k in range(4):
+        acc.update(pred + 0.01 * k, ref, mask=mask if k % 2 else None, group=k % 2)
+    pooled = [x for e in acc.compute().values() for x in (e.value, e.lo, e.hi)]
+    single = [
+        mse(pred, ref).item(),
+        relmse(pred, ref).item(),
+        mse(pred, ref, mask).item(),
+        blurred_mse(pred, ref, 1.0).item(),
+        blurred_mse(pred, ref, 2.0).item(),
+        lowfreq(pred, ref),
+        psnr(pred, ref),
+        ssim(pred, ref),
+    ]
+    return single + pooled + [acc.ratio(acc, "mse").lo]
+
+
+def test_metrics_are_bit_identical_on_one_and_two_threads():
+    # issue 18: bench --threads 1 and --threads 2 differed in 973 of 8064 metric values.
+    pred, ref = _pair(seed=0, shape=(3, 128, 128), noise=0.3)
+    mask = torch.rand(128, 128, generator=torch.Generator().manual_seed(1)) > 0.5
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(1)
+        one = _all_metric_values(pred, ref, mask)
+        torch.set_num_threads(2)
+        two = _all_metric_values(pred, ref, mask)
+    finally:
+        torch.set_num_threads(before)
+    assert [struct_bits(x) for x in one] == [struct_bits(x) for x in two]
+
+
+def struct_bits(x: float) -> bytes:
+    import struct
+
+    return struct.pack("<d", x)
+
+
+def test_fixed_order_sums_stay_within_1e_12_of_torch_sum():
+    pred, ref = _pair(seed=3, shape=(3, 96, 80), noise=0.5)
+    err = (pred.double() - ref.double()).square()
+    assert float(mse(pred, ref)) == pytest.approx(float(err.mean()), rel=1e-12)
+    assert lowfreq(pred, ref) == pytest.approx(
+        low_frequency_fraction(pred.double() - ref.double()), rel=1e-12
+    )
