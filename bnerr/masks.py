@@ -1,6 +1,6 @@
 """Blue-noise masks: void-and-cluster scalar masks, Georgiev-Fajardo vector masks, R2 offsets.
 
-A mask is a ``T x T`` tile repeated toroidally over the screen (METHODS.md section 2):
+A mask is a ``T x T`` tile repeated toroidally over the screen (docs/METHODS.md, section 2):
 
 - :func:`void_and_cluster` builds a scalar mask ``[T, T]`` whose values are the ranks of a
   void-and-cluster ordering (Ulichney 1993, "The void-and-cluster method for dither array
@@ -23,27 +23,26 @@ or cache them), nor spatio-temporal masks (Wolfe et al. 2022), which this module
 
 from __future__ import annotations
 
-import io
 import math
 import re
-from importlib import resources
 
 import numpy as np
 import torch
 
 from bnerr.errors import (
-    DtypeError,
-    FileFormatError,
+    FLOAT_DTYPES,
     ShapeError,
     UnknownNameError,
     ValueRangeError,
     check_dtype,
     check_name,
+    check_offset,
     check_positive_int,
     check_range,
     check_shape,
     check_tensor,
 )
+from bnerr.resources import load_array, shipped_files
 
 __all__ = [
     "PLASTIC_NUMBER",
@@ -63,7 +62,6 @@ PLASTIC_NUMBER = 1.32471795724474602596
 # Generating a mask costs O(T^4) for void-and-cluster; beyond this a call would run for minutes.
 _MAX_SIZE = 512
 _MAX_DIMS = 16
-_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 _MASK_FILE = re.compile(r"^(scalar)_(\d+)\.npy$|^(vector)_(\d+)_d(\d+)\.npy$")
 
 
@@ -196,13 +194,13 @@ def _fill_voids(
 def void_and_cluster(size: int, seed: int = 0, sigma: float = 1.5) -> torch.Tensor:
     """A ``size x size`` scalar blue-noise mask by void and cluster (Ulichney 1993).
 
-    METHODS.md section 2: an initial pattern of ``max(1, round(0.1 T^2))`` ones at random places
-    (chosen by ``seed``) is relaxed (tightest cluster moved to largest void until they coincide);
-    phase 1 removes its tightest clusters (ranks count down), phases 2-3 fill the largest voids of
-    the rest (ranks count up). The energy is the toroidal Gaussian ``exp(-r^2 / (2 sigma^2))``
-    filter of the binary pattern, kept incrementally (one kernel added or subtracted per step, the
-    full untruncated kernel). Ties go to the lowest flat index ``y * T + x``, so the mask is a
-    deterministic function of (size, seed, sigma).
+    As in docs/METHODS.md, section 2: an initial pattern of ``max(1, round(0.1 T^2))`` ones at
+    random places (chosen by ``seed``) is relaxed (tightest cluster moved to largest void until
+    they coincide); phase 1 removes its tightest clusters (ranks count down), phases 2-3 fill the
+    largest voids of the rest (ranks count up). The energy is the toroidal Gaussian
+    ``exp(-r^2 / (2 sigma^2))`` filter of the binary pattern, kept incrementally (one kernel added
+    or subtracted per step, the full untruncated kernel). Ties go to the lowest flat index
+    ``y * T + x``, so the mask is a deterministic function of (size, seed, sigma).
 
     Args:
         size: T, 1 to 512. Cost is O(T^4): about a second for 128 on one core.
@@ -369,7 +367,8 @@ def vector_mask(
     order. Swaps move whole vectors, so every channel stays a permutation of its initial values
     (each channel alone is a stratified set, though not a void-and-cluster one).
 
-    The paper anneals; this is the greedy variant METHODS.md allows. It is not for D much above 8:
+    The paper anneals; this is the greedy variant (docs/METHODS.md, section 2). It is not for D
+    much above 8:
     the ``|v_p - v_q|^(D/2)`` term then saturates and the mask tends to white noise, which is the
     documented limit of blue-noise dithered sampling.
 
@@ -387,6 +386,30 @@ def vector_mask(
     Returns:
         ``[D, T, T]`` float32 on the CPU, a deterministic function of all arguments.
     """
+    dims, seed, iterations, sigma_i, sigma_s, radius = _check_vector_args(
+        dims, seed, iterations, sigma_i, sigma_s, radius
+    )
+    dy, dx, weight, reach = _gf_window(sigma_i, radius)
+    spacing = 2 * (reach + 1)
+    size = _check_size(size, minimum=spacing)
+    if sigma_i > size / 4:
+        raise ValueRangeError(
+            f"sigma_i: expected a value in [0.5, {size / 4}] (size / 4), got {sigma_i}"
+        )
+    values = _initial_vectors(size, dims, seed)
+    _greedy_swaps(values, size, seed, iterations, (dy, dx, weight, reach), sigma_s)
+    return torch.from_numpy(values.T.reshape(dims, size, size).astype(np.float32))
+
+
+def _check_vector_args(
+    dims: object,
+    seed: object,
+    iterations: object,
+    sigma_i: object,
+    sigma_s: object,
+    radius: object,
+) -> tuple[int, int, int, float, float, float]:
+    """:func:`vector_mask`'s checks that do not need the size, in the order it reports them."""
     dims = check_positive_int(dims, "dims", minimum=2)
     if dims > _MAX_DIMS:
         raise ValueRangeError(f"dims: expected an integer in [2, {_MAX_DIMS}], got {dims}")
@@ -397,22 +420,37 @@ def vector_mask(
         raise ValueRangeError(f"iterations: expected an integer in [1, 100000], got {iterations}")
     radius = float(check_range(radius, "radius", 1.0, 5.0))
     sigma_i = float(check_range(sigma_i, "sigma_i", 0.5, float("inf")))
-    dy, dx, weight, reach = _gf_window(sigma_i, radius)
-    spacing = 2 * (reach + 1)
-    size = _check_size(size, minimum=spacing)
-    table = np.zeros((2 * reach + 1, 2 * reach + 1))
-    table[dy + reach, dx + reach] = weight
-    if sigma_i > size / 4:
-        raise ValueRangeError(
-            f"sigma_i: expected a value in [0.5, {size / 4}] (size / 4), got {sigma_i}"
-        )
+    return dims, seed, iterations, sigma_i, sigma_s, radius
 
+
+def _initial_vectors(size: int, dims: int, seed: int) -> np.ndarray:
+    """``[T^2, D]`` float64: per channel the values ``(k + 0.5) / T^2`` (rounded through float32)
+    in an independent random order keyed by ``(seed, 1 + channel)``."""
     n = size * size
     base = ((np.arange(n) + 0.5) / n).astype(np.float32).astype(np.float64)
-    values = np.stack([base[_Stream(seed, 1 + c).permutation(n)] for c in range(dims)], axis=1)
+    return np.stack([base[_Stream(seed, 1 + c).permutation(n)] for c in range(dims)], axis=1)
+
+
+def _greedy_swaps(
+    values: np.ndarray,
+    size: int,
+    seed: int,
+    iterations: int,
+    window: tuple[np.ndarray, np.ndarray, np.ndarray, int],
+    sigma_s: float,
+) -> None:
+    """Run :func:`vector_mask`'s batches of candidate swaps on ``values [T^2, D]``, in place.
+
+    ``window`` is :func:`_gf_window`'s ``(dy, dx, weight, reach)``; the candidate swaps come from
+    the stream ``(seed, 0)``, and a swap is applied when it lowers the energy.
+    """
+    dy, dx, weight, reach = window
+    spacing = 2 * (reach + 1)
+    table = np.zeros((2 * reach + 1, 2 * reach + 1))
+    table[dy + reach, dx + reach] = weight
     stream = _Stream(seed, 0)
     lattice = _lattice(size, spacing)
-    batches = math.ceil(iterations * n / lattice.size**2)
+    batches = math.ceil(iterations * size * size / lattice.size**2)
     for _ in range(batches):
         p, q = _batch_swaps(stream, size, lattice, reach, spacing)
         if p.size == 0:
@@ -420,7 +458,6 @@ def vector_mask(
         accept = _swap_gain(values, p, q, (dy, dx, weight), table, size, sigma_s) < 0.0
         p, q = p[accept], q[accept]
         values[p], values[q] = values[q], values[p].copy()
-    return torch.from_numpy(values.T.reshape(dims, size, size).astype(np.float32))
 
 
 def vector_mask_energy(
@@ -434,7 +471,7 @@ def vector_mask_energy(
     mask's device.
     """
     size = check_shape(mask, "D T T", "mask")["T"]
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     sigma_i = float(check_range(sigma_i, "sigma_i", 0.5, size / 4))
     sigma_s = float(check_range(sigma_s, "sigma_s", 0.01, 100.0))
     radius = float(check_range(radius, "radius", 1.0, 5.0))
@@ -454,7 +491,7 @@ def vector_mask_energy(
         wy, wx = wy.long(), wx.long()
         near = ((y[:, None] + wy) % size) * size + (x[:, None] + wx) % size  # [N, w]
         dist2 = (v[:, :, None] - v[:, near]).square().sum(dim=0)  # [N, w]
-        total = total + (torch.exp(-dist2 ** (dims / 4.0) / sigma_s**2) @ w).sum()
+        total = total + (torch.exp(-(dist2 ** (dims / 4.0)) / sigma_s**2) @ w).sum()
     return float(total)
 
 
@@ -469,9 +506,9 @@ def r2_step(size: int) -> tuple[int, int]:
     The first component (y, rows) uses the first R2 coefficient ``1/g ~= 0.7549``, the second
     (x, columns) ``1/g^2 ~= 0.5698`` (Roberts 2018, "The unreasonable effectiveness of
     quasirandom sequences"); rounding to whole pixels makes the step the same every frame, which
-    is what lets one retargeting permutation serve all frames (METHODS.md section 4). For T = 64
-    this is (48, 36), for T = 128 (97, 73). Python's ``round`` (half to even) is used; no T <= 512
-    lands on a half.
+    is what lets one retargeting permutation serve all frames (docs/METHODS.md, section 4). For
+    T = 64 this is (48, 36), for T = 128 (97, 73). Python's ``round`` (half to even) is used; no
+    T <= 512 lands on a half.
     """
     size = _check_size(size)
     return round(size / PLASTIC_NUMBER), round(size / PLASTIC_NUMBER**2)
@@ -505,18 +542,13 @@ def tile_mask(
         raise ShapeError(
             f"mask: expected [T, T] or [D, T, T] with T >= 1, got shape {list(mask.shape)}"
         )
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     height = check_positive_int(height, "height")
     width = check_positive_int(width, "width")
-    if (
-        not isinstance(offset, (tuple, list))
-        or len(offset) != 2
-        or any(isinstance(o, bool) or not isinstance(o, int) for o in offset)
-    ):
-        raise DtypeError(f"offset: expected a pair of integers (oy, ox), got {offset!r}")
+    oy, ox = check_offset(offset)
     size = mask.shape[-1]
-    rows = (torch.arange(height, device=mask.device) + offset[0] % size) % size
-    cols = (torch.arange(width, device=mask.device) + offset[1] % size) % size
+    rows = (torch.arange(height, device=mask.device) + oy % size) % size
+    cols = (torch.arange(width, device=mask.device) + ox % size) % size
     return mask[..., rows[:, None], cols[None, :]]
 
 
@@ -525,18 +557,11 @@ def tile_mask(
 # --------------------------------------------------------------------------------------------
 
 
-def _data_dir() -> resources.abc.Traversable:
-    return resources.files("bnerr").joinpath("data")
-
-
 def shipped_masks() -> list[tuple]:
     """The shipped masks, sorted: ``("scalar", T)`` and ``("vector", T, D)`` tuples."""
     found = []
-    data = _data_dir()
-    if not data.is_dir():
-        return found
-    for entry in data.iterdir():
-        match = _MASK_FILE.match(entry.name)
+    for name in shipped_files(""):
+        match = _MASK_FILE.match(name)
         if match and match.group(1):
             found.append(("scalar", int(match.group(2))))
         elif match:
@@ -575,16 +600,4 @@ def load_mask(kind: str, size: int, dims: int | None = None) -> torch.Tensor:
         raise UnknownNameError(
             f"mask {key!r}: expected one of the shipped masks: {listing or 'none shipped'}"
         )
-    resource = _data_dir().joinpath(name)
-    try:
-        array = np.load(io.BytesIO(resource.read_bytes()), allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise FileFormatError(
-            f"{resource}: expected a .npy array, got unreadable data ({err})"
-        ) from err
-    if array.shape != shape or array.dtype != np.float32:
-        raise FileFormatError(
-            f"{resource}: expected float32 of shape {list(shape)}, "
-            f"got {array.dtype} of shape {list(array.shape)}"
-        )
-    return torch.from_numpy(array.copy())
+    return torch.from_numpy(load_array(name, np.float32, shape))

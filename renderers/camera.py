@@ -42,8 +42,9 @@ class CameraFrame:
     height: int
 
 
-def camera_frame(camera: Camera, t: int, width: int, height: int,
-                 device: torch.device | str = "cpu") -> CameraFrame:
+def camera_frame(
+    camera: Camera, t: int, width: int, height: int, device: torch.device | str = "cpu"
+) -> CameraFrame:
     """Resolve ``camera`` at frame ``t`` for a ``width x height`` image on ``device``."""
     origin, target, up = (np.asarray(v, dtype=np.float64) for v in camera.pose(t))
     forward = target - origin
@@ -63,11 +64,21 @@ def camera_frame(camera: Camera, t: int, width: int, height: int,
     def as_tensor(v: np.ndarray) -> torch.Tensor:
         return torch.tensor(v, dtype=torch.float32, device=device)
 
-    return CameraFrame(as_tensor(origin), as_tensor(right), as_tensor(true_up), as_tensor(forward),
-                       tan_x, tan_y, width, height)
+    return CameraFrame(
+        as_tensor(origin),
+        as_tensor(right),
+        as_tensor(true_up),
+        as_tensor(forward),
+        tan_x,
+        tan_y,
+        width,
+        height,
+    )
 
 
-def generate_rays(cam: CameraFrame, px: torch.Tensor, py: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+def generate_rays(
+    cam: CameraFrame, px: torch.Tensor, py: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
     """Primary rays through continuous pixel positions.
 
     Args:
@@ -85,8 +96,9 @@ def generate_rays(cam: CameraFrame, px: torch.Tensor, py: torch.Tensor) -> tuple
     return cam.origin[:, None].expand_as(direction), direction
 
 
-def project(cam: CameraFrame, points: torch.Tensor, *, directions: bool = False
-            ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+def project(
+    cam: CameraFrame, points: torch.Tensor, *, directions: bool = False
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """Continuous pixel coordinates of world points (or of directions, i.e. points at infinity).
 
     Args:

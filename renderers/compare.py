@@ -68,9 +68,11 @@ class Comparison:
 
     def summary(self) -> str:
         means = ", ".join(f"{m:+.3f}" for m in self.mean_z)
-        return (f"max |z| {self.max_abs_z:.2f} (limit {self.z_max:.2f}); pixels beyond 3 sigma "
-                f"{self.pixels_beyond_3} (limit {self.allowed_beyond_3}); mean z per channel [{means}] "
-                f"(limit {self.mean_z_max:.3f}): {'pass' if self.passed else 'FAIL'}")
+        return (
+            f"max |z| {self.max_abs_z:.2f} (limit {self.z_max:.2f}); pixels beyond 3 sigma "
+            f"{self.pixels_beyond_3} (limit {self.allowed_beyond_3}); mean z per channel [{means}] "
+            f"(limit {self.mean_z_max:.3f}): {'pass' if self.passed else 'FAIL'}"
+        )
 
 
 def _binomial_quantile(n: int, p: float, alpha: float) -> int:
@@ -85,8 +87,13 @@ def _binomial_quantile(n: int, p: float, alpha: float) -> int:
     return k
 
 
-def compare_images(mean_a: torch.Tensor, var_a: torch.Tensor, mean_b: torch.Tensor,
-                   var_b: torch.Tensor, alpha: float = 1e-3) -> Comparison:
+def compare_images(
+    mean_a: torch.Tensor,
+    var_a: torch.Tensor,
+    mean_b: torch.Tensor,
+    var_b: torch.Tensor,
+    alpha: float = 1e-3,
+) -> Comparison:
     """Test whether two independent Monte Carlo images have the same expectation.
 
     Args:
@@ -105,13 +112,16 @@ def compare_images(mean_a: torch.Tensor, var_a: torch.Tensor, mean_b: torch.Tens
     for x, name in ((var_a, "var_a"), (mean_b, "mean_b"), (var_b, "var_b")):
         check_shape(x, "C H W", name)
         if x.shape != mean_a.shape:
-            raise ShapeError(f"{name}: expected shape {list(mean_a.shape)} like mean_a, got {list(x.shape)}")
+            raise ShapeError(
+                f"{name}: expected shape {list(mean_a.shape)} like mean_a, got {list(x.shape)}"
+            )
     check_range(alpha, "alpha", 1e-12, 0.5)
     channels, pixels = size["C"], size["H"] * size["W"]
     diff = mean_a.double() - mean_b.double()
     scale = (var_a.double() + var_b.double()).clamp_min(0.0).sqrt()
-    z = torch.where(scale > 0, diff / torch.where(scale > 0, scale, 1.0),
-                    torch.where(diff == 0, 0.0, torch.inf))
+    z = torch.where(
+        scale > 0, diff / torch.where(scale > 0, scale, 1.0), torch.where(diff == 0, 0.0, torch.inf)
+    )
     normal = NormalDist()
     m = z.numel()
     z_max = max(4.0, normal.inv_cdf(1.0 - alpha / (2 * m)))

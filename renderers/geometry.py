@@ -25,7 +25,7 @@ unrolls into the compiled code), or meshes.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import torch
@@ -107,12 +107,12 @@ def _box_row(shape: Box) -> list[float]:
     return [x for i in range(3) for x in (*linv[i], off[i])]
 
 
-def scene_tensors(scene: Scene, t: int, device: torch.device | str = "cpu") -> SceneTensors:
-    """Resolve ``scene`` at frame ``t`` into :class:`SceneTensors` on ``device``."""
-    P = len(scene.shapes)
-    albedo, emission, translation = np.zeros((P, 3)), np.zeros((P, 3)), np.zeros((P, 3))
-    spheres, rects, boxes = [], [], []
-    sphere_ids, rect_ids, box_ids = [], [], []
+def _materials(
+    scene: Scene,
+) -> tuple[np.ndarray, np.ndarray, tuple[tuple[int, int, int, int], ...]]:
+    """Per object id the mean albedo ``[P, 3]``; all cell textures' texels ``[T, 3]`` (row 0 a
+    dummy) and, per textured object, ``(object id, texel offset, cells u, cells v)``."""
+    albedo = np.zeros((len(scene.shapes), 3))
     texels, textures, n_texels = [np.zeros((1, 3))], [], 1
     for i, shape in enumerate(scene.shapes):
         material = shape.material
@@ -124,27 +124,64 @@ def scene_tensors(scene: Scene, t: int, device: torch.device | str = "cpu") -> S
             albedo[i] = tex.reshape(-1, 3).mean(0)
         else:
             albedo[i] = material.albedo
+    return albedo, np.concatenate(texels), tuple(textures)
+
+
+@dataclass
+class _Primitives:
+    """Host-side rows of one frame before they become :class:`SceneTensors`: the primitive rows
+    by kind with their object ids, the emission ``[P, 3]`` and each object's translation from
+    frame t-1 to t ``[P, 3]``."""
+
+    emission: np.ndarray
+    translation: np.ndarray
+    spheres: list[list[float]] = field(default_factory=list)
+    rects: list[list[float]] = field(default_factory=list)
+    boxes: list[list[float]] = field(default_factory=list)
+    sphere_ids: list[int] = field(default_factory=list)
+    rect_ids: list[int] = field(default_factory=list)
+    box_ids: list[int] = field(default_factory=list)
+
+
+def _geometry(scene: Scene, t: int) -> _Primitives:
+    """The :class:`_Primitives` of ``scene`` at frame ``t``."""
+    n = len(scene.shapes)
+    out = _Primitives(emission=np.zeros((n, 3)), translation=np.zeros((n, 3)))
+    for i, shape in enumerate(scene.shapes):
         if isinstance(shape, Sphere):
             c = np.asarray(shape.center.at(t), dtype=np.float64)
-            translation[i] = c - np.asarray(shape.center.at(t - 1))
-            spheres.append([*c, shape.radius ** 2, 1.0 / shape.radius])
-            sphere_ids.append(i)
+            out.translation[i] = c - np.asarray(shape.center.at(t - 1))
+            out.spheres.append([*c, shape.radius**2, 1.0 / shape.radius])
+            out.sphere_ids.append(i)
         elif isinstance(shape, Rectangle):
-            rects.append(_rect_row(shape))
-            rect_ids.append(i)
+            out.rects.append(_rect_row(shape))
+            out.rect_ids.append(i)
             if shape.emission is not None:
-                emission[i] = shape.emission
+                out.emission[i] = shape.emission
         else:
-            boxes.append(_box_row(shape))
-            box_ids.append(i)
+            out.boxes.append(_box_row(shape))
+            out.box_ids.append(i)
+    return out
 
-    lights = list(scene.lights)
-    light_rows = []
-    light_pdf_area = np.zeros(P)
+
+def _light_rows(scene: Scene) -> tuple[list[list[float]], np.ndarray]:
+    """Per light ``[13]`` (center, half edges u and v, normal, area) and per object id the
+    light-sampling density ``1 / (area * number of lights)`` (0 for non-lights) ``[P]``."""
+    lights = scene.lights
+    rows, pdf_area = [], np.zeros(len(scene.shapes))
     for i in lights:
         shape = scene.shapes[i]
-        light_rows.append([*shape.center, *shape.u, *shape.v, *shape.normal, shape.area])
-        light_pdf_area[i] = 1.0 / (shape.area * len(lights))
+        rows.append([*shape.center, *shape.u, *shape.v, *shape.normal, shape.area])
+        pdf_area[i] = 1.0 / (shape.area * len(lights))
+    return rows, pdf_area
+
+
+def scene_tensors(scene: Scene, t: int, device: torch.device | str = "cpu") -> SceneTensors:
+    """Resolve ``scene`` at frame ``t`` into :class:`SceneTensors` on ``device``."""
+    albedo, texels, textures = _materials(scene)
+    g = _geometry(scene, t)
+    light_rows, light_pdf_area = _light_rows(scene)
+    lights = list(scene.lights)
 
     def f(x, cols: int | None = None) -> torch.Tensor:
         a = np.asarray(x, dtype=np.float64)
@@ -154,24 +191,24 @@ def scene_tensors(scene: Scene, t: int, device: torch.device | str = "cpu") -> S
 
     medium = scene.medium
     return SceneTensors(
-        spheres=f(spheres, 5),
-        rects=f(rects, 15),
-        boxes=f(boxes, 12),
+        spheres=f(g.spheres, 5),
+        rects=f(g.rects, 15),
+        boxes=f(g.boxes, 12),
         albedo=f(albedo),
-        emission=f(emission),
+        emission=f(g.emission),
         light_pdf_area=f(light_pdf_area),
-        texels=f(np.concatenate(texels)),
+        texels=f(texels),
         lights=f(light_rows, 13),
-        light_radiance=f(emission[lights]),
+        light_radiance=f(g.emission[lights]),
         medium=f([*medium.bounds_min, *medium.bounds_max, medium.sigma_t]) if medium else None,
         medium_albedo=f(medium.albedo) if medium else None,
-        translation=f(translation),
-        sphere_ids=tuple(sphere_ids),
-        rect_ids=tuple(rect_ids),
-        box_ids=tuple(box_ids),
-        textures=tuple(textures),
+        translation=f(g.translation),
+        sphere_ids=tuple(g.sphere_ids),
+        rect_ids=tuple(g.rect_ids),
+        box_ids=tuple(g.box_ids),
+        textures=textures,
         light_ids=tuple(lights),
-        num_objects=P,
+        num_objects=len(scene.shapes),
         num_lights=len(lights),
     )
 
@@ -206,7 +243,7 @@ def _t_rect(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor
 def _t_box(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
     t_near = t_far = None
     for axis in range(3):
-        lin = row[4 * axis:4 * axis + 3]
+        lin = row[4 * axis : 4 * axis + 3]
         ol = dot(o, lin) + row[4 * axis + 3]
         inv = 1.0 / dot(d, lin)
         ta, tb = (-1.0 - ol) * inv, (1.0 - ol) * inv
@@ -217,8 +254,9 @@ def _t_box(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
     return torch.where((t_near <= t_far) & (t > 0), t, torch.inf)
 
 
-def intersect(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object: bool = True
-              ) -> tuple[torch.Tensor, torch.Tensor | None]:
+def intersect(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object: bool = True
+) -> tuple[torch.Tensor, torch.Tensor | None]:
     """Nearest hit of each ray.
 
     Args:
@@ -233,8 +271,11 @@ def intersect(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object
     """
     t = torch.full_like(o[0], torch.inf)
     obj = torch.full(t.shape, -1, dtype=torch.int64, device=t.device) if with_object else None
-    tests = [(_t_sphere, st.spheres, st.sphere_ids), (_t_rect, st.rects, st.rect_ids),
-             (_t_box, st.boxes, st.box_ids)]
+    tests = [
+        (_t_sphere, st.spheres, st.sphere_ids),
+        (_t_rect, st.rects, st.rect_ids),
+        (_t_box, st.boxes, st.box_ids),
+    ]
     for test, rows, ids in tests:
         for k, object_id in enumerate(ids):
             tk = test(rows[k], o, d)
@@ -264,8 +305,9 @@ def _select(mask: torch.Tensor, value: torch.Tensor, current: torch.Tensor) -> t
     return torch.where(mask, value, current)
 
 
-def surface_at(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t: torch.Tensor,
-               obj: torch.Tensor) -> SurfaceHit:
+def surface_at(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t: torch.Tensor, obj: torch.Tensor
+) -> SurfaceHit:
     """Position, normal and material of the hits ``(t, obj)`` of :func:`intersect`.
 
     A running select over the objects (no gathers, which would keep the compiled loop scalar).
@@ -296,18 +338,20 @@ def surface_at(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t: torch.Tens
 
 def _box_normal(row: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
     """``[3, N]`` outward normal of the box face containing ``p`` (the local axis at +-1)."""
-    local = [dot(p, row[4 * a:4 * a + 3]) + row[4 * a + 3] for a in range(3)]
+    local = [dot(p, row[4 * a : 4 * a + 3]) + row[4 * a + 3] for a in range(3)]
     ax, ay, az = (x.abs() for x in local)
     use_x = (ax >= ay) & (ax >= az)
     use_y = ~use_x & (ay >= az)
     n = torch.zeros_like(p)
     for a, use in ((0, use_x), (1, use_y), (2, ~use_x & ~use_y)):
         # Face normal in world space: row a of linv (a column of linv^T), signed.
-        n = torch.where(use, row[4 * a:4 * a + 3, None] * torch.sign(local[a]), n)
+        n = torch.where(use, row[4 * a : 4 * a + 3, None] * torch.sign(local[a]), n)
     return n / n.norm(dim=0, keepdim=True).clamp_min(1e-30)
 
 
-def _texture(st: SceneTensors, p: torch.Tensor, i: int, offset: int, nu: int, nv: int) -> torch.Tensor:
+def _texture(
+    st: SceneTensors, p: torch.Tensor, i: int, offset: int, nu: int, nv: int
+) -> torch.Tensor:
     """``[3, N]`` cell-texture albedo of rectangle object ``i`` at points ``p`` (nearest cell)."""
     k = st.rect_ids.index(i)
     row = st.rects[k]
@@ -323,8 +367,13 @@ def spawn_offset(p: torch.Tensor) -> torch.Tensor:
     return 1e-4 * (1.0 + torch.maximum(torch.maximum(p[0].abs(), p[1].abs()), p[2].abs()))
 
 
-def medium_interval(st: SceneTensors, o: torch.Tensor, d: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``[N]`` entry (>= 0) and exit distances of rays ``[3, N]`` in the medium box (empty if entry >= exit)."""
+def medium_interval(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """``[N]`` entry (>= 0) and exit distances of rays ``[3, N]`` in the medium box.
+
+    The interval is empty where entry >= exit.
+    """
     m = st.medium
     t0 = t1 = None
     for a in range(3):

@@ -1,13 +1,14 @@
 """Which sampler dimension feeds which decision of the path tracer (the dimension layout).
 
-The renderer consumes a fixed number D of dimensions per sample (METHODS.md section 1), so that a
-sampler (white, Owen-scrambled Sobol, blue-noise dithered) sees the integrand's true
+The renderer consumes a fixed number D of dimensions per sample (docs/METHODS.md, section 1), so
+that a sampler (white, Owen-scrambled Sobol, blue-noise dithered) sees the integrand's true
 dimensionality and a seed's values mean the same thing in every pixel. Paths never terminate early
 by Russian roulette, so D depends only on the scene: its maximum depth, its number of lights and
 whether it has a participating medium.
 
 Depth follows Mitsuba 3's convention: ``max_depth`` is the longest path in segments, so
-``max_depth = 1`` would show only directly visible emitters and ``max_depth = 2`` is direct lighting.
+``max_depth = 1`` would show only directly visible emitters and ``max_depth = 2`` is direct
+lighting.
 A path has ``B = max_depth - 1`` scattering vertices, numbered ``k = 0 .. B-1`` (vertex 0 is the
 camera ray's first hit). The layout, dimension by dimension::
 
@@ -100,7 +101,7 @@ class Layout:
         return self._table[1][k]
 
     def distance(self, k: int) -> int | None:
-        """Free-flight distance dimension of the segment ending at vertex ``k`` (None: no medium)."""
+        """Dimension of the free-flight distance sampled before vertex ``k`` (None: no medium)."""
         return self._table[2][k]
 
     def light_choice(self, k: int) -> int | None:

@@ -90,7 +90,10 @@ def _shape(mi, shape, t: int) -> dict:
         linear = np.stack([shape.u, shape.v, shape.normal], axis=1)
         out = {"type": "rectangle", "to_world": T(_matrix(linear, np.asarray(shape.center)))}
         if shape.emission is not None:
-            out["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": list(shape.emission)}}
+            out["emitter"] = {
+                "type": "area",
+                "radiance": {"type": "rgb", "value": list(shape.emission)},
+            }
     else:
         m = np.asarray(shape.to_world, dtype=np.float64)
         out = {"type": "cube", "to_world": T(_matrix(m[:, :3], m[:, 3]))}
@@ -98,7 +101,9 @@ def _shape(mi, shape, t: int) -> dict:
     return out
 
 
-def to_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: int, seed: int = 0) -> dict:
+def to_mitsuba(
+    scene: Scene, t: int = 0, *, width: int, height: int, spp: int, seed: int = 0
+) -> dict:
     """Frame ``t`` of ``scene`` as a Mitsuba 3 scene dictionary for ``mi.load_dict``.
 
     Uses the active Mitsuba variant (scalar_rgb if none is set). Shapes are keyed by their names.
@@ -113,45 +118,75 @@ def to_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: int, s
     for value, name in ((width, "width"), (height, "height"), (spp, "spp")):
         check_positive_int(value, name)
     mi = _mi()
-    origin, target, up = scene.camera.pose(t)
     integrator = "volpath" if scene.medium is not None else "path"
     out: dict = {
         "type": "scene",
-        "integrator": {"type": integrator, "max_depth": scene.max_depth,
-                       "rr_depth": scene.max_depth, "hide_emitters": False},
-        "sensor": {
-            "type": "perspective",
-            "fov": scene.camera.fov,
-            "fov_axis": scene.camera.fov_axis,
-            "near_clip": 1e-4,
-            "far_clip": 1e4,
-            "to_world": mi.ScalarTransform4f().look_at(origin=list(origin), target=list(target), up=list(up)),
-            "film": {"type": "hdrfilm", "width": width, "height": height, "pixel_format": "rgb",
-                     "component_format": "float32", "rfilter": {"type": "box"}},
-            "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+        "integrator": {
+            "type": integrator,
+            "max_depth": scene.max_depth,
+            "rr_depth": scene.max_depth,
+            "hide_emitters": False,
         },
+        "sensor": _sensor(mi, scene, t, width, height, spp, seed),
     }
     for shape in scene.shapes:
         out[shape.name] = _shape(mi, shape, t)
-    medium = scene.medium
-    if medium is not None:
-        lo, hi = np.asarray(medium.bounds_min), np.asarray(medium.bounds_max)
-        out["medium-box"] = {
-            "type": "cube",
-            "to_world": mi.ScalarTransform4f(_matrix(np.diag((hi - lo) / 2), (hi + lo) / 2)),
-            "bsdf": {"type": "null"},
-            "interior": {
-                "type": "homogeneous",
-                "sigma_t": float(medium.sigma_t),
-                "albedo": {"type": "rgb", "value": list(medium.albedo)},
-                "phase": {"type": "isotropic"},
-            },
-        }
+    if scene.medium is not None:
+        out["medium-box"] = _medium_box(mi, scene.medium)
     return out
 
 
-def render_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: int, seed: int = 0,
-                   passes: int = 1, variant: str = "scalar_rgb") -> tuple[torch.Tensor, torch.Tensor | None]:
+def _sensor(mi, scene: Scene, t: int, width: int, height: int, spp: int, seed: int) -> dict:
+    """The ``perspective`` sensor of frame ``t``, its box-filtered film and its sampler."""
+    origin, target, up = scene.camera.pose(t)
+    return {
+        "type": "perspective",
+        "fov": scene.camera.fov,
+        "fov_axis": scene.camera.fov_axis,
+        "near_clip": 1e-4,
+        "far_clip": 1e4,
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=list(origin), target=list(target), up=list(up)
+        ),
+        "film": {
+            "type": "hdrfilm",
+            "width": width,
+            "height": height,
+            "pixel_format": "rgb",
+            "component_format": "float32",
+            "rfilter": {"type": "box"},
+        },
+        "sampler": {"type": "independent", "sample_count": spp, "seed": seed},
+    }
+
+
+def _medium_box(mi, medium) -> dict:
+    """The medium as the interior of a ``cube`` with a ``null`` BSDF."""
+    lo, hi = np.asarray(medium.bounds_min), np.asarray(medium.bounds_max)
+    return {
+        "type": "cube",
+        "to_world": mi.ScalarTransform4f(_matrix(np.diag((hi - lo) / 2), (hi + lo) / 2)),
+        "bsdf": {"type": "null"},
+        "interior": {
+            "type": "homogeneous",
+            "sigma_t": float(medium.sigma_t),
+            "albedo": {"type": "rgb", "value": list(medium.albedo)},
+            "phase": {"type": "isotropic"},
+        },
+    }
+
+
+def render_mitsuba(
+    scene: Scene,
+    t: int = 0,
+    *,
+    width: int,
+    height: int,
+    spp: int,
+    seed: int = 0,
+    passes: int = 1,
+    variant: str = "scalar_rgb",
+) -> tuple[torch.Tensor, torch.Tensor | None]:
     """Render frame ``t`` with Mitsuba: mean ``[3, H, W]`` and the variance of that mean.
 
     ``passes`` independent renders of ``spp / passes`` samples each (seeds ``seed * passes + k``)
@@ -171,10 +206,14 @@ def render_mitsuba(scene: Scene, t: int = 0, *, width: int, height: int, spp: in
     mi = _mi(variant)
     per_pass = spp // passes
     loaded = mi.load_dict(to_mitsuba(scene, t, width=width, height=height, spp=per_pass, seed=seed))
-    images = torch.stack([
-        torch.from_numpy(np.array(mi.render(loaded, spp=per_pass, seed=seed * passes + k), dtype=np.float64))
-        for k in range(passes)
-    ])  # [passes, H, W, 3]
+    images = torch.stack(
+        [
+            torch.from_numpy(
+                np.array(mi.render(loaded, spp=per_pass, seed=seed * passes + k), dtype=np.float64)
+            )
+            for k in range(passes)
+        ]
+    )  # [passes, H, W, 3]
     mean = images.mean(0)
     variance = images.var(0, unbiased=True) / passes if passes > 1 else None
     return _chw(mean), (_chw(variance) if variance is not None else None)

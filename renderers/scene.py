@@ -35,11 +35,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Union
 
 import numpy as np
+import torch
 
 from bnerr.errors import DtypeError, ValueRangeError, check_name, check_positive_int
+from bnerr.hashing import MASK32, lowbias32
 from renderers.layout import Layout
 
 __all__ = [
@@ -89,7 +90,7 @@ class Fixed:
     def at(self, t: int) -> Vec3:
         return self.value
 
-    def frozen(self) -> "Fixed":
+    def frozen(self) -> Fixed:
         return self
 
 
@@ -130,22 +131,20 @@ class Orbit:
         return Fixed(self.at(0))
 
 
-Motion = Union[Fixed, Linear, Orbit]
+Motion = Fixed | Linear | Orbit
 
 
 # --------------------------------------------------------------------------------------------
 # Materials and textures
 
 
-def _lowbias32(x: np.ndarray) -> np.ndarray:
-    """Wellons' lowbias32 integer hash on uint32 arrays (a deterministic texture noise source)."""
-    x = x.astype(np.uint32)
-    x ^= x >> np.uint32(16)
-    x *= np.uint32(0x7FEB352D)
-    x ^= x >> np.uint32(15)
-    x *= np.uint32(0x846CA68B)
-    x ^= x >> np.uint32(16)
-    return x
+def _hash2(key: np.ndarray) -> np.ndarray:
+    """``lowbias32(lowbias32(key))`` of the low 32 bits of a uint64 array, as uint32.
+
+    Computed by :func:`bnerr.hashing.lowbias32` on an int32 tensor holding the same bits.
+    """
+    words = torch.from_numpy((key & MASK32).astype(np.uint32).view(np.int32))
+    return lowbias32(lowbias32(words)).numpy().view(np.uint32)
 
 
 @dataclass(frozen=True)
@@ -185,7 +184,7 @@ class Felt:
         """``[cells_v, cells_u, 3]`` float32 albedo, clipped to [0, 1]."""
         iv, iu = np.meshgrid(np.arange(self.cells_v), np.arange(self.cells_u), indexing="ij")
         key = (iu.astype(np.uint64) * 73856093) ^ (iv.astype(np.uint64) * 19349663) ^ self.seed
-        h = _lowbias32(_lowbias32((key & 0xFFFFFFFF).astype(np.uint32)))
+        h = _hash2(key)
         g = (h >> np.uint32(8)).astype(np.float64) / float(1 << 24) * 2.0 - 1.0
         band = np.cos(2.0 * math.pi * self.bands * iu / self.cells_u)
         scale = 1.0 + self.grain * g + self.nap * band
@@ -196,7 +195,7 @@ class Felt:
         return tuple(float(v) for v in self.texels().reshape(-1, 3).mean(0))  # type: ignore
 
 
-Texture = Union[Checker, Felt]
+Texture = Checker | Felt
 
 
 @dataclass(frozen=True)
@@ -255,7 +254,8 @@ class Rectangle:
         u, v = np.asarray(_vec3(self.u, "u")), np.asarray(_vec3(self.v, "v"))
         if np.linalg.norm(np.cross(u, v)) <= 1e-12:
             raise ValueRangeError(
-                f"Rectangle {self.name!r}: expected non-parallel u and v, got {self.u}, {self.v}")
+                f"Rectangle {self.name!r}: expected non-parallel u and v, got {self.u}, {self.v}"
+            )
         if self.emission is not None:
             e = _vec3(self.emission, "emission")
             if min(e) < 0:
@@ -271,9 +271,10 @@ class Rectangle:
         return 4.0 * float(np.linalg.norm(np.cross(self.u, self.v)))
 
     @classmethod
-    def from_transform(cls, name: str, to_world: Affine, material: Diffuse,
-                       emission: Vec3 | None = None) -> "Rectangle":
-        """Mitsuba's ``rectangle`` with an affine ``to_world`` (3 x 4) whose linear part has det > 0."""
+    def from_transform(
+        cls, name: str, to_world: Affine, material: Diffuse, emission: Vec3 | None = None
+    ) -> Rectangle:
+        """Mitsuba's ``rectangle`` with an affine ``to_world`` (3 x 4) of positive determinant."""
         m = np.asarray(to_world, dtype=np.float64)
         if np.linalg.det(m[:, :3]) <= 0:
             raise ValueRangeError(f"Rectangle {name!r}: expected a to_world with det > 0")
@@ -291,10 +292,12 @@ class Box:
     def __post_init__(self) -> None:
         m = np.asarray(self.to_world, dtype=np.float64)
         if m.shape != (3, 4) or abs(np.linalg.det(m[:, :3])) < 1e-12:
-            raise ValueRangeError(f"Box {self.name!r} to_world: expected an invertible 3 x 4 affine matrix")
+            raise ValueRangeError(
+                f"Box {self.name!r} to_world: expected an invertible 3 x 4 affine matrix"
+            )
 
 
-Shape = Union[Sphere, Rectangle, Box]
+Shape = Sphere | Rectangle | Box
 
 
 @dataclass(frozen=True)
@@ -313,11 +316,15 @@ class HomogeneousMedium:
     def __post_init__(self) -> None:
         lo, hi = _vec3(self.bounds_min, "bounds_min"), _vec3(self.bounds_max, "bounds_max")
         if not all(a < b for a, b in zip(lo, hi)):
-            raise ValueRangeError(f"HomogeneousMedium: expected bounds_min < bounds_max, got {lo}, {hi}")
+            raise ValueRangeError(
+                f"HomogeneousMedium: expected bounds_min < bounds_max, got {lo}, {hi}"
+            )
         if not self.sigma_t > 0:
             raise ValueRangeError(f"HomogeneousMedium sigma_t: expected > 0, got {self.sigma_t}")
         if not all(0.0 <= a <= 1.0 for a in _vec3(self.albedo, "albedo")):
-            raise ValueRangeError(f"HomogeneousMedium albedo: expected values in [0, 1], got {self.albedo}")
+            raise ValueRangeError(
+                f"HomogeneousMedium albedo: expected values in [0, 1], got {self.albedo}"
+            )
 
 
 # --------------------------------------------------------------------------------------------
@@ -329,7 +336,7 @@ FOV_AXES = ("x", "y", "smaller", "larger")
 
 @dataclass(frozen=True)
 class Camera:
-    """Pinhole camera ``look_at(origin(t), target(t), up)`` with ``fov`` degrees along ``fov_axis``."""
+    """Pinhole camera ``look_at(origin(t), target(t), up)``, ``fov`` degrees along ``fov_axis``."""
 
     origin: Motion
     target: Motion
@@ -346,7 +353,7 @@ class Camera:
         """``(origin, target, up)`` at frame t."""
         return self.origin.at(t), self.target.at(t), self.up
 
-    def frozen(self) -> "Camera":
+    def frozen(self) -> Camera:
         return replace(self, origin=self.origin.frozen(), target=self.target.frozen())
 
 
@@ -377,10 +384,14 @@ class Scene:
         check_positive_int(self.max_depth, "max_depth", minimum=2)
         for shape in self.shapes:
             if not isinstance(shape, (Sphere, Rectangle, Box)):
-                raise DtypeError(f"Scene {self.name!r} shapes: expected Sphere, Rectangle or Box, "
-                                 f"got {type(shape).__name__}")
+                raise DtypeError(
+                    f"Scene {self.name!r} shapes: expected Sphere, Rectangle or Box, "
+                    f"got {type(shape).__name__}"
+                )
         if not self.lights:
-            raise ValueRangeError(f"Scene {self.name!r}: expected at least one emitting Rectangle, got none")
+            raise ValueRangeError(
+                f"Scene {self.name!r}: expected at least one emitting Rectangle, got none"
+            )
         object.__setattr__(
             self, "_layout", Layout(self.max_depth, len(self.lights), self.medium is not None)
         )
@@ -389,7 +400,9 @@ class Scene:
     def lights(self) -> tuple[int, ...]:
         """Object ids of the area lights, in order (light choice index -> object id)."""
         return tuple(
-            i for i, s in enumerate(self.shapes) if isinstance(s, Rectangle) and s.emission is not None
+            i
+            for i, s in enumerate(self.shapes)
+            if isinstance(s, Rectangle) and s.emission is not None
         )
 
     @property
@@ -402,10 +415,11 @@ class Scene:
         """D, the number of sampler dimensions one path consumes."""
         return self._layout.dimensions
 
-    def static(self) -> "Scene":
+    def static(self) -> Scene:
         """The static variant: camera and objects frozen at their t = 0 pose."""
         shapes = tuple(
-            replace(s, center=s.center.frozen()) if isinstance(s, Sphere) else s for s in self.shapes
+            replace(s, center=s.center.frozen()) if isinstance(s, Sphere) else s
+            for s in self.shapes
         )
         return replace(self, camera=self.camera.frozen(), shapes=shapes, animated=False)
 
@@ -415,19 +429,24 @@ class Scene:
 
 
 def rotation(axis: Vec3, degrees: float) -> np.ndarray:
-    """``[3, 3]`` rotation by ``degrees`` about ``axis`` (right-handed, like Mitsuba's ``rotate``)."""
+    """``[3, 3]`` rotation by ``degrees`` about ``axis`` (right-handed, as Mitsuba's ``rotate``)."""
     a = np.asarray(axis, dtype=np.float64)
     x, y, z = a / np.linalg.norm(a)
     s, c = math.sin(math.radians(degrees)), math.cos(math.radians(degrees))
-    return np.array([
-        [x * x * (1 - c) + c, x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
-        [y * x * (1 - c) + z * s, y * y * (1 - c) + c, y * z * (1 - c) - x * s],
-        [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, z * z * (1 - c) + c],
-    ])
+    return np.array(
+        [
+            [x * x * (1 - c) + c, x * y * (1 - c) - z * s, x * z * (1 - c) + y * s],
+            [y * x * (1 - c) + z * s, y * y * (1 - c) + c, y * z * (1 - c) - x * s],
+            [z * x * (1 - c) - y * s, z * y * (1 - c) + x * s, z * z * (1 - c) + c],
+        ]
+    )
 
 
-def affine(translate: Vec3 = (0.0, 0.0, 0.0), rotate: tuple[Vec3, float] | None = None,
-           scale: Vec3 | float = 1.0) -> Affine:
+def affine(
+    translate: Vec3 = (0.0, 0.0, 0.0),
+    rotate: tuple[Vec3, float] | None = None,
+    scale: Vec3 | float = 1.0,
+) -> Affine:
     """``T(translate) * R(rotate) * S(scale)`` as a 3 x 4 tuple (Mitsuba's chained order)."""
     linear = np.diag(np.broadcast_to(np.asarray(scale, dtype=np.float64), (3,)))
     if rotate is not None:

@@ -58,8 +58,13 @@ def _floor(name: str, half: float, material: Diffuse, y: float = 0.0) -> Rectang
     return Rectangle(name, (0.0, y, 0.0), (half, 0.0, 0.0), (0.0, 0.0, -half), material)
 
 
-def _ceiling_light(name: str, center: tuple[float, float, float], half_x: float, half_z: float,
-                   radiance: tuple[float, float, float]) -> Rectangle:
+def _ceiling_light(
+    name: str,
+    center: tuple[float, float, float],
+    half_x: float,
+    half_z: float,
+    radiance: tuple[float, float, float],
+) -> Rectangle:
     """A horizontal rectangular light facing down (-y)."""
     return Rectangle(name, center, (half_x, 0.0, 0.0), (0.0, 0.0, half_z), _WHITE, radiance)
 
@@ -69,8 +74,12 @@ def direct() -> Scene:
     return Scene(
         name="direct",
         description="a sphere on a plane under one rectangular light, direct lighting only",
-        camera=Camera(Orbit((0.0, 0.0, 0.0), 6.0, 3.0, 20.0, 0.5), Fixed((0.0, 0.8, 0.0)),
-                      (0.0, 1.0, 0.0), 40.0),
+        camera=Camera(
+            Orbit((0.0, 0.0, 0.0), 6.0, 3.0, 20.0, 0.5),
+            Fixed((0.0, 0.8, 0.0)),
+            (0.0, 1.0, 0.0),
+            40.0,
+        ),
         shapes=(
             _floor("floor", 5.0, Diffuse((0.7, 0.7, 0.7))),
             Sphere("sphere", Fixed((0.0, 1.0, 0.0)), 1.0, Diffuse((0.8, 0.35, 0.2))),
@@ -82,14 +91,23 @@ def direct() -> Scene:
 
 def indirect() -> Scene:
     """Sphere on a checkerboard floor before a wall, direct and one indirect bounce (depth 3)."""
-    floor = Rectangle("floor", (0.0, 0.0, 0.5), (5.0, 0.0, 0.0), (0.0, 0.0, -4.5),
-                      Diffuse(Checker((0.8, 0.8, 0.8), (0.1, 0.1, 0.1), 10, 9)))
-    wall = Rectangle("wall", (0.0, 2.5, -4.0), (5.0, 0.0, 0.0), (0.0, 2.5, 0.0), Diffuse((0.6, 0.6, 0.65)))
+    floor = Rectangle(
+        "floor",
+        (0.0, 0.0, 0.5),
+        (5.0, 0.0, 0.0),
+        (0.0, 0.0, -4.5),
+        Diffuse(Checker((0.8, 0.8, 0.8), (0.1, 0.1, 0.1), 10, 9)),
+    )
+    wall = Rectangle(
+        "wall", (0.0, 2.5, -4.0), (5.0, 0.0, 0.0), (0.0, 2.5, 0.0), Diffuse((0.6, 0.6, 0.65))
+    )
     return Scene(
         name="indirect",
-        description="a sphere on a checkerboard floor before a wall, direct and one bounce of indirect light",
-        camera=Camera(Linear((1.0, 2.5, 6.5), (0.02, 0.0, 0.0)), Fixed((0.0, 0.8, 0.0)),
-                      (0.0, 1.0, 0.0), 45.0),
+        description="a sphere on a checkerboard floor before a wall, "
+        "direct and one bounce of indirect light",
+        camera=Camera(
+            Linear((1.0, 2.5, 6.5), (0.02, 0.0, 0.0)), Fixed((0.0, 0.8, 0.0)), (0.0, 1.0, 0.0), 45.0
+        ),
         shapes=(
             floor,
             wall,
@@ -101,7 +119,7 @@ def indirect() -> Scene:
 
 
 def cornell() -> Scene:
-    """The Cornell box of Mitsuba 3's ``mi.cornell_box()`` (same transforms, BSDFs, light), depth 6."""
+    """Mitsuba 3's ``mi.cornell_box()`` Cornell box (its transforms, BSDFs and light), depth 6."""
     white = Diffuse((0.885809, 0.698859, 0.666422))
     green = Diffuse((0.105421, 0.37798, 0.076425))
     red = Diffuse((0.570068, 0.0430135, 0.0443706))
@@ -110,11 +128,20 @@ def cornell() -> Scene:
     return Scene(
         name="cornell",
         description="the Cornell box as Mitsuba 3's mi.cornell_box() builds it, depth 6",
-        camera=Camera(Orbit((0.0, 0.0, 0.0), 3.9, 0.0, 0.0, 0.25), Fixed((0.0, 0.0, 0.0)), y,
-                      39.3077, "smaller"),
+        camera=Camera(
+            Orbit((0.0, 0.0, 0.0), 3.9, 0.0, 0.0, 0.25),
+            Fixed((0.0, 0.0, 0.0)),
+            y,
+            39.3077,
+            "smaller",
+        ),
         shapes=(
-            rect("light", affine((0.0, 0.99, 0.01), (x, 90.0), (0.23, 0.19, 0.19)), white,
-                 (18.387, 13.9873, 6.75357)),
+            rect(
+                "light",
+                affine((0.0, 0.99, 0.01), (x, 90.0), (0.23, 0.19, 0.19)),
+                white,
+                (18.387, 13.9873, 6.75357),
+            ),
             rect("floor", affine((0.0, -1.0, 0.0), (x, -90.0)), white),
             rect("ceiling", affine((0.0, 1.0, 0.0), (x, 90.0)), white),
             rect("back", affine((0.0, 0.0, -1.0)), white),
@@ -144,8 +171,12 @@ def _snooker(textured: bool) -> Scene:
     return Scene(
         name=name,
         description=f"a snooker table with {what}, rails and rolling balls under two area lights",
-        camera=Camera(Orbit((0.0, 0.0, 0.0), 2.6, 1.6, 15.0, 0.3), Fixed((0.0, 0.0, 0.0)),
-                      (0.0, 1.0, 0.0), 45.0),
+        camera=Camera(
+            Orbit((0.0, 0.0, 0.0), 2.6, 1.6, 15.0, 0.3),
+            Fixed((0.0, 0.0, 0.0)),
+            (0.0, 1.0, 0.0),
+            45.0,
+        ),
         shapes=(
             Rectangle("felt", (0.0, 0.0, 0.0), (1.8, 0.0, 0.0), (0.0, 0.0, -0.9), felt),
             Box("rail-far", affine((0.0, 0.04, -0.95), scale=(1.9, 0.04, 0.05)), rail),
@@ -180,9 +211,14 @@ def medium() -> Scene:
     """A box of homogeneous fog above a floor, one area light, 8 scattering events (depth 9)."""
     return Scene(
         name="medium",
-        description="a box of homogeneous scattering fog above a floor under one area light, 8 bounces",
-        camera=Camera(Orbit((0.0, 0.0, 0.0), 7.0, 2.5, 30.0, 0.4), Fixed((0.0, 1.0, 0.0)),
-                      (0.0, 1.0, 0.0), 40.0),
+        description="a box of homogeneous scattering fog above a floor under one area light, "
+        "8 bounces",
+        camera=Camera(
+            Orbit((0.0, 0.0, 0.0), 7.0, 2.5, 30.0, 0.4),
+            Fixed((0.0, 1.0, 0.0)),
+            (0.0, 1.0, 0.0),
+            40.0,
+        ),
         shapes=(
             _floor("floor", 4.0, Diffuse((0.6, 0.6, 0.6))),
             Sphere("sphere", Fixed((2.2, 0.6, 0.5)), 0.6, Diffuse((0.3, 0.5, 0.8))),

@@ -80,7 +80,7 @@ from renderers.geometry import (
 from renderers.layout import Layout
 from renderers.scene import Scene
 
-__all__ = ["AUTO_COMPILE_PATHS", "DEFAULT_CHUNK", "PathResult", "render", "trace", "vertex_step"]
+__all__ = ["DEFAULT_CHUNK", "PathResult", "render", "trace", "vertex_step"]
 
 #: Paths traced at once. 2^16 keeps a chunk's working set (a few dozen [3, N] tensors plus the
 #: [D, N] sample block) in the tens of MB, so memory is flat in resolution and spp.
@@ -94,14 +94,16 @@ _INV_4PI = 1.0 / (4.0 * math.pi)
 # Stages (component-major: vectors are [3, N], scalars per lane [N])
 
 
-def camera_rays(cam: CameraFrame, px: torch.Tensor, py: torch.Tensor, jitter: torch.Tensor
-                ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Rays ``[3, N]`` through pixel ``(px, py)`` (int64 ``[N]``) at offset ``jitter [2, N]`` in [0, 1)."""
+def camera_rays(
+    cam: CameraFrame, px: torch.Tensor, py: torch.Tensor, jitter: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Rays ``[3, N]`` through pixel ``(px, py)`` (int64 ``[N]``) at ``jitter [2, N]`` in [0, 1)."""
     return generate_rays(cam, px.to(jitter.dtype) + jitter[0], py.to(jitter.dtype) + jitter[1])
 
 
-def sample_medium(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t_surface: torch.Tensor,
-                  u: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+def sample_medium(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t_surface: torch.Tensor, u: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
     """Free-flight sampling on the segment ``o + s d``, ``0 < s < t_surface`` (``[3, N]`` rays).
 
     Returns ``scatter [N]`` (bool: a scattering event happens before the surface) and its
@@ -113,7 +115,9 @@ def sample_medium(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t_surface:
     return (t0 < t1) & (s < t1), s
 
 
-def _transmittance(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, dist: torch.Tensor) -> torch.Tensor:
+def _transmittance(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, dist: torch.Tensor
+) -> torch.Tensor:
     """``[N]`` transmittance of the medium along ``o + s d``, ``0 < s < dist``."""
     t0, t1 = medium_interval(st, o, d)
     return torch.exp(-st.medium[6] * (torch.minimum(t1, dist) - t0).clamp_min(0.0))
@@ -126,9 +130,14 @@ def _power_heuristic(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     return torch.where(s > 0, a2 / torch.where(s > 0, s, 1.0), 0.0)
 
 
-def emission(hit_emission: torch.Tensor, front: torch.Tensor, t: torch.Tensor,
-             cos_light: torch.Tensor, light_pdf_area: torch.Tensor, prev_pdf: torch.Tensor | None
-             ) -> torch.Tensor:
+def emission(
+    hit_emission: torch.Tensor,
+    front: torch.Tensor,
+    t: torch.Tensor,
+    cos_light: torch.Tensor,
+    light_pdf_area: torch.Tensor,
+    prev_pdf: torch.Tensor | None,
+) -> torch.Tensor:
     """``[3, N]`` emitted radiance reaching the previous vertex, MIS-weighted against NEE.
 
     ``prev_pdf [N]`` is the solid-angle density with which the previous vertex sampled this
@@ -155,9 +164,16 @@ def _pick_light(st: SceneTensors, u_choice: torch.Tensor | None, n: int) -> torc
     return picked
 
 
-def next_event(st: SceneTensors, x: torch.Tensor, normal: torch.Tensor, on_surface: torch.Tensor,
-               f: torch.Tensor, u_choice: torch.Tensor | None, u_light: torch.Tensor, mis: bool
-               ) -> torch.Tensor:
+def next_event(
+    st: SceneTensors,
+    x: torch.Tensor,
+    normal: torch.Tensor,
+    on_surface: torch.Tensor,
+    f: torch.Tensor,
+    u_choice: torch.Tensor | None,
+    u_light: torch.Tensor,
+    mis: bool,
+) -> torch.Tensor:
     """Next-event estimation: ``[3, N]`` radiance from one light sample, per unit throughput.
 
     Args:
@@ -190,7 +206,7 @@ def next_event(st: SceneTensors, x: torch.Tensor, normal: torch.Tensor, on_surfa
 
 
 def _orthonormal(n: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Two tangents completing ``n [3, N]`` to an orthonormal basis (Duff et al. 2017, JCGT 6(1))."""
+    """Two tangents completing ``n [3, N]`` to an orthonormal basis (Duff et al. 2017, JCGT 6)."""
     nx, ny, nz = n[0], n[1], n[2]
     sign = torch.where(nz >= 0, 1.0, -1.0)
     a = -1.0 / (sign + nz)
@@ -200,8 +216,9 @@ def _orthonormal(n: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     return t1, t2
 
 
-def sample_direction(normal: torch.Tensor, on_surface: torch.Tensor, u: torch.Tensor
-                     ) -> tuple[torch.Tensor, torch.Tensor]:
+def sample_direction(
+    normal: torch.Tensor, on_surface: torch.Tensor, u: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor]:
     """Next direction ``[3, N]`` and its solid-angle density ``[N]``; ``u [2, N]`` in [0, 1).
 
     Surface: cosine-weighted around ``normal`` via the concentric disk mapping (Shirley & Chiu
@@ -231,11 +248,19 @@ def sample_direction(normal: torch.Tensor, on_surface: torch.Tensor, u: torch.Te
 # One vertex of all paths, and the bounce loop
 
 
-def vertex_step(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, beta: torch.Tensor,
-                radiance: torch.Tensor, alive: torch.Tensor, prev_pdf: torch.Tensor | None,
-                u_distance: torch.Tensor | None, u_choice: torch.Tensor | None,
-                u_light: torch.Tensor, u_direction: torch.Tensor | None
-                ) -> tuple[torch.Tensor, ...]:
+def vertex_step(
+    st: SceneTensors,
+    o: torch.Tensor,
+    d: torch.Tensor,
+    beta: torch.Tensor,
+    radiance: torch.Tensor,
+    alive: torch.Tensor,
+    prev_pdf: torch.Tensor | None,
+    u_distance: torch.Tensor | None,
+    u_choice: torch.Tensor | None,
+    u_light: torch.Tensor,
+    u_direction: torch.Tensor | None,
+) -> tuple[torch.Tensor, ...]:
     """Trace the segment ``(o, d)`` to the next vertex, shade it and sample the next segment.
 
     State (``[3, N]`` / ``[N]``): ``beta`` path throughput, ``radiance`` the estimate so far,
@@ -259,7 +284,9 @@ def vertex_step(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, beta: torch.
     cos_hit = -dot(d, hit.normal)
     front = (obj >= 0) & (cos_hit > 0) & alive & ~scatter
     # -- emission: a light reached by the previous direction sample (MIS against NEE)
-    radiance = radiance + beta * emission(hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf)
+    radiance = radiance + beta * emission(
+        hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf
+    )
     alive = front | scatter
     beta = torch.where(alive, beta, 0.0)
     # -- shade: the new vertex, on a surface (pushed off it) or in the medium
@@ -268,7 +295,9 @@ def vertex_step(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, beta: torch.
     x = torch.where(scatter, o + torch.where(scatter, s, 0.0) * d, p_surface)
     f = torch.where(on_surface, hit.albedo * _INV_PI, _INV_4PI)  # BSDF or phase function
     # -- next-event estimation (full weight at the last vertex)
-    nee = next_event(st, x, hit.normal, on_surface, f, u_choice, u_light, mis=u_direction is not None)
+    nee = next_event(
+        st, x, hit.normal, on_surface, f, u_choice, u_light, mis=u_direction is not None
+    )
     radiance = radiance + torch.where(alive, beta * nee, 0.0)
     if u_direction is None:
         return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
@@ -280,15 +309,22 @@ def vertex_step(st: SceneTensors, o: torch.Tensor, d: torch.Tensor, beta: torch.
 
 @dataclass
 class PathResult:
-    """Per path, component-major: ``radiance [3, N]``, first-hit ``albedo`` and ``normal [3, N]``."""
+    """Per path, component-major: ``radiance [3, N]``, first-hit ``albedo``, ``normal [3, N]``."""
 
     radiance: torch.Tensor
     albedo: torch.Tensor
     normal: torch.Tensor
 
 
-def trace(st: SceneTensors, cam: CameraFrame, layout: Layout, px: torch.Tensor, py: torch.Tensor,
-          u: torch.Tensor, step=vertex_step) -> PathResult:
+def trace(
+    st: SceneTensors,
+    cam: CameraFrame,
+    layout: Layout,
+    px: torch.Tensor,
+    py: torch.Tensor,
+    u: torch.Tensor,
+    step=vertex_step,
+) -> PathResult:
     """Trace one path per lane.
 
     Args:
@@ -311,12 +347,22 @@ def trace(st: SceneTensors, cam: CameraFrame, layout: Layout, px: torch.Tensor, 
         return None if i is None else u[i]
 
     def pair(i: int | None) -> torch.Tensor | None:
-        return None if i is None else u[i:i + 2]
+        return None if i is None else u[i : i + 2]
 
     for k in range(layout.vertices):
         o, d, beta, radiance, alive, prev_pdf, a, n = step(
-            st, o, d, beta, radiance, alive, prev_pdf, row(layout.distance(k)),
-            row(layout.light_choice(k)), pair(layout.light(k)), pair(layout.direction(k)))
+            st,
+            o,
+            d,
+            beta,
+            radiance,
+            alive,
+            prev_pdf,
+            row(layout.distance(k)),
+            row(layout.light_choice(k)),
+            pair(layout.light(k)),
+            pair(layout.direction(k)),
+        )
         if k == 0:
             albedo, normal = a, n
     return PathResult(radiance, albedo, normal)
@@ -326,8 +372,9 @@ def trace(st: SceneTensors, cam: CameraFrame, layout: Layout, px: torch.Tensor, 
 # Guide buffers from one deterministic ray per pixel center
 
 
-def _center_buffers(st: SceneTensors, cam: CameraFrame, cam_prev: CameraFrame, px: torch.Tensor,
-                    py: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+def _center_buffers(
+    st: SceneTensors, cam: CameraFrame, cam_prev: CameraFrame, px: torch.Tensor, py: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """``depth [N]``, ``object_id [N]`` (float) and ``motion [2, N]`` through pixel centers."""
     cx, cy = px.to(torch.float32) + 0.5, py.to(torch.float32) + 0.5
     o, d = generate_rays(cam, cx, cy)
@@ -348,20 +395,16 @@ def _center_buffers(st: SceneTensors, cam: CameraFrame, cam_prev: CameraFrame, p
 # The public entry point
 
 
-#: With ``compile=None`` and ``BNERR_COMPILE`` unset, renders of at least this many paths are
-#: compiled (4.2 M: 1080p at 2 spp, 512 x 512 at 16 spp): from there the 8x gain repays a warm
-#: compile (10 to 25 s) within the render, and a cold one (about a minute) within a few frames.
-AUTO_COMPILE_PATHS = 1 << 22
+def _use_compile(compile: bool | None) -> bool:
+    """``compile`` if given, else True only when the environment sets ``BNERR_COMPILE=1``.
 
-
-def _use_compile(compile: bool | None, paths: int) -> bool:
-    """``compile`` if given, else ``BNERR_COMPILE`` (``1`` on, ``0`` off), else by size."""
+    Compiling is opt-in: a compiled render may differ from the eager one in the last bits
+    (fused kernels round differently), and each new process spends 10 s to a minute compiling
+    before its first frame, so the default is the eager stage, which is bit-identical everywhere.
+    """
     if compile is not None:
         return bool(compile)
-    env = os.environ.get("BNERR_COMPILE", "")
-    if env in ("0", "1"):
-        return env == "1"
-    return paths >= AUTO_COMPILE_PATHS
+    return os.environ.get("BNERR_COMPILE", "") == "1"
 
 
 class _CompiledStep:
@@ -383,8 +426,12 @@ class _CompiledStep:
             try:
                 return self._fn(*args)
             except Exception as err:  # any compiler failure: inductor, C++ toolchain, dynamo
-                warnings.warn("renderers: torch.compile failed, tracing in eager mode "
-                              f"({type(err).__name__}: {err})", RuntimeWarning, stacklevel=2)
+                warnings.warn(
+                    "renderers: torch.compile failed, tracing in eager mode "
+                    f"({type(err).__name__}: {err})",
+                    RuntimeWarning,
+                    stacklevel=2,
+                )
                 self.failed = True
         return vertex_step(*args)
 
@@ -422,8 +469,9 @@ def _intra_op_threads(n: int) -> Iterator[None]:
             torch.set_num_threads(before)
 
 
-def _run_ranges(work: Callable[[tuple[int, int]], None], ranges: list[tuple[int, int]],
-                workers: int) -> None:
+def _run_ranges(
+    work: Callable[[tuple[int, int]], None], ranges: list[tuple[int, int]], workers: int
+) -> None:
     """Run ``work`` on every pixel range, ``workers`` ranges at a time (caller: one op thread).
 
     Torch's own intra-op parallelism opens an OpenMP region per op, whose barrier waits for the
@@ -443,14 +491,23 @@ def _run_ranges(work: Callable[[tuple[int, int]], None], ranges: list[tuple[int,
     work(ranges[-1])
     # OpenMP keeps its thread count per thread: a fresh worker would open regions of the
     # machine's default size inside compiled kernels unless told otherwise.
-    with concurrent.futures.ThreadPoolExecutor(workers, initializer=torch.set_num_threads,
-                                               initargs=(1,)) as pool:
+    with concurrent.futures.ThreadPoolExecutor(
+        workers, initializer=torch.set_num_threads, initargs=(1,)
+    ) as pool:
         for _ in pool.map(work, ranges[1:-1]):
             pass
 
 
-def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int, *,
-           chunk: int = DEFAULT_CHUNK, compile: bool | None = None) -> Frame:
+def render(
+    scene: Scene,
+    t: int,
+    seeds: torch.Tensor,
+    sampler: Sampler,
+    spp: int,
+    *,
+    chunk: int = DEFAULT_CHUNK,
+    compile: bool | None = None,
+) -> Frame:
     """Render frame ``t`` of ``scene``: the mean of ``spp`` paths per pixel.
 
     Args:
@@ -466,12 +523,11 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
             float rounding in the per-pixel sums).
         compile: run the per-vertex stage through ``torch.compile`` (about 8x faster on CPU
             once compiled; the first call of a process compiles three variants per scene, about
-            a minute, or 10 to 25 s from inductor's on-disk cache). None: the environment
-            variable ``BNERR_COMPILE`` (``1`` on, ``0`` off) or, unset, on for renders of at
-            least :data:`AUTO_COMPILE_PATHS` paths (so small renders, tests among them, never
-            wait for a compiler). If compilation fails the eager stage is used, with a warning.
-            Compiled and eager results agree to float rounding, not bit for bit; each is
-            bit-identical between runs.
+            a minute, or 10 to 25 s from inductor's on-disk cache). None (the default): eager,
+            unless the environment sets ``BNERR_COMPILE=1``. If compilation fails the eager
+            stage is used, with a warning. A compiled render may differ from the eager one in
+            the last bits (measured: up to 3.6e-7 at 960x540, 16 spp, in 16 % of the values),
+            since the fused kernels round differently; each mode is bit-identical between runs.
 
     Threads: ``torch.get_num_threads()`` chunks are traced at once, each by single-threaded ops
     (torch's thread count is 1 while ``render`` runs and is restored after). Torch's per-op
@@ -489,10 +545,24 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
         ValueRangeError: spp or chunk < 1.
     """
     start = time.perf_counter()
+    _check_render_args(scene, t, seeds, sampler, spp, chunk)
+    workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
+    with _intra_op_threads(1):
+        frame = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
+    frame.timings["render"] = (time.perf_counter() - start) * 1e3
+    return frame
+
+
+def _check_render_args(
+    scene: object, t: object, seeds: object, sampler: object, spp: object, chunk: object
+) -> None:
+    """:func:`render`'s argument checks, in the order it reports them."""
     if not isinstance(scene, Scene):
         raise DtypeError(f"scene: expected a renderers Scene, got {type(scene).__name__}")
     if not isinstance(sampler, Sampler):
-        raise DtypeError(f"sampler: expected a bnerr.sequences.Sampler, got {type(sampler).__name__}")
+        raise DtypeError(
+            f"sampler: expected a bnerr.sequences.Sampler, got {type(sampler).__name__}"
+        )
     if isinstance(t, bool) or not isinstance(t, int):
         raise DtypeError(f"t: expected an integer frame index, got {type(t).__name__} {t!r}")
     size = check_shape(seeds, "H W", "seeds")
@@ -502,84 +572,166 @@ def render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
     check_positive_int(spp, "spp")
     check_positive_int(chunk, "chunk")
 
-    workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
-    with _intra_op_threads(1):
-        frame = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
-    frame.timings["render"] = (time.perf_counter() - start) * 1e3
-    return frame
 
-
-def _render(scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int, chunk: int,
-            compile: bool | None, workers: int) -> Frame:
+def _render(
+    scene: Scene,
+    t: int,
+    seeds: torch.Tensor,
+    sampler: Sampler,
+    spp: int,
+    chunk: int,
+    compile: bool | None,
+    workers: int,
+) -> Frame:
     """:func:`render` after its checks, with torch's ops on one thread."""
     height, width = seeds.shape
     device = seeds.device
     st = scene_tensors(scene, t, device)
     cam = camera_frame(scene.camera, t, width, height, device)
-    layout = scene.layout
-    step = _compiled_step() if _use_compile(compile, height * width * spp) else vertex_step
-    n_pixels = height * width
-    seeds_flat = seeds.reshape(-1)
-    f32 = dict(dtype=torch.float32, device=device)
-    mean = torch.zeros(3, n_pixels, **f32)
-    m2 = torch.zeros(3, n_pixels, **f32)
-    albedo = torch.zeros(3, n_pixels, **f32)
-    normal = torch.zeros(3, n_pixels, **f32)
-
+    step = _compiled_step() if _use_compile(compile) else vertex_step
+    job = _PathJob(st, cam, scene.layout, seeds.reshape(-1), width, sampler, spp, step)
+    sums = _PixelSums.zeros(height * width, device)
     per_chunk = min(spp, chunk)  # sample indices per chunk
     pixels_per_chunk = max(1, chunk // per_chunk)
-    ranges = [(p0, min(n_pixels, p0 + pixels_per_chunk)) for p0 in range(0, n_pixels, pixels_per_chunk)]
+    n_pixels = height * width
+    ranges = [
+        (p0, min(n_pixels, p0 + pixels_per_chunk)) for p0 in range(0, n_pixels, pixels_per_chunk)
+    ]
 
     def work(pixel_range: tuple[int, int]) -> None:
-        p0, p1 = pixel_range
-        pix = torch.arange(p0, p1, device=device)
-        done = 0
-        for s0 in range(0, spp, per_chunk):
-            ns = min(spp, s0 + per_chunk) - s0
-            lane_pix = pix.repeat_interleave(ns)
-            lane_index = torch.arange(s0, s0 + ns, device=device).repeat(p1 - p0)
-            py, px = lane_pix // width, lane_pix % width
-            u = sampler.sample(seeds_flat[lane_pix], lane_index, 0, layout.dimensions,
-                               torch.stack([py, px], dim=1)).T.contiguous()
-            n = u.shape[1]
-            if step is not vertex_step and _padded(n) != n:  # one compiled shape per render
-                pad = _padded(n) - n
-                u = torch.cat([u, u[:, :1].expand(-1, pad)], dim=1)
-                px = torch.cat([px, px[:1].expand(pad)])
-                py = torch.cat([py, py[:1].expand(pad)])
-            paths = trace(st, cam, layout, px, py, u, step)
-            _merge(mean[:, p0:p1], m2[:, p0:p1], done, paths.radiance[:, :n].view(3, p1 - p0, ns))
-            albedo[:, p0:p1] += paths.albedo[:, :n].view(3, p1 - p0, ns).sum(-1)
-            normal[:, p0:p1] += paths.normal[:, :n].view(3, p1 - p0, ns).sum(-1)
-            done += ns
+        _trace_range(job, sums, pixel_range, per_chunk)
 
     if step is vertex_step:
         _run_ranges(work, ranges, workers)
     else:
         with torch._dynamo.config.patch(recompile_limit=RECOMPILE_LIMIT):
             _run_ranges(work, ranges, workers)
-
     cam_prev = camera_frame(scene.camera, t - 1, width, height, device)
+    depth, object_id, motion = _guide_buffers(st, cam, cam_prev, n_pixels, width, chunk)
+
+    def image(x: torch.Tensor) -> torch.Tensor:
+        return x.reshape(-1, height, width).contiguous()
+
+    variance = image(sums.m2 / ((spp - 1) * spp)) if spp > 1 else None
+    return Frame(
+        color=image(sums.mean),
+        albedo=image(sums.albedo / spp),
+        normal=image(sums.normal / spp),
+        depth=image(depth),
+        motion=image(motion),
+        object_id=image(object_id),
+        variance=variance,
+    )
+
+
+@dataclass
+class _PathJob:
+    """What every chunk of one render shares: the frame's scene and camera, the seeds
+    (``seeds_flat [H*W]``), the image width, the sampler, spp and the vertex stage to run."""
+
+    st: SceneTensors
+    cam: CameraFrame
+    layout: Layout
+    seeds_flat: torch.Tensor
+    width: int
+    sampler: Sampler
+    spp: int
+    step: Callable[..., tuple[torch.Tensor, ...]]
+
+
+@dataclass
+class _PixelSums:
+    """Per-pixel accumulators ``[3, H*W]`` float32: running ``mean`` and ``m2`` of the radiance
+    (:func:`_merge`), and the sums of the first-hit ``albedo`` and ``normal``."""
+
+    mean: torch.Tensor
+    m2: torch.Tensor
+    albedo: torch.Tensor
+    normal: torch.Tensor
+
+    @classmethod
+    def zeros(cls, n_pixels: int, device: torch.device) -> _PixelSums:
+        return cls(
+            *(torch.zeros(3, n_pixels, dtype=torch.float32, device=device) for _ in range(4))
+        )
+
+
+def _trace_range(
+    job: _PathJob, sums: _PixelSums, pixel_range: tuple[int, int], per_chunk: int
+) -> None:
+    """Trace all ``spp`` paths of the pixels ``[p0, p1)``, ``per_chunk`` sample indices at a
+    time, and fold them into ``sums`` (only these pixels' columns are written)."""
+    p0, p1 = pixel_range
+    device = job.seeds_flat.device
+    pix = torch.arange(p0, p1, device=device)
+    done = 0
+    for s0 in range(0, job.spp, per_chunk):
+        ns = min(job.spp, s0 + per_chunk) - s0
+        px, py, u, n = _lanes(job, pix, s0, ns)
+        paths = trace(job.st, job.cam, job.layout, px, py, u, job.step)
+        _merge(
+            sums.mean[:, p0:p1], sums.m2[:, p0:p1], done, paths.radiance[:, :n].view(3, p1 - p0, ns)
+        )
+        sums.albedo[:, p0:p1] += paths.albedo[:, :n].view(3, p1 - p0, ns).sum(-1)
+        sums.normal[:, p0:p1] += paths.normal[:, :n].view(3, p1 - p0, ns).sum(-1)
+        done += ns
+
+
+def _lanes(
+    job: _PathJob, pix: torch.Tensor, s0: int, ns: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, int]:
+    """One lane per (pixel of ``pix [P]``, sample index in ``[s0, s0 + ns)``), pixel-major.
+
+    Returns ``(px, py, u, n)``: int64 pixel coordinates ``[N']``, the sampler's values
+    ``[D, N']`` and ``n = P * ns`` real lanes. For a compiled stage the lanes are padded to
+    :func:`_padded` by repeating the first one (so one render compiles one shape); ``N' = n``
+    otherwise.
+    """
+    device = pix.device
+    lane_pix = pix.repeat_interleave(ns)
+    lane_index = torch.arange(s0, s0 + ns, device=device).repeat(pix.shape[0])
+    py, px = lane_pix // job.width, lane_pix % job.width
+    u = job.sampler.sample(
+        job.seeds_flat[lane_pix],
+        lane_index,
+        0,
+        job.layout.dimensions,
+        torch.stack([py, px], dim=1),
+    ).T.contiguous()
+    n = u.shape[1]
+    if job.step is not vertex_step and _padded(n) != n:  # one compiled shape per render
+        pad = _padded(n) - n
+        u = torch.cat([u, u[:, :1].expand(-1, pad)], dim=1)
+        px = torch.cat([px, px[:1].expand(pad)])
+        py = torch.cat([py, py[:1].expand(pad)])
+    return px, py, u, n
+
+
+def _guide_buffers(
+    st: SceneTensors,
+    cam: CameraFrame,
+    cam_prev: CameraFrame,
+    n_pixels: int,
+    width: int,
+    chunk: int,
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``depth [H*W]``, ``object_id [H*W]`` and ``motion [2, H*W]`` by :func:`_center_buffers`,
+    ``chunk`` pixels at a time."""
+    f32 = dict(dtype=torch.float32, device=cam.origin.device)
     depth = torch.empty(n_pixels, **f32)
     object_id = torch.empty(n_pixels, **f32)
     motion = torch.empty(2, n_pixels, **f32)
     for p0 in range(0, n_pixels, chunk):
         p1 = min(n_pixels, p0 + chunk)
-        pix = torch.arange(p0, p1, device=device)
+        pix = torch.arange(p0, p1, device=cam.origin.device)
         depth[p0:p1], object_id[p0:p1], motion[:, p0:p1] = _center_buffers(
-            st, cam, cam_prev, pix % width, pix // width)
-
-    def image(x: torch.Tensor) -> torch.Tensor:
-        return x.reshape(-1, height, width).contiguous()
-
-    variance = image(m2 / ((spp - 1) * spp)) if spp > 1 else None
-    return Frame(color=image(mean), albedo=image(albedo / spp), normal=image(normal / spp),
-                 depth=image(depth), motion=image(motion), object_id=image(object_id),
-                 variance=variance)
+            st, cam, cam_prev, pix % width, pix // width
+        )
+    return depth, object_id, motion
 
 
 def _merge(mean: torch.Tensor, m2: torch.Tensor, n_a: int, x: torch.Tensor) -> None:
-    """Fold samples ``x [3, P, n]`` into running ``mean``, ``m2 [3, P]`` over ``n_a`` samples, in place.
+    """Fold samples ``x [3, P, n]`` into the running ``mean``, ``m2 [3, P]`` of ``n_a``, in place.
 
     Chan, Golub & LeVeque's pairwise update, so the variance does not suffer the cancellation of
     ``E[x^2] - E[x]^2`` in float32.

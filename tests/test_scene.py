@@ -95,6 +95,31 @@ def test_textures():
     assert not np.array_equal(Felt((0.1, 0.4, 0.2), 32, 16, seed=4).texels(), a)
 
 
+def _lowbias32_numpy(x: np.ndarray) -> np.ndarray:
+    """The plain uint32 numpy form of Wellons' lowbias32 (the twin of bnerr.hashing's)."""
+    x = x.astype(np.uint32)
+    x ^= x >> np.uint32(16)
+    x *= np.uint32(0x7FEB352D)
+    x ^= x >> np.uint32(15)
+    x *= np.uint32(0x846CA68B)
+    x ^= x >> np.uint32(16)
+    return x
+
+
+@pytest.mark.parametrize("seed", [0, 3, 2**31 + 7, 2**32 + 5, 2**63 + 11])
+def test_felt_texels_are_the_uint32_hash_of_their_cell(seed):
+    """Felt's grain, computed through bnerr.hashing's int32 tensor form, is bit for bit the
+    uint32 numpy computation the shipped scenes and results were made with."""
+    felt = Felt((0.1, 0.5, 0.2), 37, 23, grain=0.3, nap=0.05, bands=5, seed=seed)
+    iv, iu = np.meshgrid(np.arange(23), np.arange(37), indexing="ij")
+    key = (iu.astype(np.uint64) * 73856093) ^ (iv.astype(np.uint64) * 19349663) ^ seed
+    h = _lowbias32_numpy(_lowbias32_numpy((key & 0xFFFFFFFF).astype(np.uint32)))
+    g = (h >> np.uint32(8)).astype(np.float64) / float(1 << 24) * 2.0 - 1.0
+    scale = 1.0 + 0.3 * g + 0.05 * np.cos(2.0 * math.pi * 5 * iu / 37)
+    twin = np.clip(scale[..., None] * np.asarray((0.1, 0.5, 0.2)), 0.0, 1.0).astype(np.float32)
+    np.testing.assert_array_equal(felt.texels(), twin)
+
+
 def test_typed_errors():
     with pytest.raises(ValueRangeError, match="expected at least one emitting Rectangle"):
         make_scene(shapes=(Sphere("b", Fixed((0, 0, 0)), 1.0, WHITE),))

@@ -215,15 +215,56 @@ def test_compiled_matches_eager_and_is_deterministic():
     torch.testing.assert_close(a.albedo, eager.albedo, rtol=1e-4, atol=1e-5)
 
 
-def test_compile_switch(monkeypatch):
+def test_compile_is_opt_in(monkeypatch):
     monkeypatch.delenv("BNERR_COMPILE", raising=False)
-    assert not tracer._use_compile(None, tracer.AUTO_COMPILE_PATHS - 1)
-    assert tracer._use_compile(None, tracer.AUTO_COMPILE_PATHS)
-    assert not tracer._use_compile(False, 10**12) and tracer._use_compile(True, 1)
-    monkeypatch.setenv("BNERR_COMPILE", "0")
-    assert not tracer._use_compile(None, 10**12)
+    assert not tracer._use_compile(None)
+    assert not tracer._use_compile(False) and tracer._use_compile(True)
+    for value in ("0", "", "true", "yes", "2"):
+        monkeypatch.setenv("BNERR_COMPILE", value)
+        assert not tracer._use_compile(None), value
     monkeypatch.setenv("BNERR_COMPILE", "1")
-    assert tracer._use_compile(None, 1)
+    assert tracer._use_compile(None)
+    assert not tracer._use_compile(False)
+
+
+def test_default_render_never_compiles(monkeypatch):
+    """Whatever its size, a render with ``compile=None`` runs the eager stage (no compiler)."""
+    monkeypatch.delenv("BNERR_COMPILE", raising=False)
+
+    def forbidden():
+        raise AssertionError("render compiled without being asked to")
+
+    monkeypatch.setattr(tracer, "_compiled_step", forbidden)
+    scene = get_scene("direct")
+    seeds = seeds_for(6, 5)
+    default = render(scene, 0, seeds, WHITE, 2)
+    eager = render(scene, 0, seeds, WHITE, 2, compile=False)
+    for key, value in default.buffers().items():
+        assert torch.equal(value, eager.buffers()[key]), key
+
+
+def test_render_is_the_per_pixel_mean_of_trace():
+    """The slow twin of render's chunking and accumulation: every lane of the frame traced at once
+    in pixel-major order, then averaged per pixel. With one chunk both see the same lanes in the
+    same order, so the colour agrees bit for bit."""
+    scene = get_scene("medium")
+    height, width, spp, t = 5, 7, 3, 2
+    seeds = seeds_for(height, width, 4)
+    frame = render(scene, t, seeds, WHITE, spp)
+    st = scene_tensors(scene, t)
+    cam = camera_frame(scene.camera, t, width, height)
+    pix = torch.arange(height * width).repeat_interleave(spp)
+    index = torch.arange(spp).repeat(height * width)
+    py, px = pix // width, pix % width
+    u = WHITE.sample(seeds.flatten()[pix], index, 0, scene.dimensions, torch.stack([py, px], 1))
+    paths = tracer.trace(st, cam, scene.layout, px, py, u.T.contiguous())
+    radiance = paths.radiance.view(3, height, width, spp)
+    assert torch.equal(frame.color, radiance.mean(-1))
+    torch.testing.assert_close(frame.variance, radiance.var(-1) / spp, rtol=1e-4, atol=1e-9)
+    albedo = paths.albedo.view(3, height, width, spp).mean(-1)
+    torch.testing.assert_close(frame.albedo, albedo, rtol=1e-6, atol=1e-7)
+    normal = paths.normal.view(3, height, width, spp).mean(-1)
+    torch.testing.assert_close(frame.normal, normal, rtol=1e-6, atol=1e-7)
 
 
 @pytest.mark.parametrize("name", ["cornell", "medium"])
