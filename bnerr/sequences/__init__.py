@@ -42,6 +42,7 @@ from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
 from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
+from bnerr.sequences.zsobol import ZSobolSampler, zsobol_1d, zsobol_2d, zsobol_keys
 
 __all__ = [
     "BNDSSampler",
@@ -53,6 +54,10 @@ __all__ = [
     "make_sampler",
     "owen_sobol",
     "white",
+    "ZSobolSampler",
+    "zsobol_1d",
+    "zsobol_2d",
+    "zsobol_keys",
 ]
 
 # Private names that callers outside the package imported from the old single module; kept until
@@ -64,6 +69,7 @@ SAMPLERS: dict[str, type[Sampler]] = {
     "bnds": BNDSSampler,
     "owen_sobol": OwenSobolSampler,
     "white": WhiteSampler,
+    "zsobol": ZSobolSampler,
 }
 
 

@@ -1,4 +1,4 @@
-"""Blue-noise dithered sampling (Georgiev & Fajardo 2016): one shared sequence, rotated per pixel."""
+"""Blue-noise dithered sampling (Georgiev & Fajardo 2016): one sequence, rotated per pixel."""
 
 from __future__ import annotations
 

@@ -64,9 +64,7 @@ def _owen_coordinate(
         key = _sobol_key(seed_hash, pair, role)
     else:
         z = torch.where(role == 0, tables.reverse(y), tables.sobol1(y))
-        key = torch.where(
-            role == 0, _sobol_key(seed_hash, pair, 0), _sobol_key(seed_hash, pair, 1)
-        )
+        key = torch.where(role == 0, _sobol_key(seed_hash, pair, 0), _sobol_key(seed_hash, pair, 1))
     return tables.top24(_laine_karras(z, key))
 
 
