@@ -10,7 +10,9 @@ The error classes also derive from the matching builtin (``ValueError``, ``TypeE
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable, Sequence
+from pathlib import Path
 
 import torch
 
@@ -18,14 +20,17 @@ __all__ = [
     "BnerrError",
     "DtypeError",
     "FileFormatError",
+    "MemoryLimitError",
     "NonFiniteError",
     "ShapeError",
     "UnknownNameError",
     "FLOAT_DTYPES",
     "INT_DTYPES",
     "ValueRangeError",
+    "available_memory",
     "check_dtype",
     "check_finite",
+    "check_memory",
     "check_name",
     "check_offset",
     "check_positive_int",
@@ -36,7 +41,12 @@ __all__ = [
 
 
 #: The floating dtypes bnerr's ops accept (computations run in float32 unless said otherwise).
-FLOAT_DTYPES: tuple[torch.dtype, ...] = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
+FLOAT_DTYPES: tuple[torch.dtype, ...] = (
+    torch.float16,
+    torch.bfloat16,
+    torch.float32,
+    torch.float64,
+)
 #: The signed integer dtypes bnerr's ops accept where an integer tensor is expected.
 INT_DTYPES: tuple[torch.dtype, ...] = (torch.int8, torch.int16, torch.int32, torch.int64)
 
@@ -67,6 +77,10 @@ class UnknownNameError(BnerrError, ValueError):
 
 class FileFormatError(BnerrError, OSError):
     """A file is missing, unreadable, corrupt or not in the expected format."""
+
+
+class MemoryLimitError(BnerrError, MemoryError):
+    """A size (resolution, batch, kernel, radius) needs more memory than the machine has."""
 
 
 def check_tensor(x: object, name: str) -> torch.Tensor:
@@ -114,18 +128,101 @@ def check_dtype(x: torch.Tensor, dtypes: torch.dtype | Iterable[torch.dtype], na
     allowed = (dtypes,) if isinstance(dtypes, torch.dtype) else tuple(dtypes)
     if x.dtype not in allowed:
         want = " or ".join(str(d).removeprefix("torch.") for d in allowed)
-        raise DtypeError(f"{name}: expected dtype {want}, got {str(x.dtype).removeprefix('torch.')}")
+        raise DtypeError(
+            f"{name}: expected dtype {want}, got {str(x.dtype).removeprefix('torch.')}"
+        )
+
+
+def _first_bad(bad: torch.Tensor) -> str:
+    """Where the first True of ``bad`` lies: the pixel ``(y, x)`` in raster order for tensors of
+    2 or more dimensions (the last two are H, W; any channel counts), else the flat index."""
+    if bad.ndim == 0:
+        return ""
+    if bad.ndim == 1:
+        return f", first at index {int(bad.to(torch.uint8).argmax())}"
+    width = bad.shape[-1]
+    pixels = bad.reshape(-1, bad.shape[-2] * width).any(dim=0)
+    y, x = divmod(int(pixels.to(torch.uint8).argmax()), width)
+    return f", first at pixel (y, x) = ({y}, {x})"
 
 
 def check_finite(x: torch.Tensor, name: str) -> None:
-    """Raise :class:`NonFiniteError` if ``x`` holds NaN or infinity, saying how many."""
+    """Raise :class:`NonFiniteError` if ``x`` holds NaN or infinity: how many, and where the first
+    one is (pixel ``(y, x)`` of a ``[..., H, W]`` tensor, in raster order)."""
     bad = ~torch.isfinite(x)
     if bool(bad.any()):
         n_nan = int(torch.isnan(x).sum())
         n_inf = int(bad.sum()) - n_nan
         raise NonFiniteError(
             f"{name}: expected finite values, got {n_nan} NaN and {n_inf} infinite "
-            f"of {x.numel()}"
+            f"of {x.numel()}{_first_bad(bad)}"
+        )
+
+
+def _meminfo_available() -> int | None:
+    """``MemAvailable`` of ``/proc/meminfo`` in bytes, or None where there is no such file."""
+    try:
+        for line in Path("/proc/meminfo").read_text().splitlines():
+            if line.startswith("MemAvailable:"):
+                return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def _cgroup_headroom() -> int | None:
+    """What the process's cgroup (v2) still allows, ``memory.max - memory.current``, or None."""
+    try:
+        root = Path("/sys/fs/cgroup")
+        limit = (root / "memory.max").read_text().strip()
+        if limit == "max":
+            return None
+        return max(int(limit) - int((root / "memory.current").read_text()), 0)
+    except (OSError, ValueError):
+        return None
+
+
+def available_memory(device: torch.device | str | None = None) -> int:
+    """Bytes a new allocation can use now, on ``device`` (default: host memory).
+
+    Host: ``MemAvailable`` of ``/proc/meminfo`` (else ``os.sysconf`` physical pages times page
+    size), lowered to the cgroup's headroom where a cgroup limit is set. CUDA: the free memory
+    ``torch.cuda.mem_get_info`` reports.
+    """
+    if device is not None and torch.device(device).type == "cuda":
+        return int(torch.cuda.mem_get_info(torch.device(device))[0])
+    found = _meminfo_available()
+    if found is None:
+        try:
+            found = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            found = 1 << 62  # unknown: do not refuse
+    headroom = _cgroup_headroom()
+    return found if headroom is None else min(found, headroom)
+
+
+def _gib(nbytes: float) -> str:
+    return f"{nbytes / 2**30:.3g} GiB" if nbytes >= 2**27 else f"{nbytes / 2**20:.3g} MiB"
+
+
+def check_memory(
+    nbytes: float, name: str, device: torch.device | str | None = None, *, fraction: float = 0.9
+) -> None:
+    """Refuse a computation whose estimated peak memory exceeds what ``device`` has available.
+
+    Call it before allocating, with a rough estimate of the bytes the sizes need; the estimate is
+    compared with ``fraction`` of :func:`available_memory` (the rest is kept for what the
+    estimate leaves out).
+
+    Raises:
+        MemoryLimitError: ``"<name>: expected at most X of memory (of Y available), got an
+            estimate of Z"``.
+    """
+    have = available_memory(device)
+    if nbytes > fraction * have:
+        raise MemoryLimitError(
+            f"{name}: expected a size that fits in memory (at most {_gib(fraction * have)} of "
+            f"the {_gib(have)} available), got an estimate of {_gib(nbytes)}"
         )
 
 
@@ -150,7 +247,9 @@ def check_range(value: object, name: str, lo: float, hi: float) -> float:
 def check_name(name: object, known: Sequence[str], what: str) -> str:
     """Return ``name`` if it is one of ``known``; raise :class:`UnknownNameError` listing them."""
     if not isinstance(name, str) or name not in known:
-        raise UnknownNameError(f"unknown {what} {name!r}: expected one of {', '.join(sorted(known))}")
+        raise UnknownNameError(
+            f"unknown {what} {name!r}: expected one of {', '.join(sorted(known))}"
+        )
     return name
 
 

@@ -34,14 +34,17 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-import uuid
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 
 import numpy as np
 import torch
 
+from bnerr.color import TONEMAPS as _COLOR_TONEMAPS
+from bnerr.color import srgb_encode
+from bnerr.color import tonemap as _tonemap
 from bnerr.errors import (
+    BnerrError,
     DtypeError,
     FileFormatError,
     ShapeError,
@@ -51,6 +54,7 @@ from bnerr.errors import (
     check_shape,
 )
 from bnerr.frame import BUFFERS, Frame
+from bnerr.outputs import OutputPathError, temporary_name
 
 __all__ = [
     "CHANNELS",
@@ -75,8 +79,8 @@ CHANNELS: dict[str, tuple[str, ...]] = {
     "variance": ("variance.R", "variance.G", "variance.B"),
 }
 
-#: Tone-map names of :func:`write_png`.
-TONEMAPS = ("aces", "clamp", "reinhard")
+#: Tone-map names of :func:`write_png` (:data:`bnerr.color.TONEMAPS`, sorted).
+TONEMAPS = tuple(sorted(_COLOR_TONEMAPS))
 
 #: Header attribute that holds a Frame's timings (JSON, milliseconds by stage).
 TIMINGS_ATTRIBUTE = "bnerr_timings"
@@ -99,26 +103,35 @@ def atomic_write(path: str | os.PathLike, *, suffix: str | None = None) -> Itera
     """Yield a temporary path next to ``path``; on success rename it over ``path``.
 
     The temporary file lives in the same folder (so that :func:`os.replace` is an atomic rename
-    on POSIX and Windows) and ends with ``suffix`` (default: ``path``'s suffix), so that writers
+    on POSIX and Windows), is named by :func:`bnerr.outputs.temporary_name` (hidden, with the
+    writer's process id, so that :func:`bnerr.outputs.clean_stale_temporaries` can remove what a
+    killed process left) and ends with ``suffix`` (default: ``path``'s suffix), so that writers
     that choose the format by extension still work. If the body raises, the temporary file is
-    removed and nothing under ``path`` changes. Readers never see a half-written file.
+    removed and nothing under ``path`` changes; a failure of that cleanup (a read-only file
+    system) is ignored, so the body's own error is the one raised. Readers never see a
+    half-written file.
 
     Raises:
         FileFormatError: the folder does not exist, or the body wrote nothing.
+        OutputPathError: the file system refused the write or the rename (the message names
+            ``path`` and says why in one line).
     """
     path = _check_path(path)
     if not path.parent.is_dir():
         raise FileFormatError(f"{path}: cannot write, folder {path.parent} does not exist")
-    if suffix is None:
-        suffix = path.suffix
-    tmp = path.with_name(f".{path.name}.{uuid.uuid4().hex[:12]}.tmp{suffix}")
+    tmp = temporary_name(path, path.suffix if suffix is None else suffix)
     try:
         yield tmp
         if not tmp.exists():
             raise FileFormatError(f"{path}: the writer created nothing at {tmp.name}")
         os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    except BaseException as err:
+        with contextlib.suppress(OSError):
+            tmp.unlink(missing_ok=True)
+        if isinstance(err, OSError) and not isinstance(err, BnerrError):
+            reason = err.strerror or str(err).splitlines()[0]
+            raise OutputPathError(f"{path}: expected a writable file, got {reason}") from err
+        raise
 
 
 # ------------------------------------------------------------------------------------------------
@@ -328,22 +341,6 @@ def read_frame(path: str | os.PathLike) -> Frame:
 # PNG previews
 
 
-def _tonemap(x: torch.Tensor, name: str) -> torch.Tensor:
-    if name == "aces":
-        # Narkowicz 2015, "ACES Filmic Tone Mapping Curve" (a fit of the ACES RRT + ODT),
-        # applied to the exposed radiance as is (without the 0.6 pre-scale of the blog post).
-        return (x * (2.51 * x + 0.03) / (x * (2.43 * x + 0.59) + 0.14)).clamp(0, 1)
-    if name == "reinhard":
-        return x / (1 + x)  # Reinhard et al. 2002, the global operator L / (1 + L)
-    return x.clamp(0, 1)
-
-
-def _srgb_oetf(x: torch.Tensor) -> torch.Tensor:
-    """IEC 61966-2-1 sRGB encoding of linear values in [0, 1]."""
-    curve = 1.055 * x.clamp(min=0.0031308) ** (1 / 2.4) - 0.055
-    return torch.where(x <= 0.0031308, 12.92 * x, curve)
-
-
 def write_png(
     path: str | os.PathLike,
     color: torch.Tensor,
@@ -354,7 +351,8 @@ def write_png(
 
     ``value = srgb(tonemap(color * 2^exposure))``, rounded to 8 bits, an RGB PNG whatever the
     suffix of ``path``; encoded by scikit-image (imageio). Negative values and NaN show as 0,
-    +inf as white: a preview must not fail on a firefly. ``tonemap`` is ``"aces"`` (Narkowicz's fit), ``"reinhard"`` or ``"clamp"``.
+    +inf as white: a preview must not fail on a firefly. ``tonemap`` is ``"aces"`` (Narkowicz's
+    fit), ``"reinhard"`` or ``"clamp"`` (:func:`bnerr.color.tonemap`).
 
     Not for: data; previews lose range and precision. Use :func:`write_exr` for anything that is
     measured.
@@ -368,7 +366,9 @@ def write_png(
         raise ShapeError(f"color: expected H, W >= 1, got shape {list(color.shape)}")
     linear = torch.nan_to_num(color.detach().cpu().double(), nan=0.0, posinf=1e30, neginf=0.0)
     linear = (linear * 2.0**exposure).clamp(min=0)
-    encoded = _srgb_oetf(_tonemap(linear, tonemap).clamp(0, 1))
+    # bnerr.color's tone map and sRGB curve, evaluated in float64 here (the PNG files written so
+    # far were, and stay byte-identical); bnerr.color.preview_u8 is the float32 twin.
+    encoded = srgb_encode(_tonemap(linear, tonemap).clamp(0, 1))
     pixels = (encoded * 255).round().to(torch.uint8).permute(1, 2, 0).contiguous().numpy()
     from skimage.io import imsave  # noqa: PLC0415 - slow to import, needed here only
 

@@ -4,6 +4,8 @@ writes, and the errors for missing, corrupt and malformed files and bad argument
 from __future__ import annotations
 
 import json
+import os
+from pathlib import Path
 
 import numpy as np
 import OpenEXR
@@ -285,3 +287,35 @@ def test_write_png_rejects_bad_arguments(tmp_path):
     with pytest.raises(ValueRangeError, match=r"exposure: expected a value in \[-64.0, 64.0\]"):
         write_png(path, torch.zeros(3, H, W), exposure=100)
     assert list(tmp_path.iterdir()) == []
+
+
+# -- atomic writes: errors are the writer's, temporaries are recognisable -------------------------
+
+
+def test_atomic_write_cleanup_never_masks_the_original_error(tmp_path, monkeypatch):
+    # issue 18: on a read-only file system the cleanup's own error hid the real one.
+    def refuse(self, missing_ok=False):
+        raise OSError(30, "Read-only file system")
+
+    monkeypatch.setattr(Path, "unlink", refuse)
+    with pytest.raises(ValueError, match="the writer's own error"):
+        with atomic_write(tmp_path / "a.exr") as tmp:
+            tmp.write_bytes(b"partial")
+            raise ValueError("the writer's own error")
+
+
+def test_atomic_write_turns_an_os_error_into_one_line_naming_the_file(tmp_path):
+    from bnerr.outputs import OutputPathError
+
+    with pytest.raises(OutputPathError, match=r"a\.exr: expected a writable file, got Permission"):
+        with atomic_write(tmp_path / "a.exr"):
+            raise PermissionError(13, "Permission denied")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_write_temporaries_carry_the_writer_pid(tmp_path):
+    with atomic_write(tmp_path / "w.pt") as tmp:
+        assert tmp.name.startswith(f".w.pt.bnerr-tmp-{os.getpid()}-")
+        assert tmp.suffix == ".pt"
+        tmp.write_bytes(b"x")
+    assert [p.name for p in tmp_path.iterdir()] == ["w.pt"]

@@ -1,0 +1,52 @@
+"""Tests of bnerr.errors: the checks' messages, the first bad pixel, the memory check."""
+
+import pytest
+import torch
+
+from bnerr import errors
+from bnerr.errors import (
+    MemoryLimitError,
+    NonFiniteError,
+    available_memory,
+    check_finite,
+    check_memory,
+)
+
+
+def test_check_finite_names_the_count_and_the_first_bad_pixel():
+    x = torch.ones(3, 5, 6)
+    x[2, 1, 4] = float("nan")  # raster order: (1, 4) comes before (3, 1) whatever the channel
+    x[0, 3, 1] = float("inf")
+    with pytest.raises(
+        NonFiniteError,
+        match=r"^normal: expected finite values, got 1 NaN and 1 infinite of 90, "
+        r"first at pixel \(y, x\) = \(1, 4\)$",
+    ):
+        check_finite(x, "normal")
+
+
+def test_check_finite_on_vectors_and_scalars():
+    with pytest.raises(NonFiniteError, match=r"first at index 2$"):
+        check_finite(torch.tensor([0.0, 1.0, float("-inf")]), "v")
+    with pytest.raises(NonFiniteError, match=r"got 1 NaN and 0 infinite of 1$"):
+        check_finite(torch.tensor(float("nan")), "s")
+    check_finite(torch.zeros(2, 3), "fine")
+
+
+def test_available_memory_is_positive_and_at_most_physical():
+    have = available_memory()
+    import os
+
+    assert 0 < have <= os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_check_memory_refuses_with_the_estimate_and_what_is_available(monkeypatch):
+    monkeypatch.setattr(errors, "available_memory", lambda device=None: 2 * 2**30)
+    check_memory(1.5 * 2**30, "fits")
+    with pytest.raises(
+        MemoryLimitError,
+        match=r"^--res 40000x40000: expected a size that fits in memory \(at most 1\.8 GiB of the "
+        r"2 GiB available\), got an estimate of 256 GiB$",
+    ):
+        check_memory(256 * 2**30, "--res 40000x40000")
+    assert issubclass(MemoryLimitError, MemoryError)
