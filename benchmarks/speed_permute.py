@@ -7,7 +7,7 @@ threads and 0.60 ms on an RTX 2080 for their 1080p sort):
   taken inside), mask plan cached (as the temporal strategy runs it every frame);
 - the straightforward torch version, reshape into blocks + two stable argsorts + gather/scatter,
   measured in the same run and interleaved with the above, so the ratio survives a busy machine;
-- the torch fallback path of ``sort_pass`` (what runs without a C compiler);
+- the torch fallback path of ``sort_pass`` (what runs without a C compiler, and on CUDA);
 - the plan (mask side, once per mask offset) and the retargeting pass (every frame), with the
   native gather and with torch gather indices (uncached).
 
@@ -25,15 +25,18 @@ from collections.abc import Callable
 
 import torch
 
-from bnerr import _sortnative
+from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.permute import _sort_torch, luminance, plan_sort, sort_pass
 from bnerr.retarget import Retarget, load_retarget, retarget_sources
+from bnerr.timing import sync
 
 __all__ = ["argsort_sort_pass", "main", "measure"]
 
 
-def argsort_sort_pass(seeds: torch.Tensor, lum: torch.Tensor, mask: torch.Tensor, block: int) -> torch.Tensor:
+def argsort_sort_pass(
+    seeds: torch.Tensor, lum: torch.Tensor, mask: torch.Tensor, block: int
+) -> torch.Tensor:
     """The straightforward block sort: reshape to ``[blocks, B*B]``, argsort values and mask, move.
 
     Full blocks only (H and W multiples of B); the baseline the fast op is compared with.
@@ -51,22 +54,19 @@ def argsort_sort_pass(seeds: torch.Tensor, lum: torch.Tensor, mask: torch.Tensor
     return out.view(nby, nbx, block, block).permute(0, 2, 1, 3).reshape(h, w)
 
 
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
-
-
-def _interleaved(fns: dict[str, Callable[[], object]], repeats: int, device: torch.device) -> dict[str, float]:
+def _interleaved(
+    fns: dict[str, Callable[[], object]], repeats: int, device: torch.device
+) -> dict[str, float]:
     """Median milliseconds of each function, run round-robin so load affects all alike."""
     for fn in fns.values():
         fn()
     times: dict[str, list[float]] = {name: [] for name in fns}
     for _ in range(repeats):
         for name, fn in fns.items():
-            _sync(device)
+            sync(device)
             start = time.perf_counter()
             fn()
-            _sync(device)
+            sync(device)
             times[name].append((time.perf_counter() - start) * 1e3)
     return {name: statistics.median(ts) for name, ts in times.items()}
 
@@ -96,7 +96,9 @@ def measure(
         color = torch.rand(3, height, width, generator=gen).to(device)
         lum = luminance(color)
         seeds = torch.randperm(height * width, generator=gen).view(height, width).to(device)
-        mask = tile_mask(load_mask("scalar", mask_size).to(device), height, width, frame_offset(1, mask_size))
+        mask = tile_mask(
+            load_mask("scalar", mask_size).to(device), height, width, frame_offset(1, mask_size)
+        )
         plan = plan_sort(mask, block)
         fast = sort_pass(seeds, lum, plan, block)
         if height % block == 0 and width % block == 0:
@@ -121,9 +123,11 @@ def measure(
             "retarget_torch_ms": retarget_torch,
         }
         result: dict[str, float | str] = dict(_interleaved(fns, repeats, device))
-        result["plan_ms"] = _interleaved({"plan": lambda: plan_sort(mask, block)}, max(3, repeats // 10), device)["plan"]
+        result["plan_ms"] = _interleaved(
+            {"plan": lambda: plan_sort(mask, block)}, max(3, repeats // 10), device
+        )["plan"]
         result["ratio"] = result["argsort_ms"] / result["sort_pass_lum_ms"]
-        result["native"] = _sortnative.status() if device.type == "cpu" else "not used on " + device.type
+        result["native"] = native.status() if device.type == "cpu" else "not used on " + device.type
         result["threads"] = torch.get_num_threads()
         result["device"] = str(device)
         result["size"] = f"{width}x{height}, block {block}"
@@ -133,7 +137,9 @@ def measure(
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.speed_permute", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.speed_permute", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--height", type=int, default=1080)
     parser.add_argument("--block", type=int, default=4)
@@ -142,11 +148,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--device", default="cpu")
     args = parser.parse_args(argv)
     r = measure(args.width, args.height, args.block, args.repeats, args.threads, args.device)
-    print(f"permutation passes, {r['size']}, {r['device']}, {r['threads']} threads, median of {args.repeats}")
+    where = f"{r['size']}, {r['device']}, {r['threads']} threads"
+    print(f"permutation passes, {where}, median of {args.repeats}")
     print(f"  native kernel: {r['native']}")
     print(f"  sort_pass, luminance [H, W]      {r['sort_pass_lum_ms']:8.2f} ms")
     print(f"  sort_pass, color [3, H, W]       {r['sort_pass_rgb_ms']:8.2f} ms")
-    print(f"  reshape + argsort baseline       {r['argsort_ms']:8.2f} ms   ({r['ratio']:.1f}x the sort pass)")
+    ratio = f"({r['ratio']:.1f}x the sort pass)"
+    print(f"  reshape + argsort baseline       {r['argsort_ms']:8.2f} ms   {ratio}")
     print(f"  sort_pass torch path (fallback)  {r['torch_path_ms']:8.2f} ms")
     print(f"  retargeting pass                 {r['retarget_ms']:8.2f} ms")
     print(f"  retargeting pass, torch indices  {r['retarget_torch_ms']:8.2f} ms")

@@ -1,12 +1,14 @@
 """The seed permutation of Heitz & Belcour 2019: the block sorting pass and histogram sampling.
 
 Heitz & Belcour, "Distributing Monte Carlo Errors as a Blue Noise in Screen Space by Permuting
-Pixel Seeds Between Frames", EGSR 2019 (Computer Graphics Forum 38(4)); METHODS.md section 4.
+Pixel Seeds Between Frames", EGSR 2019 (Computer Graphics Forum 38(4)); docs/METHODS.md,
+section 4.
 
-- :func:`sort_pass` (the temporal algorithm's core, the talk's "for each 4x4 block: sort the frame
-  pixels, sort the blue-noise pixels, NewSequences(BlueNoisePixels[i]) = Sequences(FramePixels[i])"):
-  inside each ``B x B`` block, the seed whose pixel had the k-th smallest luminance moves to the
-  pixel with the k-th smallest mask value. A bijection inside every block, whatever the values.
+- :func:`sort_pass` (the temporal algorithm's core, the talk's "for each 4x4 block: sort the
+  frame pixels, sort the blue-noise pixels, NewSequences(BlueNoisePixels[i]) =
+  Sequences(FramePixels[i])"): inside each ``B x B`` block, the seed whose pixel had the k-th
+  smallest luminance moves to the pixel with the k-th smallest mask value. A bijection inside
+  every block, whatever the values.
 - :func:`histogram_select` (the paper's section 3, the "a-posteriori theory"): from K candidate
   estimates per pixel, the index of the one at rank ``floor(b * K)`` of their sorted values, ``b``
   the pixel's mask value. The ``oracle`` strategy is built on it.
@@ -27,11 +29,16 @@ of ``B``); a partial block sorts only its own pixels.
 
 **Speed.** What depends only on the mask and the block size (each block's pixels in mask order)
 is computed once into a :class:`SortPlan` (:func:`plan_sort`) and cached, keyed by the mask
-tensor's identity and version, so that passing the same mask tensor every frame reuses it. On the
-CPU the pass runs in an optional C kernel (:mod:`bnerr._sortnative`, about 3 ms at 1920x1080 on
-two threads, built with the system C compiler at first use; ``BNERR_NATIVE=0`` turns it off);
-elsewhere, or without a C compiler, in torch (a row sort of packed 64-bit keys; a few tens of ms
-at 1080p on CPU, fast on CUDA). All paths give bit-identical output.
+tensor's identity and version, so that passing the same mask tensor every frame reuses it.
+
+**The op.** The pass itself is the torch custom op ``torch.ops.bnerr.sort_pass(seeds, values,
+order, block)`` (with a fake implementation for shape propagation, so it composes with
+``torch.compile``), dispatched by device: on the CPU the optional C kernel of
+:mod:`bnerr.native` (a few ms at 1920x1080 on two threads, built with the system C compiler at
+first use; ``BNERR_NATIVE=0`` turns it off), checked once against the torch path before it is
+trusted; elsewhere, or without a C compiler, the torch path (a row sort of packed 64-bit keys;
+a few tens of ms at 1080p on CPU, fast on CUDA). All paths give bit-identical output.
+:func:`luminance` is :func:`bnerr.color.luminance`, re-exported here.
 
 Not for: sorting by anything but one scalar per pixel (pass your own key as ``values [H, W]``,
 e.g. a demodulated luminance), or permutations that cross block boundaries (that is
@@ -41,14 +48,17 @@ e.g. a demodulated luminance), or permutations that cross block boundaries (that
 from __future__ import annotations
 
 import threading
+import warnings
 import weakref
 from dataclasses import dataclass, replace
 
 import torch
 import torch.nn.functional as F
 
-from bnerr import _sortnative
+from bnerr import native
+from bnerr.color import LUMINANCE_WEIGHTS, luminance
 from bnerr.errors import (
+    FLOAT_DTYPES,
     DtypeError,
     ShapeError,
     ValueRangeError,
@@ -60,7 +70,6 @@ from bnerr.errors import (
 )
 
 __all__ = [
-    "LUMINANCE_WEIGHTS",
     "SortPass",
     "SortPlan",
     "histogram_select",
@@ -70,10 +79,6 @@ __all__ = [
     "sort_pass_reference",
 ]
 
-#: Rec. 709 / sRGB luminance weights of linear R, G, B (ITU-R BT.709-6, item 3.2).
-LUMINANCE_WEIGHTS: tuple[float, float, float] = (0.2126, 0.7152, 0.0722)
-
-_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
 _MIN_BLOCK, _MAX_BLOCK = 2, 8
 _INT32_MIN = -(2**31)
 _CANONICAL_NAN = 0x7FC00000
@@ -87,9 +92,13 @@ _POSITION_BITS = 6  # block positions 0 .. 63 (B <= 8)
 
 def _check_block(block: object) -> int:
     if isinstance(block, bool) or not isinstance(block, int):
-        raise DtypeError(f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block!r}")
+        raise DtypeError(
+            f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block!r}"
+        )
     if not _MIN_BLOCK <= block <= _MAX_BLOCK:
-        raise ValueRangeError(f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block}")
+        raise ValueRangeError(
+            f"block: expected an integer in [{_MIN_BLOCK}, {_MAX_BLOCK}], got {block}"
+        )
     return block
 
 
@@ -104,7 +113,7 @@ def _check_values(values: object, height: int, width: int) -> torch.Tensor:
         raise ShapeError(
             f"values: expected [H, W] or [C, H, W] with C = 1 or 3, got shape {list(values.shape)}"
         )
-    check_dtype(values, _FLOATS, "values")
+    check_dtype(values, FLOAT_DTYPES, "values")
     if (size["H"], size["W"]) != (height, width):
         raise ShapeError(
             f"values: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
@@ -120,7 +129,7 @@ def _check_seeds(seeds: object) -> tuple[int, int]:
 
 def _check_mask(mask: object, height: int, width: int, device: torch.device) -> torch.Tensor:
     size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     if (size["H"], size["W"]) != (height, width):
         raise ShapeError(
             f"mask: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
@@ -137,32 +146,6 @@ def _ordered_keys(x: torch.Tensor) -> torch.Tensor:
     bits = torch.where(nan, torch.full_like(bits, _CANONICAL_NAN), bits)
     bits = torch.where(bits == _INT32_MIN, torch.zeros_like(bits), bits)  # -0.0 -> +0.0
     return torch.where(bits < 0, bits ^ 0x7FFFFFFF, bits)
-
-
-def luminance(values: torch.Tensor) -> torch.Tensor:
-    """Rec. 709 luminance ``0.2126 R + 0.7152 G + 0.0722 B`` of linear RGB, as float32.
-
-    Args:
-        values: ``[3, H, W]`` linear RGB, ``[1, H, W]`` or ``[H, W]`` (already a scalar per pixel),
-            any floating dtype.
-
-    Returns:
-        ``[H, W]`` float32 on ``values``' device, computed as ``(w0 * R + w1 * G) + w2 * B`` in
-        float32 (this operation order is part of the contract: the native sort kernel repeats it
-        bit for bit). NaN or infinite channels give NaN or infinite luminance, which the sort
-        orders deterministically.
-    """
-    check_tensor(values, "values")
-    if values.ndim == 3 and values.shape[0] == 1:
-        values = values[0]
-    if values.ndim == 2:
-        check_dtype(values, _FLOATS, "values")
-        return values.to(torch.float32)
-    check_shape(values, "3 H W", "values")
-    check_dtype(values, _FLOATS, "values")
-    rgb = values.to(torch.float32)
-    w0, w1, w2 = LUMINANCE_WEIGHTS
-    return w0 * rgb[0] + w1 * rgb[1] + w2 * rgb[2]
 
 
 # --------------------------------------------------------------------------------------------------
@@ -197,20 +180,24 @@ class SortPlan:
         check_positive_int(self.height, "SortPlan.height", minimum=0)
         check_positive_int(self.width, "SortPlan.width", minimum=0)
         blocks = -(-self.height // self.block) * -(-self.width // self.block)
-        check_shape(check_tensor(self.order, "SortPlan.order"), f"{blocks} {self.block ** 2}", "SortPlan.order")
+        check_shape(
+            check_tensor(self.order, "SortPlan.order"),
+            f"{blocks} {self.block**2}",
+            "SortPlan.order",
+        )
         check_dtype(self.order, torch.uint8, "SortPlan.order")
 
     @property
     def device(self) -> torch.device:
         return self.order.device
 
-    def to(self, device: torch.device | str) -> "SortPlan":
+    def to(self, device: torch.device | str) -> SortPlan:
         """The same plan on ``device``."""
         return replace(self, order=self.order.to(device))
 
 
 def _blocks(x: torch.Tensor, block: int, fill: int) -> torch.Tensor:
-    """``[H, W]`` -> ``[nby * nbx, B * B]``: pad to whole blocks with ``fill``, one row per block."""
+    """``[H, W]`` -> ``[nby * nbx, B * B]``: pad to whole blocks with ``fill``, a row per block."""
     h, w = x.shape
     pad_h, pad_w = -h % block, -w % block
     if pad_h or pad_w:
@@ -250,7 +237,7 @@ def plan_sort(mask: torch.Tensor, block: int = 4) -> SortPlan:
         A :class:`SortPlan` on ``mask``'s device.
     """
     size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     block = _check_block(block)
     order = _block_order(_ordered_keys(mask), block).to(torch.uint8).contiguous()
     return SortPlan(block=block, height=size["H"], width=size["W"], order=order)
@@ -292,29 +279,130 @@ _PLANS = _PlanCache()
 
 
 # --------------------------------------------------------------------------------------------------
-# The sorting pass
+# The sorting pass: the torch path, the native path and the custom op that dispatches between them
 
 
-def _sort_torch(seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan) -> torch.Tensor:
+def _sort_blocks_torch(
+    seeds: torch.Tensor, lum: torch.Tensor, order: torch.Tensor, block: int
+) -> torch.Tensor:
     """The torch path: sort each block's packed (key, position), then move seeds rank by rank."""
-    block, (h, w) = plan.block, seeds.shape
+    h, w = seeds.shape
     source = _block_order(_ordered_keys(lum), block)  # position of the k-th smallest value
     blocks = _blocks(seeds, block, -1)
-    out = torch.empty_like(blocks).scatter_(1, plan.order.long(), blocks.gather(1, source))
+    out = torch.empty_like(blocks).scatter_(1, order.long(), blocks.gather(1, source))
     return _unblocks(out, block, h, w).contiguous()
 
 
-def _resolve_plan(mask: torch.Tensor | SortPlan, block: int, h: int, w: int, device) -> SortPlan:
+def _sort_torch(seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan) -> torch.Tensor:
+    """The torch path of :func:`sort_pass` for ``lum [H, W]`` float32 and a plan."""
+    return _sort_blocks_torch(seeds, lum, plan.order, plan.block)
+
+
+def _native_threads(seeds: torch.Tensor) -> int:
+    return torch.get_num_threads() if seeds.numel() >= 1 << 16 else 1
+
+
+def _self_check(kernels: native.Kernels) -> bool:
+    """Compare the native kernel with the torch path on small adversarial inputs (odd sizes,
+    partial blocks, NaN, infinities, signed zeros, ties): True if bit-identical."""
+    gen = torch.Generator().manual_seed(1234)
+    for block, (h, w) in ((3, (37, 53)), (4, (40, 70)), (8, (19, 141))):
+        color = torch.randint(0, 5, (3, h, w), generator=gen).float() / 4
+        color[0, 0, :5] = float("nan")
+        color[1, 1, :3] = float("inf")
+        color[2, 2, :4] = -0.0
+        seeds = torch.randperm(h * w, generator=gen).view(h, w)
+        plan = plan_sort(torch.rand(h, w, generator=gen), block)
+        want = _sort_torch(seeds, luminance(color), plan)
+        for values in (color, luminance(color)):
+            got = native.native_sort_blocks(
+                kernels, seeds, values, plan.order, block, LUMINANCE_WEIGHTS
+            )
+            if got is None or not torch.equal(got, want):
+                return False
+    return True
+
+
+_checked: tuple[native.Kernels | None, bool] = (None, False)
+_check_lock = threading.Lock()
+
+
+def _native_kernels() -> native.Kernels | None:
+    """The native kernels if they load and pass :func:`_self_check` (run once per library)."""
+    global _checked
+    kernels = native.load()
+    if kernels is None:
+        return None
+    if _checked[0] is not kernels:
+        with _check_lock:
+            if _checked[0] is not kernels:
+                ok = _self_check(kernels)
+                if not ok:
+                    warnings.warn(
+                        "bnerr.permute: the native sort kernel disagrees with the torch path on "
+                        "the self-check; the torch path is used",
+                        RuntimeWarning,
+                        stacklevel=3,
+                    )
+                _checked = (kernels, ok)
+    return kernels if _checked[1] else None
+
+
+@torch.library.custom_op("bnerr::sort_pass", mutates_args=())
+def _sort_pass_op(
+    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+) -> torch.Tensor:
+    """``torch.ops.bnerr.sort_pass(seeds, values, order, block)``: the sorting pass as a torch op.
+
+    ``seeds [H, W]`` int64, ``values [H, W]`` or ``[3, H, W]`` float32 (RGB: its Rec. 709
+    luminance is the key), ``order`` a :class:`SortPlan`'s ``order``; returns ``[H, W]`` int64.
+    Inputs are not checked here (:func:`sort_pass` checks them). This default kernel (CUDA and
+    every other device but the CPU) is the torch path.
+    """
+    return _sort_blocks_torch(seeds, luminance(values), order, block)
+
+
+@_sort_pass_op.register_kernel("cpu")
+def _sort_pass_cpu(
+    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+) -> torch.Tensor:
+    """CPU kernel of the op: the native kernel where it loads and passed its check, else torch."""
+    kernels = _native_kernels()
+    if kernels is not None:
+        threads = _native_threads(seeds)
+        out = native.native_sort_blocks(
+            kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, threads
+        )
+        if out is not None:
+            return out
+    return _sort_blocks_torch(seeds, luminance(values), order, block)
+
+
+@_sort_pass_op.register_fake
+def _sort_pass_fake(
+    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+) -> torch.Tensor:
+    """Shape propagation for ``torch.compile``: the output is like ``seeds``."""
+    return torch.empty_like(seeds, memory_format=torch.contiguous_format)
+
+
+def _resolve_plan(
+    mask: torch.Tensor | SortPlan, block: int, h: int, w: int, device: torch.device
+) -> SortPlan:
     if isinstance(mask, SortPlan):
         if mask.block != block:
-            raise ValueRangeError(f"block: expected the plan's block size {mask.block}, got {block}")
+            raise ValueRangeError(
+                f"block: expected the plan's block size {mask.block}, got {block}"
+            )
         if (mask.height, mask.width) != (h, w):
             raise ShapeError(
                 f"mask: expected a plan for H x W = {h} x {w} like seeds, "
                 f"got one for {mask.height} x {mask.width}"
             )
         if mask.device != device:
-            raise ValueRangeError(f"mask: expected a plan on {device} like seeds, got {mask.device}")
+            raise ValueRangeError(
+                f"mask: expected a plan on {device} like seeds, got {mask.device}"
+            )
         return mask
     return _PLANS.get(_check_mask(mask, h, w, device), block)
 
@@ -355,17 +443,15 @@ def sort_pass(
     block = _check_block(block)
     values = _check_values(values, h, w)
     if values.device != seeds.device:
-        raise ValueRangeError(f"values: expected a tensor on {seeds.device} like seeds, got {values.device}")
+        raise ValueRangeError(
+            f"values: expected a tensor on {seeds.device} like seeds, got {values.device}"
+        )
     plan = _resolve_plan(mask, block, h, w, seeds.device)
     if seeds.numel() == 0:
         return seeds.clone()
-    if seeds.device.type == "cpu":
-        rgb = values.ndim == 3 and values.shape[0] == 3
-        planar = values.to(torch.float32) if rgb else luminance(values)
-        out = _sortnative.sort_pass(seeds, planar, plan)
-        if out is not None:
-            return out
-    return _sort_torch(seeds, luminance(values), plan)
+    rgb = values.ndim == 3 and values.shape[0] == 3
+    keys = values.detach().to(torch.float32) if rgb else luminance(values.detach())
+    return _sort_pass_op(seeds, keys, plan.order, block)
 
 
 class SortPass(torch.nn.Module):
@@ -378,7 +464,9 @@ class SortPass(torch.nn.Module):
         super().__init__()
         self.block = _check_block(block)
 
-    def forward(self, seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor | SortPlan) -> torch.Tensor:
+    def forward(
+        self, seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor | SortPlan
+    ) -> torch.Tensor:
         return sort_pass(seeds, values, mask, self.block)
 
     def extra_repr(self) -> str:
@@ -447,9 +535,9 @@ def histogram_select(candidates: torch.Tensor, mask: torch.Tensor) -> torch.Tens
         ShapeError, DtypeError as :func:`sort_pass`; NonFiniteError if the mask holds NaN or inf.
     """
     size = check_shape(check_tensor(candidates, "candidates"), "K H W", "candidates")
-    check_dtype(candidates, _FLOATS, "candidates")
+    check_dtype(candidates, FLOAT_DTYPES, "candidates")
     msize = check_shape(check_tensor(mask, "mask"), "H W", "mask")
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     if (msize["H"], msize["W"]) != (size["H"], size["W"]):
         raise ShapeError(
             f"mask: expected H x W = {size['H']} x {size['W']} like candidates, "

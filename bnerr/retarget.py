@@ -1,7 +1,8 @@
 """The retargeting pass of Heitz & Belcour 2019: a precomputed local permutation of the seed image.
 
 Heitz & Belcour, "Distributing Monte Carlo Errors as a Blue Noise in Screen Space by Permuting
-Pixel Seeds Between Frames", EGSR 2019, section 5 (the retargeting pass); METHODS.md section 4.
+Pixel Seeds Between Frames", EGSR 2019, section 5 (the retargeting pass); docs/METHODS.md,
+section 4.
 
 After the sorting pass of frame t, the seed at pixel p is ranked like the mask value
 ``M(p + o_t)`` (``o_t`` the frame's toroidal offset). Frame t + 1 uses the mask shifted by the
@@ -27,9 +28,12 @@ seed moved to p then carries the old mask value ``M(q + d(q))``, close to the ne
   screen the few targets near the border whose source lies outside the screen take the seeds
   that no target claimed (both sets ordered row-major and paired in order), so the result is
   always a permutation of the input seeds. Those border pixels lose what earlier frames learned.
-  On the CPU this runs in the optional C kernel of :mod:`bnerr._sortnative` (a source is
-  unclaimed iff its preimage under :func:`inverse_field` is off screen); elsewhere with torch
-  gather indices (:func:`retarget_sources`). Both give identical results.
+  The gather is the torch custom op ``torch.ops.bnerr.retarget(seeds, displacement, inverse,
+  oy, ox)`` (with a fake implementation, so it composes with ``torch.compile``), dispatched by
+  device: on the CPU the optional C kernel of :mod:`bnerr.native` (a source is unclaimed iff its
+  preimage under :func:`inverse_field` is off screen), checked once against the torch path before
+  it is trusted; elsewhere torch gather indices (:func:`retarget_sources`). Both give identical
+  results.
 - :func:`load_retarget`: the shipped displacement field for the shipped scalar mask of size T.
 
 Not for: masks other than the one a field was optimized for (run :func:`optimize_retarget` on
@@ -38,15 +42,17 @@ yours), or a step that changes between frames.
 
 from __future__ import annotations
 
-import io
-from importlib import resources
+import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
 import torch
 
-from bnerr import _sortnative
+from bnerr import native
 from bnerr.errors import (
+    FLOAT_DTYPES,
+    INT_DTYPES,
     DtypeError,
     FileFormatError,
     ShapeError,
@@ -55,11 +61,15 @@ from bnerr.errors import (
     check_dtype,
     check_finite,
     check_name,
+    check_offset,
     check_positive_int,
     check_range,
     check_shape,
     check_tensor,
 )
+from bnerr.io import atomic_write
+from bnerr.masks import r2_step
+from bnerr.resources import data_dir, load_array, shipped_files
 
 __all__ = [
     "MAX_DISPLACEMENT",
@@ -81,9 +91,6 @@ MAX_DISPLACEMENT = 6
 #: Optimizer methods of :func:`optimize_retarget`.
 METHODS: tuple[str, ...] = ("anneal", "exact")
 
-_FLOATS = (torch.float16, torch.bfloat16, torch.float32, torch.float64)
-_INTS = (torch.int8, torch.int16, torch.int32, torch.int64)
-
 
 # --------------------------------------------------------------------------------------------------
 # Checks
@@ -92,7 +99,7 @@ _INTS = (torch.int8, torch.int16, torch.int32, torch.int64)
 def _check_tile_mask(mask: object) -> np.ndarray:
     """A ``[T, T]`` floating, finite mask as a float64 numpy array."""
     size = check_shape(check_tensor(mask, "mask"), "T T", "mask")
-    check_dtype(mask, _FLOATS, "mask")
+    check_dtype(mask, FLOAT_DTYPES, "mask")
     check_finite(mask, "mask")
     if size["T"] < 1:
         raise ShapeError(f"mask: expected a non-empty [T, T] tile, got shape {list(mask.shape)}")
@@ -101,8 +108,6 @@ def _check_tile_mask(mask: object) -> np.ndarray:
 
 def _check_step(step: object, size: int) -> tuple[int, int]:
     if step is None:
-        from bnerr.masks import r2_step
-
         return r2_step(size)
     if (
         not isinstance(step, (tuple, list))
@@ -111,16 +116,6 @@ def _check_step(step: object, size: int) -> tuple[int, int]:
     ):
         raise DtypeError(f"step: expected a pair of integers (dy, dx), got {step!r}")
     return step[0] % size, step[1] % size
-
-
-def _check_offset(offset: object) -> tuple[int, int]:
-    if (
-        not isinstance(offset, (tuple, list))
-        or len(offset) != 2
-        or any(isinstance(o, bool) or not isinstance(o, int) for o in offset)
-    ):
-        raise DtypeError(f"offset: expected a pair of integers (oy, ox), got {offset!r}")
-    return offset[0], offset[1]
 
 
 def check_displacement(displacement: object, radius: int | None = MAX_DISPLACEMENT) -> torch.Tensor:
@@ -140,7 +135,7 @@ def check_displacement(displacement: object, radius: int | None = MAX_DISPLACEME
         beyond ``radius``, or two targets taking the same source: not a permutation of the tile).
     """
     check_shape(check_tensor(displacement, "displacement"), "2 T T", "displacement")
-    check_dtype(displacement, _INTS, "displacement")
+    check_dtype(displacement, INT_DTYPES, "displacement")
     d = displacement.to(torch.int64)
     size = d.shape[-1]
     if size == 0:
@@ -189,12 +184,19 @@ def retarget_energy(
     m = _check_tile_mask(mask)
     d = check_displacement(displacement, radius=None).cpu().numpy()
     if d.shape[-1] != m.shape[0]:
-        raise ShapeError(f"displacement: expected [2, {m.shape[0]}, {m.shape[0]}] like mask, got {list(d.shape)}")
+        raise ShapeError(
+            f"displacement: expected [2, {m.shape[0]}, {m.shape[0]}] like mask, got {list(d.shape)}"
+        )
     return _energy(m, d[0], d[1], _check_step(step, m.shape[0]))
 
 
 def _anneal(
-    m: np.ndarray, step: tuple[int, int], radius: int, iterations: int, temperature: float, seed: int
+    m: np.ndarray,
+    step: tuple[int, int],
+    radius: int,
+    iterations: int,
+    temperature: float,
+    seed: int,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Simulated annealing over pair swaps of sources; returns ``(dy, dx)`` flat int64 arrays.
 
@@ -222,11 +224,18 @@ def _anneal(
         a = np.flatnonzero(bits & ~bits[partner])
         b = partner[a]
         ay, ax, by, bx = dy[b] + vy, dx[b] + vx, dy[a] - vy, dx[a] - vx
-        ok = (np.abs(ay) <= radius) & (np.abs(ax) <= radius) & (np.abs(by) <= radius) & (np.abs(bx) <= radius)
+        ok = (
+            (np.abs(ay) <= radius)
+            & (np.abs(ax) <= radius)
+            & (np.abs(by) <= radius)
+            & (np.abs(bx) <= radius)
+        )
         sa, sb = src[a], src[b]
         delta = (
-            np.abs(flat[sb] - target[a]) + np.abs(flat[sa] - target[b])
-            - np.abs(flat[sa] - target[a]) - np.abs(flat[sb] - target[b])
+            np.abs(flat[sb] - target[a])
+            + np.abs(flat[sa] - target[b])
+            - np.abs(flat[sa] - target[a])
+            - np.abs(flat[sb] - target[b])
         )
         temp = temperature * (1.0 - it / iterations) ** 2
         uphill = rng.random(a.size)
@@ -317,21 +326,12 @@ def optimize_retarget(
 # Shipped fields
 
 
-def _data_dir():
-    return resources.files("bnerr").joinpath("data")
-
-
 def shipped_retargets() -> list[int]:
     """Tile sizes T with a shipped ``retarget_<T>.npy``, sorted."""
-    data = _data_dir()
-    if not data.is_dir():
-        return []
-    sizes = []
-    for entry in data.iterdir():
-        stem = entry.name.removeprefix("retarget_").removesuffix(".npy")
-        if entry.name.startswith("retarget_") and entry.name.endswith(".npy") and stem.isdigit():
-            sizes.append(int(stem))
-    return sorted(sizes)
+    stems = (
+        name.removeprefix("retarget_").removesuffix(".npy") for name in shipped_files("retarget_")
+    )
+    return sorted(int(stem) for stem in stems if stem.isdigit())
 
 
 def load_retarget(size: int) -> torch.Tensor:
@@ -350,26 +350,18 @@ def load_retarget(size: int) -> torch.Tensor:
         raise UnknownNameError(
             f"retarget size {size}: expected one of the shipped sizes {shipped or 'none shipped'}"
         )
-    resource = _data_dir().joinpath(f"retarget_{size}.npy")
-    try:
-        array = np.load(io.BytesIO(resource.read_bytes()), allow_pickle=False)
-    except (OSError, ValueError) as err:
-        raise FileFormatError(f"{resource}: expected a .npy array, got unreadable data ({err})") from err
-    if array.shape != (2, size, size) or array.dtype != np.int8:
-        raise FileFormatError(
-            f"{resource}: expected int8 of shape [2, {size}, {size}], "
-            f"got {array.dtype} of shape {list(array.shape)}"
-        )
+    name = f"retarget_{size}.npy"
+    array = load_array(name, np.int8, (2, size, size))
     try:
         return check_displacement(torch.from_numpy(array.astype(np.int64)))
     except ValueError as err:
-        raise FileFormatError(f"{resource}: expected a valid displacement field, got: {err}") from err
+        raise FileFormatError(
+            f"{data_dir().joinpath(name)}: expected a valid displacement field, got: {err}"
+        ) from err
 
 
 def save_retarget(path: str | Path, displacement: torch.Tensor) -> None:
     """Write a checked field as an int8 ``[2, T, T]`` ``.npy`` file, atomically."""
-    from bnerr.io import atomic_write
-
     d = check_displacement(displacement, radius=127).cpu().numpy().astype(np.int8)
     with atomic_write(path) as tmp:
         np.save(tmp, d, allow_pickle=False)
@@ -386,7 +378,9 @@ def _band(height: int, width: int, margin: int, device: torch.device) -> torch.T
     xs = torch.arange(width, device=device)
     top = torch.arange(margin * width, device=device)
     strips = torch.cat([xs[:margin], xs[width - margin :]])
-    middle = (torch.arange(margin, height - margin, device=device)[:, None] * width + strips).reshape(-1)
+    middle = (
+        torch.arange(margin, height - margin, device=device)[:, None] * width + strips
+    ).reshape(-1)
     return torch.cat([top, middle, top + (height - margin) * width])
 
 
@@ -423,7 +417,9 @@ def _border_pairs(
     # The lift of a tile permutation is a bijection of the plane, so the in-screen sources are
     # distinct and exactly as many sources go unclaimed as targets point outside.
     if free.numel() != lost.numel():
-        raise RuntimeError(f"retarget: {lost.numel()} targets outside but {free.numel()} free seeds")
+        raise RuntimeError(
+            f"retarget: {lost.numel()} targets outside but {free.numel()} free seeds"
+        )
     return lost, free
 
 
@@ -456,7 +452,12 @@ def retarget_sources(
     # much cheaper than a per-pixel gather from the tile).
     tile = (displacement[0] * width + displacement[1]).to(index).roll((-oy, -ox), dims=(0, 1))
     field = tile.repeat(-(-height // size), -(-width // size))[:height, :width]
-    src = torch.arange(height * width, dtype=index, device=device).view(height, width).add_(field).reshape(-1)
+    src = (
+        torch.arange(height * width, dtype=index, device=device)
+        .view(height, width)
+        .add_(field)
+        .reshape(-1)
+    )
     pairs = _border_pairs(height, width, displacement, offset)
     if pairs is not None:
         src[pairs[0]] = pairs[1].to(index)
@@ -468,33 +469,121 @@ def inverse_field(displacement: torch.Tensor) -> torch.Tensor:
     to the target q that takes the source at u (``q + d(q) = u mod T``). ``[2, T, T]`` int64."""
     size = displacement.shape[-1]
     q = torch.arange(size, device=displacement.device)
-    src = (((q[:, None] + displacement[0]) % size) * size + (q[None, :] + displacement[1]) % size).reshape(-1)
+    src = (
+        ((q[:, None] + displacement[0]) % size) * size + (q[None, :] + displacement[1]) % size
+    ).reshape(-1)
     owner = torch.empty_like(src)
     owner[src] = torch.arange(size * size, device=displacement.device)
     return -displacement.reshape(2, -1)[:, owner].reshape(2, size, size)
 
 
-def _gather(
-    seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int], inverse: torch.Tensor | None = None
+def _gather_torch(
+    seeds: torch.Tensor, displacement: torch.Tensor, oy: int, ox: int
 ) -> torch.Tensor:
-    """Apply a checked field: the native kernel on the CPU where available, else torch indices."""
+    """The torch path: gather through :func:`retarget_sources`' indices."""
     h, w = seeds.shape
-    if seeds.device.type == "cpu" and _sortnative.available():
-        back = inverse_field(displacement) if inverse is None else inverse
-        out = _sortnative.retarget(seeds, displacement, back, offset)
-        if out is not None:
-            return out
-    src = retarget_sources(h, w, displacement, offset)
+    src = retarget_sources(h, w, displacement, (oy, ox))
     return seeds.reshape(-1).index_select(0, src).reshape(h, w)
 
 
-def retarget(seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
+def _self_check(kernels: native.Kernels) -> bool:
+    """Compare the native gather with the torch path on a small odd-sized screen with a random
+    field (border pairs included): True if bit-identical."""
+    gen = torch.Generator().manual_seed(1234)
+    mask = torch.rand(16, 16, generator=gen)
+    field = optimize_retarget(mask, (3, 5), iterations=40, temperature=1.0)
+    seeds = torch.randperm(37 * 29, generator=gen).view(37, 29)
+    for offset in ((4, 9), (0, 0), (15, 1)):
+        want = _gather_torch(seeds, field, *offset)
+        got = native.native_retarget_gather(kernels, seeds, field, inverse_field(field), offset)
+        if got is None or not torch.equal(got, want):
+            return False
+    return True
+
+
+_checked: tuple[native.Kernels | None, bool] = (None, False)
+_check_lock = threading.Lock()
+
+
+def _native_kernels() -> native.Kernels | None:
+    """The native kernels if they load and pass :func:`_self_check` (run once per library)."""
+    global _checked
+    kernels = native.load()
+    if kernels is None:
+        return None
+    if _checked[0] is not kernels:
+        with _check_lock:
+            if _checked[0] is not kernels:
+                ok = _self_check(kernels)
+                if not ok:
+                    warnings.warn(
+                        "bnerr.retarget: the native retargeting kernel disagrees with the torch "
+                        "path on the self-check; the torch path is used",
+                        RuntimeWarning,
+                        stacklevel=3,
+                    )
+                _checked = (kernels, ok)
+    return kernels if _checked[1] else None
+
+
+@torch.library.custom_op("bnerr::retarget", mutates_args=())
+def _retarget_op(
+    seeds: torch.Tensor,
+    displacement: torch.Tensor,
+    inverse: torch.Tensor | None,
+    oy: int,
+    ox: int,
+) -> torch.Tensor:
+    """``torch.ops.bnerr.retarget(seeds, displacement, inverse, oy, ox)``: the retargeting pass.
+
+    ``seeds [H, W]`` int64; ``displacement [2, T, T]`` int64, a checked field on ``seeds``'
+    device; ``inverse`` its :func:`inverse_field` or None (computed where needed); returns
+    ``[H, W]`` int64. Inputs are not checked here (:func:`retarget` checks them). This default
+    kernel (CUDA and every other device but the CPU) is the torch path.
+    """
+    return _gather_torch(seeds, displacement, oy, ox)
+
+
+@_retarget_op.register_kernel("cpu")
+def _retarget_cpu(
+    seeds: torch.Tensor,
+    displacement: torch.Tensor,
+    inverse: torch.Tensor | None,
+    oy: int,
+    ox: int,
+) -> torch.Tensor:
+    """CPU kernel of the op: the native kernel where it loads and passed its check, else torch."""
+    kernels = _native_kernels()
+    if kernels is not None:
+        back = inverse_field(displacement) if inverse is None else inverse
+        threads = torch.get_num_threads() if seeds.numel() >= 1 << 16 else 1
+        out = native.native_retarget_gather(kernels, seeds, displacement, back, (oy, ox), threads)
+        if out is not None:
+            return out
+    return _gather_torch(seeds, displacement, oy, ox)
+
+
+@_retarget_op.register_fake
+def _retarget_fake(
+    seeds: torch.Tensor,
+    displacement: torch.Tensor,
+    inverse: torch.Tensor | None,
+    oy: int,
+    ox: int,
+) -> torch.Tensor:
+    """Shape propagation for ``torch.compile``: the output is like ``seeds``."""
+    return torch.empty_like(seeds, memory_format=torch.contiguous_format)
+
+
+def retarget(
+    seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int]
+) -> torch.Tensor:
     """Apply a retargeting field to a seed image at a frame's offset.
 
     Args:
         seeds: ``[H, W]`` int64 seed image (after the sorting pass of frame t).
-        displacement: ``[2, T, T]`` integer field (:func:`load_retarget`, :func:`optimize_retarget`);
-            checked here.
+        displacement: ``[2, T, T]`` integer field (:func:`load_retarget`,
+            :func:`optimize_retarget`); checked here.
         offset: frame t's mask offset ``(oy, ox)``: the field is laid over the screen like the
             mask, ``d((y + oy) mod T, (x + ox) mod T)`` at pixel (y, x).
 
@@ -502,13 +591,13 @@ def retarget(seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int,
         ``[H, W]`` int64 on ``seeds``' device: a permutation of ``seeds`` (every seed kept, none
         duplicated), for frame t + 1.
     """
-    size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
+    check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
     check_dtype(seeds, torch.int64, "seeds")
-    offset = _check_offset(offset)
+    offset = check_offset(offset)
     d = check_displacement(displacement, radius=None)
     if seeds.numel() == 0:
         return seeds.clone()
-    return _gather(seeds, d.to(seeds.device), offset)
+    return _retarget_op(seeds, d.to(seeds.device), None, offset[0], offset[1])
 
 
 class Retarget(torch.nn.Module):
@@ -527,25 +616,35 @@ class Retarget(torch.nn.Module):
         self._sources: dict[tuple, torch.Tensor] = {}
         self._inverse: torch.Tensor | None = None
 
-    def forward(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
-        size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
-        check_dtype(seeds, torch.int64, "seeds")
-        offset = _check_offset(offset)
-        if seeds.numel() == 0:
-            return seeds.clone()
-        t = self.displacement.shape[-1]
-        key = (size["H"], size["W"], offset[0] % t, offset[1] % t, seeds.device)
+    def _cached_sources(
+        self, height: int, width: int, offset: tuple[int, int], field: torch.Tensor
+    ) -> torch.Tensor:
+        """The torch path's gather indices for this screen and offset, from the cache if there."""
+        t = field.shape[-1]
+        key = (height, width, offset[0] % t, offset[1] % t, field.device)
         src = self._sources.get(key)
-        if src is None and self.cache and not (seeds.device.type == "cpu" and _sortnative.available()):
-            src = retarget_sources(size["H"], size["W"], self.displacement.to(seeds.device), key[2:4])
+        if src is None:
+            src = retarget_sources(height, width, field, key[2:4])
             while len(self._sources) >= self.cache:
                 self._sources.pop(next(iter(self._sources)))
             self._sources[key] = src
-        if src is None:
-            if self._inverse is None or self._inverse.device != seeds.device:
-                self._inverse = inverse_field(self.displacement.to(seeds.device))
-            return _gather(seeds, self.displacement.to(seeds.device), offset, self._inverse)
-        return seeds.reshape(-1).index_select(0, src).reshape(size["H"], size["W"])
+        return src
+
+    def forward(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
+        """``seeds [H, W]`` int64 -> ``[H, W]`` int64, as :func:`retarget`."""
+        size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
+        check_dtype(seeds, torch.int64, "seeds")
+        offset = check_offset(offset)
+        if seeds.numel() == 0:
+            return seeds.clone()
+        field = self.displacement.to(seeds.device)
+        native_here = seeds.device.type == "cpu" and _native_kernels() is not None
+        if self.cache and not native_here:
+            src = self._cached_sources(size["H"], size["W"], offset, field)
+            return seeds.reshape(-1).index_select(0, src).reshape(size["H"], size["W"])
+        if self._inverse is None or self._inverse.device != seeds.device:
+            self._inverse = inverse_field(field)
+        return _retarget_op(seeds, field, self._inverse, offset[0], offset[1])
 
     def extra_repr(self) -> str:
         t = self.displacement.shape[-1]

@@ -1,5 +1,5 @@
-"""Tests for bnerr.permute: the sorting pass against its reference twin, its properties, histogram
-sampling, and typed errors."""
+"""Tests for bnerr.permute: the sorting pass against its reference twin (native, torch and slow
+paths bit for bit), the torch op, its properties, histogram sampling, and typed errors."""
 
 import math
 
@@ -8,10 +8,10 @@ import torch
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from bnerr import _sortnative
+from bnerr import native, permute
+from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, ValueRangeError
 from bnerr.permute import (
-    LUMINANCE_WEIGHTS,
     SortPass,
     SortPlan,
     _sort_torch,
@@ -68,14 +68,24 @@ def test_fast_op_equals_reference_and_permutes_inside_blocks(h, w, block, channe
     seeds, values, mask = _case(seed, h, w, channels, special)
     want = sort_pass_reference(seeds, values, mask, block)
     got = sort_pass(seeds, values, mask, block)  # native kernel where available
-    torch_path = _sort_torch(seeds, luminance(values), plan_sort(mask, block))
+    plan = plan_sort(mask, block)
+    torch_path = _sort_torch(seeds, luminance(values), plan)
     assert torch.equal(got, want)
     assert torch.equal(torch_path, want)
+    kernels = permute._native_kernels()
+    if kernels is not None:  # the fast path itself, called directly, on luminance and on planes
+        for keys in {luminance(values), values.float()} if channels == 3 else {luminance(values)}:
+            fast = native.native_sort_blocks(
+                kernels, seeds, keys, plan.order, block, LUMINANCE_WEIGHTS
+            )
+            assert torch.equal(fast, want)
     assert got.dtype == torch.int64 and got.shape == (h, w)
     assert _block_multisets(got, block) == _block_multisets(seeds, block)
 
 
-@given(h=st.integers(1, 24), w=st.integers(1, 24), block=st.integers(2, 8), seed=st.integers(0, 2**16))
+@given(
+    h=st.integers(1, 24), w=st.integers(1, 24), block=st.integers(2, 8), seed=st.integers(0, 2**16)
+)
 def test_sorted_seeds_follow_the_mask_order(h, w, block, seed):
     # If a seed's value is a fixed function of the seed, re-rendering after the pass must give
     # values whose order inside every block is the mask's order (distinct values and mask).
@@ -100,7 +110,9 @@ def test_nan_and_infinities_order_deterministically():
     # Order: -inf (13), -0.0 (12), +inf (11), NaN (10).
     assert sort_pass(seeds, values, mask, 2).tolist() == [[13, 12], [11, 10]]
     # Every NaN is equal (any sign, any payload): ties keep the pixel order.
-    nans = torch.tensor([0x7FC00000, -0x00400000, 0x7F800001, 0x7FFFFFFF], dtype=torch.int32).view(torch.float32)
+    nans = torch.tensor([0x7FC00000, -0x00400000, 0x7F800001, 0x7FFFFFFF], dtype=torch.int32).view(
+        torch.float32
+    )
     assert sort_pass(seeds, nans.view(2, 2), mask, 2).tolist() == [[10, 11], [12, 13]]
     # -0.0 equals +0.0: a tie, stable.
     zeros = torch.tensor([[0.0, -0.0], [0.0, -0.0]])
@@ -138,8 +150,43 @@ def test_thread_count_and_repeats_give_bit_identical_output():
 
 def test_native_kernel_status_is_reported():
     # The kernel is optional; whichever way it went, the reason is stated.
-    assert isinstance(_sortnative.status(), str) and _sortnative.status()
-    assert _sortnative.available() == (_sortnative.load() is not None)
+    assert isinstance(native.status(), str) and native.status()
+    assert native.available() == (native.load() is not None)
+    if native.available():
+        assert permute._native_kernels() is native.load()  # passed its self-check
+
+
+def test_sort_pass_is_a_torch_op_with_a_fake_implementation():
+    seeds, values, mask = _case(11, 13, 18, 3, 0.3)
+    plan = plan_sort(mask, 4)
+    op = torch.ops.bnerr.sort_pass
+    assert torch.equal(op(seeds, values, plan.order, 4), sort_pass(seeds, values, plan, 4))
+    assert torch.equal(
+        op.default(seeds, values[0], plan.order, 4), sort_pass(seeds, values[0], plan)
+    )
+    with torch._subclasses.fake_tensor.FakeTensorMode() as mode:
+        fake = op(
+            mode.from_tensor(seeds), mode.from_tensor(values), mode.from_tensor(plan.order), 4
+        )
+    assert fake.shape == seeds.shape and fake.dtype == torch.int64
+
+
+def test_sort_pass_op_composes_with_torch_compile():
+    # aot_eager traces through the fake implementation without generating code: small and fast.
+    if not torch._dynamo.is_dynamo_supported():
+        pytest.skip("torch.compile is unavailable here (dynamo does not support this Python)")
+    from torch._dynamo.testing import CompileCounterWithBackend
+
+    seeds, values, mask = _case(12, 12, 16, 3, 0.0)
+    order = plan_sort(mask, 4).order
+
+    def step(seeds, values, order):
+        return torch.ops.bnerr.sort_pass(seeds, values * 2.0, order, 4) + 1
+
+    counter = CompileCounterWithBackend("aot_eager")
+    got = torch.compile(step, backend=counter, fullgraph=False)(seeds, values, order)
+    assert torch.equal(got, step(seeds, values, order))
+    assert counter.frame_count == 1  # one graph: the op did not break it
 
 
 def test_plan_is_cached_per_mask_tensor_and_renewed_after_in_place_edits():
@@ -160,7 +207,11 @@ def test_explicit_plan_and_module_equal_the_function():
     color = torch.rand(3, 10, 13, generator=gen)
     mask = torch.rand(10, 13, generator=gen)
     plan = plan_sort(mask, 3)
-    assert isinstance(plan, SortPlan) and plan.order.shape == (4 * 5, 9) and plan.order.dtype == torch.uint8
+    assert (
+        isinstance(plan, SortPlan)
+        and plan.order.shape == (4 * 5, 9)
+        and plan.order.dtype == torch.uint8
+    )
     want = sort_pass(seeds, color, mask, 3)
     assert torch.equal(sort_pass(seeds, color, plan, 3), want)
     module = SortPass(block=3)
@@ -201,7 +252,9 @@ def test_sort_pass_rejects_bad_input_with_typed_errors():
         sort_pass(seeds, values, mask, 2.0)
     with pytest.raises(ShapeError, match=r"values: expected H x W = 4 x 4 like seeds, got 4 x 5"):
         sort_pass(seeds, torch.rand(4, 5), mask)
-    with pytest.raises(ShapeError, match=r"values: expected \[H, W\] or \[C, H, W\] with C = 1 or 3"):
+    with pytest.raises(
+        ShapeError, match=r"values: expected \[H, W\] or \[C, H, W\] with C = 1 or 3"
+    ):
         sort_pass(seeds, torch.rand(2, 4, 4), mask)
     with pytest.raises(ShapeError, match=r"mask: expected H x W = 4 x 4 like seeds, got 5 x 4"):
         sort_pass(seeds, values, torch.rand(5, 4))
@@ -222,7 +275,7 @@ def test_hand_made_plans_are_checked():
         SortPlan(block=4, height=8, width=8, order=torch.zeros(4, 9, dtype=torch.uint8))
     with pytest.raises(DtypeError, match=r"SortPlan.order: expected dtype uint8, got int64"):
         SortPlan(block=4, height=8, width=8, order=torch.zeros(4, 16, dtype=torch.int64))
-    if _sortnative.available():  # the kernel refuses a position outside the (partial) block
+    if permute._native_kernels() is not None:  # the kernel refuses positions outside the block
         bad = SortPlan(block=4, height=5, width=5, order=torch.full((4, 16), 15, dtype=torch.uint8))
         with pytest.raises(ValueRangeError, match=r"mask: expected a plan made by plan_sort"):
             sort_pass(torch.arange(25).view(5, 5), torch.rand(5, 5), bad, 4)
@@ -240,8 +293,10 @@ def test_cuda_matches_cpu():
     got = sort_pass(seeds.cuda(), values.cuda(), mask.cuda(), 4)
     assert got.device.type == "cuda" and torch.equal(got.cpu(), want)
     cand = _values(torch.Generator().manual_seed(1), (8, 37, 53), 0.3)
-    assert torch.equal(histogram_select(cand.cuda(), mask.abs().nan_to_num(0).cuda()).cpu(),
-                       histogram_select(cand, mask.abs().nan_to_num(0)))
+    assert torch.equal(
+        histogram_select(cand.cuda(), mask.abs().nan_to_num(0).cuda()).cpu(),
+        histogram_select(cand, mask.abs().nan_to_num(0)),
+    )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -254,7 +309,9 @@ def _select_reference(candidates: torch.Tensor, mask: torch.Tensor) -> torch.Ten
     for y in range(h):
         for x in range(w):
             column = candidates[:, y, x].tolist()
-            order = sorted(range(k), key=lambda i: (1, 0.0) if math.isnan(column[i]) else (0, column[i]))
+            order = sorted(
+                range(k), key=lambda i: (1, 0.0) if math.isnan(column[i]) else (0, column[i])
+            )
             rank = min(max(math.floor(float(mask[y, x]) * k), 0), k - 1)
             out[y, x] = order[rank]
     return out
@@ -285,17 +342,23 @@ def test_histogram_select_equals_sorting_and_puts_nan_last():
     expected = candidates.sort(dim=0).values.gather(0, rank[None])[0]
     assert torch.equal(candidates.gather(0, index[None])[0], expected)
     candidates[3] = float("nan")
-    assert torch.equal(histogram_select(candidates, torch.full((6, 7), 0.999)), torch.full((6, 7), 3))
+    assert torch.equal(
+        histogram_select(candidates, torch.full((6, 7), 0.999)), torch.full((6, 7), 3)
+    )
 
 
 def test_histogram_select_rejects_bad_input():
     with pytest.raises(NonFiniteError, match=r"mask: expected finite values, got 1 NaN"):
         histogram_select(torch.rand(4, 2, 2), torch.tensor([[0.1, float("nan")], [0.2, 0.3]]))
-    with pytest.raises(ShapeError, match=r"mask: expected H x W = 2 x 2 like candidates, got 3 x 2"):
+    with pytest.raises(
+        ShapeError, match=r"mask: expected H x W = 2 x 2 like candidates, got 3 x 2"
+    ):
         histogram_select(torch.rand(4, 2, 2), torch.rand(3, 2))
     with pytest.raises(DtypeError, match=r"candidates: expected dtype .*, got int64"):
         histogram_select(torch.ones(4, 2, 2, dtype=torch.int64), torch.rand(2, 2))
     with pytest.raises(ShapeError, match=r"candidates: expected 3 dimensions"):
         histogram_select(torch.rand(2, 2), torch.rand(2, 2))
-    with pytest.raises(ValueRangeError, match=r"candidates.shape\[0\]: expected an integer >= 1, got 0"):
+    with pytest.raises(
+        ValueRangeError, match=r"candidates.shape\[0\]: expected an integer >= 1, got 0"
+    ):
         histogram_select(torch.rand(0, 2, 2), torch.rand(2, 2))

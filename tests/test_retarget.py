@@ -1,4 +1,5 @@
-"""Tests for bnerr.retarget: the optimizer, the shipped fields, and the op that applies a field."""
+"""Tests for bnerr.retarget: the optimizer, the shipped fields, the op that applies a field (native,
+torch and loop paths bit for bit; the torch op), and the ``bnerr retarget`` command."""
 
 import importlib.util
 
@@ -9,13 +10,15 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from benchmarks.cli import main as cli_main
-from bnerr import _sortnative
+from bnerr import native
+from bnerr import retarget as retarget_module
 from bnerr.errors import DtypeError, FileFormatError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.masks import frame_offset, load_mask, r2_step
 from bnerr.retarget import (
     MAX_DISPLACEMENT,
     Retarget,
     check_displacement,
+    inverse_field,
     load_retarget,
     optimize_retarget,
     retarget,
@@ -31,10 +34,14 @@ needs_scipy = pytest.mark.skipif(importlib.util.find_spec("scipy") is None, reas
 def _random_field(size: int, seed: int) -> torch.Tensor:
     """A random valid field: annealing at a temperature where nearly every legal swap is taken."""
     mask = torch.rand(size, size, generator=torch.Generator().manual_seed(seed))
-    return optimize_retarget(mask, (1, 2), method="anneal", iterations=30, temperature=1.0, seed=seed)
+    return optimize_retarget(
+        mask, (1, 2), method="anneal", iterations=30, temperature=1.0, seed=seed
+    )
 
 
-def _retarget_reference(seeds: torch.Tensor, field: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
+def _retarget_reference(
+    seeds: torch.Tensor, field: torch.Tensor, offset: tuple[int, int]
+) -> torch.Tensor:
     """Loop version of the documented rule: p takes p + d(q); targets pointing off screen take the
     unclaimed sources, both in row-major order."""
     h, w = seeds.shape
@@ -80,6 +87,10 @@ def test_retarget_is_a_permutation_and_equals_the_loop_reference(h, w, size, oy,
     want = _retarget_reference(seeds, field, (oy, ox))
     assert torch.equal(out, want)
     assert torch.equal(by_indices, want)
+    kernels = retarget_module._native_kernels()
+    if kernels is not None:  # the fast path itself, called directly
+        fast = native.native_retarget_gather(kernels, seeds, field, inverse_field(field), (oy, ox))
+        assert torch.equal(fast, want)
 
 
 def test_shipped_field_keeps_seeds_a_permutation_over_100_frames():
@@ -106,8 +117,7 @@ def test_interior_pixels_move_by_the_field():
 
 def test_module_and_function_agree_with_and_without_cache(monkeypatch):
     # The index cache serves the torch path: take the native kernel away.
-    monkeypatch.setattr(_sortnative, "available", lambda: False)
-    monkeypatch.setattr(_sortnative, "retarget", lambda *args: None)
+    monkeypatch.setattr(retarget_module, "_native_kernels", lambda: None)
     field = _random_field(16, 3)
     seeds = torch.randperm(30 * 20).view(30, 20)
     cached, uncached = Retarget(field, cache=2), Retarget(field)
@@ -120,6 +130,35 @@ def test_module_and_function_agree_with_and_without_cache(monkeypatch):
     assert "tile=16x16" in repr(cached)
 
 
+def test_retarget_is_a_torch_op_with_a_fake_implementation():
+    field = _random_field(16, 5)
+    seeds = torch.randperm(21 * 34, generator=torch.Generator().manual_seed(5)).view(21, 34)
+    op = torch.ops.bnerr.retarget
+    want = retarget(seeds, field, (3, 7))
+    assert torch.equal(op(seeds, field, None, 3, 7), want)
+    assert torch.equal(op.default(seeds, field, inverse_field(field), 3, 7), want)
+    with torch._subclasses.fake_tensor.FakeTensorMode() as mode:
+        fake = op(mode.from_tensor(seeds), mode.from_tensor(field), None, 3, 7)
+    assert fake.shape == seeds.shape and fake.dtype == torch.int64
+
+
+def test_retarget_op_composes_with_torch_compile():
+    if not torch._dynamo.is_dynamo_supported():
+        pytest.skip("torch.compile is unavailable here (dynamo does not support this Python)")
+    from torch._dynamo.testing import CompileCounterWithBackend
+
+    field = _random_field(8, 6)
+    seeds = torch.randperm(11 * 13, generator=torch.Generator().manual_seed(6)).view(11, 13)
+
+    def step(seeds, field):
+        return torch.ops.bnerr.retarget(seeds * 3, field, None, 2, 5) - 1
+
+    counter = CompileCounterWithBackend("aot_eager")
+    got = torch.compile(step, backend=counter, fullgraph=False)(seeds, field)
+    assert torch.equal(got, step(seeds, field))
+    assert counter.frame_count == 1  # one graph: the op did not break it
+
+
 def test_retarget_rejects_bad_input():
     field = load_retarget(64)
     seeds = torch.arange(12).view(3, 4)
@@ -129,11 +168,15 @@ def test_retarget_rejects_bad_input():
         retarget(seeds.view(-1), field, (0, 0))
     with pytest.raises(DtypeError, match=r"offset: expected a pair of integers"):
         retarget(seeds, field, (0.5, 0))
-    with pytest.raises(DtypeError, match=r"displacement: expected dtype int8 or int16 or int32 or int64"):
+    with pytest.raises(
+        DtypeError, match=r"displacement: expected dtype int8 or int16 or int32 or int64"
+    ):
         retarget(seeds, field.float(), (0, 0))
     broken = field.clone()
     broken[:, 0, 0] = broken[:, 0, 1] + torch.tensor([0, 1])  # two targets, one source
-    with pytest.raises(ValueRangeError, match=r"displacement: expected a permutation of the 64x64 tile"):
+    with pytest.raises(
+        ValueRangeError, match=r"displacement: expected a permutation of the 64x64 tile"
+    ):
         retarget(seeds, broken, (0, 0))
 
 
@@ -147,7 +190,9 @@ def test_check_displacement():
     assert torch.equal(check_displacement(shift, radius=None), shift)
     with pytest.raises(ShapeError, match=r"displacement: expected 3 dimensions"):
         check_displacement(torch.zeros(8, 8, dtype=torch.int64))
-    with pytest.raises(ShapeError, match=r"displacement: expected shape \[2, T, T\] \(T equal on every axis\)"):
+    with pytest.raises(
+        ShapeError, match=r"displacement: expected shape \[2, T, T\] \(T equal on every axis\)"
+    ):
         check_displacement(torch.zeros(2, 8, 9, dtype=torch.int64))
 
 
@@ -175,7 +220,9 @@ def test_exact_matching_is_at_least_as_good_as_annealing():
     check_displacement(exact, radius=3)
     assert retarget_energy(mask, exact, step) <= retarget_energy(mask, annealed, step) + 1e-12
     # Small torus: offsets alias (radius 6 on an 8x8 tile); the result is still a valid field.
-    small = optimize_retarget(torch.rand(8, 8, generator=torch.Generator().manual_seed(0)), (3, 5), method="exact")
+    small = optimize_retarget(
+        torch.rand(8, 8, generator=torch.Generator().manual_seed(0)), (3, 5), method="exact"
+    )
     check_displacement(small)
 
 
@@ -195,7 +242,9 @@ def test_shipped_fields_are_valid_and_fit_the_shipped_masks(size):
 
 
 def test_load_retarget_errors():
-    with pytest.raises(UnknownNameError, match=r"retarget size 7: expected one of the shipped sizes"):
+    with pytest.raises(
+        UnknownNameError, match=r"retarget size 7: expected one of the shipped sizes"
+    ):
         load_retarget(7)
     with pytest.raises(ValueRangeError, match=r"size: expected an integer >= 1, got 0"):
         load_retarget(0)
@@ -208,7 +257,9 @@ def test_optimizer_rejects_bad_input():
         optimize_retarget(torch.rand(8, 9))
     with pytest.raises(DtypeError, match=r"step: expected a pair of integers"):
         optimize_retarget(torch.rand(8, 8), (1.5, 2))
-    with pytest.raises(ValueRangeError, match=r"temperature: expected a value in \[0.0, 1.0\], got 2"):
+    with pytest.raises(
+        ValueRangeError, match=r"temperature: expected a value in \[0.0, 1.0\], got 2"
+    ):
         optimize_retarget(torch.rand(8, 8), temperature=2)
 
 
@@ -218,17 +269,54 @@ def test_save_and_command(tmp_path, capsys):
     loaded = np.load(tmp_path / "f.npy")
     assert loaded.dtype == np.int8 and np.array_equal(loaded, field.numpy())
 
-    np.save(tmp_path / "mask.npy", torch.rand(16, 16, generator=torch.Generator().manual_seed(1)).numpy())
+    np.save(
+        tmp_path / "mask.npy",
+        torch.rand(16, 16, generator=torch.Generator().manual_seed(1)).numpy(),
+    )
     out = tmp_path / "r.npy"
-    code = cli_main(["retarget", "--mask", str(tmp_path / "mask.npy"), "--method", "anneal",
-                     "--iterations", "50", "--out", str(out)])
+    code = cli_main(
+        [
+            "retarget",
+            "--mask",
+            str(tmp_path / "mask.npy"),
+            "--method",
+            "anneal",
+            "--iterations",
+            "50",
+            "--out",
+            str(out),
+        ]
+    )
     assert code == 0
     text = capsys.readouterr().out
     assert "energy" in text and "identity" in text and "ratio" in text
     check_displacement(torch.from_numpy(np.load(out)).long())
-    assert cli_main(["retarget", "--mask", str(tmp_path / "mask.npy"), "--out", str(tmp_path / "r.txt")]) == 2
+    assert (
+        cli_main(
+            ["retarget", "--mask", str(tmp_path / "mask.npy"), "--out", str(tmp_path / "r.txt")]
+        )
+        == 2
+    )
     with pytest.raises(FileFormatError, match=r"expected a \.npy array"):
         from benchmarks.commands.retarget import _mask
 
         (tmp_path / "bad.npy").write_text("nope")
         _mask(type("A", (), {"mask": tmp_path / "bad.npy", "size": 16})())
+
+
+def test_command_refuses_a_constant_mask_before_writing(tmp_path, capsys):
+    # A constant mask gives every field energy 0: once a ZeroDivisionError after the output was
+    # written; now a typed error before any work, and no file.
+    np.save(tmp_path / "flat.npy", np.full((16, 16), 0.5, np.float32))
+    out = tmp_path / "r.npy"
+    args = ["retarget", "--mask", str(tmp_path / "flat.npy"), "--method", "anneal"]
+    assert cli_main([*args, "--iterations", "5", "--out", str(out)]) == 2
+    assert "mask: expected at least two distinct values" in capsys.readouterr().err
+    assert not out.exists()
+    # Not constant, but equal to its own shift by the step: refused the same way.
+    from benchmarks.commands.retarget import _identity_energy
+
+    stripes = torch.arange(16.0).repeat(16, 1) % 2  # period 2 along x; the step (0, 2) keeps it
+    with pytest.raises(ValueRangeError, match=r"mask: expected a mask that changes under"):
+        _identity_energy(stripes, (0, 2))
+    assert _identity_energy(stripes, (0, 1)) == 1.0

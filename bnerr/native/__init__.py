@@ -1,0 +1,235 @@
+"""Optional native CPU kernels of the seed permutation (docs/METHODS.md, section 4).
+
+A leaf package: it imports nothing from bnerr but :mod:`bnerr.errors`, and every constant (the
+luminance weights, the block size, the thread count) comes in as an argument. The ops that use it,
+:func:`bnerr.permute.sort_pass` and :func:`bnerr.retarget.retarget`, own their dispatch and check
+the kernels once against their torch paths before trusting them.
+
+Why a C kernel: the sorting pass is a few integer operations per pixel, so its cost is memory
+traffic and per-op overhead. Eager torch needs about ten full passes over the image (keys, block
+layout, sort, gathers, scatters); one C loop over blocks that keeps each group of 16 blocks in SIMD
+registers (GCC/Clang vector extensions, one block per lane) is several times faster. The
+retargeting kernel reads the tile's displacement and copies each seed in one pass, then walks the
+border band to pair the targets whose source is off screen with the unclaimed sources.
+
+How it is built: the C source ``permute.c`` (package data beside this file) is compiled at first
+use with the system C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) into a shared library
+in a per-user cache and loaded with :mod:`ctypes` only if it is the one this source, these flags,
+this compiler and this CPU built (:mod:`bnerr.native.build` says how). It takes about a second,
+once. No torch headers, no Python extension module.
+
+When it is not used: ``BNERR_NATIVE=0`` turns it off (silently). A missing compiler, a failed
+build or a library without the expected functions gives one warning, which names the compiler and
+quotes its first error lines, and the torch path runs instead. :func:`status` says what happened;
+:func:`compiler_output` keeps the compiler's full stderr.
+
+- :func:`load`: the bound kernels (:class:`Kernels`) or None.
+- :func:`native_sort_blocks`: the block sorting pass on CPU tensors.
+- :func:`native_retarget_gather`: the retargeting pass on CPU tensors.
+
+Not for: CUDA tensors (the callers run their torch path there), or any other kernel.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import threading
+import warnings
+from dataclasses import dataclass
+
+import torch
+
+from bnerr.errors import ValueRangeError
+from bnerr.native import build
+
+__all__ = [
+    "Kernels",
+    "available",
+    "compiler_output",
+    "load",
+    "native_retarget_gather",
+    "native_sort_blocks",
+    "reset",
+    "status",
+]
+
+#: What the torch path costs instead, quoted in the warnings (benchmarks/speed_permute.py, 1080p).
+TORCH_PATH_COST = "the sort pass about 5x and the retargeting pass about 3x slower"
+_SYMBOLS = ("bnerr_sort_pass", "bnerr_retarget")
+
+
+@dataclass(frozen=True)
+class Kernels:
+    """The bound C functions of one loaded library (``why`` says where it came from)."""
+
+    sort_pass: ctypes._CFuncPtr
+    retarget: ctypes._CFuncPtr
+    why: str
+
+
+_lock = threading.Lock()
+_state: dict[str, object] = {"loaded": False, "kernels": None, "why": "not loaded yet", "cc": ""}
+
+
+def _bind(library: ctypes.CDLL, why: str) -> Kernels:
+    """Bind the expected functions; AttributeError if the library lacks one."""
+    p, i64, f32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_float
+    sort = library.bnerr_sort_pass
+    sort.argtypes = [p, p, p, f32, f32, f32, p, p, p, i64, i64, ctypes.c_int, ctypes.c_int]
+    sort.restype = ctypes.c_int
+    gather = library.bnerr_retarget
+    gather.argtypes = [p, p, p, p, i64, i64, i64, i64, i64, i64, ctypes.c_int]
+    gather.restype = ctypes.c_int
+    return Kernels(sort, gather, why)
+
+
+def _obtain() -> tuple[Kernels | None, str, str | None, str]:
+    """``(kernels, why, warning, compiler stderr)``, building the library if needed."""
+    if os.environ.get("BNERR_NATIVE", "1") == "0":
+        return None, "disabled by BNERR_NATIVE=0", None, ""
+    outcome = build.obtain(TORCH_PATH_COST)
+    if outcome.library is None:
+        return None, outcome.why, outcome.warning, outcome.compiler_output
+    try:
+        kernels = _bind(outcome.library, outcome.why)
+    except AttributeError:
+        missing = [s for s in _SYMBOLS if not hasattr(outcome.library, s)]
+        why = f"the library {outcome.why} lacks the functions {', '.join(missing)}"
+        warning = f"bnerr: {why}; the torch path is used ({TORCH_PATH_COST})"
+        return None, why, warning, outcome.compiler_output
+    return kernels, outcome.why, outcome.warning, outcome.compiler_output
+
+
+def load() -> Kernels | None:
+    """The bound kernels, building them on first use; None when unavailable (see :func:`status`).
+
+    The first call in a process decides; a problem is reported once, as a RuntimeWarning.
+    """
+    if _state["loaded"]:
+        return _state["kernels"]
+    with _lock:
+        if not _state["loaded"]:
+            kernels, why, warning, stderr = _obtain()
+            _state.update(loaded=True, kernels=kernels, why=why, cc=stderr)
+            if warning:
+                warnings.warn(warning, RuntimeWarning, stacklevel=2)
+    return _state["kernels"]
+
+
+def reset() -> None:
+    """Forget the loaded kernels, so that the next :func:`load` looks again (for tests; the
+    environment variables are read again then)."""
+    with _lock:
+        _state.update(loaded=False, kernels=None, why="not loaded yet", cc="")
+
+
+def available() -> bool:
+    """Whether the kernels are (or can be) built and loaded on this machine."""
+    return load() is not None
+
+
+def status() -> str:
+    """What happened: where the library came from, or why it is not used."""
+    load()
+    return str(_state["why"])
+
+
+def compiler_output() -> str:
+    """The compiler's stderr of this process's last build ("" after a cache hit)."""
+    load()
+    return str(_state["cc"])
+
+
+def _threads(threads: int) -> int:
+    return max(1, min(64, int(threads)))
+
+
+def native_sort_blocks(
+    kernels: Kernels,
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    order: torch.Tensor,
+    block: int,
+    weights: tuple[float, float, float],
+    threads: int = 1,
+) -> torch.Tensor | None:
+    """The block sorting pass in C (the rule of :func:`bnerr.permute.sort_pass`).
+
+    Args:
+        kernels: from :func:`load`.
+        seeds: ``[H, W]`` int64 CPU tensor.
+        values: ``[H, W]`` float32 sort keys, or ``[3, H, W]`` float32 planes whose luminance
+            ``(w0 * R + w1 * G) + w2 * B`` (float32, in that order) is the key.
+        order: ``[ceil(H / B) * ceil(W / B), B * B]`` uint8, each block's positions in mask order
+            (:class:`bnerr.permute.SortPlan`).
+        block: B in 2..8.
+        weights: ``(w0, w1, w2)``, used for ``[3, H, W]`` values (rounded to float32).
+        threads: worker threads (split by block rows; the result does not depend on it).
+
+    Returns:
+        ``[H, W]`` int64, or None when the kernel refuses the sizes (the caller falls back).
+
+    Raises:
+        ValueRangeError: ``order`` holds a position outside its block (nothing is written out of
+            bounds).
+    """
+    seeds, values, order = seeds.contiguous(), values.contiguous(), order.contiguous()
+    out = torch.empty_like(seeds)
+    h, w = seeds.shape
+    if values.ndim == 3:
+        planes = [values[c].data_ptr() for c in range(3)]
+        floats = [float(torch.tensor(x, dtype=torch.float32)) for x in weights]
+    else:
+        planes, floats = [values.data_ptr(), None, None], [1.0, 0.0, 0.0]
+    code = kernels.sort_pass(
+        *planes, *floats, seeds.data_ptr(), order.data_ptr(), out.data_ptr(), h, w, block,
+        _threads(threads),
+    )  # fmt: skip
+    if code == 2:
+        raise ValueRangeError(
+            "mask: expected a plan made by plan_sort, got one whose order leaves its blocks"
+        )
+    return out if code == 0 else None
+
+
+def native_retarget_gather(
+    kernels: Kernels,
+    seeds: torch.Tensor,
+    displacement: torch.Tensor,
+    inverse: torch.Tensor,
+    offset: tuple[int, int],
+    threads: int = 1,
+) -> torch.Tensor | None:
+    """The retargeting pass in C (the rule of :func:`bnerr.retarget.retarget`).
+
+    Args:
+        kernels: from :func:`load`.
+        seeds: ``[H, W]`` int64 CPU tensor.
+        displacement: ``[2, T, T]`` integer field, a permutation of the tile (checked by the
+            caller); ``inverse``: its inverse (:func:`bnerr.retarget.inverse_field`).
+        offset: the frame's toroidal offset ``(oy, ox)``.
+        threads: worker threads (split by rows; the result does not depend on it).
+
+    Returns:
+        ``[H, W]`` int64, or None when the kernel refuses the sizes.
+
+    Raises:
+        ValueRangeError: ``displacement`` and ``inverse`` are not inverse permutations.
+    """
+    seeds = seeds.contiguous()
+    field = displacement.to("cpu", torch.int32).contiguous()
+    back = inverse.to("cpu", torch.int32).contiguous()
+    size = field.shape[-1]
+    reach = int(field.abs().max())
+    h, w = seeds.shape
+    out = torch.empty((h, w), dtype=torch.int64)
+    code = kernels.retarget(
+        seeds.data_ptr(), field.data_ptr(), back.data_ptr(), out.data_ptr(),
+        h, w, size, offset[0] % size, offset[1] % size, reach, _threads(threads),
+    )  # fmt: skip
+    if code == 3:
+        raise ValueRangeError(
+            "inverse: expected the inverse of the displacement field, got a field that is not"
+        )
+    return out if code == 0 else None

@@ -1,0 +1,266 @@
+/* bnerr's native CPU kernels for the seed permutation (docs/METHODS.md, section 4): the block
+   sorting pass (bnerr_sort_pass) and the retargeting pass (bnerr_retarget).
+
+   Built by bnerr.native at first use with the system C compiler into a shared library loaded
+   with ctypes; no Python or torch headers. Every constant (the luminance weights, the block size,
+   the tile size) comes in as an argument. Integer-only except the optional luminance, which is
+   computed in float32 in torch's operation order; build with -ffp-contract=off so that no fused
+   multiply-add changes its rounding. Return codes: 0 success, 1 bad sizes, 2 malformed sort plan,
+   3 retarget fields that are not inverse permutations. */
+
+#include <stdint.h>
+#include <string.h>
+#include <pthread.h>
+
+/* Ordered 32-bit key of a float's bits: signed comparison of keys orders the floats, with
+   -0 == +0, every NaN equal to one canonical NaN above +inf. */
+typedef int32_t v16 __attribute__((vector_size(64)));
+
+static inline int32_t okey(int32_t b) {
+    if ((b & 0x7fffffff) > 0x7f800000) b = 0x7fc00000;
+    if (b == (int32_t)0x80000000) b = 0;
+    return b < 0 ? (b ^ 0x7fffffff) : b;
+}
+
+static inline v16 okeyv(v16 b) {
+    v16 nan = (b & 0x7fffffff) > 0x7f800000;
+    b = (nan & 0x7fc00000) | (~nan & b);
+    b = b & ~(b == (int32_t)0x80000000);
+    return b ^ ((b < 0) & 0x7fffffff);
+}
+
+typedef struct {
+    const float *v0, *v1, *v2;  /* luminance channels, or v0 = values and v1 = NULL */
+    float w0, w1, w2;
+    const int64_t *seeds;
+    const uint8_t *order;       /* [nblocks, B*B]: padded-local position (a*B+b) by mask rank */
+    int64_t *out;
+    int64_t H, W, by0, by1;
+    int err;                    /* set when the plan holds a position outside its block */
+} job_t;
+
+static inline int32_t load_bits(const job_t *j, int64_t idx) {
+    float f;
+    if (j->v1) {
+        /* Same order as torch: (w0*r + w1*g) + w2*b, each step rounded to float32. */
+        float a = j->w0 * j->v0[idx];
+        float b = j->w1 * j->v1[idx];
+        float c = j->w2 * j->v2[idx];
+        f = (a + b) + c;
+    } else {
+        f = j->v0[idx];
+    }
+    int32_t bits;
+    memcpy(&bits, &f, 4);
+    return bits;
+}
+
+/* One block, any size (partial blocks at the right and bottom borders). */
+static void block_scalar(job_t *j, const int B, int64_t by, int64_t bx, int64_t nbx) {
+    const int n = B * B;
+    const int64_t y0 = by * B, x0 = bx * B;
+    const int bh = (int)(j->H - y0 < B ? j->H - y0 : B);
+    const int bw = (int)(j->W - x0 < B ? j->W - x0 : B);
+    int64_t key[64];
+    int pos[64];
+    int m = 0;
+    for (int a = 0; a < bh; ++a)
+        for (int b = 0; b < bw; ++b) {
+            key[m] = (int64_t)okey(load_bits(j, (y0 + a) * j->W + x0 + b)) * 64 + (a * B + b);
+            pos[m] = a * B + b;
+            ++m;
+        }
+    const uint8_t *ord = j->order + (by * nbx + bx) * n;
+    for (int i = 0; i < m; ++i) {
+        int r = 0;
+        for (int k = 0; k < m; ++k) r += key[k] < key[i];
+        const int p = ord[r], q = pos[i];
+        if (p >= n || p / B >= bh || p % B >= bw) { j->err = 1; continue; }
+        j->out[(y0 + p / B) * j->W + x0 + p % B] = j->seeds[(y0 + q / B) * j->W + x0 + q % B];
+    }
+}
+
+/* Full blocks of one block row, 16 blocks per step, one block per SIMD lane. B is a compile-time
+   constant after inlining, so the loops below unroll. */
+static inline __attribute__((always_inline))
+void row_vector(job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx) {
+    const int n = B * B;
+    const int64_t y0 = by * B, W = j->W;
+    for (int64_t bx0 = 0; bx0 < nbx_full; bx0 += 16) {
+        const int lanes = nbx_full - bx0 < 16 ? (int)(nbx_full - bx0) : 16;
+        int32_t raw[64][16] __attribute__((aligned(64)));
+        for (int a = 0; a < B; ++a) {
+            const int64_t row = (y0 + a) * W + bx0 * B;
+            for (int l = 0; l < 16; ++l)
+                for (int b = 0; b < B; ++b)
+                    raw[a * B + b][l] = l < lanes ? load_bits(j, row + l * B + b) : 0;
+        }
+        v16 k[64];
+        for (int i = 0; i < n; ++i) { v16 t; memcpy(&t, raw[i], 64); k[i] = okeyv(t); }
+        /* rank_i = #{k: key_k < key_i} + #{k < i: key_k == key_i}: stable by position. */
+        int32_t rank[64][16] __attribute__((aligned(64)));
+        for (int i = 0; i < n; ++i) {
+            v16 c = {0};
+            for (int q = 0; q < i; ++q) c -= k[q] <= k[i];
+            for (int q = i + 1; q < n; ++q) c -= k[q] < k[i];
+            memcpy(rank[i], &c, 64);
+        }
+        for (int l = 0; l < lanes; ++l) {
+            const int64_t x0 = (bx0 + l) * B;
+            const uint8_t *ord = j->order + (by * nbx + bx0 + l) * n;
+            for (int i = 0; i < n; ++i) {
+                const int p = ord[rank[i][l]];
+                if (p >= n) { j->err = 1; continue; }
+                j->out[(y0 + p / B) * W + x0 + p % B] = j->seeds[(y0 + i / B) * W + x0 + i % B];
+            }
+        }
+    }
+}
+
+static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
+    const int64_t nby_full = j->H / B, nbx_full = j->W / B, nbx = (j->W + B - 1) / B;
+    for (int64_t by = j->by0; by < j->by1; ++by) {
+        if (by < nby_full) {
+            row_vector(j, B, by, nbx_full, nbx);
+            for (int64_t bx = nbx_full; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
+        } else {
+            for (int64_t bx = 0; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
+        }
+    }
+}
+
+static void rows2(job_t *j) { rows(j, 2); }
+static void rows3(job_t *j) { rows(j, 3); }
+static void rows4(job_t *j) { rows(j, 4); }
+static void rows5(job_t *j) { rows(j, 5); }
+static void rows6(job_t *j) { rows(j, 6); }
+static void rows7(job_t *j) { rows(j, 7); }
+static void rows8(job_t *j) { rows(j, 8); }
+
+typedef struct { job_t job; int B; } task_t;
+
+static void *run_task(void *arg) {
+    task_t *t = (task_t *)arg;
+    switch (t->B) {
+        case 2: rows2(&t->job); break;
+        case 3: rows3(&t->job); break;
+        case 4: rows4(&t->job); break;
+        case 5: rows5(&t->job); break;
+        case 6: rows6(&t->job); break;
+        case 7: rows7(&t->job); break;
+        default: rows8(&t->job); break;
+    }
+    return 0;
+}
+
+/* Run fn on tasks[0 .. n-1] (stride bytes apart), tasks 1.. on new threads, task 0 on this one;
+   a task whose thread cannot be created runs here. */
+static void run_parallel(void *(*fn)(void *), char *tasks, size_t stride, int n) {
+    pthread_t ids[64];
+    int started = 0;
+    for (int i = 1; i < n; ++i) {
+        if (pthread_create(&ids[i], 0, fn, tasks + i * stride) != 0) break;
+        started = i;
+    }
+    for (int i = started + 1; i < n; ++i) fn(tasks + i * stride);
+    fn(tasks);
+    for (int i = 1; i <= started; ++i) pthread_join(ids[i], 0);
+}
+
+static int clamp_threads(int threads, int64_t rows) {
+    if (threads < 1) threads = 1;
+    if (threads > 64) threads = 64;
+    if (threads > rows) threads = (int)rows;
+    return threads;
+}
+
+/* Returns 0 on success, 2 if the plan was malformed (nothing written out of bounds), 1 on bad
+   sizes. Threads split the block rows; blocks are independent, so the result does not depend on
+   the thread count. */
+int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0, float w1, float w2,
+                    const int64_t *seeds, const uint8_t *order, int64_t *out,
+                    int64_t H, int64_t W, int B, int threads) {
+    if (B < 2 || B > 8 || H < 1 || W < 1) return 1;
+    const int64_t nby = (H + B - 1) / B;
+    threads = clamp_threads(threads, nby);
+    task_t tasks[64];
+    for (int i = 0; i < threads; ++i) {
+        job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, out, H, W,
+                    nby * i / threads, nby * (i + 1) / threads, 0};
+        tasks[i].job = jb;
+        tasks[i].B = B;
+    }
+    run_parallel(run_task, (char *)tasks, sizeof(task_t), threads);
+    for (int i = 0; i < threads; ++i)
+        if (tasks[i].job.err) return 2;
+    return 0;
+}
+
+/* The retargeting pass. Interior (parallel over rows): out[p] = seeds[p + d(q)],
+   q = ((y + oy) mod T, (x + ox) mod T), for every target whose source is on screen. Border
+   (one thread, only the band of width `reach` along the border): the targets whose source is off
+   screen take the sources that no target claims, both in row-major order. A source s is claimed
+   iff its preimage s + e(u), u = tile coordinate of s, e = the inverse field, is on screen. */
+typedef struct {
+    const int64_t *seeds;
+    const int32_t *d;           /* [2, T, T]: dy then dx */
+    int64_t *out;
+    int64_t H, W, T, oy, ox, y0, y1;
+} rjob_t;
+
+static void *retarget_rows(void *arg) {
+    const rjob_t *j = (const rjob_t *)arg;
+    const int64_t H = j->H, W = j->W, T = j->T;
+    for (int64_t y = j->y0; y < j->y1; ++y) {
+        const int64_t qy = (y + j->oy) % T;
+        const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
+        int64_t qx = j->ox;
+        for (int64_t x = 0; x < W; ++x) {
+            const int64_t sy = y + dy[qx], sx = x + dx[qx];
+            if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+            if (++qx == T) qx = 0;
+        }
+    }
+    return 0;
+}
+
+/* Next pixel of the border band of width r, row-major. */
+static inline void band_step(int64_t *y, int64_t *x, int64_t H, int64_t W, int64_t r) {
+    if (++*x >= W) { *x = 0; ++*y; }
+    if (!(*y < r || *y >= H - r) && *x >= r && *x < W - r) *x = W - r;
+}
+
+static inline int on_screen(const int32_t *f, int64_t y, int64_t x, int64_t H, int64_t W,
+                            int64_t T, int64_t oy, int64_t ox) {
+    const int64_t u = ((y + oy) % T) * T + (x + ox) % T;
+    const int64_t sy = y + f[u], sx = x + f[T * T + u];
+    return sy >= 0 && sy < H && sx >= 0 && sx < W;
+}
+
+/* Returns 0 on success, 1 on bad sizes, 3 if the fields are not inverse permutations. */
+int bnerr_retarget(const int64_t *seeds, const int32_t *d, const int32_t *inv, int64_t *out,
+                   int64_t H, int64_t W, int64_t T, int64_t oy, int64_t ox, int64_t reach,
+                   int threads) {
+    if (H < 1 || W < 1 || T < 1 || oy < 0 || oy >= T || ox < 0 || ox >= T || reach < 0) return 1;
+    threads = clamp_threads(threads, H);
+    rjob_t jobs[64];
+    for (int i = 0; i < threads; ++i) {
+        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, H * i / threads, H * (i + 1) / threads};
+        jobs[i] = jb;
+    }
+    run_parallel(retarget_rows, (char *)jobs, sizeof(rjob_t), threads);
+    if (reach == 0) return 0;
+    int64_t fy = 0, fx = -1;  /* cursor over candidate free sources */
+    int64_t y = 0, x = -1;    /* cursor over targets */
+    for (;;) {
+        band_step(&y, &x, H, W, reach);
+        if (y >= H) break;
+        if (on_screen(d, y, x, H, W, T, oy, ox)) continue;
+        do {
+            band_step(&fy, &fx, H, W, reach);
+            if (fy >= H) return 3;
+        } while (on_screen(inv, fy, fx, H, W, T, oy, ox));
+        out[y * W + x] = seeds[fy * W + fx];
+    }
+    return 0;
+}

@@ -1,0 +1,228 @@
+"""Tests for bnerr.native: a leaf package; its build, cache and loader (only a library this package
+built is loaded; every failure is one warning, then the torch path); and the disable switch.
+
+Most tests build with a fake compiler (``$CC`` set to a small script) into a temporary
+``$BNERR_CACHE_DIR``: a stub library with the two entry points compiles in a fraction of a
+second, where the real kernels take several. The real kernels are exercised by the permute and
+retarget tests.
+"""
+
+import ast
+import hashlib
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+import warnings
+from pathlib import Path
+
+import pytest
+import torch
+
+from bnerr import native
+from bnerr.permute import sort_pass, sort_pass_reference
+
+needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
+
+# A library with both entry points; returning 1 ("bad sizes") makes every caller fall back.
+_STUB = "int bnerr_sort_pass(void) { return 1; }\nint bnerr_retarget(void) { return 1; }\n"
+_UNRELATED = "int something_else(void) { return 0; }\n"
+
+
+@pytest.fixture
+def fresh(monkeypatch, tmp_path):
+    """A private cache folder and a loader that has not looked yet (and forgets again after)."""
+    monkeypatch.setenv("BNERR_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("BNERR_NATIVE", raising=False)
+    native.reset()
+    yield tmp_path
+    native.reset()
+
+
+def _script(path: Path, body: str) -> Path:
+    path.write_text(f"#!{sys.executable}\n{body}")
+    path.chmod(0o755)
+    return path
+
+
+def _fake_cc(tmp_path: Path, source: str, name: str = "fake-cc") -> Path:
+    """A compiler that builds ``source`` instead of the C file it is given (and logs each call)."""
+    stub = tmp_path / f"{name}.c"
+    stub.write_text(source)
+    body = (
+        "import subprocess, sys\n"
+        f"open({str(tmp_path / (name + '.log'))!r}, 'a').write('call\\n')\n"
+        f"args = [{str(stub)!r} if a.endswith('.c') else a for a in sys.argv[1:]]\n"
+        "sys.exit(subprocess.call(['cc', *args]))\n"
+    )
+    return _script(tmp_path / name, body)
+
+
+def _load(times: int = 2) -> tuple[native.Kernels | None, list[str]]:
+    """Load (several times) and return the kernels and the RuntimeWarnings' messages."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(times):
+            kernels = native.load()
+    return kernels, [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+
+
+def _torch_path_still_right() -> None:
+    gen = torch.Generator().manual_seed(0)
+    seeds = torch.randperm(9 * 11, generator=gen).view(9, 11)
+    color, mask = torch.rand(3, 9, 11, generator=gen), torch.rand(9, 11, generator=gen)
+    assert torch.equal(sort_pass(seeds, color, mask, 4), sort_pass_reference(seeds, color, mask, 4))
+
+
+def _record(tmp_path: Path) -> tuple[Path, dict]:
+    folder = tmp_path / "cache" / "native"
+    (sidecar,) = folder.glob("permute_*.json")
+    record = json.loads(sidecar.read_text())
+    return folder / record["library"], record
+
+
+def test_native_package_is_a_leaf():
+    # It imports nothing from bnerr but its errors (and itself): no import circle through it.
+    folder = Path(native.__file__).parent
+    imported = set()
+    for file in folder.glob("*.py"):
+        for node in ast.walk(ast.parse(file.read_text())):
+            if isinstance(node, ast.Import):
+                imported |= {alias.name for alias in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.module:
+                imported.add(node.module)
+    ours = {name for name in imported if name.split(".")[0] == "bnerr"}
+    assert ours <= {"bnerr.errors", "bnerr.native"}, ours
+    assert (folder / "permute.c").is_file()
+
+
+def test_disabled_by_environment_is_silent(fresh, monkeypatch):
+    monkeypatch.setenv("BNERR_NATIVE", "0")
+    kernels, messages = _load()
+    assert kernels is None and messages == []
+    assert native.status() == "disabled by BNERR_NATIVE=0" and not native.available()
+    _torch_path_still_right()
+
+
+def test_missing_compiler_gives_one_warning(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(fresh / "no-such-compiler"))
+    kernels, messages = _load()
+    assert kernels is None and len(messages) == 1
+    assert "no-such-compiler" in messages[0] and "was not found" in messages[0]
+    assert "the torch path is used" in messages[0] and "slower" in messages[0]
+    assert "was not found" in native.status()
+    _torch_path_still_right()
+
+
+def test_failing_compiler_gives_one_warning_quoting_its_error(fresh, monkeypatch):
+    body = (
+        "import sys\n"
+        "sys.stderr.write('In file permute.c:\\npermute.c:3:1: error: planted failure\\n"
+        "permute.c:9:2: error: second planted failure\\n')\n"
+        "sys.exit(1)\n"
+    )
+    compiler = _script(fresh / "broken-cc", body)
+    monkeypatch.setenv("CC", str(compiler))
+    kernels, messages = _load()
+    assert kernels is None and len(messages) == 1  # both flag sets failed: still one warning
+    assert str(compiler) in messages[0]
+    assert "error: planted failure | permute.c:9:2: error: second planted failure" in messages[0]
+    assert "the torch path is used" in messages[0]
+    assert "planted failure" in native.status()
+    assert "In file permute.c" in native.compiler_output()  # the full stderr is kept
+    _torch_path_still_right()
+
+
+@needs_cc
+def test_build_records_the_hash_in_a_private_cache_and_reuses_it(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(_fake_cc(fresh, _STUB)))
+    kernels, messages = _load()
+    assert kernels is not None and messages == []
+    assert native.status().startswith("built at ")
+    folder = fresh / "cache" / "native"
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o700
+    library, record = _record(fresh)
+    assert hashlib.sha256(library.read_bytes()).hexdigest() == record["sha256"]
+    assert record["sha256"][:16] in library.name
+    native.reset()
+    kernels, messages = _load()
+    assert kernels is not None and messages == []
+    assert native.status().startswith("cached at ")
+    assert (fresh / "fake-cc.log").read_text().count("call") == 1  # built once
+
+
+@needs_cc
+def test_planted_library_is_rebuilt_never_loaded(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(_fake_cc(fresh, _STUB)))
+    assert native.load() is not None
+    library, record = _record(fresh)
+    marker = fresh / "planted-ran"
+    planted_c = fresh / "planted.c"
+    planted_c.write_text(
+        "#include <stdio.h>\n"
+        "__attribute__((constructor)) static void planted(void) {\n"
+        f'    FILE *f = fopen("{marker}", "w"); if (f) fclose(f);\n'
+        "}\n" + _STUB
+    )
+    planted = fresh / "planted.so"
+    subprocess.run(["cc", "-shared", "-fPIC", str(planted_c), "-o", str(planted)], check=True)
+    for plant in ("copy", "link"):
+        library.unlink()
+        if plant == "copy":
+            shutil.copyfile(planted, library)
+        else:
+            library.symlink_to(planted)
+        native.reset()
+        kernels, messages = _load()
+        assert not marker.exists(), f"a planted library ({plant}) was loaded"
+        assert kernels is not None and native.status().startswith("built at ")
+        assert len(messages) == 1 and "hash mismatch" in messages[0]
+        assert not library.is_symlink()
+        assert hashlib.sha256(library.read_bytes()).hexdigest() == record["sha256"]
+
+
+@needs_cc
+def test_sidecar_naming_another_file_is_ignored(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(_fake_cc(fresh, _STUB)))
+    assert native.load() is not None
+    library, record = _record(fresh)
+    sidecar = library.parent / (library.name.rsplit("_", 1)[0] + ".json")
+    record["library"] = "../../elsewhere.so"
+    sidecar.write_text(json.dumps(record))
+    native.reset()
+    kernels, messages = _load()
+    assert kernels is not None and messages == [] and native.status().startswith("built at ")
+    assert json.loads(sidecar.read_text())["library"] == library.name
+
+
+@needs_cc
+def test_library_without_the_functions_falls_back_with_a_warning(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(_fake_cc(fresh, _UNRELATED)))
+    kernels, messages = _load()
+    assert kernels is None and len(messages) == 1
+    assert "lacks the functions bnerr_sort_pass, bnerr_retarget" in messages[0]
+    assert "the torch path is used" in messages[0]
+    assert "lacks the functions" in native.status()
+    _torch_path_still_right()
+
+
+@needs_cc
+def test_cache_folder_others_can_write_to_is_not_used(fresh, monkeypatch):
+    monkeypatch.setenv("CC", str(_fake_cc(fresh, _STUB)))
+    folder = fresh / "cache" / "native"
+    folder.mkdir(parents=True)
+    folder.chmod(0o777)
+    kernels, messages = _load()
+    assert kernels is not None  # built in a private temporary folder instead
+    assert len(messages) == 1 and "writable by group or others" in messages[0]
+    assert list(folder.iterdir()) == []
+    if hasattr(os, "getuid") and os.getuid() == 0:  # as root, also try another owner
+        folder.chmod(0o700)
+        os.chown(folder, 12345, 12345)
+        native.reset()
+        kernels, messages = _load()
+        assert kernels is not None and len(messages) == 1
+        assert "belongs to uid 12345" in messages[0]
+        assert list(folder.iterdir()) == []
