@@ -4,7 +4,8 @@ Each sampler fills ``count`` dimensions for ``n`` lanes (distinct seeds, 64 samp
 of a 1024-wide image), the way the renderer calls it. One warm-up call (tables, allocations),
 then ``repeats`` calls; the median is reported as seconds per call and values per second.
 ``bnds`` uses a random 8-channel 64 x 64 mask: its first 8 dimensions are rotated, the rest are
-white noise.
+white noise. The Z-order samplers (``zsobol``, ``zsobol_t``, ``cycles_*``) read the lane's seed as
+the pixel's key, built for a film 1024 wide and 64 spp.
 
 Timings depend on the machine, on the number of torch threads and on what else runs on it;
 report them with the machine.
@@ -51,7 +52,14 @@ def measure(
     device = torch.device(device)
     seed, index, pixel = _lanes(n, device)
     mask = torch.rand(8, 64, 64, generator=torch.Generator().manual_seed(0)).to(device)
-    options = {"bnds": {"mask": mask, "offset": (3, 7), "seed0": 1}}
+    film = {"width": 1024, "height": max(n // 64 // 1024, 1), "spp": 64}
+    options = {
+        "bnds": {"mask": mask, "offset": (3, 7), "seed0": 1},
+        "zsobol": film,
+        "zsobol_t": {**film, "frame": 3},
+        "cycles_pure": {"spp": 64},
+        "cycles_first": {"spp": 64},
+    }
     results: dict[str, dict[int, float]] = {}
     for name in names if names is not None else sorted(SAMPLERS):
         sampler = make_sampler(name, **options.get(name, {}))

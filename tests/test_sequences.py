@@ -1,5 +1,6 @@
-"""Tests of bnerr.sequences: exact agreement with a pure-Python twin, range, determinism,
-independence across seeds, uniformity, the (0, m, 2)-net property, BNDS, and typed errors."""
+"""Tests of bnerr.sequences' white, owen_sobol, bnds and registry (the Z-order samplers have their
+own files): exact agreement with a pure-Python twin, range, determinism, independence across
+seeds, uniformity, the (0, m, 2)-net property, BNDS, and typed errors."""
 
 from __future__ import annotations
 
@@ -28,7 +29,7 @@ ADVERSARIAL = [0, 1, 2**31 - 1, 2**31, 2**32 - 1, 2**32, -1, 2**63 - 1, -(2**63)
 
 
 # ------------------------------------------------------------------------------------------------
-# The slow, obviously-correct twin (STYLE.md habit 7): Python ints, loops, Burley's listings.
+# The slow, obviously-correct twin: Python ints, loops, Burley's listings.
 
 
 def _lowbias32(x: int) -> int:
@@ -335,7 +336,9 @@ def test_bnds_pixels_with_the_same_mask_texel_share_values():
 
 
 def test_make_sampler_builds_every_registered_sampler():
-    assert sorted(SAMPLERS) == ["bnds", "owen_sobol", "white"]
+    assert sorted(SAMPLERS) == [
+        "bnds", "cycles_first", "cycles_pure", "owen_sobol", "white", "zsobol", "zsobol_t",
+    ]  # fmt: skip
     assert make_sampler("white").name == "white"
     assert make_sampler("owen_sobol").name == "owen_sobol"
     bnds = make_sampler("bnds", mask=torch.zeros(2, 4, 4), offset=(1, 2), seed0=5)

@@ -39,13 +39,17 @@ from bnerr.hashing import signed32 as _signed
 from bnerr.hashing import srl32 as _srl
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
+from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
 from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
 from bnerr.sequences.zsobol import ZSobolSampler, zsobol_1d, zsobol_2d, zsobol_keys
+from bnerr.sequences.zsobol_t import ZSobolTSampler
 
 __all__ = [
     "BNDSSampler",
+    "CyclesFirstSampler",
+    "CyclesPureSampler",
     "ONE_MINUS_EPS",
     "OwenSobolSampler",
     "SAMPLERS",
@@ -55,6 +59,8 @@ __all__ = [
     "owen_sobol",
     "white",
     "ZSobolSampler",
+    "ZSobolTSampler",
+    "cycles_keys",
     "zsobol_1d",
     "zsobol_2d",
     "zsobol_keys",
@@ -67,18 +73,24 @@ _COMPAT = (_MASK32, _lowbias32, _lowbias32_host, _signed, _srl, _sobol_direction
 #: Sampler name -> class. ``make_sampler`` looks names up here.
 SAMPLERS: dict[str, type[Sampler]] = {
     "bnds": BNDSSampler,
+    "cycles_first": CyclesFirstSampler,
+    "cycles_pure": CyclesPureSampler,
     "owen_sobol": OwenSobolSampler,
     "white": WhiteSampler,
     "zsobol": ZSobolSampler,
+    "zsobol_t": ZSobolTSampler,
 }
 
 
 def make_sampler(name: str, **options) -> Sampler:
     """Build the sampler registered as ``name`` with its options.
 
-    Names: ``white`` (no options), ``owen_sobol`` (no options), ``bnds`` (``mask [D, T, T]``,
-    ``offset (oy, ox)``, ``seed0``). An unknown name raises :class:`UnknownNameError` listing the
-    known ones.
+    Names and options: ``white``, ``owen_sobol`` (none); ``bnds`` (``mask [D, T, T]``,
+    ``offset (oy, ox)``, ``seed0``); ``zsobol`` (``width``, ``height``, ``spp``, ``seed``,
+    ``randomizer``); ``zsobol_t`` (``width``, ``height``, ``spp``, ``frame``, ``frames``,
+    ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``). The Z-order samplers read
+    the lane's seed as the pixel's key (:func:`zsobol_keys`, :func:`cycles_keys`). An unknown name
+    raises :class:`UnknownNameError` listing the known ones.
     """
     check_name(name, list(SAMPLERS), "sampler")
     return SAMPLERS[name](**options)
