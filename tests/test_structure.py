@@ -1,0 +1,334 @@
+"""Tests for the shape of the code base: short functions, no import cycle, imports point one way,
+and no file that refers to a document outside the repository.
+
+These read the sources with :mod:`ast` (nothing is imported), so they are fast and see function-
+level imports as well as module-level ones.
+"""
+
+from __future__ import annotations
+
+import ast
+import os
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("bnerr", "renderers", "denoisers", "benchmarks")
+MAX_FUNCTION_LINES = 60
+
+# Which project package may import which (besides itself): the library stands alone, the renderer
+# and the denoisers know only the library, the benchmarks know everything.
+ALLOWED_IMPORTS = {
+    "bnerr": set(),
+    "renderers": {"bnerr"},
+    "denoisers": {"bnerr"},
+    "benchmarks": {"bnerr", "renderers", "denoisers"},
+}
+
+
+# --------------------------------------------------------------------------------------------
+# Reading the sources
+
+
+def module_files() -> dict[str, Path]:
+    """Dotted module name -> source file, for every module of the four packages."""
+    modules = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            if parts[-1] == "__init__":
+                parts = parts[:-1]
+            modules[".".join(parts)] = path
+    return modules
+
+
+MODULES = module_files()
+
+
+def parse(path: Path) -> ast.Module:
+    return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+
+
+def function_lengths(tree: ast.Module) -> list[tuple[str, int, int]]:
+    """``(qualified name, first line, length)`` of every function and method, nested ones too.
+
+    The length runs from the ``def`` line to the last line of the body (``end_lineno - lineno +
+    1``): decorator lines are not counted, the docstring is.
+    """
+    found = []
+
+    def visit(node: ast.AST, prefix: str) -> None:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                name = f"{prefix}{child.name}"
+                found.append((name, child.lineno, child.end_lineno - child.lineno + 1))
+                visit(child, f"{name}.")
+            elif isinstance(child, ast.ClassDef):
+                visit(child, f"{prefix}{child.name}.")
+            else:
+                visit(child, prefix)
+
+    visit(tree, "")
+    return found
+
+
+def _type_checking_only(tree: ast.Module) -> set[int]:
+    """``id`` of every import node guarded by ``if TYPE_CHECKING:`` (never run)."""
+    guarded = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If):
+            test = node.test
+            name = getattr(test, "id", None) or getattr(test, "attr", None)
+            if name == "TYPE_CHECKING":
+                for inner in node.body:
+                    guarded.update(id(n) for n in ast.walk(inner))
+    return guarded
+
+
+def _resolve(module: str, node: ast.ImportFrom) -> str:
+    """The absolute module a ``from ... import`` names (relative imports resolved)."""
+    if node.level == 0:
+        return node.module or ""
+    is_package = MODULES[module].name == "__init__.py"
+    base = module.split(".") if is_package else module.split(".")[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join([*base, node.module] if node.module else base)
+
+
+def _project_module(name: str) -> str | None:
+    """``name`` if it is a project module, else its longest project-module prefix, else None."""
+    parts = name.split(".")
+    for k in range(len(parts), 0, -1):
+        candidate = ".".join(parts[:k])
+        if candidate in MODULES:
+            return candidate
+    return None
+
+
+def imports_of(module: str, *, runtime_only: bool) -> set[str]:
+    """Project modules that ``module`` imports anywhere in its file (functions included).
+
+    ``from x import y`` counts as an import of ``x.y`` when that is a module, else of ``x``.
+    With ``runtime_only``, imports under ``if TYPE_CHECKING:`` are left out.
+    """
+    tree = parse(MODULES[module])
+    skip = _type_checking_only(tree) if runtime_only else set()
+    targets: set[str] = set()
+    for node in ast.walk(tree):
+        if id(node) in skip:
+            continue
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = _resolve(module, node)
+            names = [f"{base}.{alias.name}" if alias.name != "*" else base for alias in node.names]
+        else:
+            continue
+        for name in names:
+            target = _project_module(name)
+            if target is not None and target != module:
+                targets.add(target)
+    return targets
+
+
+def import_graph(*, runtime_only: bool = True) -> dict[str, set[str]]:
+    return {m: imports_of(m, runtime_only=runtime_only) for m in MODULES}
+
+
+def find_cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """One cycle (``[a, b, ..., a]``) per strongly connected component that has one (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    components: list[list[str]] = []
+
+    def connect(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                connect(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                components.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            connect(v)
+    return [_cycle_in(graph, set(c), c[0]) for c in components]
+
+
+def _cycle_in(graph: dict[str, set[str]], component: set[str], start: str) -> list[str]:
+    """A shortest cycle through ``start`` inside ``component`` (breadth-first)."""
+    parent = {start: None}
+    frontier = [start]
+    while frontier:
+        following = []
+        for v in frontier:
+            for w in sorted(graph[v] & component):
+                if w == start:
+                    path = [v]
+                    while parent[path[-1]] is not None:
+                        path.append(parent[path[-1]])
+                    return [*reversed(path), start]
+                if w not in parent:
+                    parent[w] = v
+                    following.append(w)
+        frontier = following
+    raise AssertionError(f"no cycle through {start}")  # Tarjan said there is one
+
+
+# --------------------------------------------------------------------------------------------
+# The tests
+
+
+def test_no_function_is_longer_than_60_lines():
+    too_long = []
+    for path in MODULES.values():
+        for name, line, length in function_lengths(parse(path)):
+            if length > MAX_FUNCTION_LINES:
+                too_long.append(f"{path.relative_to(ROOT)}:{line} {name} ({length} lines)")
+    assert not too_long, "functions over 60 lines:\n" + "\n".join(too_long)
+
+
+def test_function_length_counts_the_def_and_docstring_not_the_decorators():
+    source = '@decorator\n@other(1)\ndef f(x):\n    """Doc\n    string."""\n    return x\n'
+    assert function_lengths(ast.parse(source)) == [("f", 3, 4)]
+    nested = (
+        "class A:\n    def m(self):\n        def inner():\n            pass\n        return 1\n"
+    )
+    assert function_lengths(ast.parse(nested)) == [("A.m", 2, 4), ("A.m.inner", 3, 2)]
+
+
+def test_no_import_cycle():
+    cycles = find_cycles(import_graph())
+    assert not cycles, "import cycles:\n" + "\n".join(" -> ".join(c) for c in cycles)
+
+
+def test_the_cycle_finder_finds_cycles():
+    graph = {"a": {"b"}, "b": {"c"}, "c": {"a", "d"}, "d": set(), "e": {"f"}, "f": {"e"}}
+    assert find_cycles(graph) == [["a", "b", "c", "a"], ["e", "f", "e"]]
+    assert find_cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_imports_are_resolved_to_submodules_relative_and_function_level_ones_included():
+    assert _resolve("bnerr.masks", ast.ImportFrom(module="errors", names=[], level=1)) == (
+        "bnerr.errors"
+    )
+    assert _resolve("bnerr", ast.ImportFrom(module="masks", names=[], level=1)) == "bnerr.masks"
+    assert _resolve("bnerr.masks", ast.ImportFrom(module=None, names=[], level=2)) == ""
+    assert _project_module("bnerr.errors.check_shape") == "bnerr.errors"
+    assert _project_module("numpy.linalg") is None
+    graph = import_graph()
+    assert {"bnerr.errors", "bnerr.resources"} <= graph["bnerr.masks"]
+    assert all(m in MODULES for targets in graph.values() for m in targets)
+    source = "def f():\n    from bnerr import errors\n    import renderers.tracer as t\n"
+    tree = ast.parse(source)
+    imports = [n for n in ast.walk(tree) if isinstance(n, (ast.Import, ast.ImportFrom))]
+    assert len(imports) == 2  # ast.walk reaches into function bodies
+
+
+def test_imports_point_one_way():
+    wrong = []
+    for module, targets in import_graph(runtime_only=False).items():
+        package = module.split(".")[0]
+        for target in sorted(targets):
+            other = target.split(".")[0]
+            if other != package and other not in ALLOWED_IMPORTS[package]:
+                wrong.append(f"{module} imports {target}")
+    assert not wrong, "imports against the layering:\n" + "\n".join(wrong)
+
+
+# Files that could refer to a document: sources, docs, configuration, the Makefile and CI.
+_SCANNED = re.compile(r"(\.py|\.md|\.toml)$|(^|/)Makefile$|^\.ci/")
+_EXCLUDED_DIRS = {".git", "results", ".venv", "cache", "out", "build", ".hypothesis"}
+# Written in two pieces so that this file does not match its own patterns.
+_OUTSIDE = "shared" + "/"
+_DOC = re.compile(r"(\S*?)\b(" + "METHODS|STYLE|ARCHITECTURE|ZSOBOL" + r")\.md")
+
+
+def repository_files() -> list[Path]:
+    """The repository's files that :data:`_SCANNED` selects, outside results/ and .git.
+
+    From git (tracked files and untracked ones not ignored) when it is available, else a walk of
+    the tree that skips the usual build and cache folders.
+    """
+    try:
+        listed = subprocess.run(
+            ["git", "ls-files", "--cached", "--others", "--exclude-standard"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout.splitlines()
+    except (OSError, subprocess.CalledProcessError):
+        listed = _walk_tree()
+    return sorted(
+        ROOT / rel
+        for rel in listed
+        if _SCANNED.search(rel)
+        and rel.split("/")[0] not in _EXCLUDED_DIRS
+        and (ROOT / rel).is_file()
+    )
+
+
+def _walk_tree() -> list[str]:
+    """Every file under the repository root, relative, skipping :data:`_EXCLUDED_DIRS`."""
+    listed = []
+    for folder, dirs, files in os.walk(ROOT):
+        dirs[:] = [d for d in dirs if d not in _EXCLUDED_DIRS and not d.endswith(".egg-info")]
+        listed += [str((Path(folder) / f).relative_to(ROOT)) for f in files]
+    return listed
+
+
+def outside_references(text: str) -> list[str]:
+    """The references in ``text`` to documents that are not in the repository."""
+    found = [f"'{_OUTSIDE}'"] * text.count(_OUTSIDE)
+    for match in _DOC.finditer(text):
+        prefix, name = match.group(1), match.group(2)
+        in_docs = prefix.endswith("docs/") and prefix.lstrip("`'\"([") == "docs/"
+        if not (in_docs and (ROOT / "docs" / f"{name}.md").is_file()):
+            found.append(match.group(0))
+    return found
+
+
+def test_reference_finder():
+    methods, style = "METH" + "ODS.md", "STY" + "LE.md"  # in pieces, as above
+    assert outside_references(f"see docs/{methods}, section 2") == []
+    assert outside_references(f"(`docs/{methods}`)") == []
+    assert outside_references(f"{methods} section 2") == [methods]
+    assert outside_references(f"../docs/{methods}") == [f"../docs/{methods}"]
+    assert outside_references(f"docs/{style}") == [f"docs/{style}"]  # not in the repository
+    assert outside_references(f"[docs/{methods}]({methods})") == [f"]({methods}"]
+    assert len(outside_references("/work/" + _OUTSIDE + "docs")) == 1
+
+
+def test_no_file_refers_to_a_document_outside_the_repository():
+    files = repository_files()
+    assert any(p.name == "README.md" for p in files) and any(p.suffix == ".py" for p in files)
+    offenders = []
+    for path in files:
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for ref in outside_references(line):
+                offenders.append(f"{path.relative_to(ROOT)}:{number}: {ref}")
+    assert not offenders, "references to documents outside the repository:\n" + "\n".join(offenders)
+
+
+@pytest.mark.parametrize("name", ["METHODS", "ARCHITECTURE", "INTERFACES"])
+def test_the_project_docs_exist(name):
+    assert (ROOT / "docs" / f"{name}.md").is_file()
