@@ -1,0 +1,247 @@
+"""Temporal accumulation: the history a real-time renderer blends every new frame into.
+
+Real-time path tracers seldom denoise one frame alone. They reproject the previous output along the
+motion vectors, reject it where the surface seen there is another one (a disocclusion), and blend:
+``out = a * current + (1 - a) * history`` (docs/METHODS.md, section 9).
+
+- :class:`TAA` (``taa``): that accumulation alone, with the blend factor ``alpha`` tuned like any
+  filter parameter. Karis 2014, "High Quality Temporal Supersampling" (SIGGRAPH course), without
+  the neighbourhood colour clamp: on path-traced input the clamp box is as noisy as the pixel and
+  would throw the history away exactly where it helps.
+- :class:`SVGF` (``svgf``): the accumulation followed by the edge-avoiding a-trous filter, whose
+  luminance edge-stopping reads the variance estimated over time from accumulated first and second
+  moments where a pixel has history, the spatial estimate where it has not. Schied et al. 2017,
+  "Spatiotemporal Variance-Guided Filtering" (HPG), sections 4.1-4.4.
+
+Both keep state between frames: they are **stateful denoisers** (``stateful = True``). Call
+:meth:`TemporalDenoiser.reset` at the start of every sequence and feed its frames in order; pass
+the frame index ``t`` to have the order checked. A frame of another resolution than the history,
+or a frame index that does not follow the previous one, raises :class:`SequenceError`.
+
+What differs from SVGF: the history is the accumulated colour before the spatial filter (SVGF feeds
+back the first a-trous iteration's output), and there is no albedo demodulation (for the reason
+:func:`denoisers.filters.atrous_filter` gives).
+
+Not for: reprojecting across frames of different cameras' resolutions, or motion that is not
+screen-space pixels from t-1 to t (the :class:`~bnerr.frame.Frame` convention).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import torch
+
+from bnerr.color import luminance
+from bnerr.errors import BnerrError, DtypeError, check_range
+from bnerr.frame import Frame
+from denoisers.base import Denoiser, check_frame
+from denoisers.filters import atrous_filter
+
+__all__ = ["SVGF", "TAA", "SequenceError", "TemporalDenoiser", "reproject"]
+
+# A history tap is consistent with the current pixel when it shows the same object, at a depth
+# within this relative tolerance, with normals at most ~25 degrees apart (SVGF's consistency test).
+_DEPTH_TOLERANCE = 0.1
+_NORMAL_COS = 0.9
+# Below this summed bilinear weight of consistent taps the history is rejected (a = 1).
+_MIN_WEIGHT = 1e-3
+# SVGF: pixels with fewer accumulated frames than this use the spatial variance estimate.
+_MIN_MOMENT_FRAMES = 4
+
+
+class SequenceError(BnerrError, ValueError):
+    """A stateful denoiser got a frame that does not continue its sequence."""
+
+
+@dataclass
+class _History:
+    """What a temporal denoiser keeps from the previous frame (all ``[C, H, W]`` float32)."""
+
+    color: torch.Tensor  # accumulated colour [3, H, W]
+    moments: torch.Tensor  # accumulated luminance moments (mean, mean of squares) [2, H, W]
+    length: torch.Tensor  # frames accumulated per pixel [1, H, W]
+    depth: torch.Tensor  # [1, H, W]
+    normal: torch.Tensor  # [3, H, W]
+    object_id: torch.Tensor  # [1, H, W]
+
+
+def _consistent(
+    frame: Frame, history: _History, iy: torch.Tensor, ix: torch.Tensor
+) -> torch.Tensor:
+    """``[H, W]`` bool: the history pixel ``(iy, ix)`` shows the surface the current pixel shows."""
+    same_id = history.object_id[0, iy, ix] == frame.object_id[0]
+    d_now, d_then = frame.depth[0], history.depth[0, iy, ix]
+    close = (d_now - d_then).abs() <= _DEPTH_TOLERANCE * torch.maximum(d_now, d_then)
+    cos = (history.normal[:, iy, ix] * frame.normal).sum(0)
+    background = frame.object_id[0] < 0  # escaped rays: no depth or normal to compare
+    return same_id & (background | (close & (cos >= _NORMAL_COS)))
+
+
+def reproject(frame: Frame, history: _History) -> tuple[torch.Tensor, torch.Tensor]:
+    """Fetch the history at ``p - motion(p)`` with a bilinear filter over its consistent taps.
+
+    Args:
+        frame: the current frame (motion, depth, normal, object_id present and checked).
+        history: the previous frame's state, same ``H x W``.
+
+    Returns:
+        ``(stacked [6, H, W], valid [1, H, W])``: the bilinear fetch of the history's colour (3),
+        moments (2) and length (1), renormalised over the taps that lie on screen and show the
+        same surface; ``valid`` is 1.0 where their summed weight is at least ``1e-3``, else 0.0
+        (and ``stacked`` is 0 there).
+    """
+    _, h, w = frame.color.shape
+    dev, dt = frame.color.device, frame.color.dtype
+    ys = torch.arange(h, device=dev, dtype=dt)[:, None] - frame.motion[1]
+    xs = torch.arange(w, device=dev, dtype=dt)[None, :] - frame.motion[0]
+    y0, x0 = ys.floor(), xs.floor()
+    fy, fx = ys - y0, xs - x0
+    state = torch.cat([history.color, history.moments, history.length])
+    total = torch.zeros_like(state)
+    weight = torch.zeros((h, w), device=dev, dtype=dt)
+    for oy, wy in ((0, 1 - fy), (1, fy)):
+        for ox, wx in ((0, 1 - fx), (1, fx)):
+            ty, tx = y0 + oy, x0 + ox
+            inside = (ty >= 0) & (ty < h) & (tx >= 0) & (tx < w)
+            iy = ty.clamp(0, h - 1).long()
+            ix = tx.clamp(0, w - 1).long()
+            wt = torch.where(inside & _consistent(frame, history, iy, ix), wy * wx, 0.0)
+            total += wt * state[:, iy, ix]
+            weight += wt
+    valid = weight >= _MIN_WEIGHT
+    stacked = torch.where(valid, total / weight.clamp_min(_MIN_WEIGHT), 0.0)
+    return stacked, valid[None].to(dt)
+
+
+class TemporalDenoiser(Denoiser):
+    """Base class of the stateful denoisers: history, reset, order and resolution checks.
+
+    Subclasses implement :meth:`_output` (what to return from the accumulated state).
+
+    Attributes:
+        stateful: True: the benchmark resets it per sequence and feeds frames in order.
+        alpha: the blend factor of the current frame, in (0, 1].
+    """
+
+    stateful: ClassVar[bool] = True
+    requires = frozenset({"motion", "depth", "normal", "object_id"})
+
+    def __init__(self, alpha: float = 0.2) -> None:
+        self.alpha = float(check_range(alpha, f"{self.name}: alpha", 0.01, 1.0))
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the history: the next frame starts a new sequence."""
+        self._history: _History | None = None
+        self._t: int | None = None
+
+    def __call__(self, frame: Frame, t: int | None = None) -> torch.Tensor:
+        """Accumulate ``frame`` (frame index ``t`` if given, checked to follow the previous one)."""
+        frame = check_frame(frame, self.requires, f"denoiser {self.name!r}")
+        self._check_sequence(frame, t)
+        out = self.denoise(frame)
+        self._t = t
+        return out
+
+    def _check_sequence(self, frame: Frame, t: int | None) -> None:
+        if t is not None and (isinstance(t, bool) or not isinstance(t, int)):
+            raise DtypeError(f"denoiser {self.name!r}: t: expected an int frame index, got {t!r}")
+        history = self._history
+        if history is None:
+            return
+        if history.color.shape != frame.color.shape:
+            raise SequenceError(
+                f"denoiser {self.name!r}: expected frames of {list(history.color.shape)} like the "
+                f"sequence so far, got {list(frame.color.shape)}; call reset() between sequences"
+            )
+        if t is not None and self._t is not None and t != self._t + 1:
+            raise SequenceError(
+                f"denoiser {self.name!r}: expected frame {self._t + 1} after frame {self._t}, "
+                f"got frame {t}; feed frames in order, or call reset() to start a new sequence"
+            )
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        color = frame.color
+        lum = luminance(color)[None]
+        moments = torch.cat([lum, lum * lum])
+        if self._history is None:
+            acc, acc_m, length = color, moments, torch.ones_like(lum)
+        else:
+            fetched, valid = reproject(frame, self._history)
+            length = valid * fetched[5:6] + 1.0
+            # Early frames average uniformly (1 / n) until the exponential weight takes over.
+            a = torch.maximum(torch.full_like(length, self.alpha), 1.0 / length)
+            acc = a * color + (1 - a) * fetched[:3]
+            acc_m = a * moments + (1 - a) * fetched[3:5]
+        self._history = _History(acc, acc_m, length, frame.depth, frame.normal, frame.object_id)
+        return self._output(frame, acc, acc_m, length)
+
+    def _output(
+        self, frame: Frame, color: torch.Tensor, moments: torch.Tensor, length: torch.Tensor
+    ) -> torch.Tensor:
+        raise NotImplementedError(f"{type(self).__name__} does not implement _output()")
+
+    def params(self) -> dict[str, float | int | str]:
+        return {"alpha": self.alpha}
+
+
+class TAA(TemporalDenoiser):
+    """Temporal accumulation alone: the reprojected, consistency-checked exponential average."""
+
+    name = "taa"
+
+    def _output(
+        self, frame: Frame, color: torch.Tensor, moments: torch.Tensor, length: torch.Tensor
+    ) -> torch.Tensor:
+        return color
+
+
+class SVGF(TemporalDenoiser):
+    """Temporal accumulation, then the a-trous filter guided by the temporal variance."""
+
+    name = "svgf"
+
+    def __init__(
+        self,
+        alpha: float = 0.2,
+        iterations: int = 5,
+        sigma_color: float = 4.0,
+        sigma_normal: float = 128.0,
+        sigma_depth: float = 1.0,
+    ) -> None:
+        # atrous_filter checks the ranges it needs; check here too so a bad value fails at
+        # construction, not at the first frame.
+        self.iterations = int(check_range(iterations, "svgf: iterations", 1, 10))
+        self.sigma_color = float(check_range(sigma_color, "svgf: sigma_color", 1e-3, 1e4))
+        self.sigma_normal = float(check_range(sigma_normal, "svgf: sigma_normal", 0.0, 1e4))
+        self.sigma_depth = float(check_range(sigma_depth, "svgf: sigma_depth", 1e-3, 1e4))
+        super().__init__(alpha)
+
+    def _output(
+        self, frame: Frame, color: torch.Tensor, moments: torch.Tensor, length: torch.Tensor
+    ) -> torch.Tensor:
+        temporal = (moments[1:2] - moments[0:1] ** 2).clamp_min(0.0)
+        # Where too few frames were accumulated the moments say little: atrous_filter's own
+        # spatial estimate is used there (NaN marks those pixels).
+        variance = torch.where(length >= _MIN_MOMENT_FRAMES, temporal, float("nan"))
+        return atrous_filter(
+            color,
+            frame.normal,
+            frame.depth,
+            self.iterations,
+            self.sigma_color,
+            self.sigma_normal,
+            self.sigma_depth,
+            variance=variance[0],
+        )
+
+    def params(self) -> dict[str, float | int | str]:
+        return {
+            "alpha": self.alpha,
+            "iterations": self.iterations,
+            "sigma_color": self.sigma_color,
+            "sigma_normal": self.sigma_normal,
+            "sigma_depth": self.sigma_depth,
+        }
