@@ -1,4 +1,4 @@
-"""Tests for renderers.camera: rays and projection are inverse, field of view and axes as Mitsuba."""
+"""Tests for renderers.camera: rays and projection are inverse; fov and axes as in Mitsuba."""
 
 import math
 
@@ -34,7 +34,9 @@ def test_project_inverts_generate_rays(fov_axis):
 def test_field_of_view_and_orientation():
     width, height = 64, 32
     cam = camera_frame(make_camera("x", 60.0), 0, width, height)
-    _, d = generate_rays(cam, torch.tensor([0.0, width / 2, width / 2]), torch.tensor([height / 2, height / 2, 0.0]))
+    _, d = generate_rays(
+        cam, torch.tensor([0.0, width / 2, width / 2]), torch.tensor([height / 2, height / 2, 0.0])
+    )
     forward = cam.forward
     # The left edge of the image is fov/2 away from the view direction along x ...
     assert math.degrees(math.acos(float(d[:, 0] @ forward))) == pytest.approx(30.0, abs=1e-3)
@@ -51,4 +53,6 @@ def test_smaller_and_larger_axes():
     assert wide.tan_y == pytest.approx(math.tan(math.radians(25.0)))
     tall = camera_frame(make_camera("smaller"), 0, 32, 64)
     assert tall.tan_x == pytest.approx(math.tan(math.radians(25.0)))
-    assert camera_frame(make_camera("larger"), 0, 64, 32).tan_x == pytest.approx(math.tan(math.radians(25.0)))
+    assert camera_frame(make_camera("larger"), 0, 64, 32).tan_x == pytest.approx(
+        math.tan(math.radians(25.0))
+    )

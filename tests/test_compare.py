@@ -19,7 +19,9 @@ def test_false_alarm_rate_is_bounded():
     sigma = 0.01 + 0.05 * torch.rand(3, 12, 12, generator=g)
     alpha = 0.02
     fails = sum(
-        not compare_images(noisy(truth, sigma, g), sigma**2, noisy(truth, sigma, g), sigma**2, alpha).passed
+        not compare_images(
+            noisy(truth, sigma, g), sigma**2, noisy(truth, sigma, g), sigma**2, alpha
+        ).passed
         for _ in range(300)
     )
     # At most 3 alpha per comparison; 300 trials: allow the binomial 99.9% upper bound of 3 alpha.
@@ -34,7 +36,9 @@ def test_detects_bias_and_outliers():
     a, b = noisy(truth, sigma, g), noisy(truth, sigma, g)
     assert compare_images(a, sigma**2, b, sigma**2).passed
     biased = compare_images(a * 1.01, sigma**2, b, sigma**2)  # 1 % bias, half a sigma per pixel
-    assert not biased.passed and biased.max_abs_z < biased.z_max  # caught by the mean / count checks
+    assert (
+        not biased.passed and biased.max_abs_z < biased.z_max
+    )  # caught by the mean / count checks
     spike = b.clone()
     spike[1, 3, 4] += 0.5
     result = compare_images(a, sigma**2, spike, sigma**2)

@@ -1,4 +1,4 @@
-"""Tests for renderers.geometry: rays aimed at known surface points hit them, with the right normal."""
+"""Tests for renderers.geometry: rays aimed at known surface points hit them, with their normal."""
 
 import numpy as np
 import pytest
@@ -35,7 +35,11 @@ def aim(points: np.ndarray, normals: np.ndarray, rng: np.random.Generator):
     d = (d + 0.2 * normals) / np.linalg.norm(d + 0.2 * normals, axis=1, keepdims=True)
     dist = rng.uniform(0.5, 4.0, size=(len(points), 1))
     origins = points + dist * d
-    return torch.tensor(origins.T, dtype=torch.float32), torch.tensor(-d.T, dtype=torch.float32), dist[:, 0]
+    return (
+        torch.tensor(origins.T, dtype=torch.float32),
+        torch.tensor(-d.T, dtype=torch.float32),
+        dist[:, 0],
+    )
 
 
 def check_hits(scene, points, normals, object_id, rng):
@@ -56,7 +60,9 @@ def test_sphere_hits():
     center, radius = np.array([0.3, -0.2, 0.5]), 1.7
     n = rng.normal(size=(400, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
-    check_hits(scene_of(Sphere("s", Fixed(tuple(center)), radius, RED)), center + radius * n, n, 0, rng)
+    check_hits(
+        scene_of(Sphere("s", Fixed(tuple(center)), radius, RED)), center + radius * n, n, 0, rng
+    )
 
 
 def test_rectangle_hits():
@@ -64,7 +70,9 @@ def test_rectangle_hits():
     m = affine((0.2, 0.1, -0.3), ((1, 2, 3), 40.0), (1.5, 0.7, 1.0))
     rect = Rectangle.from_transform("r", m, RED)
     ab = rng.uniform(-1, 1, size=(400, 2))
-    points = np.asarray(rect.center) + ab[:, :1] * np.asarray(rect.u) + ab[:, 1:] * np.asarray(rect.v)
+    points = (
+        np.asarray(rect.center) + ab[:, :1] * np.asarray(rect.u) + ab[:, 1:] * np.asarray(rect.v)
+    )
     check_hits(scene_of(rect), points, np.tile(rect.normal, (400, 1)), 0, rng)
 
 
@@ -82,7 +90,9 @@ def test_box_hits():
 
 
 def test_nearest_of_several_and_misses():
-    scene = scene_of(Sphere("far", Fixed((0, 0, -5)), 1.0, RED), Sphere("near", Fixed((0, 0, 0)), 1.0, RED))
+    scene = scene_of(
+        Sphere("far", Fixed((0, 0, -5)), 1.0, RED), Sphere("near", Fixed((0, 0, 0)), 1.0, RED)
+    )
     st = scene_tensors(scene, 0)
     o = torch.tensor([[0.0, 0.0, 5.0], [5.0, 5.0, 5.0]]).T
     d = torch.tensor([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]]).T

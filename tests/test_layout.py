@@ -1,4 +1,4 @@
-"""Tests for renderers.layout: every dimension has exactly one use, 2D decisions are pair-aligned."""
+"""Tests for renderers.layout: each dimension has exactly one use; 2D decisions are pair-aligned."""
 
 import pytest
 from hypothesis import given
@@ -21,7 +21,9 @@ def test_every_dimension_used_once_and_pairs_aligned(max_depth, lights, medium):
     assert layout.dimensions == expected_dimensions(max_depth, lights, medium)
     used = [0, 1]
     for k in range(layout.vertices):
-        pairs = [layout.light(k)] + ([layout.direction(k)] if layout.direction(k) is not None else [])
+        pairs = [layout.light(k)] + (
+            [layout.direction(k)] if layout.direction(k) is not None else []
+        )
         for first in pairs:
             assert first % 2 == 0, "a 2D decision must start on an even dimension"
             used += [first, first + 1]

@@ -3,8 +3,6 @@ offsets, tiling, determinism, the shipped masks and the input checks."""
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 import torch
@@ -14,8 +12,8 @@ from hypothesis import strategies as st
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.masks import (
     PLASTIC_NUMBER,
-    _swap_gain,
     _gf_window,
+    _swap_gain,
     frame_offset,
     load_mask,
     r2_step,

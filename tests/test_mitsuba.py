@@ -37,10 +37,21 @@ def test_cornell_export_is_mitsubas_cornell_box():
     theirs = mi.cornell_box()
     ours = to_mitsuba(get_scene("cornell", animated=False), 0, width=8, height=8, spp=1)
     assert ours["integrator"]["max_depth"] == 6
-    np.testing.assert_allclose(matrix(ours["sensor"]["to_world"]), matrix(theirs["sensor"]["to_world"]), atol=1e-6)
+    np.testing.assert_allclose(
+        matrix(ours["sensor"]["to_world"]), matrix(theirs["sensor"]["to_world"]), atol=1e-6
+    )
     assert ours["sensor"]["fov"] == theirs["sensor"]["fov"]
     assert ours["sensor"]["fov_axis"] == theirs["sensor"]["fov_axis"]
-    for name in ("light", "floor", "ceiling", "back", "green-wall", "red-wall", "small-box", "large-box"):
+    for name in (
+        "light",
+        "floor",
+        "ceiling",
+        "back",
+        "green-wall",
+        "red-wall",
+        "small-box",
+        "large-box",
+    ):
         a, b = matrix(ours[name]["to_world"]), matrix(theirs[name]["to_world"])
         assert ours[name]["type"] == theirs[name]["type"], name
         if ours[name]["type"] == "rectangle":
@@ -51,10 +62,15 @@ def test_cornell_export_is_mitsubas_cornell_box():
         else:
             np.testing.assert_allclose(a, b, atol=1e-6, err_msg=name)
         ref = theirs[name]["bsdf"]["id"]
-        np.testing.assert_allclose(ours[name]["bsdf"]["reflectance"]["value"],
-                                   theirs[ref]["reflectance"]["value"], err_msg=name)
-    np.testing.assert_allclose(ours["light"]["emitter"]["radiance"]["value"],
-                               theirs["light"]["emitter"]["radiance"]["value"])
+        np.testing.assert_allclose(
+            ours[name]["bsdf"]["reflectance"]["value"],
+            theirs[ref]["reflectance"]["value"],
+            err_msg=name,
+        )
+    np.testing.assert_allclose(
+        ours["light"]["emitter"]["radiance"]["value"],
+        theirs["light"]["emitter"]["radiance"]["value"],
+    )
 
 
 @pytest.mark.parametrize("name", sorted(SCENES))

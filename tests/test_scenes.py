@@ -24,7 +24,11 @@ def test_registry_and_dimensions():
         scene = get_scene(name)
         assert scene.name == name and scene.description
         assert (scene.dimensions, scene.max_depth, len(scene.lights), scene.medium is not None) == (
-            dims, depth, lights, medium), name
+            dims,
+            depth,
+            lights,
+            medium,
+        ), name
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
@@ -42,7 +46,9 @@ def test_snooker_variants_differ_only_in_the_felt_texture():
     textured, plain = get_scene("snooker"), get_scene("snooker_plain")
     assert textured.shapes[0].material.textured and not plain.shapes[0].material.textured
     assert textured.shapes[1:] == plain.shapes[1:]
-    assert plain.shapes[0].material.albedo == pytest.approx(textured.shapes[0].material.albedo.mean())
+    assert plain.shapes[0].material.albedo == pytest.approx(
+        textured.shapes[0].material.albedo.mean()
+    )
 
 
 def test_balls_roll_without_overlapping():
@@ -51,14 +57,16 @@ def test_balls_roll_without_overlapping():
     assert any(b.center.at(0) != b.center.at(1) for b in balls)
     for t in range(0, 121, 5):
         for i, a in enumerate(balls):
-            for b in balls[i + 1:]:
+            for b in balls[i + 1 :]:
                 gap = sum((p - q) ** 2 for p, q in zip(a.center.at(t), b.center.at(t))) ** 0.5
                 assert gap >= a.radius + b.radius, (t, a.name, b.name)
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED))
 def test_every_scene_renders(name):
-    frame = render(get_scene(name), 1, torch.arange(48, dtype=torch.int64).view(6, 8), make_sampler("white"), 2)
+    frame = render(
+        get_scene(name), 1, torch.arange(48, dtype=torch.int64).view(6, 8), make_sampler("white"), 2
+    )
     assert torch.isfinite(frame.color).all() and (frame.color >= 0).all()
     assert frame.color.mean() > 0.005  # lit and in view
 

@@ -1,4 +1,4 @@
-"""Tests for renderers.tracer: buffers, determinism, samplers agree, motion vectors, typed errors."""
+"""Tests for renderers.tracer: buffers, determinism, samplers, motion vectors, typed errors."""
 
 import warnings
 
@@ -12,7 +12,6 @@ from renderers import get_scene, render, tracer
 from renderers.camera import camera_frame, generate_rays
 from renderers.compare import compare_images
 from renderers.geometry import intersect, scene_tensors
-
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -30,7 +29,9 @@ def test_frame_buffers():
     scene = get_scene("snooker")
     frame = render(scene, 2, seeds_for(12, 20), WHITE, 4)
     assert frame.color.shape == (3, 12, 20) and frame.color.dtype == torch.float32
-    for name, channels in dict(albedo=3, normal=3, depth=1, motion=2, object_id=1, variance=3).items():
+    for name, channels in dict(
+        albedo=3, normal=3, depth=1, motion=2, object_id=1, variance=3
+    ).items():
         assert getattr(frame, name).shape == (channels, 12, 20), name
     assert torch.isfinite(frame.color).all() and (frame.color >= 0).all()
     ids = set(frame.object_id.unique().tolist())
@@ -66,7 +67,16 @@ def test_the_tracer_draws_no_random_numbers(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("the tracer must take every random number from the sampler")
 
-    for name in ("rand", "randn", "randint", "rand_like", "randn_like", "randperm", "bernoulli", "multinomial"):
+    for name in (
+        "rand",
+        "randn",
+        "randint",
+        "rand_like",
+        "randn_like",
+        "randperm",
+        "bernoulli",
+        "multinomial",
+    ):
         monkeypatch.setattr(torch, name, forbidden)
     monkeypatch.setattr(torch.Tensor, "uniform_", forbidden)
     for name in ("direct", "medium", "snooker"):
