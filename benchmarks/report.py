@@ -1,6 +1,6 @@
 """Tables and charts from the runner's records: ``table.csv``, ``table.md`` and PNG charts.
 
-Everything here is derived from ``<out>/cells.jsonl`` (:func:`benchmarks.runner.load_records`), so
+Everything here is derived from ``<out>/cells.jsonl`` (:func:`benchmarks.records.load_records`), so
 a report can be rebuilt without rendering anything (``python -m benchmarks.report DIR``).
 
 - ``table.csv``: one row per cell (scene, strategy, spp, denoiser, condition) with the raw and
@@ -25,6 +25,7 @@ flagged "worse than white" only when the whole interval lies above 1.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import io
 import math
 from collections import defaultdict
@@ -33,13 +34,34 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
 
-__all__ = ["COLUMNS", "HEADLINE_STRATEGIES", "markdown_table", "summarize", "write_charts", "write_report"]
+__all__ = [
+    "COLUMNS",
+    "HEADLINE_STRATEGIES",
+    "markdown_table",
+    "summarize",
+    "write_charts",
+    "write_report",
+]
 
-_CELL = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "sampler", "width",
-         "height", "frames", "warmup", "seed_sets")
+_CELL = (
+    "scene",
+    "strategy",
+    "spp",
+    "denoiser",
+    "motion",
+    "depth",
+    "region",
+    "sampler",
+    "width",
+    "height",
+    "frames",
+    "warmup",
+    "seed_sets",
+)
 _RATIO = ("den_mse", "raw_mse", "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2")
 _INTERVAL = ("raw_mse", "den_mse")
 
@@ -47,27 +69,46 @@ _INTERVAL = ("raw_mse", "den_mse")
 COLUMNS: tuple[str, ...] = (
     *_CELL,
     "dimensions",
-    "raw_mse", "raw_mse_lo", "raw_mse_hi",
-    "den_mse", "den_mse_lo", "den_mse_hi",
+    "raw_mse",
+    "raw_mse_lo",
+    "raw_mse_hi",
+    "den_mse",
+    "den_mse_lo",
+    "den_mse_hi",
     *(f"{m}_ratio{s}" for m in _RATIO for s in ("", "_lo", "_hi")),
-    "raw_relmse", "den_relmse", "raw_psnr", "den_psnr", "raw_ssim", "den_ssim",
-    "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2",
-    "raw_lowfreq", "den_lowfreq",
-    "render_ms", "perm_ms", "denoise_ms", "total_ms",
-    "reference_spp", "reference_floor", "worse_than_white", "raw_differs_from_white",
+    "raw_relmse",
+    "den_relmse",
+    "raw_psnr",
+    "den_psnr",
+    "raw_ssim",
+    "den_ssim",
+    "raw_mse_blur1",
+    "raw_mse_blur2",
+    "den_mse_blur1",
+    "den_mse_blur2",
+    "raw_lowfreq",
+    "den_lowfreq",
+    "render_ms",
+    "perm_ms",
+    "denoise_ms",
+    "total_ms",
+    "reference_spp",
+    "reference_floor",
+    "worse_than_white",
+    "raw_differs_from_white",
 )
 
 _STRATEGY_ORDER = ("white", "bnds", "temporal_sort", "temporal", "oracle")
 
 
-def _stats(record: dict, kind: str, metric: str) -> np.ndarray | None:
-    values = record[kind].get(metric)
+def _stats(record: Record, kind: str, metric: str) -> np.ndarray | None:
+    """``[S][F][2]`` per-frame pairs of ``metric`` (``kind`` ``raw`` or ``den``), or None."""
+    values = getattr(record, kind).get(metric)
     return None if values is None else np.asarray(values, dtype=np.float64)
 
 
-def _baseline_key(record: dict) -> tuple:
-    cell = dict(record["cell"], strategy="white")
-    return tuple(cell[k] for k in sorted(cell))
+def _baseline_key(record: Record) -> tuple:
+    return dataclasses.astuple(dataclasses.replace(record.cell, strategy="white"))
 
 
 def _mean_ms(series: list[list[float]]) -> float:
@@ -75,50 +116,63 @@ def _mean_ms(series: list[list[float]]) -> float:
     return float(np.mean(flat)) if flat else math.nan
 
 
-def summarize(records: Iterable[dict], resamples: int = 2000, seed: int = 0) -> list[dict]:
+def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
+    """The pooled value of every metric and the bootstrap intervals of :data:`_INTERVAL`."""
+    for kind in ("raw", "den"):
+        for metric in getattr(rec, kind):
+            stats = _stats(rec, kind, metric)
+            row[f"{kind}_{metric}"] = float(stats[..., 0].sum() / stats[..., 1].sum())  # pooled
+    for name in _INTERVAL:
+        kind, metric = name.split("_", 1)
+        stats = _stats(rec, kind, metric)
+        if stats is not None:
+            est = bootstrap_interval(stats, resamples=resamples, seed=seed)
+            row[name], row[f"{name}_lo"], row[f"{name}_hi"] = est.value, est.lo, est.hi
+
+
+def _ratio_columns(row: dict, rec: Record, white: Record | None, resamples: int, seed: int) -> None:
+    """The paired ratios of :data:`_RATIO` to the white record of the same cell."""
+    for name in _RATIO:
+        kind, metric = name.split("_", 1)
+        mine = _stats(rec, kind, metric)
+        base = None if white is None else _stats(white, kind, metric)
+        if mine is None or base is None or mine.shape != base.shape:
+            continue
+        est = paired_ratio(mine, base, resamples=resamples, seed=seed)
+        row[f"{name}_ratio"], row[f"{name}_ratio_lo"], row[f"{name}_ratio_hi"] = (
+            est.value,
+            est.lo,
+            est.hi,
+        )
+
+
+def _row(rec: Record, white: Record | None, resamples: int, seed: int) -> dict:
+    row: dict = {k: getattr(rec.cell, k) for k in _CELL}
+    row["dimensions"] = rec.dimensions
+    _metric_columns(row, rec, resamples, seed)
+    _ratio_columns(row, rec, white, resamples, seed)
+    row["render_ms"] = _mean_ms(rec.timings.render_ms)
+    row["perm_ms"] = _mean_ms(rec.timings.perm_ms)
+    row["denoise_ms"] = _mean_ms(rec.timings.denoise_ms)
+    row["total_ms"] = row["render_ms"] + row["perm_ms"] + row["denoise_ms"]
+    row["reference_spp"] = rec.reference.spp
+    row["reference_floor"] = rec.reference.floor
+    lo = row.get("den_mse_ratio_lo")
+    row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
+    raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
+    row["raw_differs_from_white"] = None if raw_lo is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
+    return {c: row.get(c) for c in COLUMNS}
+
+
+def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -> list[dict]:
     """One row per record: the columns of :data:`COLUMNS` (missing values as None).
 
     Ratios to white pair each record with the white record of the same cell (same scene, spp,
     denoiser, condition, frames and seed sets); None when the suite has no such white record.
     """
     records = list(records)
-    whites = {_baseline_key(r): r for r in records if r["cell"]["strategy"] == "white"}
-    rows = []
-    for rec in records:
-        row: dict = {k: rec["cell"][k] for k in _CELL}
-        row["dimensions"] = rec.get("dimensions")
-        for kind in ("raw", "den"):
-            for metric in rec[kind]:
-                stats = _stats(rec, kind, metric)
-                row[f"{kind}_{metric}"] = float(stats[..., 0].sum() / stats[..., 1].sum())  # pooled
-        for name in _INTERVAL:
-            kind, metric = name.split("_", 1)
-            stats = _stats(rec, kind, metric)
-            if stats is not None:
-                est = bootstrap_interval(stats, resamples=resamples, seed=seed)
-                row[name], row[f"{name}_lo"], row[f"{name}_hi"] = est.value, est.lo, est.hi
-        white = whites.get(_baseline_key(rec))
-        for name in _RATIO:
-            kind, metric = name.split("_", 1)
-            mine = _stats(rec, kind, metric)
-            base = None if white is None else _stats(white, kind, metric)
-            if mine is None or base is None or mine.shape != base.shape:
-                continue
-            est = paired_ratio(mine, base, resamples=resamples, seed=seed)
-            row[f"{name}_ratio"], row[f"{name}_ratio_lo"], row[f"{name}_ratio_hi"] = est.value, est.lo, est.hi
-        timings = rec["timings"]
-        row["render_ms"] = _mean_ms(timings["render_ms"])
-        row["perm_ms"] = _mean_ms(timings["perm_ms"])
-        row["denoise_ms"] = _mean_ms(timings["denoise_ms"])
-        row["total_ms"] = row["render_ms"] + row["perm_ms"] + row["denoise_ms"]
-        row["reference_spp"] = rec["reference"]["spp"]
-        row["reference_floor"] = rec["reference"]["floor"]
-        lo = row.get("den_mse_ratio_lo")
-        row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
-        raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
-        row["raw_differs_from_white"] = None if raw_lo is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
-        rows.append({c: row.get(c) for c in COLUMNS})
-    return rows
+    whites = {_baseline_key(r): r for r in records if r.cell.strategy == "white"}
+    return [_row(rec, whites.get(_baseline_key(rec)), resamples, seed) for rec in records]
 
 
 def _csv_text(rows: Sequence[dict]) -> str:
@@ -126,7 +180,12 @@ def _csv_text(rows: Sequence[dict]) -> str:
     writer = csv.DictWriter(buffer, fieldnames=COLUMNS, lineterminator="\n")
     writer.writeheader()
     for row in rows:
-        writer.writerow({k: ("" if v is None else (f"{v:.6g}" if isinstance(v, float) else v)) for k, v in row.items()})
+        writer.writerow(
+            {
+                k: ("" if v is None else (f"{v:.6g}" if isinstance(v, float) else v))
+                for k, v in row.items()
+            }
+        )
     return buffer.getvalue()
 
 
@@ -152,19 +211,28 @@ def _group_title(key: tuple) -> str:
 
 def _group_slug(key: tuple) -> str:
     scene, motion, depth, region, sampler = key
-    return (scene + ("" if motion == 1 else f"_m{motion}") + ("" if depth is None else f"_d{depth}")
-            + ("" if region == "all" else f"_{region}") + ("" if sampler == "owen_sobol" else f"_{sampler}"))
+    return (
+        scene
+        + ("" if motion == 1 else f"_m{motion}")
+        + ("" if depth is None else f"_d{depth}")
+        + ("" if region == "all" else f"_{region}")
+        + ("" if sampler == "owen_sobol" else f"_{sampler}")
+    )
 
 
 def _strategies(rows: Iterable[dict]) -> list[str]:
     names = {r["strategy"] for r in rows}
-    return sorted(names, key=lambda s: (_STRATEGY_ORDER.index(s) if s in _STRATEGY_ORDER else 99, s))
+    return sorted(
+        names, key=lambda s: (_STRATEGY_ORDER.index(s) if s in _STRATEGY_ORDER else 99, s)
+    )
 
 
 def _ratio_text(row: dict | None, name: str) -> str:
     if row is None or row.get(f"{name}_ratio") is None:
         return "-"
-    text = f"{row[f'{name}_ratio']:.3f} [{row[f'{name}_ratio_lo']:.3f}, {row[f'{name}_ratio_hi']:.3f}]"
+    text = (
+        f"{row[f'{name}_ratio']:.3f} [{row[f'{name}_ratio_lo']:.3f}, {row[f'{name}_ratio_hi']:.3f}]"
+    )
     return text + (" (worse)" if row[f"{name}_ratio_lo"] > 1.0 else "")
 
 
@@ -174,59 +242,72 @@ def _table(header: Sequence[str], body: Iterable[Sequence[str]]) -> list[str]:
     return lines
 
 
-def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
-    strategies = _strategies(rows)
+def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
+    """Post-denoise MSE per spp and denoiser: white's value, the others' ratios to it."""
     by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
-    spps = sorted({r["spp"] for r in rows})
-    denoisers = sorted({r["denoiser"] for r in rows})
-    first = rows[0]
-    lines = [f"### {_group_title(key)}", "",
-             f"{first['width']}x{first['height']}, {first['frames']} measured frames after {first['warmup']} "
-             f"warmup, {first['seed_sets']} seed set(s), D = {first['dimensions']}, reference "
-             f"{first['reference_spp']} spp.", "",
-             "Post-denoise MSE: white's absolute value, every other strategy as a fraction of white's "
-             "(95% paired bootstrap interval).", ""]
     body = []
-    for spp in spps:
-        for d in denoisers:
+    for spp in sorted({r["spp"] for r in rows}):
+        for d in sorted({r["denoiser"] for r in rows}):
             white = by.get((spp, d, "white"))
             cells = [str(spp), d]
             for s in strategies:
                 row = by.get((spp, d, s))
-                if s == "white":
+                if s == "white" or white is None:
                     cells.append("-" if row is None else f"{row['den_mse']:.4g}")
                 else:
-                    cells.append(_ratio_text(row, "den_mse") if white is not None else
-                                 ("-" if row is None else f"{row['den_mse']:.4g}"))
+                    cells.append(_ratio_text(row, "den_mse"))
             body.append(cells)
-    lines += _table(["spp", "denoiser", *strategies], body)
-    lines += ["", "Raw error as a fraction of white's: MSE / MSE after a sigma-1 blur / after a sigma-2 "
-              "blur; low-frequency fraction of the error spectrum (white noise ~0.05).", ""]
-    body = []
-    for spp in spps:
-        cells = [str(spp)]
-        for s in strategies:
-            row = by.get((spp, denoisers[0], s))
-            if row is None:
-                cells.append("-")
-                continue
-            ratios = [row.get(f"{m}_ratio") for m in ("raw_mse", "raw_mse_blur1", "raw_mse_blur2")]
-            text = " / ".join("-" if v is None else f"{v:.3f}" for v in ratios)
-            low = row.get("raw_lowfreq")
-            cells.append(text + ("" if low is None else f"; lf {low:.3f}"))
-        body.append(cells)
+    return body
+
+
+def _raw_cell(row: dict | None) -> str:
+    if row is None:
+        return "-"
+    ratios = [row.get(f"{m}_ratio") for m in ("raw_mse", "raw_mse_blur1", "raw_mse_blur2")]
+    text = " / ".join("-" if v is None else f"{v:.3f}" for v in ratios)
+    low = row.get("raw_lowfreq")
+    return text + ("" if low is None else f"; lf {low:.3f}")
+
+
+def _time_cell(row: dict | None) -> str:
+    return "-" if row is None else f"{row['render_ms']:.1f} + {row['perm_ms']:.2f}"
+
+
+def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
+    strategies = _strategies(rows)
+    spps = sorted({r["spp"] for r in rows})
+    denoisers = sorted({r["denoiser"] for r in rows})
+    first_denoiser = {(r["spp"], r["strategy"]): r for r in rows if r["denoiser"] == denoisers[0]}
+    first = rows[0]
+    lines = [
+        f"### {_group_title(key)}",
+        "",
+        f"{first['width']}x{first['height']}, {first['frames']} measured frames after "
+        f"{first['warmup']} warmup, {first['seed_sets']} seed set(s), "
+        f"D = {first['dimensions']}, reference {first['reference_spp']} spp.",
+        "",
+        "Post-denoise MSE: white's absolute value, every other strategy as a fraction of white's "
+        "(95% paired bootstrap interval).",
+        "",
+    ]
+    lines += _table(["spp", "denoiser", *strategies], _den_body(rows, strategies))
+    lines += [
+        "",
+        "Raw error as a fraction of white's: MSE / MSE after a sigma-1 blur / after a sigma-2 "
+        "blur; low-frequency fraction of the error spectrum (white noise ~0.05).",
+        "",
+    ]
+    body = [[str(n)] + [_raw_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
     lines += _table(["spp", *strategies], body)
     lines += ["", "Milliseconds per frame: render + permutation (strategy overhead).", ""]
-    body = []
-    for spp in spps:
-        cells = [str(spp)]
-        for s in strategies:
-            row = by.get((spp, denoisers[0], s))
-            cells.append("-" if row is None else f"{row['render_ms']:.1f} + {row['perm_ms']:.2f}")
-        body.append(cells)
+    body = [[str(n)] + [_time_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
     lines += _table(["spp", *strategies], body)
     times = {d: np.mean([r["denoise_ms"] for r in rows if r["denoiser"] == d]) for d in denoisers}
-    lines += ["", "Denoise ms per frame: " + ", ".join(f"{d} {t:.1f}" for d, t in times.items()) + ".", ""]
+    lines += [
+        "",
+        "Denoise ms per frame: " + ", ".join(f"{d} {t:.1f}" for d, t in times.items()) + ".",
+        "",
+    ]
     return lines
 
 
@@ -239,7 +320,9 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
         if r["raw_differs_from_white"] and key not in seen:
             seen.add(key)
             title = _group_title(_group_key(r))
-            body.append([r["scene"], title, r["strategy"], str(r["spp"]), _ratio_text(r, "raw_mse")])
+            body.append(
+                [r["scene"], title, r["strategy"], str(r["spp"]), _ratio_text(r, "raw_mse")]
+            )
     lines = ["## Raw MSE different from white beyond the interval", ""]
     if not body:
         return lines + ["No cell: every strategy's raw MSE interval contains white's.", ""]
@@ -261,7 +344,7 @@ def _headline_ratio(row: dict | None) -> str:
 
 def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
     """One line per scene, condition and spp; one column per denoiser; in each cell the
-    post-denoise MSE of temporal / oracle as a fraction of white's (the issue's headline figures)."""
+    post-denoise MSE of temporal / oracle as a fraction of white's (the headline figures)."""
     denoisers = sorted({r["denoiser"] for rows in groups.values() for r in rows})
     body = []
     for key in order:
@@ -269,15 +352,23 @@ def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
         if not any(s in HEADLINE_STRATEGIES for _, _, s in by):
             continue
         for spp in sorted({r["spp"] for r in groups[key]}):
-            cells = [" / ".join(_headline_ratio(by.get((spp, d, s))) for s in HEADLINE_STRATEGIES) for d in denoisers]
+            cells = [
+                " / ".join(_headline_ratio(by.get((spp, d, s))) for s in HEADLINE_STRATEGIES)
+                for d in denoisers
+            ]
             body.append([_group_title(key), str(spp), *cells])
     if not body:
         return []
     return [
-        "## Headline: " + " / ".join(HEADLINE_STRATEGIES) + " post-denoise MSE as a fraction of white's", "",
-        "Bold: below white beyond the 95% paired interval; ↑: above white beyond it; -: not measured. "
-        "Intervals and absolute values are in the sections below.", "",
-        *_table(["scene", "spp", *denoisers], body), "",
+        "## Headline: "
+        + " / ".join(HEADLINE_STRATEGIES)
+        + " post-denoise MSE as a fraction of white's",
+        "",
+        "Bold: below white beyond the 95% paired interval; ↑: above white beyond it; "
+        "-: not measured. Intervals and absolute values are in the sections below.",
+        "",
+        *_table(["scene", "spp", *denoisers], body),
+        "",
     ]
 
 
@@ -295,12 +386,24 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
     flagged = [r for r in rows if r["worse_than_white"]]
     lines += ["## Worse than white beyond the interval", ""]
     if not flagged:
-        lines += ["No cell: every strategy's post-denoise MSE interval reaches down to white's or below.", ""]
+        lines += [
+            "No cell: every strategy's post-denoise MSE interval reaches down to white's or below.",
+            "",
+        ]
     else:
         lines += _table(
             ["scene", "condition", "strategy", "spp", "denoiser", "ratio to white"],
-            ([r["scene"], _group_title(_group_key(r)), r["strategy"], str(r["spp"]), r["denoiser"],
-              _ratio_text(r, "den_mse")] for r in flagged),
+            (
+                [
+                    r["scene"],
+                    _group_title(_group_key(r)),
+                    r["strategy"],
+                    str(r["spp"]),
+                    r["denoiser"],
+                    _ratio_text(r, "den_mse"),
+                ]
+                for r in flagged
+            ),
         )
         lines.append("")
     return "\n".join(lines)
@@ -325,16 +428,27 @@ def _error_vs_time(slug: str, title: str, rows: list[dict], out: Path) -> Path:
     for i, d in enumerate(denoisers):
         ax = fig.add_subplot(nrows, cols, i + 1)
         for s in _strategies(rows):
-            pts = sorted((r for r in rows if r["denoiser"] == d and r["strategy"] == s), key=lambda r: r["spp"])
+            pts = sorted(
+                (r for r in rows if r["denoiser"] == d and r["strategy"] == s),
+                key=lambda r: r["spp"],
+            )
             if not pts:
                 continue
             x = [r["total_ms"] for r in pts]
             y = [r["den_mse"] for r in pts]
-            err = [[r["den_mse"] - r["den_mse_lo"] for r in pts], [r["den_mse_hi"] - r["den_mse"] for r in pts]]
+            err = [
+                [r["den_mse"] - r["den_mse_lo"] for r in pts],
+                [r["den_mse_hi"] - r["den_mse"] for r in pts],
+            ]
             ax.errorbar(x, y, yerr=err, marker="o", capsize=2, label=s)
             for r in pts:
-                ax.annotate(f"{r['spp']}", (r["total_ms"], r["den_mse"]), fontsize=7,
-                            textcoords="offset points", xytext=(3, 3))
+                ax.annotate(
+                    f"{r['spp']}",
+                    (r["total_ms"], r["den_mse"]),
+                    fontsize=7,
+                    textcoords="offset points",
+                    xytext=(3, 3),
+                )
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_title(d, fontsize=9)
@@ -348,7 +462,9 @@ def _error_vs_time(slug: str, title: str, rows: list[dict], out: Path) -> Path:
     return path
 
 
-def _spectra(slug: str, title: str, rows: list[dict], records: dict, out: Path) -> Path | None:
+def _spectra(
+    slug: str, title: str, rows: list[dict], records: dict[tuple, Record], out: Path
+) -> Path | None:
     from matplotlib.figure import Figure
 
     spp = min(r["spp"] for r in rows)
@@ -359,10 +475,10 @@ def _spectra(slug: str, title: str, rows: list[dict], records: dict, out: Path) 
         ax = fig.add_subplot(1, 2, j + 1)
         for s in _strategies(rows):
             rec = records.get((slug, s, spp, denoiser))
-            spec = None if rec is None else rec["spectrum"][kind]
-            if not spec or not spec["freq"]:
+            spec = None if rec is None else rec.spectrum.get(kind)
+            if spec is None or not spec.freq:
                 continue
-            freq, power = np.asarray(spec["freq"])[1:], np.asarray(spec["power"])[1:]
+            freq, power = np.asarray(spec.freq)[1:], np.asarray(spec.power)[1:]
             ax.semilogy(freq, np.maximum(power, 1e-30), label=s)
             drawn = True
         ax.axvline(0.125, color="gray", lw=0.8, ls="--")
@@ -378,7 +494,9 @@ def _spectra(slug: str, title: str, rows: list[dict], records: dict, out: Path) 
     return path
 
 
-def _crops(slug: str, title: str, rows: list[dict], records: dict, out: Path) -> Path | None:
+def _crops(
+    slug: str, title: str, rows: list[dict], records: dict[tuple, Record], out: Path
+) -> Path | None:
     from matplotlib.figure import Figure
 
     spp = min(r["spp"] for r in rows)
@@ -386,9 +504,9 @@ def _crops(slug: str, title: str, rows: list[dict], records: dict, out: Path) ->
     images = []
     for s in _strategies(rows):
         rec = records.get((slug, s, spp, denoiser))
-        if rec is None or not rec.get("crop") or not (out / rec["crop"]).exists():
+        if rec is None or not rec.crop or not (out / rec.crop).exists():
             continue
-        with np.load(out / rec["crop"]) as data:
+        with np.load(out / rec.crop) as data:
             images.append((s, {k.replace("__", "/"): data[k] for k in data.files}))
     if not images:
         return None
@@ -411,7 +529,9 @@ def _crops(slug: str, title: str, rows: list[dict], records: dict, out: Path) ->
     return path
 
 
-def write_charts(rows: Sequence[dict], records: Sequence[dict], out_dir: str | Path) -> list[Path]:
+def write_charts(
+    rows: Sequence[dict], records: Sequence[Record], out_dir: str | Path
+) -> list[Path]:
     """Draw every chart for the rows (whole-image region only); return the files written."""
     out = Path(out_dir)
     by_slug: dict[str, list[dict]] = defaultdict(list)
@@ -420,10 +540,10 @@ def write_charts(rows: Sequence[dict], records: Sequence[dict], out_dir: str | P
             by_slug[_group_slug(_group_key(row))].append(row)
     lookup = {}
     for rec in records:
-        c = rec["cell"]
-        if c["region"] == "all":
-            slug = _group_slug((c["scene"], c["motion"], c["depth"], c["region"], c["sampler"]))
-            lookup[(slug, c["strategy"], c["spp"], c["denoiser"])] = rec
+        c = rec.cell
+        if c.region == "all":
+            slug = _group_slug((c.scene, c.motion, c.depth, c.region, c.sampler))
+            lookup[(slug, c.strategy, c.spp, c.denoiser)] = rec
     written = []
     for slug, group in sorted(by_slug.items()):
         title = _group_title(_group_key(group[0]))
@@ -435,8 +555,12 @@ def write_charts(rows: Sequence[dict], records: Sequence[dict], out_dir: str | P
     return written
 
 
-def write_report(out_dir: str | Path, records: Sequence[dict] | None = None, title: str | None = None,
-                 charts: bool = True) -> str:
+def write_report(
+    out_dir: str | Path,
+    records: Sequence[Record] | None = None,
+    title: str | None = None,
+    charts: bool = True,
+) -> str:
     """Write ``table.csv``, ``table.md`` and the charts into ``out_dir``; return the Markdown.
 
     Args:
@@ -445,8 +569,6 @@ def write_report(out_dir: str | Path, records: Sequence[dict] | None = None, tit
         title: heading of ``table.md`` (default: the folder's name).
         charts: draw the PNG charts too.
     """
-    from benchmarks.runner import load_records
-
     out = Path(out_dir)
     records = load_records(out) if records is None else list(records)
     rows = summarize(records)

@@ -67,13 +67,17 @@ def measure(
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.speed_denoise", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.speed_denoise", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--size", nargs=2, type=int, default=(1920, 1080), metavar=("W", "H"))
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--denoiser", action="append", help="only these (repeatable)")
     args = parser.parse_args(argv)
     width, height = args.size
-    print(f"denoise time at {width}x{height}, {torch.get_num_threads()} torch threads, median of {args.repeats}")
+    print(
+        f"denoise time at {width}x{height}, {torch.get_num_threads()} torch threads, median of {args.repeats}"
+    )
     for name, seconds in measure(args.denoiser, height, width, args.repeats).items():
         print(f"  {name:16s} {'unavailable' if seconds is None else f'{seconds:8.3f} s'}")
     return 0

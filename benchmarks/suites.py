@@ -99,7 +99,15 @@ class Sweep:
     seed_sets: int = 4
     reference_spp: int = 1024
     conditions: tuple[Condition, ...] = (Condition(),)
-    metrics: tuple[str, ...] = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
+    metrics: tuple[str, ...] = (
+        "mse",
+        "relmse",
+        "psnr",
+        "ssim",
+        "mse_blur1",
+        "mse_blur2",
+        "lowfreq",
+    )
 
     def __post_init__(self) -> None:
         for axis in ("scenes", "strategies", "spp", "denoisers", "conditions"):
@@ -120,7 +128,9 @@ class Sweep:
     def runs(self) -> int:
         """Number of strategy runs (one per scene x strategy x spp x motion/depth x seed set)."""
         renders = {(c.motion, c.depth, c.sampler) for c in self.conditions}
-        return len(self.scenes) * len(self.strategies) * len(self.spp) * len(renders) * self.seed_sets
+        return (
+            len(self.scenes) * len(self.strategies) * len(self.spp) * len(renders) * self.seed_sets
+        )
 
 
 @dataclass(frozen=True)
@@ -145,7 +155,16 @@ class Suite:
 
 _ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
 _ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle")
-_ALL_DENOISERS = ("gaussian", "bilateral", "joint_bilateral", "guided", "median", "atrous", "unet", "oidn")
+_ALL_DENOISERS = (
+    "gaussian",
+    "bilateral",
+    "joint_bilateral",
+    "guided",
+    "median",
+    "atrous",
+    "unet",
+    "oidn",
+)
 _CHEAP_DENOISERS = ("gaussian", "atrous")
 
 # Why 4 seed sets x 3 frames and not 1 x 12: a temporal run reuses one set of seeds for all its
@@ -274,7 +293,9 @@ def get_suite(name: str) -> Suite:
     return SUITES[check_name(name, tuple(SUITES), "suite")]
 
 
-def _known(values: Sequence[str] | None, known: Sequence[str] | None, what: str) -> tuple[str, ...] | None:
+def _known(
+    values: Sequence[str] | None, known: Sequence[str] | None, what: str
+) -> tuple[str, ...] | None:
     if values is None:
         return None
     return tuple(v if known is None else check_name(v, known, what) for v in values)

@@ -44,15 +44,26 @@ DEFAULT_LLVM = "/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
 def _figures(times: list[float], warmup: float, samples: int) -> dict[str, float]:
     best = min(times)
-    return {"best_s": best, "median_s": statistics.median(times), "warmup_s": warmup,
-            "samples_per_s": samples / best}
+    return {
+        "best_s": best,
+        "median_s": statistics.median(times),
+        "warmup_s": warmup,
+        "samples_per_s": samples / best,
+    }
 
 
 class _Ours:
     """Our tracer on one scene: ``warm()`` once, then ``__call__()`` -> seconds per render."""
 
-    def __init__(self, scene_name: str, width: int, height: int, spp: int, compile: bool,
-                 sampler: str = "white") -> None:
+    def __init__(
+        self,
+        scene_name: str,
+        width: int,
+        height: int,
+        spp: int,
+        compile: bool,
+        sampler: str = "white",
+    ) -> None:
         from bnerr.sequences import make_sampler
         from bnerr.strategies import pixel_seeds
         from renderers import get_scene
@@ -73,8 +84,16 @@ class _Ours:
 class _Mitsuba:
     """A Mitsuba variant in a subprocess that renders the scene on request."""
 
-    def __init__(self, variant: str, scene_name: str, width: int, height: int, spp: int,
-                 threads: int | None, timeout: float) -> None:
+    def __init__(
+        self,
+        variant: str,
+        scene_name: str,
+        width: int,
+        height: int,
+        spp: int,
+        threads: int | None,
+        timeout: float,
+    ) -> None:
         self.variant, self.timeout = variant, timeout
         self.error: str | None = None
         self.proc: subprocess.Popen | None = None
@@ -87,17 +106,35 @@ class _Mitsuba:
         env = dict(os.environ)
         if variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in env:
             if not Path(DEFAULT_LLVM).exists():
-                self.error = (f"no LLVM for drjit: install Debian's libllvm19 ({DEFAULT_LLVM}) "
-                              "or set DRJIT_LIBLLVM_PATH")
+                self.error = (
+                    f"no LLVM for drjit: install Debian's libllvm19 ({DEFAULT_LLVM}) "
+                    "or set DRJIT_LIBLLVM_PATH"
+                )
                 return
             env["DRJIT_LIBLLVM_PATH"] = DEFAULT_LLVM
-        args = [sys.executable, "-m", "benchmarks.throughput", "--serve", variant, scene_name,
-                str(width), str(height), str(spp), str(threads or 0)]
+        args = [
+            sys.executable,
+            "-m",
+            "benchmarks.throughput",
+            "--serve",
+            variant,
+            scene_name,
+            str(width),
+            str(height),
+            str(spp),
+            str(threads or 0),
+        ]
         # stderr to a file: a full pipe would block a chatty child while we wait on stdout.
         self.stderr = tempfile.TemporaryFile(mode="w+")
-        self.proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.stderr, text=True, env=env,
-                                     cwd=Path(__file__).resolve().parent.parent)
+        self.proc = subprocess.Popen(
+            args,
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self.stderr,
+            text=True,
+            env=env,
+            cwd=Path(__file__).resolve().parent.parent,
+        )
         reply = self._read()
         if reply is not None:
             self.warmup = reply
@@ -130,7 +167,9 @@ class _Mitsuba:
             self.stderr.close()
 
 
-def _serve(variant: str, scene_name: str, width: int, height: int, spp: int, threads: int | None) -> None:
+def _serve(
+    variant: str, scene_name: str, width: int, height: int, spp: int, threads: int | None
+) -> None:
     """Runs inside the subprocess: load the scene, render once, then once per ``render`` line."""
     import drjit as dr
     import mitsuba as mi
@@ -141,8 +180,9 @@ def _serve(variant: str, scene_name: str, width: int, height: int, spp: int, thr
 
     if threads:
         dr.set_thread_count(threads)  # Mitsuba 3 renders on drjit's thread pool in every variant
-    scene = mi.load_dict(to_mitsuba(get_scene(scene_name, animated=False), 0,
-                                    width=width, height=height, spp=spp))
+    scene = mi.load_dict(
+        to_mitsuba(get_scene(scene_name, animated=False), 0, width=width, height=height, spp=spp)
+    )
     seed = 0
 
     def timed() -> float:
@@ -160,17 +200,31 @@ def _serve(variant: str, scene_name: str, width: int, height: int, spp: int, thr
             print(timed(), flush=True)
 
 
-def measure_ours(scene_name: str, width: int, height: int, spp: int, repeats: int = 3,
-                 compile: bool = True, sampler: str = "white") -> dict[str, float]:
+def measure_ours(
+    scene_name: str,
+    width: int,
+    height: int,
+    spp: int,
+    repeats: int = 3,
+    compile: bool = True,
+    sampler: str = "white",
+) -> dict[str, float]:
     """Our tracer alone: ``{"best_s", "median_s", "warmup_s", "samples_per_s"}``."""
     ours = _Ours(scene_name, width, height, spp, compile, sampler)
     warmup = ours()
     return _figures([ours() for _ in range(repeats)], warmup, width * height * spp)
 
 
-def measure_mitsuba(variant: str, scene_name: str, width: int, height: int, spp: int,
-                    repeats: int = 3, threads: int | None = None, timeout: float = 900.0
-                    ) -> dict[str, float] | str:
+def measure_mitsuba(
+    variant: str,
+    scene_name: str,
+    width: int,
+    height: int,
+    spp: int,
+    repeats: int = 3,
+    threads: int | None = None,
+    timeout: float = 900.0,
+) -> dict[str, float] | str:
     """One Mitsuba variant alone: figures as :func:`measure_ours`, or an error string."""
     worker = _Mitsuba(variant, scene_name, width, height, spp, threads, timeout)
     try:
@@ -182,10 +236,16 @@ def measure_mitsuba(variant: str, scene_name: str, width: int, height: int, spp:
         worker.close()
 
 
-def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, height: int = 256,
-            spp: int = 32, repeats: int = 5, compile: bool = True,
-            variants: Sequence[str] = ("scalar_rgb", "llvm_ad_rgb"), threads: int | None = None
-            ) -> dict[str, object]:
+def measure(
+    scenes: Sequence[str] = ("direct", "cornell"),
+    width: int = 256,
+    height: int = 256,
+    spp: int = 32,
+    repeats: int = 5,
+    compile: bool = True,
+    variants: Sequence[str] = ("scalar_rgb", "llvm_ad_rgb"),
+    threads: int | None = None,
+) -> dict[str, object]:
     """Throughput of our tracer and of Mitsuba 3 on each scene, in interleaved rounds.
 
     Returns ``{"settings": {...}, scene: {"bnerr": figures, "mitsuba_<variant>": figures or an
@@ -196,11 +256,18 @@ def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, hei
     before = torch.get_num_threads()
     if threads:
         torch.set_num_threads(threads)
-    out: dict[str, object] = {"settings": {
-        "width": width, "height": height, "spp": spp, "repeats": repeats, "compile": compile,
-        "torch_threads": torch.get_num_threads(), "cpu_count": os.cpu_count(),
-        "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
-    }}
+    out: dict[str, object] = {
+        "settings": {
+            "width": width,
+            "height": height,
+            "spp": spp,
+            "repeats": repeats,
+            "compile": compile,
+            "torch_threads": torch.get_num_threads(),
+            "cpu_count": os.cpu_count(),
+            "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+        }
+    }
     samples = width * height * spp
     try:
         for name in scenes:
@@ -225,7 +292,9 @@ def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, hei
             row: dict[str, object] = {"bnerr": _figures(ours_times, ours_warmup, samples)}
             for v, worker in workers.items():
                 ok = worker.error is None and their_times[v]
-                row[f"mitsuba_{v}"] = _figures(their_times[v], worker.warmup, samples) if ok else worker.error
+                row[f"mitsuba_{v}"] = (
+                    _figures(their_times[v], worker.warmup, samples) if ok else worker.error
+                )
                 row[f"ratio_{v}"] = statistics.median(ratios[v]) if ok else None
             out[name] = row
     finally:
@@ -235,19 +304,25 @@ def measure(scenes: Sequence[str] = ("direct", "cornell"), width: int = 256, hei
 
 def _print(result: dict[str, object]) -> None:
     settings = result["settings"]
-    print(f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, {settings['repeats']} "
-          f"interleaved rounds, torch threads {settings['torch_threads']}, compile {settings['compile']}, "
-          f"load average {settings['load_average']}")
+    print(
+        f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, {settings['repeats']} "
+        f"interleaved rounds, torch threads {settings['torch_threads']}, compile {settings['compile']}, "
+        f"load average {settings['load_average']}"
+    )
     for name, row in result.items():
         if name == "settings":
             continue
         for key, value in row.items():
             if isinstance(value, dict):
-                print(f"{name:8s} {key:22s} {value['samples_per_s'] / 1e6:8.3f} M samples/s "
-                      f"(best {value['best_s']:.3f} s, median {value['median_s']:.3f} s, "
-                      f"warm-up {value['warmup_s']:.1f} s)")
+                print(
+                    f"{name:8s} {key:22s} {value['samples_per_s'] / 1e6:8.3f} M samples/s "
+                    f"(best {value['best_s']:.3f} s, median {value['median_s']:.3f} s, "
+                    f"warm-up {value['warmup_s']:.1f} s)"
+                )
             elif key.startswith("ratio"):
-                print(f"{name:8s} {key:22s} {'n/a' if value is None else f'{value:8.2f}x'} (median per round)")
+                print(
+                    f"{name:8s} {key:22s} {'n/a' if value is None else f'{value:8.2f}x'} (median per round)"
+                )
             else:
                 print(f"{name:8s} {key:22s} {value}")
 
@@ -258,20 +333,33 @@ def main(argv: list[str] | None = None) -> int:
         variant, scene, w, h, spp, threads = argv[1:7]
         _serve(variant, scene, int(w), int(h), int(spp), int(threads) or None)
         return 0
-    p = argparse.ArgumentParser(prog="python -m benchmarks.throughput", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(
+        prog="python -m benchmarks.throughput", description=__doc__.split("\n\n")[0]
+    )
     p.add_argument("--scenes", nargs="+", default=["direct", "cornell"])
     p.add_argument("--res", default="256x256", metavar="WxH")
     p.add_argument("--spp", type=int, default=32)
     p.add_argument("--repeats", type=int, default=5, help="interleaved rounds")
     p.add_argument("--threads", type=int, default=None, help="threads for both renderers")
-    p.add_argument("--no-compile", dest="compile", action="store_false", help="our tracer in eager mode")
+    p.add_argument(
+        "--no-compile", dest="compile", action="store_false", help="our tracer in eager mode"
+    )
     p.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])
     p.add_argument("--json", metavar="PATH", help="also write the figures as JSON")
     args = p.parse_args(argv)
     from benchmarks.commands.render import parse_resolution
 
     width, height = parse_resolution(args.res)
-    result = measure(args.scenes, width, height, args.spp, args.repeats, args.compile, args.variants, args.threads)
+    result = measure(
+        args.scenes,
+        width,
+        height,
+        args.spp,
+        args.repeats,
+        args.compile,
+        args.variants,
+        args.threads,
+    )
     _print(result)
     if args.json:
         from bnerr.io import atomic_write

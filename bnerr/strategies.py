@@ -1,13 +1,20 @@
 """Seed strategies: how each frame's per-pixel seeds are chosen, and the renders that takes.
 
-A strategy drives the renderer for its frame (ARCHITECTURE.md, "the strategy drives the renderer
-for its frame"): ``strategy.frame(t, render)`` calls ``render(seeds [H, W] int64, sampler) ->
-Frame`` as often as it needs (the caller binds scene, t and spp) and returns the frame to show.
-``strategy.overhead_ms`` is the wall time of the last :meth:`Strategy.frame` spent outside
-``render`` (seed generation, sorting, retargeting, selection), also stored in the returned frame's
-``timings["strategy"]``.
+A strategy drives the renderer for its frame, rather than the renderer asking for seeds:
+``strategy.frame(t, render)`` calls ``render(seeds [H, W] int64, sampler) -> Frame`` as often as
+it needs (the caller binds scene, t and spp) and returns the frame to show.
 
-Names, as the benchmark tables name them (METHODS.md sections 3 and 4):
+**Timings: one stopwatch per render.** A render reports its own time in its frame's
+``timings["render"]`` (the tracer fills it); the strategy does not time the renders again. The
+returned frame's ``timings["render"]`` is the sum over the strategy's renders (the oracle renders
+K candidates) and ``timings["strategy"]`` (also ``strategy.overhead_ms``) is the wall time of the
+whole :meth:`Strategy.frame` minus that sum: seed generation, sorting, retargeting, selection. A
+render that reports no time counts as 0 ms, so its time lands in the overhead.
+
+**Memory.** :func:`make_strategy` and the constructors refuse a frame size whose estimated memory
+(:func:`estimate_bytes`) exceeds what the device has available, before allocating anything.
+
+Names, as the benchmark tables name them (docs/METHODS.md, sections 3 and 4):
 
 - ``white``: fresh, distinct seeds every frame (a bijective 32-bit hash of the pixel index keyed
   by (seed, t)); the classic white-noise image and the control every other strategy is compared
@@ -42,7 +49,7 @@ their seed image from one call to the next whatever t is.
 device of the returned frame.
 
 Not for: strategies that need more than the color of the previous frame (reprojection along
-motion vectors, feature-aware grouping: future work in METHODS.md), or choosing seeds for a
+motion vectors, feature-aware grouping: future work in docs/METHODS.md), or choosing seeds for a
 renderer that draws its own random numbers.
 """
 
@@ -50,11 +57,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
+import os
 from collections.abc import Callable
 
 import torch
 
+from bnerr.color import luminance
 from bnerr.errors import (
     DtypeError,
     ShapeError,
@@ -64,14 +72,12 @@ from bnerr.errors import (
     check_tensor,
 )
 from bnerr.frame import Frame
+from bnerr.hashing import MASK32, lowbias32_, lowbias32_host, signed32
 from bnerr.masks import frame_offset, load_mask, r2_step, shipped_masks, tile_mask
-from bnerr.permute import SortPass, SortPlan, histogram_select, luminance, plan_sort
+from bnerr.permute import SortPass, SortPlan, histogram_select, plan_sort
 from bnerr.retarget import Retarget, load_retarget
 from bnerr.sequences import Sampler, make_sampler
-
-# The samplers' lowbias32 hash on a Python int (for keys shared by every pixel), and int32 words.
-from bnerr.sequences import _lowbias32_host as _mix32_host
-from bnerr.sequences import _signed
+from bnerr.timing import Stopwatch, sync
 
 __all__ = [
     "STRATEGIES",
@@ -81,6 +87,7 @@ __all__ = [
     "Strategy",
     "TemporalStrategy",
     "WhiteStrategy",
+    "estimate_bytes",
     "make_strategy",
     "pixel_seeds",
 ]
@@ -88,7 +95,6 @@ __all__ = [
 #: ``render(seeds [H, W] int64, sampler) -> Frame``, with scene, t and spp bound by the caller.
 RenderFn = Callable[[torch.Tensor, Sampler], Frame]
 
-_MASK32 = 0xFFFFFFFF
 # Salts that keep the seed streams of the strategies apart (arbitrary odd 32-bit constants).
 _SALT_FRAME = 0x9E3779B9
 _SALT_STREAM = 0x85EBCA6B
@@ -101,25 +107,10 @@ _CACHE_BYTES = 64 << 20
 # Seeds
 
 
-def _mix32(x: torch.Tensor) -> torch.Tensor:
-    """lowbias32 (Wellons) on int32 words read as unsigned, a bijection of 32-bit words.
-
-    int32 multiplication wraps modulo 2^32 on every torch backend (the same two's-complement
-    arithmetic :mod:`bnerr.sequences` relies on and tests); right shifts are masked to be logical.
-    In place on ``x`` (int32); int32 rather than masked int64 halves the memory traffic.
-    """
-    x ^= (x >> 16) & 0xFFFF
-    x *= _signed(0x7FEB352D)
-    x ^= (x >> 15) & 0x1FFFF
-    x *= _signed(0x846CA68B)
-    x ^= (x >> 16) & 0xFFFF
-    return x
-
-
 def _stream_key(seed: int, t: int, stream: int, k: int = 0) -> int:
-    key = _mix32_host(seed ^ _mix32_host(stream * _SALT_STREAM))
-    key = _mix32_host(key + t * _SALT_FRAME)
-    return _mix32_host(key + k * _SALT_STREAM)
+    key = lowbias32_host(seed ^ lowbias32_host(stream * _SALT_STREAM))
+    key = lowbias32_host(key + t * _SALT_FRAME)
+    return lowbias32_host(key + k * _SALT_STREAM)
 
 
 def pixel_seeds(
@@ -142,8 +133,8 @@ def pixel_seeds(
     width = check_positive_int(width, "width")
     if height * width > 1 << 31:
         raise ValueRangeError(f"height * width: expected at most 2^31 pixels, got {height * width}")
-    words = torch.arange(height * width, dtype=torch.int32, device=device).add_(_signed(key))
-    return (_mix32(words).to(torch.int64) & _MASK32).view(height, width)
+    words = torch.arange(height * width, dtype=torch.int32, device=device).add_(signed32(key))
+    return (lowbias32_(words).to(torch.int64) & MASK32).view(height, width)
 
 
 def _offset_cycle(size: int) -> int:
@@ -152,9 +143,84 @@ def _offset_cycle(size: int) -> int:
     return math.lcm(size // math.gcd(dy, size), size // math.gcd(dx, size))
 
 
-def _sync(device: torch.device) -> None:
+# --------------------------------------------------------------------------------------------------
+# Memory: refuse a frame size before allocating
+
+# A rendered Frame with every buffer: color, albedo, normal, variance (3 each), motion (2), depth
+# and object_id (1 each): 16 float32 channels.
+_FRAME_BYTES = 16 * 4
+# Making a seed image: int32 words (4), their int64 copy (8) and the masked result (8).
+_SEED_BYTES = 20
+# The temporal strategies per frame: the seed image they carry (8), luminance (4) and the sort
+# and retargeting passes' keys, indices and output (about 48 on the torch path).
+_TEMPORAL_BYTES = 8 + 4 + 48
+# The oracle per candidate: its frame, its luminance (4); and once: the choice (8) and the
+# assembled frame.
+_ORACLE_CANDIDATE_BYTES = _FRAME_BYTES + 4
+
+
+def _per_pixel(name: str, K: int) -> int:
+    """Estimated peak bytes per pixel of one frame of strategy ``name`` (K: oracle candidates)."""
+    if name == "oracle":
+        return K * _ORACLE_CANDIDATE_BYTES + 8 + _FRAME_BYTES
+    if name in ("temporal", "temporal_sort"):
+        return _FRAME_BYTES + _TEMPORAL_BYTES
+    return _FRAME_BYTES + _SEED_BYTES
+
+
+def estimate_bytes(name: str, height: int, width: int, K: int = 32) -> int:
+    """Estimated peak bytes of one frame of strategy ``name`` at ``height x width``.
+
+    Counts the strategy's own state and working memory and the rendered frames it holds at once
+    (a frame with every buffer is 64 bytes per pixel); not the renderer's own working memory.
+
+    Args:
+        name: one of :data:`STRATEGIES`.
+        height, width: the frame size.
+        K: the oracle's number of candidates.
+
+    Returns:
+        Bytes (an int).
+    """
+    check_name(name, STRATEGIES, "strategy")
+    pixels = check_positive_int(height, "height") * check_positive_int(width, "width")
+    return pixels * _per_pixel(name, check_positive_int(K, "K"))
+
+
+def _available_bytes(device: torch.device) -> int | None:
+    """Free memory on ``device``: CUDA's free bytes, or the host's MemAvailable; None if unknown."""
     if device.type == "cuda":
-        torch.cuda.synchronize(device)
+        return int(torch.cuda.mem_get_info(device)[0])
+    if device.type != "cpu":
+        return None
+    try:
+        with open("/proc/meminfo") as handle:
+            for line in handle:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_fits(what: str, height: int, width: int, per_pixel: int, device: torch.device) -> None:
+    """Raise :class:`ValueRangeError` if ``height * width * per_pixel`` bytes exceed free memory."""
+    if height * width > 1 << 31:
+        raise ValueRangeError(
+            f"height * width: expected at most 2^31 pixels, got {height} x {width} = "
+            f"{height * width}"
+        )
+    need = height * width * per_pixel
+    free = _available_bytes(device)
+    if free is not None and need > free:
+        raise ValueRangeError(
+            f"height x width: expected a frame size whose {what} strategy fits in memory, got "
+            f"{height} x {width}, which needs about {need / 1e9:.1f} GB "
+            f"({per_pixel} bytes per pixel) with {free / 1e9:.1f} GB available on {device}"
+        )
 
 
 # --------------------------------------------------------------------------------------------------
@@ -162,7 +228,7 @@ def _sync(device: torch.device) -> None:
 
 
 class Strategy:
-    """Base class: :meth:`frame` times the call and the renders, subclasses implement ``_frame``.
+    """Base class: :meth:`frame` checks and times the call, subclasses implement ``_frame``.
 
     Attributes:
         name: the registry name (``make_strategy(name)``).
@@ -172,46 +238,56 @@ class Strategy:
 
     name: str = ""
 
-    def __init__(self, height: int, width: int, *, seed: int = 0, device: torch.device | str = "cpu") -> None:
+    def __init__(
+        self, height: int, width: int, *, seed: int = 0, device: torch.device | str = "cpu"
+    ) -> None:
         self.height = check_positive_int(height, "height")
         self.width = check_positive_int(width, "width")
         self.seed = check_positive_int(seed, "seed", minimum=0)
         self.device = torch.device(device)
         self.overhead_ms = 0.0
+        _check_fits(self.name, height, width, self._bytes_per_pixel(), self.device)
+
+    def _bytes_per_pixel(self) -> int:
+        """Estimated peak bytes per pixel of one :meth:`frame` (see :func:`estimate_bytes`)."""
+        return _per_pixel(self.name, 0)
 
     def frame(self, t: int, render: RenderFn) -> Frame:
         """Choose seeds, render (once or more) and return frame ``t``.
 
         Args:
             t: frame index >= 0 (it selects the masks' offset and the fresh seeds).
-            render: ``render(seeds [H, W] int64, sampler) -> Frame`` of size ``H x W``.
+            render: ``render(seeds [H, W] int64, sampler) -> Frame`` of size ``H x W`` that
+                reports its time in ``timings["render"]`` (milliseconds).
 
         Returns:
-            The frame to show, with ``timings["strategy"] = overhead_ms`` added.
+            The frame to show, with ``timings["render"]`` (the sum over this frame's renders,
+            when they report it) and ``timings["strategy"] = overhead_ms``.
         """
         t = check_positive_int(t, "t", minimum=0)
-        inside: list[float] = []
+        render_ms: list[float] = []
 
-        def timed(seeds: torch.Tensor, sampler: Sampler) -> Frame:
-            _sync(seeds.device)
-            start = time.perf_counter()
+        def checked(seeds: torch.Tensor, sampler: Sampler) -> Frame:
             out = render(seeds, sampler)
             if not isinstance(out, Frame):
                 raise DtypeError(f"render: expected a Frame, got {type(out).__name__}")
-            _sync(out.color.device)
-            inside.append(time.perf_counter() - start)
             if (out.height, out.width) != (self.height, self.width):
                 raise ShapeError(
-                    f"render: expected a {self.height} x {self.width} frame, got {out.height} x {out.width}"
+                    f"render: expected a {self.height} x {self.width} frame, "
+                    f"got {out.height} x {out.width}"
                 )
+            if "render" in out.timings:
+                render_ms.append(float(out.timings["render"]))
             return out
 
-        _sync(self.device)
-        start = time.perf_counter()
-        out = self._frame(t, timed)
-        _sync(out.color.device)
-        self.overhead_ms = (time.perf_counter() - start - sum(inside)) * 1e3
-        return dataclasses.replace(out, timings={**out.timings, "strategy": self.overhead_ms})
+        sync(self.device)
+        watch = Stopwatch()
+        out = self._frame(t, checked)
+        self.overhead_ms = max(0.0, watch.ms(out.color) - sum(render_ms))
+        timings = {**out.timings, "strategy": self.overhead_ms}
+        if render_ms:
+            timings["render"] = sum(render_ms)
+        return dataclasses.replace(out, timings=timings)
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         raise NotImplementedError
@@ -225,10 +301,19 @@ class WhiteStrategy(Strategy):
 
     name = "white"
 
-    def __init__(self, height: int, width: int, *, seed: int = 0, sampler: str = "owen_sobol",
-                 device: torch.device | str = "cpu") -> None:
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        sampler: str = "owen_sobol",
+        device: torch.device | str = "cpu",
+    ) -> None:
         super().__init__(height, width, seed=seed, device=device)
-        self.sampler = make_sampler(check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler"))
+        self.sampler = make_sampler(
+            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
+        )
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         key = _stream_key(self.seed, t, _STREAM_WHITE)
@@ -244,8 +329,15 @@ class BNDSStrategy(Strategy):
 
     name = "bnds"
 
-    def __init__(self, height: int, width: int, *, seed: int = 0, mask: torch.Tensor,
-                 device: torch.device | str = "cpu") -> None:
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        mask: torch.Tensor,
+        device: torch.device | str = "cpu",
+    ) -> None:
         super().__init__(height, width, seed=seed, device=device)
         check_tensor(mask, "mask")
         self.mask = mask
@@ -254,7 +346,10 @@ class BNDSStrategy(Strategy):
     def _frame(self, t: int, render: RenderFn) -> Frame:
         key = _stream_key(self.seed, t, _STREAM_BNDS)
         sampler = make_sampler(
-            "bnds", mask=self.mask, offset=frame_offset(t, self.mask_size), seed0=_mix32_host(key + 1)
+            "bnds",
+            mask=self.mask,
+            offset=frame_offset(t, self.mask_size),
+            seed0=lowbias32_host(key + 1),
         )
         return render(pixel_seeds(self.height, self.width, key, self.device), sampler)
 
@@ -270,12 +365,23 @@ class TemporalStrategy(Strategy):
     would never hit). At 1920x1080 with T = 64 the plans are cached and the indices are not.
     """
 
-    def __init__(self, height: int, width: int, *, seed: int = 0, sampler: str = "owen_sobol",
-                 mask: torch.Tensor, block: int = 4, retarget: torch.Tensor | None = None,
-                 device: torch.device | str = "cpu") -> None:
-        super().__init__(height, width, seed=seed, device=device)
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        sampler: str = "owen_sobol",
+        mask: torch.Tensor,
+        block: int = 4,
+        retarget: torch.Tensor | None = None,
+        device: torch.device | str = "cpu",
+    ) -> None:
         self.name = "temporal" if retarget is not None else "temporal_sort"
-        self.sampler = make_sampler(check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler"))
+        super().__init__(height, width, seed=seed, device=device)
+        self.sampler = make_sampler(
+            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
+        )
         self.mask = mask
         self.mask_size = mask.shape[-1]
         self.sorter = SortPass(block)
@@ -284,7 +390,9 @@ class TemporalStrategy(Strategy):
         self._plan_slots = cycle if cycle * height * width <= _CACHE_BYTES else 0
         index_slots = cycle if cycle * 4 * height * width <= _CACHE_BYTES else 0
         self.retarget = None if retarget is None else Retarget(retarget, cache=index_slots)
-        self.seeds = pixel_seeds(height, width, _stream_key(self.seed, 0, _STREAM_TEMPORAL), self.device)
+        self.seeds = pixel_seeds(
+            height, width, _stream_key(self.seed, 0, _STREAM_TEMPORAL), self.device
+        )
 
     def _plan(self, offset: tuple[int, int], device: torch.device) -> SortPlan:
         key = (offset, device)
@@ -319,23 +427,46 @@ class OracleStrategy(Strategy):
 
     name = "oracle"
 
-    def __init__(self, height: int, width: int, *, seed: int = 0, sampler: str = "owen_sobol",
-                 mask: torch.Tensor, K: int = 32, device: torch.device | str = "cpu") -> None:
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        sampler: str = "owen_sobol",
+        mask: torch.Tensor,
+        K: int = 32,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self.K = check_positive_int(K, "K")
         super().__init__(height, width, seed=seed, device=device)
-        self.sampler = make_sampler(check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler"))
+        self.sampler = make_sampler(
+            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
+        )
         self.mask = mask
         self.mask_size = mask.shape[-1]
-        self.K = check_positive_int(K, "K")
+
+    def _bytes_per_pixel(self) -> int:
+        return _per_pixel("oracle", self.K)
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         frames = [
-            render(pixel_seeds(self.height, self.width, _stream_key(self.seed, t, _STREAM_ORACLE, k), self.device),
-                   self.sampler)
+            render(
+                pixel_seeds(
+                    self.height,
+                    self.width,
+                    _stream_key(self.seed, t, _STREAM_ORACLE, k),
+                    self.device,
+                ),
+                self.sampler,
+            )
             for k in range(self.K)
         ]
         device = frames[0].color.device
         lum = torch.stack([luminance(f.color.to(device)) for f in frames])
-        b = tile_mask(self.mask.to(device), self.height, self.width, frame_offset(t, self.mask_size))
+        b = tile_mask(
+            self.mask.to(device), self.height, self.width, frame_offset(t, self.mask_size)
+        )
         choice = histogram_select(lum, b)
         buffers = {}
         for name, first in frames[0].buffers().items():
@@ -401,15 +532,22 @@ def make_strategy(
 
     Raises:
         UnknownNameError: unknown strategy or sampler name, or no shipped mask/field of that size.
+        ValueRangeError: a frame size whose estimated memory (:func:`estimate_bytes`) exceeds
+            what ``device`` has free; refused before anything is allocated.
     """
-    check_name(name, STRATEGIES, "strategy")
+    need = estimate_bytes(name, height, width, K)
+    _check_fits(name, height, width, need // (height * width), torch.device(device))
     common = {"seed": seed, "device": device}
     if name == "white":
         return WhiteStrategy(height, width, sampler=sampler, **common)
     if name == "bnds":
-        return BNDSStrategy(height, width, mask=_vector_mask(mask_size, dimensions, mask_dims), **common)
+        return BNDSStrategy(
+            height, width, mask=_vector_mask(mask_size, dimensions, mask_dims), **common
+        )
     scalar = load_mask("scalar", mask_size)
     if name == "oracle":
         return OracleStrategy(height, width, sampler=sampler, mask=scalar, K=K, **common)
     field = load_retarget(mask_size) if name == "temporal" else None
-    return TemporalStrategy(height, width, sampler=sampler, mask=scalar, block=block, retarget=field, **common)
+    return TemporalStrategy(
+        height, width, sampler=sampler, mask=scalar, block=block, retarget=field, **common
+    )

@@ -1,19 +1,26 @@
-"""Tests of benchmarks.report: rows, ratios to white, flags, CSV, Markdown and charts from records."""
+"""Tests of benchmarks.report: rows, ratios to white, flags, CSV, Markdown and charts."""
 
 import csv
+import dataclasses
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from benchmarks import report
+from benchmarks.plan import Cell
+from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings, write_records
 from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
 from bnerr.metrics import paired_ratio
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
 
 
-def _record(strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region="all", motion=1, crop=None):
-    """A runner record whose per-frame metric pairs are (value * count, count) for 2 sets x 3 frames."""
+def _record(
+    strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region="all", motion=1, crop=None
+):
+    """A record whose per-frame metric pairs are (value * count, count) for 2 sets x 3 frames."""
     count = 3 * 16 * 16
 
     def pairs(values):
@@ -22,26 +29,40 @@ def _record(strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region
     def flat(value):
         return [[value] * 3] * 2
 
-    cell = dict(scene=scene, strategy=strategy, spp=spp, denoiser=denoiser, motion=motion, depth=None,
-                region=region, sampler="owen_sobol", frames=3, warmup=2, width=16, height=16, seed_sets=2,
-                reference_spp=64)
+    cell = Cell(
+        scene=scene,
+        strategy=strategy,
+        spp=spp,
+        denoiser=denoiser,
+        motion=motion,
+        depth=None,
+        region=region,
+        sampler="owen_sobol",
+        frames=3,
+        warmup=2,
+        width=16,
+        height=16,
+        seed_sets=2,
+        reference_spp=64,
+    )
     per_metric = {m: pairs(flat(0.5)) for m in _METRICS}
-    return {
-        "key": str(sorted(cell.items())),
-        "cell": cell,
-        "dimensions": 4,
-        "t": [2, 3, 4],
-        "raw": {**per_metric, "mse": pairs(raw_mse), "mse_blur1": pairs(raw_mse)},
-        "den": {**per_metric, "mse": pairs(den_mse)},
-        "denoiser_params": {"sigma": 1.0},
-        "timings": {"render_ms": [[10.0 * spp] * 3] * 2, "perm_ms": [[1.0] * 3] * 2, "denoise_ms": [[2.0] * 3] * 2},
-        "reference": {"spp": 64, "floor": 1e-5, "version": "test"},
-        "spectrum": {
-            "raw": {"freq": [0.0, 0.25, 0.5], "power": [0.0, 1.0, 2.0]},
-            "den": {"freq": [0.0, 0.25, 0.5], "power": [0.0, 0.1, 0.01]},
+    return Record(
+        cell=cell,
+        dimensions=4,
+        t=[2, 3, 4],
+        raw={**per_metric, "mse": pairs(raw_mse), "mse_blur1": pairs(raw_mse)},
+        den={**per_metric, "mse": pairs(den_mse)},
+        denoiser_params={"sigma": 1.0},
+        timings=Timings(
+            render_ms=[[10.0 * spp] * 3] * 2, perm_ms=[[1.0] * 3] * 2, denoise_ms=[[2.0] * 3] * 2
+        ),
+        reference=ReferenceInfo(spp=64, floor=1e-5, version="test"),
+        spectrum={
+            "raw": Spectrum(freq=[0.0, 0.25, 0.5], power=[0.0, 1.0, 2.0]),
+            "den": Spectrum(freq=[0.0, 0.25, 0.5], power=[0.0, 0.1, 0.01]),
         },
-        "crop": crop,
-    }
+        crop=crop,
+    )
 
 
 _WHITE = [[1.0, 2.0, 3.0], [1.5, 2.5, 3.5]]
@@ -65,7 +86,9 @@ def test_rows_pair_each_strategy_with_white_on_the_same_cell():
     temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == 1)
     want = paired_ratio(np.asarray(_TEMPORAL), np.asarray(_WHITE))
     assert temporal["den_mse_ratio"] == pytest.approx(np.mean(_TEMPORAL) / np.mean(_WHITE))
-    assert (temporal["den_mse_ratio_lo"], temporal["den_mse_ratio_hi"]) == pytest.approx((want.lo, want.hi))
+    assert (temporal["den_mse_ratio_lo"], temporal["den_mse_ratio_hi"]) == pytest.approx(
+        (want.lo, want.hi)
+    )
     assert temporal["raw_mse_ratio"] == pytest.approx(1.0)
     assert temporal["worse_than_white"] is False
     assert temporal["total_ms"] == pytest.approx(10.0 + 1.0 + 2.0)
@@ -108,12 +131,15 @@ def test_headline_gives_temporal_and_oracle_per_scene_spp_and_denoiser():
     temporal, oracle = by["temporal", 1], by["oracle", 1]
     assert temporal["den_mse_ratio_hi"] < 1.0 < oracle["den_mse_ratio_lo"]  # the fixture's premise
     # better beyond the interval: bold; worse beyond it: an arrow; not measured: a dash
-    assert lines[start + 2] == f"| direct | 1 | **{temporal['den_mse_ratio']:.2f}** / {oracle['den_mse_ratio']:.2f}↑ |"
+    assert (
+        lines[start + 2]
+        == f"| direct | 1 | **{temporal['den_mse_ratio']:.2f}** / {oracle['den_mse_ratio']:.2f}↑ |"
+    )
     assert lines[start + 3] == f"| direct | 4 | **{by['temporal', 4]['den_mse_ratio']:.2f}** / - |"
 
 
 def test_headline_is_left_out_without_the_compared_strategies():
-    rows = summarize([r for r in _records() if r["cell"]["strategy"] == "white"])
+    rows = summarize([r for r in _records() if r.cell.strategy == "white"])
     assert "## Headline" not in markdown_table(rows, "T")
 
 
@@ -122,13 +148,15 @@ def test_write_report_writes_csv_markdown_and_charts(tmp_path):
     crop.mkdir()
     image = np.zeros((8, 8, 3), np.uint8)
     np.savez_compressed(crop / "c.npz", reference=image, raw=image, denoised__gaussian=image)
-    records = [dict(r, crop="crops/c.npz") for r in _records()]
+    records = [dataclasses.replace(r, crop="crops/c.npz") for r in _records()]
     text = write_report(tmp_path, records, title="T")
     assert (tmp_path / "table.md").read_text() == text
     with open(tmp_path / "table.csv") as handle:
         rows = list(csv.DictReader(handle))
     assert len(rows) == 5 and tuple(rows[0]) == COLUMNS
-    assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(np.mean(_WHITE))
+    assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(
+        np.mean(_WHITE)
+    )
     for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops_direct.png"):
         assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
     assert not list(tmp_path.glob(".*.tmp*"))  # atomic writes leave no temporary files
@@ -160,4 +188,25 @@ def test_raw_mse_differences_from_white_are_listed_once_per_run():
     assert not any(r["raw_differs_from_white"] for r in rows if r["strategy"] == "temporal")
     section = markdown_table(rows).split("## Raw MSE different from white beyond the interval")[1]
     section = section.split("## Worse than white")[0]
-    assert section.count("| direct | direct | bnds | 1 |") == 1 and section.count("| direct | direct | bnds | 4 |") == 1
+    assert (
+        section.count("| direct | direct | bnds | 1 |") == 1
+        and section.count("| direct | direct | bnds | 4 |") == 1
+    )
+
+
+def test_write_report_reads_the_results_file_when_given_no_records(tmp_path):
+    write_records(tmp_path, _records())
+    assert write_report(tmp_path, title="T", charts=False) == markdown_table(
+        summarize(_records()), "T"
+    )
+
+
+_QUICK = Path(__file__).resolve().parents[1] / "results" / "quick"
+
+
+@pytest.mark.skipif(not (_QUICK / "cells.jsonl").exists(), reason="no committed quick results")
+def test_the_committed_quick_tables_regenerate_byte_identical(tmp_path):
+    shutil.copy(_QUICK / "cells.jsonl", tmp_path / "cells.jsonl")
+    write_report(tmp_path, title="bnerr bench --suite quick", charts=False)
+    assert (tmp_path / "table.md").read_bytes() == (_QUICK / "table.md").read_bytes()
+    assert (tmp_path / "table.csv").read_bytes() == (_QUICK / "table.csv").read_bytes()

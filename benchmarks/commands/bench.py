@@ -9,7 +9,10 @@ Examples::
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
 records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.report`). References are
 cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the results already in
-the output folder and measures only the missing cells.
+the output folder and measures only the missing cells; without it, a folder that already holds
+finished cells is refused unless ``--overwrite`` says to discard them. The command holds the
+output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a second
+``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 """
 
 from __future__ import annotations
@@ -21,7 +24,17 @@ from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 
 __all__ = ["register"]
 
-_OVERRIDES = ("scenes", "strategies", "spp", "denoisers", "frames", "warmup", "seed_sets", "reference_spp", "res")
+_OVERRIDES = (
+    "scenes",
+    "strategies",
+    "spp",
+    "denoisers",
+    "frames",
+    "warmup",
+    "seed_sets",
+    "reference_spp",
+    "res",
+)
 
 
 def _names(values: list[str] | None) -> list[str] | None:
@@ -62,66 +75,103 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "bench",
         help="run a benchmark suite and write tables and charts",
-        description="Run a named benchmark suite (with overrides), write its tables and charts, print the table."
-        + "\n\nSuites:\n" + "\n".join(f"  {s.name:10s} {s.description}" for s in SUITES.values()),
+        description="Run a named benchmark suite (with overrides), write its tables and charts, "
+        "print the table.\n\nSuites:\n"
+        + "\n".join(f"  {s.name:10s} {s.description}" for s in SUITES.values()),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--suite", default="quick", choices=sorted(SUITES), help="named suite (default quick)")
-    parser.add_argument("--scenes", nargs="+", metavar="NAME", help="override the scenes")
-    parser.add_argument("--strategies", nargs="+", metavar="NAME", help="override the strategies")
-    parser.add_argument("--spp", nargs="+", metavar="N", help="override the samples per pixel")
-    parser.add_argument("--denoisers", nargs="+", metavar="NAME", help="override the denoisers")
-    parser.add_argument("--frames", type=int, help="measured frames per seed set")
-    parser.add_argument("--warmup", type=int, help="frames rendered before measuring (not measured)")
-    parser.add_argument("--seed-sets", type=int, help="independent seed sets")
-    parser.add_argument("--reference-spp", type=int, help="samples per pixel of the references")
-    parser.add_argument("--res", help="resolution WIDTHxHEIGHT")
-    parser.add_argument("--out", type=Path, help="output folder (default results/<suite>)")
-    parser.add_argument("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
-    parser.add_argument("--resume", action="store_true", help="keep existing results, measure only missing cells")
-    parser.add_argument(
-        "--threads", type=int,
+    add = parser.add_argument
+    add("--suite", default="quick", choices=sorted(SUITES), help="named suite (default quick)")
+    add("--scenes", nargs="+", metavar="NAME", help="override the scenes")
+    add("--strategies", nargs="+", metavar="NAME", help="override the strategies")
+    add("--spp", nargs="+", metavar="N", help="override the samples per pixel")
+    add("--denoisers", nargs="+", metavar="NAME", help="override the denoisers")
+    add("--frames", type=int, help="measured frames per seed set")
+    add("--warmup", type=int, help="frames rendered before measuring (not measured)")
+    add("--seed-sets", type=int, help="independent seed sets")
+    add("--reference-spp", type=int, help="samples per pixel of the references")
+    add("--res", help="resolution WIDTHxHEIGHT")
+    add("--out", type=Path, help="output folder (default results/<suite>)")
+    add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
+    resume = parser.add_mutually_exclusive_group()
+    resume.add_argument(
+        "--resume", action="store_true", help="keep existing results, measure only missing cells"
+    )
+    resume.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="discard the finished cells already in --out (without it a fresh run into a folder "
+        "with results refuses)",
+    )
+    add(
+        "--threads",
+        type=int,
         help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
         "machine, where OpenMP barriers stall whenever a thread is descheduled",
     )
-    parser.add_argument("--no-charts", action="store_true", help="write the tables only")
-    parser.add_argument("--quiet", action="store_true", help="no progress bar, no table on stdout")
+    add("--no-charts", action="store_true", help="write the tables only")
+    add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)
 
 
+def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
+    from benchmarks.speed import run_speed
+
+    given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
+    given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
+    if given:
+        raise ValueRangeError(
+            f"--suite {suite.name}: expected no cell overrides (it runs timing scripts), got "
+            f"{', '.join(given)}"
+        )
+    return run_speed(suite, out, progress=not args.quiet)
+
+
+def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
+    from benchmarks import report, runner, suites
+    from benchmarks.parts import known_names
+
+    suite = suites.resolve(
+        suite,
+        scenes=_names(args.scenes),
+        strategies=_names(args.strategies),
+        spp=_ints(args.spp, "--spp"),
+        denoisers=_names(args.denoisers),
+        frames=_count(args.frames, "--frames"),
+        warmup=_count(args.warmup, "--warmup", minimum=0),
+        res=_res(args.res),
+        seed_sets=_count(args.seed_sets, "--seed-sets"),
+        reference_spp=_count(args.reference_spp, "--reference-spp"),
+        **known_names(),
+    )
+    records = runner.run_suite(
+        suite,
+        out,
+        cache_dir=args.cache,
+        resume=args.resume,
+        overwrite=args.overwrite,
+        progress=not args.quiet,
+    )
+    title = f"bnerr bench --suite {suite.name}"
+    return report.write_report(out, records, title=title, charts=not args.no_charts)
+
+
 def run(args: argparse.Namespace) -> int:
+    """Run the suite while holding ``--out``'s write lock; print the table unless ``--quiet``."""
     import torch
 
-    from benchmarks import report, runner, suites
+    from benchmarks import suites
+    from bnerr.outputs import output_lock
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     suite = suites.get_suite(args.suite)
     out = args.out or Path("results") / suite.name
-    if suite.scripts:
-        given = [f"--{name.replace('_', '-')}" for name in _OVERRIDES if getattr(args, name) is not None]
-        if given or args.resume:
-            raise ValueRangeError(
-                f"--suite {suite.name}: expected no cell overrides (it runs timing scripts), got "
-                f"{', '.join(given + (['--resume'] if args.resume else []))}"
-            )
-        text = runner.run_speed(suite, out, progress=not args.quiet)
-    else:
-        suite = suites.resolve(
-            suite,
-            scenes=_names(args.scenes),
-            strategies=_names(args.strategies),
-            spp=_ints(args.spp, "--spp"),
-            denoisers=_names(args.denoisers),
-            frames=_count(args.frames, "--frames"),
-            warmup=_count(args.warmup, "--warmup", minimum=0),
-            res=_res(args.res),
-            seed_sets=_count(args.seed_sets, "--seed-sets"),
-            reference_spp=_count(args.reference_spp, "--reference-spp"),
-            **runner.known_names(),
-        )
-        records = runner.run_suite(suite, out, cache_dir=args.cache, resume=args.resume, progress=not args.quiet)
-        text = report.write_report(out, records, title=f"bnerr bench --suite {suite.name}", charts=not args.no_charts)
+    with output_lock(out, "bnerr bench"):
+        if suite.scripts:
+            text = _run_speed(args, suite, out)
+        else:
+            text = _run_cells(args, suite, out)
     if not args.quiet:
         print(text)
     print(f"results written to {out}")

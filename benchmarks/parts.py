@@ -1,0 +1,153 @@
+"""The parts the benchmark drives (scenes, renderer, strategies, denoisers), as typed callables.
+
+The runner reaches every part through :class:`Parts`, so that it can be tested with stand-ins and
+stays generic: it never branches on a strategy's or denoiser's name. :func:`real_parts` gives the
+project's own parts; :func:`known_names` the names their registries know (for checking the
+command line's overrides).
+
+The protocols say what the runner needs of each part and nothing more: a scene has
+``dimensions`` (D, the sampler dimensions one path consumes); a strategy has ``frame(t, render)``
+and ``overhead_ms``; a denoiser maps a :class:`bnerr.frame.Frame` to a ``[3, H, W]`` image and may
+expose ``params()``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Protocol
+
+import torch
+
+from bnerr.frame import Frame
+
+if TYPE_CHECKING:
+    from bnerr.sequences import Sampler
+    from denoisers.tuning import TuneResult
+
+__all__ = [
+    "Denoiser",
+    "Parts",
+    "Renderer",
+    "Scene",
+    "Strategy",
+    "known_names",
+    "real_parts",
+]
+
+
+class Scene(Protocol):
+    """What the runner reads of a scene."""
+
+    @property
+    def dimensions(self) -> int: ...
+
+
+class Renderer(Protocol):
+    """``render(scene, t, seeds [H, W] int64, sampler, spp) -> Frame``.
+
+    The frame reports the render's wall time in ``timings["render"]`` (milliseconds).
+    """
+
+    def __call__(
+        self, scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    ) -> Frame: ...
+
+
+class Strategy(Protocol):
+    """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame."""
+
+    overhead_ms: float
+
+    def frame(self, t: int, render: Callable[[torch.Tensor, Sampler], Frame]) -> Frame: ...
+
+
+class Denoiser(Protocol):
+    """``denoiser(frame) -> [3, H, W]`` float32 image."""
+
+    def __call__(self, frame: Frame) -> torch.Tensor: ...
+
+
+@dataclass(frozen=True)
+class Parts:
+    """The renderer, strategies and denoisers, as the runner calls them.
+
+    Attributes:
+        get_scene: ``(name, animated) -> scene``.
+        render: the :class:`Renderer`.
+        make_strategy: ``(name, scene, height, width, seed, sampler) -> Strategy``.
+        stateful: ``(strategy) -> bool``: whether a frame depends on the earlier frames (the
+            temporal strategies). Only those render the warmup frames; a stateless strategy's
+            frame t is the same whether or not frames 0..t-1 were rendered, so the runner skips
+            them (the oracle's warmup would cost K renders per frame for nothing).
+        make_denoiser: ``(name, params) -> Denoiser`` (``params`` from ``tune_denoiser``, or None
+            for a denoiser without parameters).
+        tune_denoiser: ``(name, frames, references [3, H, W]) -> TuneResult | None``: grid-search
+            the denoiser's parameters on white-noise frames (:func:`denoisers.tuning.tune`); None
+            for a denoiser that has nothing to tune.
+        reference_sampler: ``() -> Sampler`` used for the references.
+        with_depth: ``(scene, depth) -> scene`` with its maximum path depth replaced.
+        code_version: a string that changes whenever a reference's pixels could change: the
+            renderer's and the samplers' source code (:func:`benchmarks.references.code_version`).
+    """
+
+    get_scene: Callable[[str, bool], Scene]
+    render: Renderer
+    make_strategy: Callable[[str, Scene, int, int, int, str], Strategy]
+    stateful: Callable[[Strategy], bool]
+    make_denoiser: Callable[[str, dict | None], Denoiser]
+    tune_denoiser: Callable[[str, list[Frame], list[torch.Tensor]], TuneResult | None]
+    reference_sampler: Callable[[], Sampler]
+    with_depth: Callable[[Scene, int], Scene]
+    code_version: str
+
+
+def real_parts() -> Parts:
+    """The project's own parts: ``renderers``, :mod:`bnerr.strategies` and ``denoisers``."""
+    import denoisers
+    import renderers
+    from benchmarks.references import code_version
+    from bnerr import sequences, strategies
+    from denoisers import tuning
+
+    def make_denoiser(name: str, params: dict | None) -> Denoiser:
+        return denoisers.get_denoiser(name, **(params or {}))
+
+    def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
+        return tuning.tune(name, frames, refs) if name in tuning.GRIDS else None
+
+    def make_strategy(name: str, scene: Scene, height: int, width: int, seed: int, sampler: str):
+        return strategies.make_strategy(
+            name, height, width, seed=seed, sampler=sampler, dimensions=scene.dimensions
+        )
+
+    def reference_sampler() -> Sampler:
+        # Owen-scrambled Sobol converges faster than white noise at equal spp, so the reference
+        # noise floor is lower for the same render time; it is unbiased like white noise.
+        return sequences.make_sampler("owen_sobol")
+
+    return Parts(
+        get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
+        render=renderers.render,
+        make_strategy=make_strategy,
+        stateful=lambda strategy: isinstance(strategy, strategies.TemporalStrategy),
+        make_denoiser=make_denoiser,
+        tune_denoiser=tune_denoiser,
+        reference_sampler=reference_sampler,
+        with_depth=lambda scene, depth: dataclasses.replace(scene, max_depth=depth),
+        code_version=code_version(),
+    )
+
+
+def known_names() -> dict[str, tuple[str, ...]]:
+    """The installed registries, for checking ``--scenes``, ``--strategies``, ``--denoisers``."""
+    import denoisers
+    import renderers
+    from bnerr import strategies
+
+    return {
+        "known_scenes": tuple(renderers.SCENES),
+        "known_strategies": tuple(strategies.STRATEGIES),
+        "known_denoisers": tuple(denoisers.DENOISERS),
+    }

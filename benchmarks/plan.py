@@ -1,0 +1,170 @@
+"""Planning a suite: its sweeps become runs (what is rendered together) and cells (table rows).
+
+A **cell** (:class:`Cell`) is one row of the results table: scene x strategy x spp x denoiser x
+motion/depth/sampler condition x pixel region, with the measurement's sizes. A **run**
+(:class:`Run`) is everything rendered together: one strategy on one scene, spp and condition, all
+seed sets; its cells share its renders and differ only in denoiser and pixel region. :func:`plan`
+turns a :class:`benchmarks.suites.Suite` into its runs, merging runs that two sweeps both ask for;
+:func:`pending` narrows them to the cells not yet measured.
+
+Not for: rendering or measuring (:mod:`benchmarks.measure`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Collection
+from dataclasses import dataclass
+
+from benchmarks.suites import Suite, Sweep
+
+__all__ = ["Cell", "Run", "pending", "plan"]
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One row of the results table (see :mod:`benchmarks.suites` for the axes)."""
+
+    scene: str
+    strategy: str
+    spp: int
+    denoiser: str
+    motion: int
+    depth: int | None
+    region: str
+    sampler: str
+    frames: int
+    warmup: int
+    width: int
+    height: int
+    seed_sets: int
+    reference_spp: int
+
+    def key(self) -> str:
+        """A stable string identifying the cell in the results file (its fields as sorted JSON)."""
+        return json.dumps(dataclasses.asdict(self), sort_keys=True)
+
+
+@dataclass(frozen=True)
+class Run:
+    """Everything rendered together: one strategy on one scene/spp/condition, all seed sets.
+
+    The cells of a run share its renders and differ only in denoiser and pixel region.
+    """
+
+    scene: str
+    strategy: str
+    spp: int
+    motion: int
+    depth: int | None
+    sampler: str
+    frames: int
+    warmup: int
+    width: int
+    height: int
+    seed_sets: int
+    reference_spp: int
+    denoisers: tuple[str, ...]
+    regions: tuple[str, ...]
+    metrics: tuple[str, ...]
+    crops: bool
+
+    def cells(self) -> list[Cell]:
+        """Its cells: every denoiser x region, in that order."""
+        common = dict(
+            scene=self.scene,
+            strategy=self.strategy,
+            spp=self.spp,
+            motion=self.motion,
+            depth=self.depth,
+            sampler=self.sampler,
+            frames=self.frames,
+            warmup=self.warmup,
+            width=self.width,
+            height=self.height,
+            seed_sets=self.seed_sets,
+            reference_spp=self.reference_spp,
+        )
+        return [Cell(denoiser=d, region=r, **common) for d in self.denoisers for r in self.regions]
+
+    @property
+    def label(self) -> str:
+        """A short description for the progress bar."""
+        extra = (
+            (f" motion={self.motion}" if self.motion != 1 else "")
+            + (f" depth={self.depth}" if self.depth is not None else "")
+            + (f" sampler={self.sampler}" if self.sampler != "owen_sobol" else "")
+        )
+        return f"{self.scene} {self.strategy} {self.spp}spp{extra}"
+
+
+def _sweep_runs(sweep: Sweep, crops: bool) -> list[Run]:
+    renders: dict[tuple[int, int | None, str], list[str]] = {}
+    for cond in sweep.conditions:
+        regions = renders.setdefault((cond.motion, cond.depth, cond.sampler), [])
+        if cond.region not in regions:
+            regions.append(cond.region)
+    runs = []
+    for scene in sweep.scenes:
+        for (motion, depth, sampler), regions in renders.items():
+            for spp in sweep.spp:
+                for strategy in sweep.strategies:
+                    runs.append(
+                        Run(
+                            scene=scene,
+                            strategy=strategy,
+                            spp=spp,
+                            motion=motion,
+                            depth=depth,
+                            sampler=sampler,
+                            frames=sweep.frames,
+                            warmup=sweep.warmup,
+                            width=sweep.res[0],
+                            height=sweep.res[1],
+                            seed_sets=sweep.seed_sets,
+                            reference_spp=sweep.reference_spp,
+                            denoisers=sweep.denoisers,
+                            regions=tuple(regions),
+                            metrics=sweep.metrics,
+                            crops=crops and spp == min(sweep.spp),
+                        )
+                    )
+    return runs
+
+
+def plan(suite: Suite) -> list[Run]:
+    """The runs of a suite, in order, with duplicate runs (same renders) merged."""
+    merged: dict[tuple, Run] = {}
+    for sweep in suite.sweeps:
+        for run in _sweep_runs(sweep, suite.crops):
+            bare = dataclasses.replace(run, denoisers=(), regions=(), crops=False)
+            key = dataclasses.astuple(bare)
+            old = merged.get(key)
+            if old is None:
+                merged[key] = run
+                continue
+            merged[key] = dataclasses.replace(
+                old,
+                denoisers=tuple(dict.fromkeys(old.denoisers + run.denoisers)),
+                regions=tuple(dict.fromkeys(old.regions + run.regions)),
+                crops=old.crops or run.crops,
+            )
+    return list(merged.values())
+
+
+def pending(suite: Suite, done: Collection[str]) -> list[Run]:
+    """The runs with cells whose key is not in ``done``, narrowed to their missing denoisers and
+    regions (a run is rendered again for those only)."""
+    todo = []
+    for run in plan(suite):
+        missing = [c for c in run.cells() if c.key() not in done]
+        if missing:
+            todo.append(
+                dataclasses.replace(
+                    run,
+                    denoisers=tuple(dict.fromkeys(c.denoiser for c in missing)),
+                    regions=tuple(dict.fromkeys(c.region for c in missing)),
+                )
+            )
+    return todo

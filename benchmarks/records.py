@@ -1,0 +1,198 @@
+"""The results file: one :class:`Record` per measured cell, one JSON object per line.
+
+``<out>/cells.jsonl`` holds one line per cell, ``json.dumps(record.to_json(), sort_keys=True)``;
+the file is rewritten whole and atomically (:func:`write_records`) after every run, so an
+interrupted sweep loses at most the run in progress and a reader never sees a half-written file.
+:func:`load_records` reads it back; a line that is not UTF-8, not JSON or not a record raises
+:class:`~bnerr.errors.FileFormatError` naming the file and the line.
+
+The schema is the dataclasses below. Arrays are nested lists (JSON numbers); ``[S][F]`` is
+seed set x measured frame:
+
+- :class:`Record`: ``cell`` (:class:`benchmarks.plan.Cell`), ``dimensions`` (the scene's D),
+  ``t`` (the measured frame indices ``[F]``), ``raw`` and ``den`` (metric name -> per-frame pairs
+  ``[S][F][2]`` of :class:`bnerr.metrics.FrameMetrics`, before and after denoising),
+  ``denoiser_params``, ``timings``, ``reference``, ``spectrum`` (``"raw"`` and ``"den"``) and
+  ``crop`` (the crops file relative to the output folder, or None). On disk the record also holds
+  ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
+- :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
+- :class:`ReferenceInfo`: ``spp``, ``floor`` (the mean variance of the reference's pixel means, or
+  None) and ``version`` (the code version it was rendered with).
+- :class:`Spectrum`: ``freq`` and ``power``, the error's radially averaged power spectrum.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from benchmarks.plan import Cell
+from bnerr.errors import BnerrError, FileFormatError
+from bnerr.io import atomic_write
+
+__all__ = [
+    "RESULTS_FILE",
+    "ReferenceInfo",
+    "Record",
+    "ResultsExistError",
+    "Spectrum",
+    "Timings",
+    "check_no_results",
+    "load_records",
+    "write_records",
+]
+
+#: Name of the per-cell results file inside the output folder.
+RESULTS_FILE = "cells.jsonl"
+
+#: Metric name -> ``[S][F][2]`` per-frame pairs.
+MetricPairs = dict[str, list[list[list[float]]]]
+
+
+class ResultsExistError(BnerrError, FileExistsError):
+    """An output folder already holds finished cells that a fresh run would discard."""
+
+
+@dataclass(frozen=True)
+class Timings:
+    """Per measured frame milliseconds, ``[S][F]`` each."""
+
+    render_ms: list[list[float]]
+    perm_ms: list[list[float]]
+    denoise_ms: list[list[float]]
+
+
+@dataclass(frozen=True)
+class ReferenceInfo:
+    """The references a record was measured against."""
+
+    spp: int
+    floor: float | None
+    version: str
+
+
+@dataclass(frozen=True)
+class Spectrum:
+    """A radially averaged power spectrum: ``power[i]`` at ``freq[i]`` cycles per pixel."""
+
+    freq: list[float]
+    power: list[float]
+
+
+@dataclass(frozen=True)
+class Record:
+    """Everything measured for one cell (see the module docstring for each field's layout)."""
+
+    cell: Cell
+    dimensions: int
+    t: list[int]
+    raw: MetricPairs
+    den: MetricPairs
+    denoiser_params: dict[str, Any]
+    timings: Timings
+    reference: ReferenceInfo
+    spectrum: dict[str, Spectrum]
+    crop: str | None
+
+    @property
+    def key(self) -> str:
+        """The cell's key (:meth:`benchmarks.plan.Cell.key`)."""
+        return self.cell.key()
+
+    def to_json(self) -> dict[str, Any]:
+        """The JSON object of one ``cells.jsonl`` line."""
+        out = dataclasses.asdict(self)
+        out["key"] = self.key
+        return out
+
+    @classmethod
+    def from_json(cls, data: object) -> Record:
+        """The record of one parsed ``cells.jsonl`` line.
+
+        Raises:
+            FileFormatError: not an object with the record's fields.
+        """
+        try:
+            if not isinstance(data, dict):
+                raise TypeError(f"a JSON object, got {type(data).__name__}")
+            return cls(
+                cell=Cell(**data["cell"]),
+                dimensions=int(data["dimensions"]),
+                t=list(data["t"]),
+                raw=dict(data["raw"]),
+                den=dict(data["den"]),
+                denoiser_params=dict(data["denoiser_params"]),
+                timings=Timings(**data["timings"]),
+                reference=ReferenceInfo(**data["reference"]),
+                spectrum={kind: Spectrum(**data["spectrum"][kind]) for kind in ("raw", "den")},
+                crop=data["crop"],
+            )
+        except (KeyError, TypeError, ValueError) as err:
+            what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
+            raise FileFormatError(f"expected a benchmark record, got {what}") from None
+
+
+def _parse_line(path: Path, number: int, line: bytes) -> Record:
+    try:
+        text = line.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise FileFormatError(
+            f"{path}: expected UTF-8 JSON records, got bad bytes on line {number} "
+            f"(at byte {err.start})"
+        ) from None
+    try:
+        return Record.from_json(json.loads(text))
+    except json.JSONDecodeError as err:
+        raise FileFormatError(
+            f"{path}: expected one JSON record per line, got bad line {number}: {err}"
+        ) from None
+    except FileFormatError as err:
+        raise FileFormatError(f"{path}: line {number}: {err}") from None
+
+
+def load_records(out_dir: str | Path) -> list[Record]:
+    """The records in ``<out_dir>/cells.jsonl`` (empty if there is none), in file order.
+
+    Raises:
+        FileFormatError: the file cannot be read, or a line is not UTF-8, not JSON (a truncated
+            line among them) or not a record; the message names the file and the line.
+    """
+    path = Path(out_dir) / RESULTS_FILE
+    if not path.exists():
+        return []
+    try:
+        data = path.read_bytes()
+    except OSError as err:
+        raise FileFormatError(f"{path}: expected a readable results file, got {err}") from None
+    records = []
+    for number, line in enumerate(data.split(b"\n"), start=1):
+        if line.strip():
+            records.append(_parse_line(path, number, line))
+    return records
+
+
+def write_records(out_dir: str | Path, records: Iterable[Record]) -> None:
+    """Replace ``<out_dir>/cells.jsonl`` atomically with ``records``, one sorted-key JSON line
+    each."""
+    text = "".join(json.dumps(r.to_json(), sort_keys=True) + "\n" for r in records)
+    with atomic_write(Path(out_dir) / RESULTS_FILE) as tmp:
+        Path(tmp).write_text(text)
+
+
+def check_no_results(out_dir: str | Path) -> None:
+    """Raise :class:`ResultsExistError` if ``<out_dir>/cells.jsonl`` holds any line (finished
+    cells that a fresh run would discard); the file is not parsed."""
+    path = Path(out_dir) / RESULTS_FILE
+    if not path.is_file():
+        return
+    count = sum(1 for line in path.read_bytes().split(b"\n") if line.strip())
+    if count:
+        raise ResultsExistError(
+            f"{path}: expected no finished cells in the output folder of a fresh run, got "
+            f"{count}; pass --resume to keep them and measure only the missing cells, or "
+            f"--overwrite to discard them"
+        )

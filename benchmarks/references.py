@@ -1,0 +1,157 @@
+"""High-spp references: rendered once, cached as EXR files keyed by everything they depend on.
+
+A reference is rendered with Owen-scrambled Sobol (``Parts.reference_sampler``) and seeds that no
+strategy uses (:func:`reference_seeds`), once per scene, motion/depth condition, frame,
+resolution, spp and code version, and cached under ``cache/references/``. The **cache key** (the
+file name, :meth:`ReferenceCache.path`) holds every input of the render:
+
+- scene name, motion and depth condition and the frame the renderer sees (static scenes, motion 0,
+  share one reference across frames);
+- resolution and spp;
+- the reference sampler's name and the seed salt (the seed image of frame t is a fixed function of
+  the salt and t), plus :data:`REFERENCE_FORMAT`, bumped by hand when the seed scheme or the file
+  layout changes;
+- :func:`code_version`: the renderer's declared ``RENDERER_VERSION`` and a hash of the source files
+  a reference's pixels depend on (:func:`reference_sources`): every ``.py`` of ``renderers``, of
+  the ``bnerr.sequences`` module (its file, or every ``.py`` under its package directory) and
+  ``bnerr/hashing.py``. A change to the tracer or to a sampler never reuses a stale reference.
+
+The reference's own noise adds its variance to every strategy's MSE alike; the records keep it
+(``Record.reference.floor``) so that a reader can see when it matters.
+
+Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+from pathlib import Path
+
+import torch
+
+from benchmarks.parts import Parts, Scene
+from benchmarks.plan import Run
+from bnerr.errors import FileFormatError
+from bnerr.frame import Frame
+from bnerr.hashing import MASK32, mix32_45d9f3b
+from bnerr.io import read_frame, write_frame
+
+__all__ = [
+    "REFERENCE_FORMAT",
+    "ReferenceCache",
+    "code_version",
+    "reference_seeds",
+    "reference_sources",
+    "source_hash",
+]
+
+#: Bumped by hand when the reference seeds' scheme or the cache's file layout changes.
+REFERENCE_FORMAT = "r2"
+_REFERENCE_SALT = 0x5EED_BA5E  # keeps reference seeds apart from every strategy's seeds
+_REFERENCES_IN_MEMORY = 16  # a run revisits its measured frames once per seed set
+# The modules whose source a reference's pixels depend on (besides its own seeds).
+_SOURCE_MODULES = ("renderers", "bnerr.sequences", "bnerr.hashing")
+
+
+def reference_seeds(height: int, width: int, t: int) -> torch.Tensor:
+    """Distinct-looking seeds ``[H, W]`` int64 in [0, 2^32) for the reference of frame ``t``.
+
+    ``mix32(mix32(index ^ salt) ^ t)`` with the ``0x45d9f3b`` mix
+    (:func:`bnerr.hashing.mix32_45d9f3b`), keyed by a salt that no strategy uses, so that a
+    reference never shares a sequence with the frame it judges (a shared sequence would correlate
+    their errors and understate the MSE).
+    """
+    index = torch.arange(height * width, dtype=torch.int64)
+    seeds = mix32_45d9f3b(mix32_45d9f3b(index ^ _REFERENCE_SALT) ^ (t & MASK32))
+    return seeds.reshape(height, width)
+
+
+def _module_files(name: str) -> dict[str, Path]:
+    """A module's ``.py`` files (every one under a package's directory), keyed by their path
+    relative to the top-level package's parent (``bnerr/hashing.py``)."""
+    module = importlib.import_module(name)
+    top = Path(importlib.import_module(name.split(".")[0]).__file__).parent.parent
+    file = Path(module.__file__)
+    files = sorted(file.parent.rglob("*.py")) if file.name == "__init__.py" else [file]
+    return {f.relative_to(top).as_posix(): f for f in files}
+
+
+def reference_sources() -> dict[str, Path]:
+    """The source files a reference's pixels depend on: label (``renderers/tracer.py``) -> path."""
+    sources: dict[str, Path] = {}
+    for name in _SOURCE_MODULES:
+        sources.update(_module_files(name))
+    return sources
+
+
+def source_hash(sources: dict[str, Path]) -> str:
+    """12 hex digits of SHA-256 over the files' labels and bytes, in label order."""
+    digest = hashlib.sha256()
+    for label in sorted(sources):
+        digest.update(label.encode())
+        digest.update(sources[label].read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def code_version(sources: dict[str, Path] | None = None) -> str:
+    """``<RENDERER_VERSION>-<source hash>`` of the references' code (default
+    :func:`reference_sources`); ``RENDERER_VERSION`` is ``0`` when ``renderers`` declares none."""
+    import renderers
+
+    files = reference_sources() if sources is None else sources
+    return f"{getattr(renderers, 'RENDERER_VERSION', '0')}-{source_hash(files)}"
+
+
+class ReferenceCache:
+    """High-spp references, rendered on first use and kept as EXR files (and the last few in
+    memory).
+
+    Args:
+        root: cache folder (``cache/references`` by default in the CLI; git-ignored).
+        parts: the parts that render; ``parts.code_version`` enters every key.
+    """
+
+    def __init__(self, root: str | Path, parts: Parts) -> None:
+        self.root = Path(root)
+        self.parts = parts
+        self._memory: dict[str, Frame] = {}
+
+    def path(self, run: Run, t_render: int) -> Path:
+        """The cache file of ``run``'s reference at renderer frame ``t_render``."""
+        depth = "d" if run.depth is None else f"d{run.depth}"
+        sampler = self.parts.reference_sampler()
+        sampler_name = getattr(sampler, "name", "") or type(sampler).__name__
+        version = self.parts.code_version.replace("/", "_")
+        name = (
+            f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
+            f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"
+            f"_{REFERENCE_FORMAT}_{version}.exr"
+        )
+        return self.root / run.scene / name
+
+    def get(self, run: Run, scene: Scene, t_render: int) -> Frame:
+        """The reference Frame of ``scene`` at renderer frame ``t_render`` for ``run``'s settings.
+
+        A torn or corrupt cache file is rendered again, not trusted.
+        """
+        path = self.path(run, t_render)
+        key = str(path)
+        if key in self._memory:
+            return self._memory[key]
+        frame = None
+        if path.exists():
+            try:
+                frame = read_frame(path)
+            except FileFormatError:
+                frame = None
+        if frame is None:
+            seeds = reference_seeds(run.height, run.width, t_render)
+            sampler = self.parts.reference_sampler()
+            frame = self.parts.render(scene, t_render, seeds, sampler, run.reference_spp)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_frame(path, frame)
+        if len(self._memory) >= _REFERENCES_IN_MEMORY:
+            self._memory.pop(next(iter(self._memory)))
+        self._memory[key] = frame
+        return frame

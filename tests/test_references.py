@@ -1,0 +1,128 @@
+"""Tests of benchmarks.references: reference seeds, the cache's round trip, and a cache key that
+follows every input of a reference (the tracer's and the samplers' code among them)."""
+
+import dataclasses
+import shutil
+
+import pytest
+import torch
+
+from benchmarks import references
+from benchmarks.parts import real_parts
+from benchmarks.plan import plan
+from benchmarks.references import (
+    ReferenceCache,
+    code_version,
+    reference_seeds,
+    reference_sources,
+    source_hash,
+)
+from benchmarks.suites import Suite, Sweep
+from bnerr.io import read_frame
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+class _Counting:
+    def __init__(self, render):
+        self.render, self.calls = render, 0
+
+    def __call__(self, *args, **kwargs):
+        self.calls += 1
+        return self.render(*args, **kwargs)
+
+
+def _run():
+    sweep = Sweep(
+        scenes=("direct",),
+        strategies=("white",),
+        spp=(1,),
+        denoisers=("gaussian",),
+        frames=2,
+        warmup=1,
+        res=(16, 12),
+        reference_spp=16,
+        seed_sets=1,
+    )
+    return plan(Suite("tiny", "test", sweeps=(sweep,)))[0]
+
+
+def _mix32_twin(x: int) -> int:
+    """The 0x45d9f3b mix on one Python int, written out (the slow twin of the seeds' hash)."""
+    for _ in range(2):
+        x = (((x >> 16) ^ x) * 0x45D9F3B) & 0xFFFFFFFF
+    return (x >> 16) ^ x
+
+
+def test_reference_seeds_are_deterministic_distinct_and_32_bit():
+    a = reference_seeds(32, 32, 3)
+    assert a.dtype == torch.int64 and a.shape == (32, 32)
+    assert torch.equal(a, reference_seeds(32, 32, 3))
+    assert a.unique().numel() == 32 * 32
+    assert int(a.min()) >= 0 and int(a.max()) < 2**32
+    assert not torch.equal(a, reference_seeds(32, 32, 4))
+
+
+@pytest.mark.parametrize("t", [0, 7, 2**32 + 5])
+def test_reference_seeds_are_bit_identical_to_the_written_out_hash(t):
+    # The committed references (and every result measured against them) depend on these bits.
+    want = [_mix32_twin(_mix32_twin(i ^ 0x5EEDBA5E) ^ (t & 0xFFFFFFFF)) for i in range(9 * 7)]
+    assert reference_seeds(9, 7, t).reshape(-1).tolist() == want
+
+
+def test_references_are_rendered_once_and_read_back_bit_exact(tmp_path):
+    counting = _Counting(real_parts().render)
+    parts = dataclasses.replace(real_parts(), render=counting)
+    run = _run()
+    scene = parts.get_scene("direct", True)
+    first = ReferenceCache(tmp_path, parts).get(run, scene, 5)
+    assert counting.calls == 1
+    again = ReferenceCache(tmp_path, parts).get(run, scene, 5)  # a new cache object: from disk
+    assert counting.calls == 1
+    assert torch.equal(first.color, again.color) and torch.equal(first.object_id, again.object_id)
+    (path,) = tmp_path.rglob("*.exr")
+    assert path.name.startswith("direct_m1_d_t5_16x12_spp16_owen_sobol_s5eedba5e_")
+    assert parts.code_version in path.name
+    path.write_bytes(b"torn")  # a corrupt cache file is rendered again, not trusted
+    assert torch.equal(ReferenceCache(tmp_path, parts).get(run, scene, 5).color, first.color)
+    assert counting.calls == 2
+    assert torch.equal(read_frame(path).color, first.color)
+
+
+def test_sources_cover_the_renderer_the_samplers_and_the_hash():
+    labels = set(reference_sources())
+    assert "renderers/tracer.py" in labels and "bnerr/hashing.py" in labels
+    assert any(label.startswith("bnerr/sequences") for label in labels)
+    assert all(label.endswith(".py") for label in labels)
+    version = code_version()
+    assert version == real_parts().code_version and len(version.split("-")[-1]) == 12
+
+
+def test_changing_a_samplers_code_invalidates_the_cache(tmp_path, monkeypatch):
+    sources = reference_sources()
+    sampler_label = next(label for label in sorted(sources) if label.startswith("bnerr/sequences"))
+    copy = tmp_path / "copy.py"
+    shutil.copy(sources[sampler_label], copy)
+    monkeypatch.setattr(references, "reference_sources", lambda: {**sources, sampler_label: copy})
+    before = real_parts()
+    assert before.code_version == code_version(sources)  # same bytes, same key
+    with copy.open("a") as handle:
+        handle.write("\n# a change to the sampler\n")
+    after = real_parts()
+    assert after.code_version != before.code_version
+    counting = _Counting(before.render)
+    run, cache = _run(), tmp_path / "cache"
+    scene = before.get_scene("direct", True)
+    ReferenceCache(cache, dataclasses.replace(before, render=counting)).get(run, scene, 1)
+    ReferenceCache(cache, dataclasses.replace(after, render=counting)).get(run, scene, 1)
+    assert counting.calls == 2 and len(list(cache.rglob("*.exr"))) == 2
+
+
+def test_source_hash_follows_labels_and_bytes(tmp_path):
+    a, b = tmp_path / "a.py", tmp_path / "b.py"
+    a.write_text("x = 1\n")
+    b.write_text("x = 1\n")
+    assert source_hash({"a.py": a}) == source_hash({"a.py": b})
+    assert source_hash({"a.py": a}) != source_hash({"b.py": a})
+    b.write_text("x = 2\n")
+    assert source_hash({"a.py": a}) != source_hash({"a.py": b})
