@@ -71,6 +71,24 @@ def _interleaved(
     return {name: statistics.median(ts) for name, ts in times.items()}
 
 
+def _inputs(width: int, height: int, block: int, device: torch.device, mask_size: int):
+    """``(color [3, H, W], lum [H, W], seeds [H, W], mask [H, W], plan)``, the sort pass checked
+    against the argsort baseline."""
+    gen = torch.Generator().manual_seed(0)
+    color = torch.rand(3, height, width, generator=gen).to(device)
+    lum = luminance(color)
+    seeds = torch.randperm(height * width, generator=gen).view(height, width).to(device)
+    tile = load_mask("scalar", mask_size).to(device)
+    mask = tile_mask(tile, height, width, frame_offset(1, mask_size))
+    plan = plan_sort(mask, block)
+    fast = sort_pass(seeds, lum, plan, block)
+    if height % block == 0 and width % block == 0:
+        # Random floats, no ties or NaN: every stable sort agrees, so the baseline must too.
+        if not torch.equal(fast, argsort_sort_pass(seeds, lum, mask, block)):
+            raise RuntimeError("speed_permute: the argsort baseline disagrees with sort_pass")
+    return color, lum, seeds, mask, plan
+
+
 def measure(
     width: int = 1920,
     height: int = 1080,
@@ -92,19 +110,7 @@ def measure(
     if threads:
         torch.set_num_threads(threads)
     try:
-        gen = torch.Generator().manual_seed(0)
-        color = torch.rand(3, height, width, generator=gen).to(device)
-        lum = luminance(color)
-        seeds = torch.randperm(height * width, generator=gen).view(height, width).to(device)
-        mask = tile_mask(
-            load_mask("scalar", mask_size).to(device), height, width, frame_offset(1, mask_size)
-        )
-        plan = plan_sort(mask, block)
-        fast = sort_pass(seeds, lum, plan, block)
-        if height % block == 0 and width % block == 0:
-            # Random floats, no ties or NaN: every stable sort agrees, so the baseline must too.
-            if not torch.equal(fast, argsort_sort_pass(seeds, lum, mask, block)):
-                raise RuntimeError("speed_permute: the argsort baseline disagrees with sort_pass")
+        color, lum, seeds, mask, plan = _inputs(width, height, block, device, mask_size)
         field = load_retarget(mask_size).to(device)
         retarget = Retarget(field)
         offsets = [frame_offset(t, mask_size) for t in range(16)]
