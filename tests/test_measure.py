@@ -1,0 +1,142 @@
+"""Tests of benchmarks.measure with stand-in parts: the timings come from the frame's own clock
+(one stopwatch per render), stateless strategies skip the warmup, crops are sRGB previews, and the
+denoisers are tuned once on white noise."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from benchmarks.measure import TUNING_SEED_SET, measure_run, tune_denoisers
+from benchmarks.parts import Parts
+from benchmarks.plan import plan
+from benchmarks.references import ReferenceCache
+from benchmarks.suites import Suite, Sweep
+from bnerr import strategies
+from bnerr.color import preview_u8
+from bnerr.frame import Frame
+from bnerr.sequences import make_sampler
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+@dataclasses.dataclass(frozen=True)
+class _Scene:
+    dimensions: int = 3
+
+
+class _Render:
+    """A render whose colour is a fixed function of the seeds and t; reports 7 ms, records calls."""
+
+    def __init__(self):
+        self.calls = []
+
+    def __call__(self, scene, t, seeds, sampler, spp):
+        self.calls.append((t, spp))
+        u = ((seeds * 2654435761 + t) % 1000003).float() / 1000003
+        color = torch.stack([u, u * u, 1 - u]) * 2.0
+        object_id = (torch.arange(seeds.numel()).view(seeds.shape) % 3).float()[None]
+        return Frame(
+            color=color, object_id=object_id, variance=color * 0.01, timings={"render": 7.0}
+        )
+
+
+class _Store:
+    def __init__(self):
+        self.entries, self.puts = {}, []
+
+    def put(self, result, scene, spp):
+        self.puts.append((result, scene, spp))
+        self.entries.setdefault(result, {}).setdefault(scene, {})[str(spp)] = {"scale": 0.5}
+
+    def params(self, denoiser, scene, spp):
+        return self.entries[denoiser][scene][str(spp)]
+
+
+def _parts(render):
+    def make_strategy(name, scene, height, width, seed, sampler):
+        return strategies.make_strategy(name, height, width, seed=seed, sampler=sampler)
+
+    def make_denoiser(name, params):
+        scale = (params or {}).get("scale", 1.0)
+        return lambda frame: frame.color * scale
+
+    return Parts(
+        get_scene=lambda name, animated: _Scene(),
+        render=render,
+        make_strategy=make_strategy,
+        stateful=lambda s: isinstance(s, strategies.TemporalStrategy),
+        make_denoiser=make_denoiser,
+        tune_denoiser=lambda name, frames, refs: name if name == "half" else None,
+        reference_sampler=lambda: make_sampler("owen_sobol"),
+        with_depth=lambda scene, depth: scene,
+        code_version="test",
+    )
+
+
+def _run(strategy, crops=True):
+    sweep = Sweep(scenes=("direct",), strategies=(strategy,), spp=(2,), denoisers=("gaussian",),
+                  frames=2, warmup=3, res=(10, 8), reference_spp=4, seed_sets=2)  # fmt: skip
+    (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=crops))
+    return dataclasses.replace(run, denoisers=("half", "plain"))
+
+
+def test_timings_are_the_frames_own_and_stateless_strategies_skip_the_warmup(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    run = _run("white")
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    ticks = []
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers,
+                          on_frame=lambda: ticks.append(1))  # fmt: skip
+    assert len(records) == 2 and len(ticks) == 2 * (3 + 2)
+    measured = [c for c in render.calls if c[1] == 2]
+    assert measured == [(3, 2), (4, 2)] * 2  # the warmup frames 0..2 are not rendered
+    for rec in records:
+        assert rec.timings.render_ms == [[7.0, 7.0], [7.0, 7.0]]
+        assert all(v >= 0 for row in rec.timings.perm_ms for v in row)
+        assert rec.t == [3, 4] and rec.reference.version == "test" and rec.dimensions == 3
+        assert rec.reference.floor > 0 and rec.crop is None  # no crops folder given
+
+
+def test_temporal_renders_its_warmup_and_crops_are_srgb_previews(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    run = _run("temporal")
+    refs = ReferenceCache(tmp_path / "refs", parts)
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    records = measure_run(run, parts, refs, denoisers, crops_dir=tmp_path / "crops")
+    assert len([c for c in render.calls if c[1] == 2]) == 2 * (3 + 2)
+    assert records[0].crop == "crops/direct_temporal_2spp_m1_owen_sobol.npz"
+    with np.load(tmp_path / records[0].crop) as data:
+        ref = refs.get(run, _Scene(), 3).color
+        np.testing.assert_array_equal(data["reference"], preview_u8(ref))
+        assert set(data.files) == {"reference", "raw", "denoised__half", "denoised__plain"}
+
+
+def test_denoisers_are_tuned_once_on_the_white_tuning_seed_set(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    made = []
+    parts = dataclasses.replace(
+        parts,
+        make_strategy=lambda name, scene, h, w, seed, sampler: (
+            made.append((name, seed))
+            or strategies.make_strategy(name, h, w, seed=seed, sampler=sampler)
+        ),
+    )
+    store = _Store()
+    run = _run("temporal")
+    refs = ReferenceCache(tmp_path, parts)
+    denoisers = tune_denoisers(run, parts, refs, store)
+    assert made == [("white", TUNING_SEED_SET)]
+    assert [p[1:] for p in store.puts] == [("direct/m1/owen_sobol/10x8", 2)]
+    frame = Frame(color=torch.ones(3, 8, 10))
+    assert (
+        float(denoisers["half"](frame).mean()) == 0.5
+        and float(denoisers["plain"](frame).mean()) == 1
+    )
+    tune_denoisers(dataclasses.replace(run, denoisers=("half",)), parts, refs, store)
+    # already stored: nothing rendered or tuned again
+    assert made == [("white", TUNING_SEED_SET)] and len(store.puts) == 1

@@ -1,0 +1,33 @@
+"""Tests of benchmarks.parts: the project's own parts and registries."""
+
+import pytest
+import torch
+
+from benchmarks.parts import known_names, real_parts
+from benchmarks.references import code_version
+from bnerr.strategies import STRATEGIES
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def test_known_names_are_the_registries():
+    names = known_names()
+    assert names["known_strategies"] == tuple(STRATEGIES)
+    assert "direct" in names["known_scenes"] and "gaussian" in names["known_denoisers"]
+
+
+def test_real_parts_render_through_a_strategy():
+    parts = real_parts()
+    assert parts.code_version == code_version()
+    scene = parts.get_scene("direct", True)
+    strategy = parts.make_strategy("temporal", scene, 6, 8, 0, "owen_sobol")
+    assert parts.stateful(strategy) and not parts.stateful(
+        parts.make_strategy("white", scene, 6, 8, 0, "owen_sobol")
+    )
+    frame = strategy.frame(0, lambda seeds, sampler: parts.render(scene, 0, seeds, sampler, 1))
+    assert frame.color.shape == (3, 6, 8) and frame.timings["render"] > 0
+    assert parts.with_depth(scene, 2).max_depth == 2
+    assert parts.reference_sampler().name == "owen_sobol"
+    assert parts.tune_denoiser("gaussian_does_not_exist", [], []) is None
+    out = parts.make_denoiser("gaussian", None)(frame)
+    assert out.shape == (3, 6, 8) and out.dtype == torch.float32

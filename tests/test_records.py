@@ -1,0 +1,112 @@
+"""Tests of benchmarks.records: the typed record's JSON round trip, the committed results files,
+and typed errors (naming file and line) for garbled, truncated or foreign lines."""
+
+import json
+from pathlib import Path
+
+import pytest
+
+from benchmarks.plan import Cell
+from benchmarks.records import (
+    RESULTS_FILE,
+    Record,
+    ReferenceInfo,
+    ResultsExistError,
+    Spectrum,
+    Timings,
+    check_no_results,
+    load_records,
+    write_records,
+)
+from bnerr.errors import BnerrError, FileFormatError
+
+_RESULTS = Path(__file__).resolve().parents[1] / "results"
+
+
+def _record(strategy: str = "white", crop: str | None = None) -> Record:
+    cell = Cell(
+        scene="direct", strategy=strategy, spp=1, denoiser="gaussian", motion=1, depth=None,
+        region="all", sampler="owen_sobol", frames=2, warmup=1, width=16, height=12, seed_sets=1,
+        reference_spp=16,
+    )  # fmt: skip
+    return Record(
+        cell=cell,
+        dimensions=4,
+        t=[1, 2],
+        raw={"mse": [[[0.5, 576.0], [0.25, 576.0]]]},
+        den={"mse": [[[0.125, 576.0], [0.0625, 576.0]]]},
+        denoiser_params={"sigma": 1.5},
+        timings=Timings(render_ms=[[1.0, 2.0]], perm_ms=[[0.1, 0.2]], denoise_ms=[[0.3, 0.4]]),
+        reference=ReferenceInfo(spp=16, floor=None, version="0-abc"),
+        spectrum={"raw": Spectrum([0.0, 0.5], [1.0, 2.0]), "den": Spectrum([], [])},
+        crop=crop,
+    )
+
+
+def test_a_record_round_trips_through_json_with_its_key():
+    rec = _record(crop="crops/x.npz")
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["key"] == rec.cell.key() == rec.key
+    assert data["timings"]["render_ms"] == [[1.0, 2.0]] and data["spectrum"]["den"]["freq"] == []
+    assert Record.from_json(data) == rec
+
+
+def test_write_and_load_keep_order_and_values(tmp_path):
+    records = [_record("white"), _record("temporal")]
+    write_records(tmp_path, records)
+    assert load_records(tmp_path) == records
+    assert load_records(tmp_path / "nowhere") == []
+    assert not list(tmp_path.glob(".*.tmp*"))
+
+
+@pytest.mark.parametrize("suite", ["quick", "quality", "stability"])
+def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
+    path = _RESULTS / suite / RESULTS_FILE
+    if not path.exists():
+        pytest.skip(f"no committed {suite} results")
+    records = load_records(path.parent)
+    assert records and all(isinstance(r, Record) for r in records)
+    write_records(tmp_path, records)
+    assert (tmp_path / RESULTS_FILE).read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"\xff\xfe\x00\x01 binary", r"expected UTF-8 JSON records, got bad bytes on line 1"),
+        (b"{}\n", r"line 1: expected a benchmark record, got missing field 'cell'"),
+        (b"[1, 2]\n", r"line 1: expected a benchmark record, got a JSON object, got list"),
+        (b"\n\nnot json\n", r"expected one JSON record per line, got bad line 3"),
+    ],
+)
+def test_garbled_lines_raise_typed_errors_naming_file_and_line(tmp_path, content, message):
+    (tmp_path / RESULTS_FILE).write_bytes(content)
+    with pytest.raises(FileFormatError, match=message) as err:
+        load_records(tmp_path)
+    assert str(err.value).startswith(str(tmp_path / RESULTS_FILE))
+
+
+def test_a_truncated_last_line_is_reported_not_skipped(tmp_path):
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # a write cut short
+    with pytest.raises(FileFormatError, match="bad line 2"):
+        load_records(tmp_path)
+
+
+def test_a_record_with_a_foreign_cell_field_is_refused(tmp_path):
+    data = _record().to_json()
+    data["cell"]["colour"] = "blue"
+    (tmp_path / RESULTS_FILE).write_text(json.dumps(data) + "\n")
+    with pytest.raises(FileFormatError, match="line 1: expected a benchmark record"):
+        load_records(tmp_path)
+
+
+def test_check_no_results_refuses_a_folder_with_finished_cells(tmp_path):
+    check_no_results(tmp_path)  # no file
+    (tmp_path / RESULTS_FILE).write_text("\n")
+    check_no_results(tmp_path)  # nothing finished
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    with pytest.raises(ResultsExistError, match=r"got 2; pass --resume .* or --overwrite") as err:
+        check_no_results(tmp_path)
+    assert isinstance(err.value, BnerrError) and isinstance(err.value, FileExistsError)
