@@ -47,3 +47,58 @@ def test_bad_arguments_exit_2_with_a_message(tmp_path, capsys, argv, message):
     argv = [a if not a.startswith("m.") else str(tmp_path / a) for a in argv]
     assert main(["mask", *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+# ---- spatiotemporal masks (--frames) ------------------------------------------------------------
+
+
+def test_frames_writes_the_scalar_stbn_and_reports_both_fractions(tmp_path, capsys):
+    from bnerr.stbn import stbn_scalar
+
+    out = tmp_path / "st.npy"
+    argv = ["mask", "--size", "8", "--frames", "3", "--seed", "2", "--threads", "1"]
+    assert main([*argv, "--out", str(out)]) == 0
+    saved = np.load(out)
+    assert saved.dtype == np.float32 and saved.shape == (3, 8, 8)
+    assert np.array_equal(saved, stbn_scalar(8, 3, seed=2).numpy())
+    printed = capsys.readouterr().out
+    assert "per slice: max" in printed and "temporal low-frequency fraction" in printed
+    assert not [p for p in tmp_path.iterdir() if p.name != "st.npy"]  # no temporary left
+
+
+def test_frames_with_dims_writes_the_vector_stbn(tmp_path):
+    from bnerr.stbn import stbn_vector
+
+    out = tmp_path / "v.npy"
+    argv = ["mask", "--size", "12", "--frames", "2", "--dims", "2", "--iterations", "1"]
+    assert main([*argv, "--sigma", "1.5", "--out", str(out)]) == 0
+    want = stbn_vector(12, 2, 2, seed=0, sigma=1.5, iterations=1)
+    assert np.array_equal(np.load(out), want.numpy())
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--frames", "2", "--out", "m.exr"], "expected a .npy file for a spatiotemporal mask"),
+        (["--frames", "0", "--out", "m.npy"], "--frames: expected an integer >= 1"),
+        (["--frames", "2", "--size", "1", "--out", "m.npy"], "--size: expected an integer >= 2"),
+        (["--frames", "2", "--out", "file.txt/m.npy"], "file.txt"),
+        (["--out", "file.txt/m.npy"], "file.txt"),
+        (["--frames", "2", "--threads", "0", "--out", "m.npy"], "--threads"),
+    ],
+)
+def test_frames_output_and_arguments_are_checked_before_generating(
+    tmp_path, capsys, monkeypatch, argv, message
+):
+    import benchmarks.commands.mask as command
+
+    def never(*args, **kwargs):
+        raise AssertionError("generated before the arguments were checked")
+
+    for name in ("stbn_scalar", "stbn_vector", "void_and_cluster", "vector_mask"):
+        monkeypatch.setattr(command, name, never)
+    (tmp_path / "file.txt").write_text("not a folder")
+    argv = [str(tmp_path / a) if a.startswith(("m.", "file.txt")) else a for a in argv]
+    assert main(["mask", *argv]) == 2
+    assert message in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]
