@@ -13,12 +13,12 @@ from __future__ import annotations
 import argparse
 import statistics
 import sys
-import time
 from collections.abc import Sequence
 
 import torch
 
 from bnerr.frame import Frame
+from bnerr.timing import Stopwatch
 
 __all__ = ["main", "measure", "synthetic_frame"]
 
@@ -59,9 +59,9 @@ def measure(
         denoiser(frame)  # warm-up
         times = []
         for _ in range(repeats):
-            start = time.perf_counter()
-            denoiser(frame)
-            times.append(time.perf_counter() - start)
+            watch = Stopwatch()
+            out = denoiser(frame)
+            times.append(watch.ms(out) / 1e3)
         results[name] = statistics.median(times)
     return results
 
@@ -76,7 +76,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     width, height = args.size
     print(
-        f"denoise time at {width}x{height}, {torch.get_num_threads()} torch threads, median of {args.repeats}"
+        f"denoise time at {width}x{height}, {torch.get_num_threads()} torch threads, "
+        f"median of {args.repeats}"
     )
     for name, seconds in measure(args.denoiser, height, width, args.repeats).items():
         print(f"  {name:16s} {'unavailable' if seconds is None else f'{seconds:8.3f} s'}")

@@ -15,12 +15,12 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import time
 from collections.abc import Sequence
 
 import torch
 
 from bnerr.sequences import SAMPLERS, make_sampler
+from bnerr.timing import Stopwatch, sync
 
 __all__ = ["main", "measure"]
 
@@ -31,11 +31,6 @@ def _lanes(n: int, device: torch.device):
     index = lane % 64
     pixel = torch.stack([(lane // 64) // 1024, (lane // 64) % 1024], dim=1)
     return seed, index, pixel
-
-
-def _sync(device: torch.device) -> None:
-    if device.type == "cuda":
-        torch.cuda.synchronize(device)
 
 
 def measure(
@@ -68,11 +63,10 @@ def measure(
             sampler.sample(seed, index, 0, count, pixel)  # warm-up
             times = []
             for _ in range(repeats):
-                _sync(device)
-                start = time.perf_counter()
+                sync(device)
+                watch = Stopwatch()
                 sampler.sample(seed, index, 0, count, pixel)
-                _sync(device)
-                times.append(time.perf_counter() - start)
+                times.append(watch.ms(device) / 1e3)
             results[name][count] = statistics.median(times)
     return results
 

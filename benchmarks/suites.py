@@ -180,7 +180,9 @@ _SETS = dict(seed_sets=4, frames=3, warmup=6)
 SUITES: dict[str, Suite] = {
     "quick": Suite(
         name="quick",
-        description="direct and indirect, white/temporal/oracle, 1 and 4 spp, gaussian and atrous, 128x128",
+        description=(
+            "direct and indirect, white/temporal/oracle, 1 and 4 spp, gaussian and atrous, 128x128"
+        ),
         sweeps=(
             Sweep(
                 scenes=("direct", "indirect"),
@@ -195,7 +197,9 @@ SUITES: dict[str, Suite] = {
     ),
     "quality": Suite(
         name="quality",
-        description="every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (about an hour)",
+        description=(
+            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (about an hour)"
+        ),
         sweeps=(
             Sweep(
                 scenes=_ALL_SCENES,
@@ -210,13 +214,18 @@ SUITES: dict[str, Suite] = {
     ),
     "speed": Suite(
         name="speed",
-        description="renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p",
+        description=(
+            "renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p"
+        ),
         scripts=("throughput", "speed_permute", "speed_denoise", "speed_masks", "speed_sequences"),
         crops=False,
     ),
     "stability": Suite(
         name="stability",
-        description="failure cases: texture, edges, motion, sequences, 1-64 spp, 1-8 bounces; ratio to white",
+        description=(
+            "failure cases: texture, edges, motion, sequences, 1-64 spp, "
+            "1-8 bounces; ratio to white"
+        ),
         sweeps=(
             # Texture: the paper's failure case, against the same table without its texture; and
             # object edges, where a seed moved across an edge lands on another object.

@@ -74,11 +74,11 @@ class _Ours:
         self.spp, self.compile = spp, compile
 
     def __call__(self) -> float:
+        """Seconds of one render, by the renderer's own clock (its frame's ``timings``)."""
         from renderers import render
 
-        start = time.perf_counter()
-        render(self.scene, 0, self.seeds, self.sampler, self.spp, compile=self.compile)
-        return time.perf_counter() - start
+        frame = render(self.scene, 0, self.seeds, self.sampler, self.spp, compile=self.compile)
+        return frame.timings["render"] / 1e3
 
 
 class _Mitsuba:
@@ -236,6 +236,46 @@ def measure_mitsuba(
         worker.close()
 
 
+def _scene_row(
+    name: str,
+    width: int,
+    height: int,
+    spp: int,
+    repeats: int,
+    compile: bool,
+    variants: Sequence[str],
+    threads: int | None,
+) -> dict[str, object]:
+    """One scene's figures: ours and each Mitsuba variant's, rendered in interleaved rounds."""
+    ours = _Ours(name, width, height, spp, compile)
+    ours_warmup = ours()
+    workers = {v: _Mitsuba(v, name, width, height, spp, threads, 900.0) for v in variants}
+    ours_times: list[float] = []
+    their_times: dict[str, list[float]] = {v: [] for v in variants}
+    ratios: dict[str, list[float]] = {v: [] for v in variants}
+    try:
+        for _ in range(repeats):
+            mine = ours()
+            ours_times.append(mine)
+            for v, worker in workers.items():
+                theirs = worker()
+                if theirs is not None:
+                    their_times[v].append(theirs)
+                    ratios[v].append(theirs / mine)
+    finally:
+        for worker in workers.values():
+            worker.close()
+    samples = width * height * spp
+    row: dict[str, object] = {"bnerr": _figures(ours_times, ours_warmup, samples)}
+    for v, worker in workers.items():
+        ok = worker.error is None and their_times[v]
+        row[f"mitsuba_{v}"] = (
+            _figures(their_times[v], worker.warmup, samples) if ok else worker.error
+        )
+        row[f"ratio_{v}"] = statistics.median(ratios[v]) if ok else None
+    return row
+
+
 def measure(
     scenes: Sequence[str] = ("direct", "cornell"),
     width: int = 256,
@@ -268,35 +308,9 @@ def measure(
             "load_average": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
         }
     }
-    samples = width * height * spp
     try:
         for name in scenes:
-            ours = _Ours(name, width, height, spp, compile)
-            ours_warmup = ours()
-            workers = {v: _Mitsuba(v, name, width, height, spp, threads, 900.0) for v in variants}
-            ours_times: list[float] = []
-            their_times: dict[str, list[float]] = {v: [] for v in variants}
-            ratios: dict[str, list[float]] = {v: [] for v in variants}
-            try:
-                for _ in range(repeats):
-                    mine = ours()
-                    ours_times.append(mine)
-                    for v, worker in workers.items():
-                        theirs = worker()
-                        if theirs is not None:
-                            their_times[v].append(theirs)
-                            ratios[v].append(theirs / mine)
-            finally:
-                for worker in workers.values():
-                    worker.close()
-            row: dict[str, object] = {"bnerr": _figures(ours_times, ours_warmup, samples)}
-            for v, worker in workers.items():
-                ok = worker.error is None and their_times[v]
-                row[f"mitsuba_{v}"] = (
-                    _figures(their_times[v], worker.warmup, samples) if ok else worker.error
-                )
-                row[f"ratio_{v}"] = statistics.median(ratios[v]) if ok else None
-            out[name] = row
+            out[name] = _scene_row(name, width, height, spp, repeats, compile, variants, threads)
     finally:
         torch.set_num_threads(before)
     return out
@@ -305,9 +319,9 @@ def measure(
 def _print(result: dict[str, object]) -> None:
     settings = result["settings"]
     print(
-        f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, {settings['repeats']} "
-        f"interleaved rounds, torch threads {settings['torch_threads']}, compile {settings['compile']}, "
-        f"load average {settings['load_average']}"
+        f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, "
+        f"{settings['repeats']} interleaved rounds, torch threads {settings['torch_threads']}, "
+        f"compile {settings['compile']}, load average {settings['load_average']}"
     )
     for name, row in result.items():
         if name == "settings":
@@ -320,9 +334,8 @@ def _print(result: dict[str, object]) -> None:
                     f"warm-up {value['warmup_s']:.1f} s)"
                 )
             elif key.startswith("ratio"):
-                print(
-                    f"{name:8s} {key:22s} {'n/a' if value is None else f'{value:8.2f}x'} (median per round)"
-                )
+                shown = "n/a" if value is None else f"{value:8.2f}x"
+                print(f"{name:8s} {key:22s} {shown} (median per round)")
             else:
                 print(f"{name:8s} {key:22s} {value}")
 

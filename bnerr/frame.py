@@ -39,7 +39,11 @@ class Frame:
         object_id: ``[1, H, W]`` object index as float (-1: background), or None.
         variance: ``[3, H, W]`` per-pixel sample variance of the color mean (the variance of the
             estimate, i.e. sample variance / spp), or None.
-        timings: wall-clock milliseconds by stage name (``"render"``, ...).
+        timings: wall-clock milliseconds by stage name. ``"render"``: time inside the renderer,
+            filled by the renderer itself (the one clock every caller reads; a strategy that
+            renders several times reports the sum); ``"strategy"``: a seed strategy's own work
+            outside the renderer (:meth:`bnerr.strategies.Strategy.frame`); ``"denoise"``: the
+            denoiser's (``bnerr denoise``).
     """
 
     color: torch.Tensor
@@ -83,7 +87,7 @@ class Frame:
             if f.name != "timings" and getattr(self, f.name) is not None
         }
 
-    def to(self, device: torch.device | str) -> "Frame":
+    def to(self, device: torch.device | str) -> Frame:
         """A copy with every buffer on ``device``."""
         moved = {name: t.to(device) for name, t in self.buffers().items()}
         return Frame(**moved, timings=dict(self.timings))
