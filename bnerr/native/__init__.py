@@ -15,8 +15,8 @@ border band to pair the targets whose source is off screen with the unclaimed so
 How it is built: the C source ``permute.c`` (package data beside this file) is compiled at first
 use with the system C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) into a shared library
 in a per-user cache and loaded with :mod:`ctypes` only if it is the one this source, these flags,
-this compiler and this CPU built (:mod:`bnerr.native.build` says how). It takes about a second,
-once. No torch headers, no Python extension module.
+this compiler and this CPU built (:mod:`bnerr.native.build` says how). The build takes a few
+seconds (5 s of CPU with GCC 12), once per machine. No torch headers, no Python extension module.
 
 When it is not used: ``BNERR_NATIVE=0`` turns it off (silently). A missing compiler, a failed
 build or a library without the expected functions gives one warning, which names the compiler and
@@ -55,10 +55,13 @@ __all__ = [
     "status",
 ]
 
-#: What the torch path costs instead, quoted in the warnings (measured with
-#: ``python -m benchmarks.speed_permute --threads 1`` at 1920x1080: 252 ms against 87 ms for the
-#: sort pass, 52 ms against 22 ms for the retargeting pass).
-TORCH_PATH_COST = "the sort and retargeting passes run about 2-3x slower on the CPU"
+#: What the torch path costs instead, quoted in the warnings. Measured at 1920x1080 with
+#: ``python -m benchmarks.speed_permute``: on 2 idle threads the sort pass took 39 ms against
+#: 3.3 ms, the retargeting pass 12.5 ms against 7.5 ms; on 1 thread of a loaded machine 252 ms
+#: against 87 ms and 52 ms against 22 ms.
+TORCH_PATH_COST = (
+    "on the CPU the sort pass runs about 3-12x and the retargeting pass about 2x slower at 1080p"
+)
 _SYMBOLS = ("bnerr_sort_pass", "bnerr_retarget")
 
 
