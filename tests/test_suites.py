@@ -69,7 +69,9 @@ def test_speed_names_existing_scripts():
 
 
 def test_resolve_overrides_every_sweep():
-    suite = resolve(get_suite("stability"), scenes=["direct"], spp=[2], frames=3, warmup=0, res=(16, 8))
+    suite = resolve(
+        get_suite("stability"), scenes=["direct"], spp=[2], frames=3, warmup=0, res=(16, 8)
+    )
     for sweep in suite.sweeps:
         assert sweep.scenes == ("direct",) and sweep.spp == (2,)
         assert (sweep.frames, sweep.warmup, sweep.res) == (3, 0, (16, 8))
@@ -105,7 +107,11 @@ def test_bad_configurations_raise_typed_errors():
 
 def test_runs_count_renders_not_denoisers_or_regions():
     sweep = Sweep(
-        scenes=("a", "b"), strategies=("white", "temporal"), spp=(1, 4), denoisers=("x", "y", "z"),
-        seed_sets=2, conditions=(Condition(), Condition(region="edges"), Condition(motion=0)),
+        scenes=("a", "b"),
+        strategies=("white", "temporal"),
+        spp=(1, 4),
+        denoisers=("x", "y", "z"),
+        seed_sets=2,
+        conditions=(Condition(), Condition(region="edges"), Condition(motion=0)),
     )
     assert sweep.runs == 2 * 2 * 2 * 2 * 2
