@@ -1,7 +1,7 @@
 """The denoiser interface: a Frame in, a color image ``[3, H, W]`` out.
 
 Every denoiser (the kornia filters, the U-Net, OIDN) is a pure function over tensors plus a thin
-class around it that stores its parameters (STYLE.md habit 1). The class is what the registry hands
+class around it that stores its parameters. The class is what the registry hands
 out and what the benchmark calls; it checks the frame at the boundary once, so the functions below
 it trust their inputs.
 
@@ -28,17 +28,26 @@ class MissingBufferError(BnerrError, ValueError):
     """A frame lacks an auxiliary buffer (albedo, normal, depth, ...) that a denoiser needs."""
 
 
-def check_frame(frame: object, requires: frozenset[str], who: str) -> Frame:
+def check_frame(
+    frame: object,
+    requires: frozenset[str],
+    who: str,
+    infinite_ok: frozenset[str] = frozenset(),
+) -> Frame:
     """Check that ``frame`` is a :class:`~bnerr.frame.Frame` holding every buffer in ``requires``.
 
-    Also checks that its color is finite: one NaN spreads over the whole support of a filter (or
-    the receptive field of a network), and the place it came from is then lost.
+    Also checks that every buffer read (its color and those in ``requires``) is finite: one NaN
+    spreads over the whole support of a filter (or the receptive field of a network), and the
+    place it came from is then lost. The error names the buffer, the count and the first pixel.
+    Buffers in ``infinite_ok`` may hold ``+inf`` (a depth of ``+inf`` marks an escaped ray in
+    some renderers; the denoiser that allows it says how it reads it); NaN and ``-inf`` are
+    still refused there.
 
     Raises:
         DtypeError: ``frame`` is not a Frame.
         MissingBufferError: a required buffer is None; the message names it and the denoiser.
         ShapeError: a buffer's shape does not match ``[C, H, W]`` of the color.
-        NonFiniteError: the color holds NaN or infinity.
+        NonFiniteError: a buffer read holds NaN or infinity (``+inf`` where allowed aside).
     """
     if not isinstance(frame, Frame):
         raise DtypeError(f"{who}: expected a bnerr.frame.Frame, got {type(frame).__name__}")
@@ -53,8 +62,14 @@ def check_frame(frame: object, requires: frozenset[str], who: str) -> Frame:
     size = check_shape(frame.color, "3 H W", f"{who}: frame.color")
     for name in sorted(requires):
         channels = _CHANNELS.get(name, 3)
-        check_shape(getattr(frame, name), f"{channels} {size['H']} {size['W']}", f"{who}: frame.{name}")
-    check_finite(frame.color, f"{who}: frame.color")
+        check_shape(
+            getattr(frame, name), f"{channels} {size['H']} {size['W']}", f"{who}: frame.{name}"
+        )
+    for name in ("color", *sorted(requires)):
+        values = getattr(frame, name)
+        if name in infinite_ok:
+            values = torch.where(torch.isposinf(values), torch.zeros_like(values), values)
+        check_finite(values, f"{who}: frame.{name}")
     return frame
 
 
@@ -63,21 +78,26 @@ class Denoiser:
 
     Subclasses set ``name``, set ``requires`` (the auxiliary buffers they read, besides color) and
     implement :meth:`denoise`. ``__call__`` checks the frame (a missing buffer raises
-    :class:`MissingBufferError` naming it) and returns a float32 tensor on the frame's device.
+    :class:`MissingBufferError` naming it, a non-finite one :class:`NonFiniteError`) and returns
+    a float32 tensor on the frame's device, checked finite: a denoiser never hands back NaN.
 
     Attributes:
         name: the registry name (``"gaussian"``, ``"unet"``, ...).
         requires: buffer names the denoiser reads besides ``color``.
+        infinite_ok: buffers of ``requires`` that may hold ``+inf`` (see :func:`check_frame`).
     """
 
     name: ClassVar[str] = ""
     requires: frozenset[str] = frozenset()
+    infinite_ok: frozenset[str] = frozenset()
 
     def __call__(self, frame: Frame) -> torch.Tensor:
-        frame = check_frame(frame, self.requires, f"denoiser {self.name!r}")
+        who = f"denoiser {self.name!r}"
+        frame = check_frame(frame, self.requires, who, self.infinite_ok)
         out = self.denoise(frame)
         # Catch a subclass that breaks the contract here rather than in the caller's metric.
-        check_shape(out, f"3 {frame.height} {frame.width}", f"denoiser {self.name!r} output")
+        check_shape(out, f"3 {frame.height} {frame.width}", f"{who} output")
+        check_finite(out, f"{who} output (finite input)")
         return out
 
     def denoise(self, frame: Frame) -> torch.Tensor:

@@ -2,7 +2,7 @@
 
 Each filter is a pure function over tensors (``color [3, H, W]`` plus the guides it reads, all on
 one device, float32) and a thin :class:`~denoisers.base.Denoiser` class that stores its parameters
-and reads the buffers from a Frame (STYLE.md habit 1).
+and reads the buffers from a Frame.
 
 Parameters are not chosen here: :mod:`denoisers.tuning` picks them per scene and spp on
 white-noise renders, and the benchmark then uses them unchanged for every strategy. The defaults
@@ -24,7 +24,8 @@ import kornia.filters as KF
 import torch
 import torch.nn.functional as F
 
-from bnerr.errors import ValueRangeError, check_positive_int, check_range
+from bnerr.color import LUMINANCE_WEIGHTS
+from bnerr.errors import ValueRangeError, check_memory, check_positive_int, check_range
 from bnerr.frame import Frame
 from denoisers.base import Denoiser
 
@@ -38,22 +39,33 @@ __all__ = [
     "atrous_filter",
     "bilateral_filter",
     "gaussian_filter",
+    "guided_bytes",
     "guided_filter",
     "joint_bilateral_filter",
     "luminance",
+    "median_bytes",
     "median_filter",
 ]
 
 _BORDER = "replicate"
 
 # Rec. 709 luminance weights (linear RGB), the ones pbrt and Mitsuba use for luminance().
-_LUMINANCE = (0.2126, 0.7152, 0.0722)
+_LUMINANCE = LUMINANCE_WEIGHTS
+# Above this magnitude a float32 square (variances, covariances) overflows to infinity and the
+# filters that square their input would return NaN: they then compute in float64 (a finite
+# float32 value squared is at most 1.2e77 there) and return float32. Below it nothing changes.
+_FLOAT32_SAFE = 1e18
 
 
 def luminance(color: torch.Tensor) -> torch.Tensor:
     """Rec. 709 luminance of linear RGB: ``[3, ...]`` -> ``[1, ...]`` (same device and dtype)."""
     w = torch.tensor(_LUMINANCE, device=color.device, dtype=color.dtype)
     return torch.einsum("c...,c->...", color, w).unsqueeze(0)
+
+
+def _needs_float64(*tensors: torch.Tensor) -> bool:
+    """Whether a float32 filter over these tensors would square a value past float32's range."""
+    return any(t.dtype == torch.float32 and bool(t.abs().amax() > _FLOAT32_SAFE) for t in tensors)
 
 
 def _odd(radius: float) -> int:
@@ -88,17 +100,21 @@ def bilateral_filter(color: torch.Tensor, sigma_color: float, sigma_space: float
     and is kept as it is. That is the textbook behaviour, kept on purpose.
     """
     k = _odd(2.0 * sigma_space)
-    # Filtering color / mean and multiplying back is the same as a range sigma of sigma_color * mean.
+    # Filtering color / mean and multiplying back equals a range sigma of sigma_color * mean.
     scale = color.mean().clamp_min(1e-6)
     out = KF.bilateral_blur(
-        color[None] / scale, (k, k), sigma_color, (sigma_space, sigma_space),
-        border_type=_BORDER, color_distance_type="l2",
+        color[None] / scale,
+        (k, k),
+        sigma_color,
+        (sigma_space, sigma_space),
+        border_type=_BORDER,
+        color_distance_type="l2",
     )
     return out[0] * scale
 
 
 def _relative(color: torch.Tensor) -> torch.Tensor:
-    """``color / mean(color)``: the color in units of the frame's mean, for scale-free range terms."""
+    """``color / mean(color)``: the color in units of the frame's mean (scale-free range terms)."""
     return color / color.mean().clamp_min(1e-6)
 
 
@@ -130,11 +146,18 @@ def joint_bilateral_filter(
     Implemented as kornia's ``joint_bilateral_blur`` with the guide channels divided by their
     sigmas and a unit range sigma (one L2 range kernel equals the product of the three).
     """
-    guide = torch.cat([albedo / sigma_feature, normal / sigma_feature, _relative(color) / sigma_color])
+    guide = torch.cat(
+        [albedo / sigma_feature, normal / sigma_feature, _relative(color) / sigma_color]
+    )
     k = _odd(2.0 * sigma_space)
     out = KF.joint_bilateral_blur(
-        color[None], guide[None], (k, k), 1.0, (sigma_space, sigma_space),
-        border_type=_BORDER, color_distance_type="l2",
+        color[None],
+        guide[None],
+        (k, k),
+        1.0,
+        (sigma_space, sigma_space),
+        border_type=_BORDER,
+        color_distance_type="l2",
     )
     return out[0]
 
@@ -156,7 +179,14 @@ def guided_filter(
     luminance of the noisy color in units of the frame's mean, lets the fit follow what the
     features do not show (lights seen directly, shadow edges); where it varies only by noise, its
     variance is below ``eps`` and the ridge term keeps its coefficient small.
+
+    Fireflies: the window statistics multiply color by the guide, which overflows float32 for
+    a pixel above about 1e18 (the output was NaN); such a frame is filtered in float64 and
+    returned in the input's dtype.
     """
+    if _needs_float64(color, albedo, normal):
+        wide = guided_filter(color.double(), albedo.double(), normal.double(), radius, eps)
+        return wide.to(color.dtype)
     guide = torch.cat([albedo, normal, luminance(_relative(color))])[None]
     k = 2 * radius + 1
     return KF.guided_blur(guide, color[None], (k, k), eps, border_type=_BORDER)[0]
@@ -231,7 +261,9 @@ def _atrous_step(
             q_color, q_lum, q_var, q_normal, q_hit, q_depth = q.split((3, 1, 1, 3, 1, 1))
             cos = (normal * q_normal).sum(0, keepdim=True).clamp_min(0.0)
             # Escaped pixels (no normal) average only among themselves, with weight 1.
-            w_normal = torch.where((hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype))
+            w_normal = torch.where(
+                (hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype)
+            )
             # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
             # spacing and by the step, i.e. by the distance in pixels.
             dist = math.hypot(dy, dx)
@@ -278,7 +310,26 @@ def atrous_filter(
     their (first-surface, pixel-averaged) albedo does not modulate, and dividing by it spread
     that radiance, amplified, into the neighbours (measured: 130 times the noisy MSE on the
     ``medium`` scene, against 0.5 without demodulation).
+
+    Values a renderer legitimately writes: a depth of ``+inf`` (how some renderers mark an
+    escaped ray) is read as 0, the background depth our tracer writes; such pixels have no
+    normal either, so they average only among themselves. A firefly above about 1e18 (a
+    finite 1e20 made the whole image NaN: its squared luminance overflows float32 in the
+    variance) switches the filter to float64, whose output is returned in the input's dtype.
+    NaN and ``-inf`` are refused before (:class:`ATrous` checks its buffers).
     """
+    depth = torch.where(torch.isposinf(depth), torch.zeros_like(depth), depth)
+    if _needs_float64(color, depth):
+        wide = atrous_filter(
+            color.double(),
+            normal.double(),
+            depth.double(),
+            iterations,
+            sigma_color,
+            sigma_normal,
+            sigma_depth,
+        )
+        return wide.to(color.dtype)
     unit, hit = _unit_normals(normal)
     padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
     gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
@@ -287,10 +338,32 @@ def atrous_filter(
     variance = _spatial_variance(luminance(color))
     for i in range(iterations):
         color, variance = _atrous_step(
-            color, variance, unit, hit.to(color.dtype), depth, depth_width, 2**i,
-            sigma_color, sigma_normal, sigma_depth,
+            color,
+            variance,
+            unit,
+            hit.to(color.dtype),
+            depth,
+            depth_width,
+            2**i,
+            sigma_color,
+            sigma_normal,
+            sigma_depth,
         )
     return color
+
+
+def median_bytes(height: int, width: int, kernel_size: int) -> int:
+    """Rough peak memory of :func:`median_filter` (float32): kornia unfolds every window, ``k^2``
+    values per pixel and channel, and sorts them (a second copy)."""
+    return 4 * 3 * 2 * kernel_size * kernel_size * height * width
+
+
+def guided_bytes(height: int, width: int, radius: int) -> int:
+    """Rough peak memory of :func:`guided_filter` (float32): kornia's 2-D box kernel of
+    ``(2r + 1)^2`` taps, and about 100 window statistics per pixel of the image padded by ``r``
+    (7 guide channels: 28 guide covariances, 21 guide-color products, means, the solve)."""
+    k = 2 * radius + 1
+    return 4 * (k * k + 100 * (height + 2 * radius) * (width + 2 * radius))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -334,23 +407,34 @@ class Bilateral(Denoiser):
 
 
 class JointBilateral(Denoiser):
-    """Cross bilateral filter guided by albedo, normal and color; see :func:`joint_bilateral_filter`."""
+    """Cross bilateral filter guided by albedo, normal and color: :func:`joint_bilateral_filter`."""
 
     name = "joint_bilateral"
     requires = frozenset({"albedo", "normal"})
 
-    def __init__(self, sigma_space: float = 2.0, sigma_feature: float = 0.3, sigma_color: float = 4.0) -> None:
+    def __init__(
+        self, sigma_space: float = 2.0, sigma_feature: float = 0.3, sigma_color: float = 4.0
+    ) -> None:
         self.sigma_space = _number(sigma_space, "joint_bilateral: sigma_space", 0.1, 16.0)
         self.sigma_feature = _number(sigma_feature, "joint_bilateral: sigma_feature", 1e-3, 1e3)
         self.sigma_color = _number(sigma_color, "joint_bilateral: sigma_color", 1e-3, 1e3)
 
     def denoise(self, frame: Frame) -> torch.Tensor:
         return joint_bilateral_filter(
-            frame.color, frame.albedo, frame.normal, self.sigma_space, self.sigma_feature, self.sigma_color
+            frame.color,
+            frame.albedo,
+            frame.normal,
+            self.sigma_space,
+            self.sigma_feature,
+            self.sigma_color,
         )
 
     def params(self) -> dict[str, float]:
-        return {"sigma_space": self.sigma_space, "sigma_feature": self.sigma_feature, "sigma_color": self.sigma_color}
+        return {
+            "sigma_space": self.sigma_space,
+            "sigma_feature": self.sigma_feature,
+            "sigma_color": self.sigma_color,
+        }
 
 
 class Guided(Denoiser):
@@ -364,6 +448,11 @@ class Guided(Denoiser):
         self.eps = _number(eps, "guided: eps", 1e-8, 1e3)
 
     def denoise(self, frame: Frame) -> torch.Tensor:
+        check_memory(
+            guided_bytes(frame.height, frame.width, self.radius),
+            f"guided: radius {self.radius} on {frame.width}x{frame.height}",
+            frame.color.device,
+        )
         return guided_filter(frame.color, frame.albedo, frame.normal, self.radius, self.eps)
 
     def params(self) -> dict[str, float | int]:
@@ -378,10 +467,17 @@ class Median(Denoiser):
     def __init__(self, kernel_size: int = 3) -> None:
         check_positive_int(kernel_size, "median: kernel_size", minimum=3)
         if kernel_size % 2 == 0:
-            raise ValueRangeError(f"median: kernel_size: expected an odd integer, got {kernel_size}")
+            raise ValueRangeError(
+                f"median: kernel_size: expected an odd integer, got {kernel_size}"
+            )
         self.kernel_size = kernel_size
 
     def denoise(self, frame: Frame) -> torch.Tensor:
+        check_memory(
+            median_bytes(frame.height, frame.width, self.kernel_size),
+            f"median: kernel_size {self.kernel_size} on {frame.width}x{frame.height}",
+            frame.color.device,
+        )
         return median_filter(frame.color, self.kernel_size)
 
     def params(self) -> dict[str, int]:
@@ -393,6 +489,7 @@ class ATrous(Denoiser):
 
     name = "atrous"
     requires = frozenset({"depth", "normal"})
+    infinite_ok = frozenset({"depth"})  # +inf depth = escaped ray; see atrous_filter
 
     def __init__(
         self,
@@ -409,8 +506,13 @@ class ATrous(Denoiser):
 
     def denoise(self, frame: Frame) -> torch.Tensor:
         return atrous_filter(
-            frame.color, frame.normal, frame.depth,
-            self.iterations, self.sigma_color, self.sigma_normal, self.sigma_depth,
+            frame.color,
+            frame.normal,
+            frame.depth,
+            self.iterations,
+            self.sigma_color,
+            self.sigma_normal,
+            self.sigma_depth,
         )
 
     def params(self) -> dict[str, float | int]:

@@ -178,8 +178,10 @@ class ParamStore:
             return dict(self.entries[denoiser][scene][str(spp)]["params"])
         except KeyError:
             have = sorted(
-                f"{d}/{s}/{n}" for d, by_scene in self.entries.items()
-                for s, by_spp in by_scene.items() for n in by_spp
+                f"{d}/{s}/{n}"
+                for d, by_scene in self.entries.items()
+                for s, by_spp in by_scene.items()
+                for n in by_spp
             )
             raise UnknownNameError(
                 f"tuned params: expected an entry for {denoiser}/{scene}/{spp} spp, got none "
@@ -188,7 +190,9 @@ class ParamStore:
 
     def save(self, path: str | Path) -> None:
         """Write the store as JSON (sorted keys, so equal stores give equal files), atomically."""
-        text = json.dumps({"format": PARAMS_FORMAT, "entries": self.entries}, indent=1, sort_keys=True)
+        text = json.dumps(
+            {"format": PARAMS_FORMAT, "entries": self.entries}, indent=1, sort_keys=True
+        )
         _atomic_write_text(Path(path), text + "\n")
 
     @classmethod
@@ -202,15 +206,21 @@ class ParamStore:
         try:
             payload = json.loads(path.read_text())
         except FileNotFoundError:
-            raise FileFormatError(f"{path}: expected a tuned-parameters file, got no such file") from None
+            raise FileFormatError(
+                f"{path}: expected a tuned-parameters file, got no such file"
+            ) from None
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-            raise FileFormatError(f"{path}: expected a tuned-parameters JSON file, got {err}") from None
+            raise FileFormatError(
+                f"{path}: expected a tuned-parameters JSON file, got {err}"
+            ) from None
         if not isinstance(payload, dict) or payload.get("format") != PARAMS_FORMAT:
             got = payload.get("format") if isinstance(payload, dict) else type(payload).__name__
             raise FileFormatError(f"{path}: expected format {PARAMS_FORMAT!r}, got {got!r}")
         entries = payload.get("entries")
         if not isinstance(entries, dict):
-            raise FileFormatError(f"{path}: expected an 'entries' object, got {type(entries).__name__}")
+            raise FileFormatError(
+                f"{path}: expected an 'entries' object, got {type(entries).__name__}"
+            )
         return cls(entries)
 
 

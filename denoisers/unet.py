@@ -29,7 +29,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from bnerr.errors import DtypeError, FileFormatError, ValueRangeError, check_shape
+from bnerr.color import LUMINANCE_WEIGHTS
+from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from denoisers.base import Denoiser
@@ -42,10 +43,12 @@ __all__ = [
     "WEIGHTS_FORMAT",
     "atomic_torch_save",
     "auto_exposure",
+    "check_parameter_count",
     "load_torch_file",
     "load_weights",
     "network_input",
     "parameter_count",
+    "parameter_count_reference",
     "save_weights",
     "unet_denoise",
 ]
@@ -61,7 +64,7 @@ DEFAULT_WIDTHS = (32, 48, 64, 80)
 
 _KEY = 0.18  # mid-grey: auto-exposure maps the image's log-average luminance to it
 _BIN = 16  # auto-exposure averages luminance over 16 x 16 pixel bins first, as OIDN does
-_LUMA = (0.2126, 0.7152, 0.0722)
+_LUMA = LUMINANCE_WEIGHTS
 
 
 def auto_exposure(color: torch.Tensor) -> torch.Tensor:
@@ -95,6 +98,30 @@ def _conv(cin: int, cout: int) -> nn.Conv2d:
     return nn.Conv2d(cin, cout, kernel_size=3, padding=1)
 
 
+def _check_widths(widths: object) -> tuple[int, int, int, int]:
+    """``widths`` as 4 positive Python ints; :class:`ValueRangeError` otherwise."""
+    try:
+        values = list(widths)  # type: ignore[call-overload]
+    except TypeError:
+        values = None
+    if (
+        values is None
+        or len(values) != 4
+        or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in values)
+    ):
+        raise ValueRangeError(f"UNet: widths: expected 4 positive integers, got {widths!r:.80}")
+    return tuple(values)  # type: ignore[return-value]
+
+
+def _layer_shapes(widths: Sequence[int], in_channels: int = 9) -> list[tuple[int, int]]:
+    """``(in, out)`` channels of every 3 x 3 convolution of :class:`UNet`, in its order."""
+    c0, c1, c2, c3 = widths
+    return [
+        (in_channels, c0), (c0, c0), (c0, c1), (c1, c2), (c2, c3), (c3, c3),
+        (c3 + c1, c2), (c2, c2), (c2 + c0, c1), (c1, c1), (c1 + in_channels, c1), (c1, c0), (c0, 3),
+    ]  # fmt: skip
+
+
 class UNet(nn.Module):
     """OIDN-style U-Net: ``[B, 9, H, W]`` -> ``[B, 3, H, W]`` in the transformed (log) domain.
 
@@ -107,12 +134,12 @@ class UNet(nn.Module):
     log color).
     """
 
-    def __init__(self, widths: Sequence[int] = DEFAULT_WIDTHS, in_channels: int = 9, residual: bool = True) -> None:
+    def __init__(
+        self, widths: Sequence[int] = DEFAULT_WIDTHS, in_channels: int = 9, residual: bool = True
+    ) -> None:
         super().__init__()
         self.residual = bool(residual)
-        if len(widths) != 4 or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in widths):
-            raise ValueRangeError(f"UNet: widths: expected 4 positive integers, got {list(widths)}")
-        c0, c1, c2, c3 = widths
+        c0, c1, c2, c3 = _check_widths(widths)
         self.widths = tuple(widths)
         self.enc0 = _conv(in_channels, c0)
         self.enc1 = _conv(c0, c0)
@@ -210,15 +237,24 @@ def load_weights(path: str | Path) -> UNet:
     """Build a :class:`UNet` from a weights file written by :func:`save_weights` (on the CPU).
 
     Raises:
-        FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr U-Net file.
+        FileFormatError: the file is missing, unreadable, corrupt, or not a bnerr U-Net file,
+            or its widths make a network over :data:`MAX_PARAMETERS` (refused before building).
     """
     path = Path(path)
     payload = load_torch_file(path, "a U-Net weights file", WEIGHTS_FORMAT)
     try:
+        # The size comes from the file: check it before building (a 1.4 KB file asking for
+        # widths [8192] * 4 would otherwise allocate a 31 GB network).
+        check_parameter_count(payload.get("widths"), f"{path}: widths")
+    except ValueRangeError as err:
+        raise FileFormatError(str(err)) from None
+    try:
         model = UNet(tuple(payload["widths"]), residual=bool(payload["residual"]))
         model.load_state_dict(payload["state_dict"])
     except (RuntimeError, KeyError, TypeError, ValueError) as err:
-        raise FileFormatError(f"{path}: expected U-Net widths, residual flag and weights, got {err!r}") from None
+        raise FileFormatError(
+            f"{path}: expected U-Net widths, residual flag and weights, got {err!r}"
+        ) from None
     return model.eval()
 
 
@@ -257,5 +293,27 @@ class UNetDenoiser(Denoiser):
 
 
 def parameter_count(widths: Sequence[int] = DEFAULT_WIDTHS) -> int:
-    """Number of trainable parameters of a :class:`UNet` with these widths."""
+    """Number of trainable parameters of a :class:`UNet` with these widths, computed from the
+    widths alone (nothing is allocated: a weights file's config is checked with it before the
+    network is built). Each 3 x 3 convolution has ``9 cin cout + cout`` parameters.
+
+    Raises:
+        ValueRangeError: ``widths`` are not 4 positive integers.
+    """
+    return sum(9 * cin * cout + cout for cin, cout in _layer_shapes(_check_widths(widths)))
+
+
+def parameter_count_reference(widths: Sequence[int] = DEFAULT_WIDTHS) -> int:
+    """The slow twin of :func:`parameter_count`: build the network and count."""
     return sum(p.numel() for p in UNet(widths).parameters())
+
+
+def check_parameter_count(widths: Sequence[int], name: str) -> int:
+    """Raise :class:`ValueRangeError` if a U-Net of ``widths`` exceeds :data:`MAX_PARAMETERS`."""
+    count = parameter_count(widths)
+    if count > MAX_PARAMETERS:
+        raise ValueRangeError(
+            f"{name}: expected at most {MAX_PARAMETERS} parameters, got widths "
+            f"{list(widths)} with {count}"
+        )
+    return count

@@ -1,4 +1,4 @@
-"""Tests of the denoisers package: the registry (denoisers/__init__.py) and the interface (base.py)."""
+"""Tests of the denoisers package: the registry (denoisers/__init__.py), the interface (base.py)."""
 
 import pytest
 import torch
@@ -35,7 +35,9 @@ def test_registry_names_sorted_and_complete():
 def test_every_denoiser_maps_frame_to_color(name):
     frame = _frame()
     out = get_denoiser(name)(frame)
-    assert out.shape == (3, 12, 10) and out.dtype == torch.float32 and out.device == frame.color.device
+    assert (
+        out.shape == (3, 12, 10) and out.dtype == torch.float32 and out.device == frame.color.device
+    )
     assert torch.isfinite(out).all()
 
 
@@ -48,8 +50,13 @@ def test_unknown_name_and_parameter_raise():
 
 @pytest.mark.parametrize(
     "name, missing",
-    [("joint_bilateral", "albedo"), ("guided", "normal"), ("atrous", "depth"), ("unet", "albedo"),
-     ("oidn", "normal")],
+    [
+        ("joint_bilateral", "albedo"),
+        ("guided", "normal"),
+        ("atrous", "depth"),
+        ("unet", "albedo"),
+        ("oidn", "normal"),
+    ],
 )
 def test_missing_buffer_is_named(name, missing):
     frame = _frame(**{missing: True})
@@ -84,11 +91,15 @@ def test_check_frame_returns_frame_and_lists_all_missing():
 
 
 def test_bad_parameter_values_raise():
-    with pytest.raises(ValueRangeError, match=r"gaussian: sigma: expected a value in \[0.1, 16.0\], got -1"):
+    with pytest.raises(
+        ValueRangeError, match=r"gaussian: sigma: expected a value in \[0.1, 16.0\], got -1"
+    ):
         get_denoiser("gaussian", sigma=-1)
     with pytest.raises(DtypeError, match="median: kernel_size: expected an integer"):
         get_denoiser("median", kernel_size=3.0)
-    with pytest.raises(ValueRangeError, match="median: kernel_size: expected an odd integer, got 4"):
+    with pytest.raises(
+        ValueRangeError, match="median: kernel_size: expected an odd integer, got 4"
+    ):
         get_denoiser("median", kernel_size=4)
     with pytest.raises(UnknownNameError, match="unknown oidn quality 'ultra'"):
         get_denoiser("oidn", quality="ultra")
@@ -102,4 +113,64 @@ def test_subclass_breaking_the_contract_is_caught():
             return frame.color[:1]
 
     with pytest.raises(ShapeError, match="denoiser 'broken' output"):
+        Broken()(_frame())
+
+
+# -- every buffer a denoiser reads is checked; the output is never NaN (issue 18) -----------------
+
+
+@pytest.mark.parametrize(
+    ("name", "buffer"),
+    [
+        ("unet", "normal"),  # 16 NaN normals made every output value NaN, exit 0
+        ("unet", "albedo"),
+        ("joint_bilateral", "normal"),
+        ("joint_bilateral", "albedo"),
+        ("guided", "normal"),
+        ("guided", "albedo"),
+        ("atrous", "normal"),
+        ("atrous", "depth"),
+    ],
+)
+def test_a_nan_guide_is_refused_naming_the_buffer_count_and_pixel(name, buffer):
+    frame = _frame()
+    values = getattr(frame, buffer)
+    values[:, 3, 4] = float("nan")
+    values[:, 7, 1] = float("nan")
+    with pytest.raises(
+        NonFiniteError,
+        match=rf"denoiser '{name}': frame.{buffer}: expected finite values, got "
+        rf"{2 * values.shape[0]} NaN and 0 infinite of \d+, first at pixel \(y, x\) = \(3, 4\)",
+    ):
+        get_denoiser(name)(frame)
+
+
+def test_minus_infinite_depth_is_refused_but_plus_infinite_is_background():
+    frame = _frame()
+    frame.depth[0, 2, 2] = -float("inf")
+    with pytest.raises(
+        NonFiniteError, match="frame.depth: expected finite values, got 0 NaN and 1"
+    ):
+        get_denoiser("atrous")(frame)
+
+
+@pytest.mark.parametrize("name", ["gaussian", "bilateral", "joint_bilateral", "guided", "median"])
+def test_buffers_a_denoiser_does_not_read_are_not_checked(name):
+    frame = _frame()
+    frame.depth[0, 0, 0] = float("nan")
+    assert torch.isfinite(get_denoiser(name)(frame)).all()
+
+
+def test_a_denoiser_that_returns_nan_is_caught_at_the_boundary():
+    class Broken(Denoiser):
+        name = "broken"
+
+        def denoise(self, frame):
+            out = frame.color.clone()
+            out[1, 5, 6] = float("nan")
+            return out
+
+    with pytest.raises(
+        NonFiniteError, match=r"denoiser 'broken' output \(finite input\): .* \(y, x\) = \(5, 6\)"
+    ):
         Broken()(_frame())

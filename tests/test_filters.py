@@ -7,6 +7,7 @@ import torch
 
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.frame import Frame
+from denoisers import get_denoiser
 from denoisers.filters import (
     ATrous,
     Bilateral,
@@ -32,9 +33,13 @@ def _two_surfaces(h=24, w=24, noise=0.0, seed=0, gradient=0.2):
     """
     g = torch.Generator().manual_seed(seed)
     left = torch.arange(w) < w // 2
-    albedo = torch.where(left, torch.tensor([0.8, 0.1, 0.1])[:, None, None], torch.full((3, 1, 1), 0.5))
+    albedo = torch.where(
+        left, torch.tensor([0.8, 0.1, 0.1])[:, None, None], torch.full((3, 1, 1), 0.5)
+    )
     albedo = albedo.expand(3, h, w).clone()
-    normal = torch.where(left, torch.tensor([0.0, 0.0, 1.0])[:, None, None], torch.tensor([1.0, 0, 0])[:, None, None])
+    normal = torch.where(
+        left, torch.tensor([0.0, 0.0, 1.0])[:, None, None], torch.tensor([1.0, 0, 0])[:, None, None]
+    )
     normal = normal.expand(3, h, w).clone()
     depth = torch.where(left, 2.0, 3.0).expand(1, h, w).clone()
     light = 1.0 + gradient * torch.linspace(0, 1, h)[:, None].expand(h, w)
@@ -121,9 +126,13 @@ def test_parameters_are_checked():
         Bilateral(sigma_space=0.0)
     with pytest.raises(DtypeError, match="guided: radius: expected an integer, got float"):
         Guided(radius=2.5)
-    with pytest.raises(ValueRangeError, match=r"atrous: iterations: expected a value in \[1, 10\], got 11"):
+    with pytest.raises(
+        ValueRangeError, match=r"atrous: iterations: expected a value in \[1, 10\], got 11"
+    ):
         ATrous(iterations=11)
-    with pytest.raises(DtypeError, match="joint_bilateral: sigma_color: expected a number, got str"):
+    with pytest.raises(
+        DtypeError, match="joint_bilateral: sigma_color: expected a number, got str"
+    ):
         JointBilateral(sigma_color="wide")
 
 
@@ -131,3 +140,58 @@ def test_params_round_trip_through_constructor():
     for denoiser in FILTERS:
         again = type(denoiser)(**denoiser.params())
         assert again.params() == denoiser.params()
+
+
+# -- values a renderer writes: fireflies and infinite depth (issue 18) ----------------------------
+
+
+def _guided_frame(h=24, w=24):
+    g = torch.Generator().manual_seed(5)
+    return Frame(
+        color=torch.rand(3, h, w, generator=g),
+        albedo=torch.rand(3, h, w, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
+        depth=torch.rand(1, h, w, generator=g) + 1.0,
+    )
+
+
+@pytest.mark.parametrize("firefly", [1e20, 3e38])
+@pytest.mark.parametrize("name", ["atrous", "guided", "joint_bilateral", "bilateral", "median"])
+def test_one_huge_finite_firefly_gives_a_finite_image(name, firefly):
+    # A single 1e20 made atrous's output all NaN (its squared luminance overflowed float32),
+    # and a 3e38 one guided's.
+    frame = _guided_frame()
+    frame.color[1, 5, 7] = firefly
+    out = get_denoiser(name)(frame)
+    assert out.dtype == torch.float32 and torch.isfinite(out).all()
+    assert not torch.equal(out, torch.zeros_like(out))
+
+
+def test_atrous_reads_infinite_depth_as_the_background_depth():
+    frame = _guided_frame()
+    frame.depth[:, :8] = 0.0
+    frame.normal[:, :8] = 0.0  # escaped rays: no normal, the tracer's depth 0
+    want = get_denoiser("atrous")(frame)
+    frame.depth[:, :8] = float("inf")  # the same pixels as another renderer marks them
+    assert torch.equal(get_denoiser("atrous")(frame), want)
+
+
+def test_atrous_float64_switch_agrees_with_float32_on_ordinary_frames():
+    frame = _guided_frame()
+    narrow = atrous_filter(frame.color, frame.normal, frame.depth)
+    wide = atrous_filter(frame.color.double(), frame.normal.double(), frame.depth.double())
+    torch.testing.assert_close(narrow, wide.float(), rtol=1e-4, atol=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("name", "params", "match"),
+    [
+        ("median", {"kernel_size": 2001}, "median: kernel_size 2001 on 24x24: expected a size"),
+        ("guided", {"radius": 100000}, "guided: radius 100000 on 24x24: expected a size"),
+    ],
+)
+def test_absurd_windows_are_refused_before_allocating(name, params, match):
+    from bnerr.errors import MemoryLimitError
+
+    with pytest.raises(MemoryLimitError, match=match + r" that fits in memory .* got an estimate"):
+        get_denoiser(name, **params)(_guided_frame())

@@ -29,9 +29,13 @@ def _pairs(count=4, size=16, seed=0):
     g = torch.Generator().manual_seed(seed)
     pairs = []
     for _ in range(count):
-        ref = torch.nn.functional.interpolate(torch.rand(1, 3, 4, 4, generator=g), size=size, mode="bilinear")[0]
+        ref = torch.nn.functional.interpolate(
+            torch.rand(1, 3, 4, 4, generator=g), size=size, mode="bilinear"
+        )[0]
         noisy = ref * -torch.rand(3, size, size, generator=g).clamp_min(1e-7).log()
-        frame = Frame(color=noisy, albedo=torch.full((3, size, size), 0.5), normal=torch.zeros(3, size, size))
+        frame = Frame(
+            color=noisy, albedo=torch.full((3, size, size), 0.5), normal=torch.zeros(3, size, size)
+        )
         pairs.append((frame, ref))
     return pairs
 
@@ -73,7 +77,9 @@ def test_resume_of_a_finished_run_changes_nothing(tmp_path):
 
 def test_loss_falls_on_a_learnable_task():
     data = make_training_set(_pairs(count=8, size=24))
-    config = TrainConfig(steps=60, batch_size=4, crop=16, warmup=5, checkpoint_every=20, widths=(8, 8, 8, 8))
+    config = TrainConfig(
+        steps=60, batch_size=4, crop=16, warmup=5, checkpoint_every=20, widths=(8, 8, 8, 8)
+    )
     result = train(data, config, progress=False)
     first, last = result.losses[0][1], result.losses[-1][1]
     # Not a tuned threshold: the last third of training must simply be better than the first.
@@ -95,7 +101,9 @@ def test_corrupt_and_foreign_checkpoints_raise(tmp_path):
     data = make_training_set(_pairs())
     bad = tmp_path / "bad.ckpt"
     bad.write_bytes(b"this is not a checkpoint")
-    with pytest.raises(FileFormatError, match="bad.ckpt: expected a training checkpoint, got an unreadable file"):
+    with pytest.raises(
+        FileFormatError, match="bad.ckpt: expected a training checkpoint, got an unreadable file"
+    ):
         train(data, TINY, bad, resume=True, progress=False)
     good = tmp_path / "good.ckpt"
     train(data, TINY, good, stop_at=2, progress=False)
@@ -103,11 +111,15 @@ def test_corrupt_and_foreign_checkpoints_raise(tmp_path):
     truncated.write_bytes(good.read_bytes()[:200])
     with pytest.raises(FileFormatError, match="trunc.ckpt: expected a training checkpoint"):
         load_checkpoint(truncated)
-    other = TrainConfig(steps=6, batch_size=2, crop=8, warmup=2, checkpoint_every=2, widths=(4, 4, 4, 4), seed=1)
+    other = TrainConfig(
+        steps=6, batch_size=2, crop=8, warmup=2, checkpoint_every=2, widths=(4, 4, 4, 4), seed=1
+    )
     with pytest.raises(FileFormatError, match="good.ckpt: expected a checkpoint of config"):
         train(data, other, good, resume=True, progress=False)
     torch.save({"format": "something else"}, tmp_path / "foreign.ckpt")
-    with pytest.raises(FileFormatError, match="expected format 'bnerr-unet-checkpoint-v1', got 'something else'"):
+    with pytest.raises(
+        FileFormatError, match="expected format 'bnerr-unet-checkpoint-v1', got 'something else'"
+    ):
         load_checkpoint(tmp_path / "foreign.ckpt")
     with pytest.raises(FileFormatError, match="got no such file"):
         load_checkpoint(tmp_path / "none.ckpt")
@@ -119,17 +131,25 @@ def test_bad_training_input_raises():
     frame, ref = _pairs(1)[0]
     with pytest.raises(MissingBufferError, match="training pair 0.*without albedo"):
         make_training_set([(Frame(color=frame.color, normal=frame.normal), ref)])
-    with pytest.raises(ShapeError, match=r"training pair 0: reference: expected shape \[3, 16, 16\]"):
+    with pytest.raises(
+        ShapeError, match=r"training pair 0: reference: expected shape \[3, 16, 16\]"
+    ):
         make_training_set([(frame, ref[:, :8])])
     small = _pairs(1, size=8)[0]
-    with pytest.raises(ShapeError, match="training pair 1: expected 16 x 16 like pair 0, got 8 x 8"):
+    with pytest.raises(
+        ShapeError, match="training pair 1: expected 16 x 16 like pair 0, got 8 x 8"
+    ):
         make_training_set([(frame, ref), small])
     with pytest.raises(ValueRangeError, match="expected images at least 24 px, got 16 x 16"):
         train(make_training_set([(frame, ref)]), TrainConfig(crop=24), progress=False)
     with pytest.raises(ValueRangeError, match="TrainConfig.crop: expected a multiple of 8, got 12"):
         TrainConfig(crop=12)
     with pytest.raises(ValueRangeError, match="expected at most 500000 parameters"):
-        train(make_training_set([(frame, ref)]), TrainConfig(crop=8, widths=(64, 128, 256, 256)), progress=False)
+        train(
+            make_training_set([(frame, ref)]),
+            TrainConfig(crop=8, widths=(64, 128, 256, 256)),
+            progress=False,
+        )
 
 
 def test_losses():
@@ -139,12 +159,40 @@ def test_losses():
         assert float(loss_value(t, t, kind)) == 0.0
     torch.testing.assert_close(loss_value(p, t, "l1_log"), (p - t).abs().mean())
     expected = (0.1**2 / 0.01 + 0.0 + 2.0**2 / 16.01) / 3
-    torch.testing.assert_close(loss_value(p, t, "relmse"), torch.tensor(expected), rtol=1e-5, atol=0)
+    torch.testing.assert_close(
+        loss_value(p, t, "relmse"), torch.tensor(expected), rtol=1e-5, atol=0
+    )
     expected = float((p - t).abs().mean()) + (0.1 + 0.0 + 2.0) / 3
-    torch.testing.assert_close(loss_value(p, t, "l1_log+l1"), torch.tensor(expected), rtol=1e-5, atol=0)
+    torch.testing.assert_close(
+        loss_value(p, t, "l1_log+l1"), torch.tensor(expected), rtol=1e-5, atol=0
+    )
     expected = float((p - t).abs().mean()) + (0.1**2 + 0.0 + 2.0**2) / 3
-    torch.testing.assert_close(loss_value(p, t, "l1_log+l2"), torch.tensor(expected), rtol=1e-5, atol=0)
+    torch.testing.assert_close(
+        loss_value(p, t, "l1_log+l2"), torch.tensor(expected), rtol=1e-5, atol=0
+    )
     # A wild prediction is clamped instead of overflowing.
     assert math.isfinite(float(loss_value(torch.full((1, 3), 1e4), t, "relmse")))
     with pytest.raises(UnknownNameError, match="unknown training loss 'l2'"):
         TrainConfig(loss="l2")
+
+
+# -- sizes are refused before building or allocating (issue 18) ------------------------------------
+
+
+def test_an_absurd_batch_is_refused_before_the_first_step(monkeypatch):
+    from bnerr.errors import MemoryLimitError
+    from denoisers import train as train_module
+
+    data = make_training_set(_pairs(count=1, size=16))
+    config = TrainConfig(steps=1, batch_size=100_000_000, crop=8, widths=(4, 4, 4, 4))
+    monkeypatch.setattr(train_module, "_step", lambda *a: pytest.fail("a step ran"))
+    with pytest.raises(MemoryLimitError, match=r"train: batch_size 100000000 of 8 x 8 crops"):
+        train(data, config, progress=False)
+
+
+def test_step_bytes_grows_with_the_batch_and_the_crop():
+    from denoisers.train import step_bytes
+
+    small = step_bytes(TrainConfig(batch_size=16, crop=48))
+    assert 16 * 48 * 48 * 2000 < small < 16 * 48 * 48 * 5000  # measured 2.4 to 2.8 KB per pixel
+    assert step_bytes(TrainConfig(batch_size=32, crop=48)) == 2 * small

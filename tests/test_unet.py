@@ -4,11 +4,13 @@ import functools
 
 import pytest
 import torch
+from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
 from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.metrics import paired_ratio
 from denoisers import get_denoiser
+from denoisers import unet as unet_module
 from denoisers.tuning import GRIDS, tune
 from denoisers.unet import (
     DEFAULT_WEIGHTS,
@@ -23,8 +25,6 @@ from denoisers.unet import (
     save_weights,
     unet_denoise,
 )
-
-from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
 
 def _frame(h=20, w=28, seed=0, scale=1.0):
@@ -82,24 +82,41 @@ def test_save_load_and_denoise_round_trip(tmp_path):
     expected = unet_denoise(net, frame.color, frame.albedo, frame.normal)
     out = UNetDenoiser(weights=tmp_path / "w.pt")(frame)
     assert torch.equal(out, expected) and bool((out >= 0).all())
-    assert UNetDenoiser(weights=str(tmp_path / "w.pt")).params() == {"weights": str(tmp_path / "w.pt")}
+    assert UNetDenoiser(weights=str(tmp_path / "w.pt")).params() == {
+        "weights": str(tmp_path / "w.pt")
+    }
 
 
 def test_bad_weights_raise(tmp_path):
-    with pytest.raises(FileFormatError, match="nope.pt: expected a U-Net weights file, got no such file"):
+    with pytest.raises(
+        FileFormatError, match="nope.pt: expected a U-Net weights file, got no such file"
+    ):
         load_weights(tmp_path / "nope.pt")
     (tmp_path / "junk.pt").write_bytes(b"\x00garbage")
-    with pytest.raises(FileFormatError, match="junk.pt: expected a U-Net weights file, got an unreadable file"):
+    with pytest.raises(
+        FileFormatError, match="junk.pt: expected a U-Net weights file, got an unreadable file"
+    ):
         UNetDenoiser(weights=tmp_path / "junk.pt")
-    torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4], "residual": True, "state_dict": {}},
-               tmp_path / "e.pt")
-    with pytest.raises(FileFormatError, match="e.pt: expected U-Net widths, residual flag and weights, got"):
+    torch.save(
+        {
+            "format": "bnerr-unet-weights-v1",
+            "widths": [4, 4, 4, 4],
+            "residual": True,
+            "state_dict": {},
+        },
+        tmp_path / "e.pt",
+    )
+    with pytest.raises(
+        FileFormatError, match="e.pt: expected U-Net widths, residual flag and weights, got"
+    ):
         load_weights(tmp_path / "e.pt")
     torch.save({"format": "bnerr-unet-weights-v1", "widths": [4, 4, 4, 4]}, tmp_path / "k.pt")
     with pytest.raises(FileFormatError, match="KeyError"):
         load_weights(tmp_path / "k.pt")
     torch.save([1, 2], tmp_path / "l.pt")
-    with pytest.raises(FileFormatError, match="expected format 'bnerr-unet-weights-v1', got 'list'"):
+    with pytest.raises(
+        FileFormatError, match="expected format 'bnerr-unet-weights-v1', got 'list'"
+    ):
         load_weights(tmp_path / "l.pt")
     with pytest.raises(DtypeError, match="unet: weights: expected a path, got int"):
         UNetDenoiser(weights=3)
@@ -150,8 +167,8 @@ _NOT_BEYOND_INTERVAL = {
     ),
     ("snooker", "owen_sobol"): "measured: U-Net / joint bilateral = 0.95 [0.90, 1.01]: a near tie",
     ("snooker_plain", "owen_sobol"): (
-        "measured: U-Net / joint bilateral = 0.98 [0.91, 1.06]: a tie on an untextured, mostly flat "
-        "scene whose albedo and normal guides already separate its surfaces"
+        "measured: U-Net / joint bilateral = 0.98 [0.91, 1.06]: a tie on an untextured, mostly "
+        "flat scene whose albedo and normal guides already separate its surfaces"
     ),
 }
 
@@ -166,7 +183,9 @@ def _held_out_comparison(scene, sampler):
     """
     tune_frame, _, reference = scene_renders(scene, sampler)
     frames = measured_frames(scene, sampler)
-    filters = {name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params) for name in GRIDS}
+    filters = {
+        name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params) for name in GRIDS
+    }
     per_frame = {name: [mse(d(f), reference) for f in frames] for name, d in filters.items()}
     best = min(per_frame, key=lambda name: sum(per_frame[name]))
     unet = UNetDenoiser()
@@ -191,3 +210,34 @@ def test_unet_beats_the_best_tuned_filter_on_held_out_scenes(scene, sampler, req
 def test_unet_beats_the_best_tuned_filter_beyond_the_interval(scene, sampler, request):
     _expect_failure(request, _NOT_BEYOND_INTERVAL, scene, sampler)
     assert _held_out_comparison(scene, sampler).hi < 1.0
+
+
+# -- weights are checked before the network is built (issue 18) ------------------------------------
+
+
+def test_parameter_count_from_widths_equals_counting_the_built_network():
+    from denoisers.unet import parameter_count_reference
+
+    for widths in [DEFAULT_WIDTHS, (4, 6, 8, 8), (1, 1, 1, 1), (16, 8, 32, 4)]:
+        assert parameter_count(widths) == parameter_count_reference(widths)
+
+
+def test_a_tiny_file_asking_for_a_huge_network_is_refused_without_building_it(
+    tmp_path, monkeypatch
+):
+    path = tmp_path / "huge.pt"
+    payload = {"format": "bnerr-unet-weights-v1", "widths": [8192] * 4, "residual": True}
+    torch.save({**payload, "state_dict": {}}, path)
+    assert path.stat().st_size < 2000
+
+    def never(*args, **kwargs):
+        raise AssertionError("the network was built")
+
+    monkeypatch.setattr(unet_module.UNet, "__init__", never)
+    with pytest.raises(
+        FileFormatError, match=r"huge.pt: widths: expected at most 500000 parameters, got widths"
+    ):
+        load_weights(path)
+    torch.save({**payload, "widths": "abcd", "state_dict": {}}, path)
+    with pytest.raises(FileFormatError, match="expected 4 positive integers"):
+        load_weights(path)
