@@ -53,17 +53,18 @@ import weakref
 from dataclasses import dataclass, replace
 
 import torch
-import torch.nn.functional as F
 
 from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS, luminance
 from bnerr.errors import (
     FLOAT_DTYPES,
+    INT_DTYPES,
     DtypeError,
     ShapeError,
     ValueRangeError,
     check_dtype,
     check_finite,
+    check_offset,
     check_positive_int,
     check_shape,
     check_tensor,
@@ -84,6 +85,7 @@ _INT32_MIN = -(2**31)
 _CANONICAL_NAN = 0x7FC00000
 _PAD_KEY = 2**31 - 1  # above the canonical NaN's key: padding sorts after every real pixel
 _POSITION_BITS = 6  # block positions 0 .. 63 (B <= 8)
+_PAD_LABEL = 2**63 - 1  # group label of padding: after every real label (stable sorts keep order)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -119,6 +121,31 @@ def _check_values(values: object, height: int, width: int) -> torch.Tensor:
             f"values: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
         )
     return values
+
+
+def _check_grid_offset(grid_offset: object, block: int) -> tuple[int, int]:
+    """``(oy, ox)``, each in ``[0, B)``."""
+    oy, ox = check_offset(grid_offset, "grid_offset")
+    if not (0 <= oy < block and 0 <= ox < block):
+        raise ValueRangeError(
+            f"grid_offset: expected (oy, ox) in [0, {block})^2 for block {block}, got {(oy, ox)}"
+        )
+    return oy, ox
+
+
+def _check_groups(groups: object, height: int, width: int, device: torch.device) -> torch.Tensor:
+    """``groups [H, W]`` integer labels on ``device``, as int64."""
+    size = check_shape(check_tensor(groups, "groups"), "H W", "groups")
+    check_dtype(groups, INT_DTYPES, "groups")
+    if (size["H"], size["W"]) != (height, width):
+        raise ShapeError(
+            f"groups: expected H x W = {height} x {width} like seeds, got {size['H']} x {size['W']}"
+        )
+    if groups.device != device:
+        raise ValueRangeError(
+            f"groups: expected a tensor on {device} like seeds, got {groups.device}"
+        )
+    return groups.to(torch.int64)
 
 
 def _check_seeds(seeds: object) -> tuple[int, int]:
@@ -162,7 +189,11 @@ class SortPlan:
         order: ``[nby * nbx, B * B]`` uint8 on the mask's device; row ``by * nbx + bx`` lists the
             block's positions ``a * B + b`` (row ``a``, column ``b`` inside the block) by
             increasing mask value, ties by position; positions outside the image (partial blocks)
-            come last. ``nby = ceil(H / B)``, ``nbx = ceil(W / B)``.
+            come last. ``nby = ceil((H + oy) / B)``, ``nbx = ceil((W + ox) / B)``.
+        grid_offset: ``(oy, ox)`` in ``[0, B)^2``, the block grid's offset: pixel (y, x) lies in
+            block ``((y + oy) // B, (x + ox) // B)`` at position ``((y + oy) % B, (x + ox) % B)``
+            (the convention of :func:`bnerr.masks.tile_mask`'s offset). ``(0, 0)``: blocks start
+            at the top-left pixel, the paper's grid.
 
     Build it with :func:`plan_sort`. Reuse it while the mask image is the same (for a mask tiled
     at a per-frame offset, one plan per offset). It holds ``H * W`` bytes (2 MB at 1080p). A
@@ -174,12 +205,15 @@ class SortPlan:
     height: int
     width: int
     order: torch.Tensor
+    grid_offset: tuple[int, int] = (0, 0)
 
     def __post_init__(self) -> None:
         _check_block(self.block)
         check_positive_int(self.height, "SortPlan.height", minimum=0)
         check_positive_int(self.width, "SortPlan.width", minimum=0)
-        blocks = -(-self.height // self.block) * -(-self.width // self.block)
+        oy, ox = _check_grid_offset(self.grid_offset, self.block)
+        object.__setattr__(self, "grid_offset", (oy, ox))
+        blocks = -(-(self.height + oy) // self.block) * -(-(self.width + ox) // self.block)
         check_shape(
             check_tensor(self.order, "SortPlan.order"),
             f"{blocks} {self.block**2}",
@@ -196,42 +230,57 @@ class SortPlan:
         return replace(self, order=self.order.to(device))
 
 
-def _blocks(x: torch.Tensor, block: int, fill: int) -> torch.Tensor:
-    """``[H, W]`` -> ``[nby * nbx, B * B]``: pad to whole blocks with ``fill``, a row per block."""
+def _blocks(
+    x: torch.Tensor, block: int, fill: int, offset: tuple[int, int] = (0, 0)
+) -> torch.Tensor:
+    """``[H, W]`` -> ``[nby * nbx, B * B]``: pad to whole blocks with ``fill`` (``oy`` rows on top
+    and ``ox`` columns on the left for a grid offset, the rest at the bottom and right), a row per
+    block."""
     h, w = x.shape
-    pad_h, pad_w = -h % block, -w % block
-    if pad_h or pad_w:
-        x = F.pad(x[None], (0, pad_w, 0, pad_h), value=fill)[0]
+    oy, ox = offset
+    pad_h, pad_w = -(h + oy) % block, -(w + ox) % block
+    if pad_h or pad_w or oy or ox:  # (F.pad takes its fill as a double: not every int64 fits)
+        padded = x.new_full((oy + h + pad_h, ox + w + pad_w), fill)
+        padded[oy : oy + h, ox : ox + w] = x
+        x = padded
     nby, nbx = x.shape[0] // block, x.shape[1] // block
     return x.reshape(nby, block, nbx, block).permute(0, 2, 1, 3).reshape(nby * nbx, block * block)
 
 
-def _unblocks(x: torch.Tensor, block: int, height: int, width: int) -> torch.Tensor:
+def _unblocks(
+    x: torch.Tensor, block: int, height: int, width: int, offset: tuple[int, int] = (0, 0)
+) -> torch.Tensor:
     """Inverse of :func:`_blocks` (without the padding)."""
-    nby, nbx = -(-height // block), -(-width // block)
+    oy, ox = offset
+    nby, nbx = -(-(height + oy) // block), -(-(width + ox) // block)
     full = x.reshape(nby, nbx, block, block).permute(0, 2, 1, 3).reshape(nby * block, nbx * block)
-    return full[:height, :width]
+    return full[oy : oy + height, ox : ox + width]
 
 
-def _block_order(keys: torch.Tensor, block: int) -> torch.Tensor:
+def _block_order(keys: torch.Tensor, block: int, offset: tuple[int, int] = (0, 0)) -> torch.Tensor:
     """Per block, positions sorted by (key, position): ``[nby * nbx, B * B]`` int64.
 
     Keys are packed with their position into distinct int64s, so one unstable row sort is a
     stable sort of the keys; padding gets the largest key and sorts last.
     """
-    packed = _blocks(keys, block, _PAD_KEY).to(torch.int64) << _POSITION_BITS
+    packed = _blocks(keys, block, _PAD_KEY, offset).to(torch.int64) << _POSITION_BITS
     packed |= torch.arange(block * block, device=keys.device)
     return packed.sort(dim=1).values & ((1 << _POSITION_BITS) - 1)
 
 
-def plan_sort(mask: torch.Tensor, block: int = 4) -> SortPlan:
-    """Precompute the mask side of :func:`sort_pass` for one mask image and block size.
+def plan_sort(
+    mask: torch.Tensor, block: int = 4, grid_offset: tuple[int, int] = (0, 0)
+) -> SortPlan:
+    """Precompute the mask side of :func:`sort_pass` for one mask image, block size and grid.
 
     Args:
         mask: ``[H, W]`` floating point, the frame's mask values (already tiled and offset, e.g.
             ``bnerr.masks.tile_mask(M, H, W, frame_offset(t, T))``); NaN and infinities are
             ordered like values.
         block: B in 2..8.
+        grid_offset: ``(oy, ox)`` in ``[0, B)^2``, the block grid's offset (see
+            :class:`SortPlan`); a strategy that shifts the grid per frame needs one plan per
+            (mask offset, grid offset) pair.
 
     Returns:
         A :class:`SortPlan` on ``mask``'s device.
@@ -239,12 +288,13 @@ def plan_sort(mask: torch.Tensor, block: int = 4) -> SortPlan:
     size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
     check_dtype(mask, FLOAT_DTYPES, "mask")
     block = _check_block(block)
-    order = _block_order(_ordered_keys(mask), block).to(torch.uint8).contiguous()
-    return SortPlan(block=block, height=size["H"], width=size["W"], order=order)
+    grid = _check_grid_offset(grid_offset, block)
+    order = _block_order(_ordered_keys(mask), block, grid).to(torch.uint8).contiguous()
+    return SortPlan(block=block, height=size["H"], width=size["W"], order=order, grid_offset=grid)
 
 
 class _PlanCache:
-    """The last few plans, keyed by the mask tensor's identity, version counter and block size.
+    """The last few plans, keyed by the mask tensor's identity, version, block size and grid.
 
     A weak reference proves that the tensor is still the same object (ids are reused after garbage
     collection) and ``Tensor._version`` changes on every in-place write, so a mask edited in place
@@ -253,20 +303,20 @@ class _PlanCache:
 
     def __init__(self, capacity: int = 8) -> None:
         self.capacity = capacity
-        self.entries: dict[tuple[int, int], tuple[weakref.ref, int, SortPlan]] = {}
+        self.entries: dict[tuple, tuple[weakref.ref, int, SortPlan]] = {}
         self.lock = threading.Lock()
 
-    def get(self, mask: torch.Tensor, block: int) -> SortPlan:
+    def get(self, mask: torch.Tensor, block: int, grid: tuple[int, int] = (0, 0)) -> SortPlan:
         try:
             version = mask._version
         except RuntimeError:  # inference tensor
-            return plan_sort(mask, block)
-        key = (id(mask), block)
+            return plan_sort(mask, block, grid)
+        key = (id(mask), block, grid)
         with self.lock:
             hit = self.entries.get(key)
         if hit is not None and hit[0]() is mask and hit[1] == version:
             return hit[2]
-        plan = plan_sort(mask, block)
+        plan = plan_sort(mask, block, grid)
         with self.lock:
             self.entries.pop(key, None)
             while len(self.entries) >= self.capacity:
@@ -282,20 +332,46 @@ _PLANS = _PlanCache()
 # The sorting pass: the torch path, the native path and the custom op that dispatches between them
 
 
+def _group_stable(ranked: torch.Tensor, labels: torch.Tensor | None) -> torch.Tensor:
+    """Reorder each row of block positions ``ranked [nb, B*B]`` stably by the positions' group
+    labels ``labels [nb, B*B]`` (None: unchanged). Value order and mask order regrouped alike put
+    every group in the same rank range of both, so rank k still maps to rank k."""
+    if labels is None:
+        return ranked
+    regroup = labels.gather(1, ranked).sort(dim=1, stable=True).indices
+    return ranked.gather(1, regroup)
+
+
 def _sort_blocks_torch(
-    seeds: torch.Tensor, lum: torch.Tensor, order: torch.Tensor, block: int
+    seeds: torch.Tensor,
+    lum: torch.Tensor,
+    order: torch.Tensor,
+    block: int,
+    groups: torch.Tensor | None = None,
+    offset: tuple[int, int] = (0, 0),
 ) -> torch.Tensor:
-    """The torch path: sort each block's packed (key, position), then move seeds rank by rank."""
+    """The torch path: sort each block's packed (key, position), then move seeds rank by rank.
+
+    With ``groups [H, W]`` int64, both orders are then stably regrouped by label (two more row
+    sorts); padding's label sorts last, so padded positions stay last in both.
+    """
     h, w = seeds.shape
-    source = _block_order(_ordered_keys(lum), block)  # position of the k-th smallest value
-    blocks = _blocks(seeds, block, -1)
-    out = torch.empty_like(blocks).scatter_(1, order.long(), blocks.gather(1, source))
-    return _unblocks(out, block, h, w).contiguous()
+    source = _block_order(_ordered_keys(lum), block, offset)  # position of the k-th smallest value
+    target = order.long()
+    if groups is not None:
+        labels = _blocks(groups, block, _PAD_LABEL, offset)
+        source, target = _group_stable(source, labels), _group_stable(target, labels)
+    blocks = _blocks(seeds, block, -1, offset)
+    out = torch.empty_like(blocks).scatter_(1, target, blocks.gather(1, source))
+    return _unblocks(out, block, h, w, offset).contiguous()
 
 
-def _sort_torch(seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan) -> torch.Tensor:
-    """The torch path of :func:`sort_pass` for ``lum [H, W]`` float32 and a plan."""
-    return _sort_blocks_torch(seeds, lum, plan.order, plan.block)
+def _sort_torch(
+    seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan, groups: torch.Tensor | None = None
+) -> torch.Tensor:
+    """The torch path of :func:`sort_pass` for ``lum [H, W]`` float32, a plan and optional
+    ``groups [H, W]`` int64."""
+    return _sort_blocks_torch(seeds, lum, plan.order, plan.block, groups, plan.grid_offset)
 
 
 def _native_threads(seeds: torch.Tensor) -> int:
@@ -304,7 +380,8 @@ def _native_threads(seeds: torch.Tensor) -> int:
 
 def _self_check(kernels: native.Kernels) -> bool:
     """Compare the native kernel with the torch path on small adversarial inputs (odd sizes,
-    partial blocks, NaN, infinities, signed zeros, ties): True if bit-identical."""
+    partial blocks, NaN, infinities, signed zeros, ties, grid offsets, groups): True if
+    bit-identical."""
     gen = torch.Generator().manual_seed(1234)
     for block, (h, w) in ((3, (37, 53)), (4, (40, 70)), (8, (19, 141))):
         color = torch.randint(0, 5, (3, h, w), generator=gen).float() / 4
@@ -312,14 +389,17 @@ def _self_check(kernels: native.Kernels) -> bool:
         color[1, 1, :3] = float("inf")
         color[2, 2, :4] = -0.0
         seeds = torch.randperm(h * w, generator=gen).view(h, w)
-        plan = plan_sort(torch.rand(h, w, generator=gen), block)
-        want = _sort_torch(seeds, luminance(color), plan)
-        for values in (color, luminance(color)):
-            got = native.native_sort_blocks(
-                kernels, seeds, values, plan.order, block, LUMINANCE_WEIGHTS
-            )
-            if got is None or not torch.equal(got, want):
-                return False
+        groups = torch.randint(0, 3, (h, w), generator=gen)
+        for grid, labels in (((0, 0), None), ((block - 1, 1), None), ((1, 0), groups)):
+            plan = plan_sort(torch.rand(h, w, generator=gen), block, grid)
+            want = _sort_torch(seeds, luminance(color), plan, labels)
+            for values in (color, luminance(color)):
+                got = native.native_sort_blocks(
+                    kernels, seeds, values, plan.order, block, LUMINANCE_WEIGHTS,
+                    groups=labels, grid_offset=grid,
+                )  # fmt: skip
+                if got is None or not torch.equal(got, want):
+                    return False
     return True
 
 
@@ -351,40 +431,64 @@ def _native_kernels() -> native.Kernels | None:
 # The op, registered with the low-level torch.library API: its dispatch costs a few microseconds
 # per call, where torch.library.custom_op's Python wrappers cost about 30 (measured).
 _LIBRARY = torch.library.Library("bnerr", "FRAGMENT")
-_LIBRARY.define("sort_pass(Tensor seeds, Tensor values, Tensor order, int block) -> Tensor")
+_LIBRARY.define(
+    "sort_pass(Tensor seeds, Tensor values, Tensor order, int block, Tensor? groups=None, "
+    "int oy=0, int ox=0) -> Tensor"
+)
 
 
 def _sort_pass_default(
-    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    order: torch.Tensor,
+    block: int,
+    groups: torch.Tensor | None = None,
+    oy: int = 0,
+    ox: int = 0,
 ) -> torch.Tensor:
-    """``torch.ops.bnerr.sort_pass(seeds, values, order, block)``: the sorting pass as a torch op.
+    """``torch.ops.bnerr.sort_pass(seeds, values, order, block, groups, oy, ox)``: the sorting
+    pass as a torch op.
 
     ``seeds [H, W]`` int64, ``values [H, W]`` or ``[3, H, W]`` float32 (RGB: its Rec. 709
-    luminance is the key), ``order`` a :class:`SortPlan`'s ``order``; returns ``[H, W]`` int64.
-    Inputs are not checked here (:func:`sort_pass` checks them). This default kernel (CUDA and
-    every other device but the CPU) is the torch path.
+    luminance is the key), ``order`` a :class:`SortPlan`'s ``order`` for the grid offset
+    ``(oy, ox)``, ``groups [H, W]`` int64 or None; returns ``[H, W]`` int64. Inputs are not
+    checked here (:func:`sort_pass` checks them). This default kernel (CUDA and every other
+    device but the CPU) is the torch path.
     """
-    return _sort_blocks_torch(seeds, luminance(values), order, block)
+    return _sort_blocks_torch(seeds, luminance(values), order, block, groups, (oy, ox))
 
 
 def _sort_pass_cpu(
-    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    order: torch.Tensor,
+    block: int,
+    groups: torch.Tensor | None = None,
+    oy: int = 0,
+    ox: int = 0,
 ) -> torch.Tensor:
     """CPU kernel of the op: the native kernel where it loads and passed its check, else torch."""
     kernels = _native_kernels()
     if kernels is not None:
         threads = _native_threads(seeds)
         out = native.native_sort_blocks(
-            kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, threads
-        )
+            kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, threads,
+            groups=groups, grid_offset=(oy, ox),
+        )  # fmt: skip
         if out is not None:
             return out
-    return _sort_blocks_torch(seeds, luminance(values), order, block)
+    return _sort_blocks_torch(seeds, luminance(values), order, block, groups, (oy, ox))
 
 
 @torch.library.register_fake("bnerr::sort_pass")
 def _sort_pass_fake(
-    seeds: torch.Tensor, values: torch.Tensor, order: torch.Tensor, block: int
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    order: torch.Tensor,
+    block: int,
+    groups: torch.Tensor | None = None,
+    oy: int = 0,
+    ox: int = 0,
 ) -> torch.Tensor:
     """Shape propagation for ``torch.compile``: the output is like ``seeds``."""
     return torch.empty_like(seeds, memory_format=torch.contiguous_format)
@@ -395,12 +499,21 @@ _LIBRARY.impl("sort_pass", _sort_pass_default, "CompositeExplicitAutograd")
 
 
 def _resolve_plan(
-    mask: torch.Tensor | SortPlan, block: int, h: int, w: int, device: torch.device
+    mask: torch.Tensor | SortPlan,
+    block: int,
+    h: int,
+    w: int,
+    device: torch.device,
+    grid: tuple[int, int] | None,
 ) -> SortPlan:
     if isinstance(mask, SortPlan):
         if mask.block != block:
             raise ValueRangeError(
                 f"block: expected the plan's block size {mask.block}, got {block}"
+            )
+        if grid is not None and _check_grid_offset(grid, block) != mask.grid_offset:
+            raise ValueRangeError(
+                f"grid_offset: expected the plan's grid offset {mask.grid_offset}, got {grid}"
             )
         if (mask.height, mask.width) != (h, w):
             raise ShapeError(
@@ -412,7 +525,8 @@ def _resolve_plan(
                 f"mask: expected a plan on {device} like seeds, got {mask.device}"
             )
         return mask
-    return _PLANS.get(_check_mask(mask, h, w, device), block)
+    grid = (0, 0) if grid is None else _check_grid_offset(grid, block)
+    return _PLANS.get(_check_mask(mask, h, w, device), block, grid)
 
 
 def sort_pass(
@@ -420,6 +534,9 @@ def sort_pass(
     values: torch.Tensor,
     mask: torch.Tensor | SortPlan,
     block: int = 4,
+    *,
+    groups: torch.Tensor | None = None,
+    grid_offset: tuple[int, int] | None = None,
 ) -> torch.Tensor:
     """Permute seeds inside each ``B x B`` block so that their values follow the mask's order.
 
@@ -427,25 +544,41 @@ def sort_pass(
     k-th smallest mask value (Heitz & Belcour 2019, section 5, "sorting pass"). Rendered again, the
     frame's error inside each block then follows the mask: blue noise if the mask is blue noise.
 
+    With ``groups``, a block sorts each group separately (docs/METHODS.md, section 8, "permute
+    only similar pixels"): the group's pixels, ordered by mask value, receive the group's seeds
+    ordered by value; a pixel alone in its group in a block keeps its seed. With ``grid_offset``
+    the block grid is shifted (blocks partial at every border), so that a strategy shifting it
+    between frames lets seeds travel past block boundaries.
+
     Args:
         seeds: ``[H, W]`` int64, the seed image that rendered ``values``.
-        values: ``[H, W]`` floating point (the sort key, e.g. luminance), or ``[3, H, W]`` linear
-            RGB (its Rec. 709 :func:`luminance` is taken), or ``[1, H, W]``. Compared as float32;
-            NaN and infinities are allowed (see the module docstring for the order).
+        values: ``[H, W]`` floating point (the sort key, e.g. luminance or a
+            :func:`bnerr.sortkeys.sort_key`), or ``[3, H, W]`` linear RGB (its Rec. 709
+            :func:`luminance` is taken), or ``[1, H, W]``. Compared as float32; NaN and infinities
+            are allowed (see the module docstring for the order).
         mask: ``[H, W]`` floating point, the frame's mask values already tiled and offset; or a
             :class:`SortPlan` from :func:`plan_sort`. A mask tensor's plan is cached while the
             same tensor object is passed unchanged.
-        block: block size B, an integer in 2..8 (the paper uses 4). Blocks at the right and
-            bottom borders may be partial.
+        block: block size B, an integer in 2..8 (the paper uses 4).
+        groups: ``[H, W]`` integer labels on ``seeds``' device (e.g.
+            :func:`bnerr.sortkeys.group_labels`), or None (one group per block, the paper's).
+            Only equality matters. Costs: two more row sorts on the torch path; on the CPU the
+            native kernel's scalar code (see ``benchmarks/speed_permute.py``).
+        grid_offset: ``(oy, ox)`` in ``[0, B)^2``: pixel (y, x) lies in block
+            ``((y + oy) // B, (x + ox) // B)``. None: the plan's (a :class:`SortPlan` carries
+            its own), or ``(0, 0)`` for a mask tensor. Independent of the mask's toroidal offset;
+            the retargeting pass after it takes the mask offset as before.
 
     Returns:
-        ``[H, W]`` int64 on ``seeds``' device, a new tensor: inside every block, a permutation of
-        the block's input seeds. Bit-identical for equal inputs, on every path and thread count.
+        ``[H, W]`` int64 on ``seeds``' device, a new tensor: inside every block (and group), a
+        permutation of its input seeds. Bit-identical for equal inputs, on every path and thread
+        count; with no groups and a zero offset, identical to the paper's pass.
 
     Raises:
         ShapeError: shapes that do not match. DtypeError: seeds not int64, values or mask not
-        floating point, block not an int. ValueRangeError: block outside 2..8, tensors on
-        different devices.
+        floating point, groups not integer, block not an int. ValueRangeError: block outside
+        2..8, a grid offset outside ``[0, B)^2`` or unlike the plan's, tensors on different
+        devices.
     """
     h, w = _check_seeds(seeds)
     block = _check_block(block)
@@ -454,12 +587,16 @@ def sort_pass(
         raise ValueRangeError(
             f"values: expected a tensor on {seeds.device} like seeds, got {values.device}"
         )
-    plan = _resolve_plan(mask, block, h, w, seeds.device)
+    plan = _resolve_plan(mask, block, h, w, seeds.device, grid_offset)
+    labels = None if groups is None else _check_groups(groups, h, w, seeds.device)
     if seeds.numel() == 0:
         return seeds.clone()
     rgb = values.ndim == 3 and values.shape[0] == 3
     keys = values.detach().to(torch.float32) if rgb else luminance(values.detach())
-    return torch.ops.bnerr.sort_pass.default(seeds, keys, plan.order, block)
+    oy, ox = plan.grid_offset
+    if labels is None and oy == 0 and ox == 0:  # the paper's pass: the op's original call
+        return torch.ops.bnerr.sort_pass.default(seeds, keys, plan.order, block)
+    return torch.ops.bnerr.sort_pass.default(seeds, keys, plan.order, block, labels, oy, ox)
 
 
 class SortPass(torch.nn.Module):
@@ -473,9 +610,15 @@ class SortPass(torch.nn.Module):
         self.block = _check_block(block)
 
     def forward(
-        self, seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor | SortPlan
+        self,
+        seeds: torch.Tensor,
+        values: torch.Tensor,
+        mask: torch.Tensor | SortPlan,
+        *,
+        groups: torch.Tensor | None = None,
+        grid_offset: tuple[int, int] | None = None,
     ) -> torch.Tensor:
-        return sort_pass(seeds, values, mask, self.block)
+        return sort_pass(seeds, values, mask, self.block, groups=groups, grid_offset=grid_offset)
 
     def extra_repr(self) -> str:
         return f"block={self.block}"
@@ -486,32 +629,60 @@ def _python_key(value: float) -> tuple[int, float]:
     return (1, 0.0) if value != value else (0, value)
 
 
+def _reference_block(
+    pixels: list[tuple[int, int]], lum: list, mvals: list, labels: list | None
+) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """``(source, target)`` pixel pairs of one block: per group, by value against by mask."""
+    if labels is None:
+        groups = [pixels]
+    else:
+        by_label: dict[int, list[tuple[int, int]]] = {}
+        for y, x in pixels:
+            by_label.setdefault(labels[y][x], []).append((y, x))
+        groups = list(by_label.values())
+    pairs = []
+    for members in groups:  # members stay in row-major order: Python's sort is stable
+        by_value = sorted(members, key=lambda p: _python_key(lum[p[0]][p[1]]))
+        by_mask = sorted(members, key=lambda p: _python_key(mvals[p[0]][p[1]]))
+        pairs.extend(zip(by_value, by_mask))
+    return pairs
+
+
 def sort_pass_reference(
-    seeds: torch.Tensor, values: torch.Tensor, mask: torch.Tensor, block: int = 4
+    seeds: torch.Tensor,
+    values: torch.Tensor,
+    mask: torch.Tensor,
+    block: int = 4,
+    *,
+    groups: torch.Tensor | None = None,
+    grid_offset: tuple[int, int] = (0, 0),
 ) -> torch.Tensor:
     """The slow twin of :func:`sort_pass`: a Python loop over blocks with Python's stable sort.
 
     Same arguments, checks and result as :func:`sort_pass` (``mask`` must be a tensor). Values
     and mask go through float32 exactly as in the fast op; Python compares ``-0.0 == 0.0`` and
-    orders infinities natively, and NaN is keyed after everything. For tests and for reading,
-    not for use: it takes seconds on a 256 x 256 image.
+    orders infinities natively, and NaN is keyed after everything. Blocks are enumerated with
+    the grid offset (pixel (y, x) in block ``((y + oy) // B, (x + ox) // B)``), each group of a
+    block separately. For tests and for reading, not for use: it takes seconds on 256 x 256.
     """
     h, w = _check_seeds(seeds)
     block = _check_block(block)
     values = _check_values(values, h, w)
     mask = _check_mask(mask, h, w, seeds.device)
+    oy, ox = _check_grid_offset(grid_offset, block)
+    labels = None if groups is None else _check_groups(groups, h, w, seeds.device).cpu().tolist()
     lum = luminance(values).cpu().tolist()
     mvals = mask.to(torch.float32).cpu().tolist()
     src = seeds.cpu().tolist()
     out = [row[:] for row in src]
-    for y0 in range(0, h, block):
-        for x0 in range(0, w, block):
+    for y0 in range(-oy, h, block):
+        for x0 in range(-ox, w, block):
             pixels = [
-                (y, x) for y in range(y0, min(y0 + block, h)) for x in range(x0, min(x0 + block, w))
+                (y, x)
+                for y in range(max(y0, 0), min(y0 + block, h))
+                for x in range(max(x0, 0), min(x0 + block, w))
             ]
-            by_value = sorted(pixels, key=lambda p: _python_key(lum[p[0]][p[1]]))
-            by_mask = sorted(pixels, key=lambda p: _python_key(mvals[p[0]][p[1]]))
-            for (vy, vx), (my, mx) in zip(by_value, by_mask):
+            for (vy, vx), (my, mx) in _reference_block(pixels, lum, mvals, labels):
                 out[my][mx] = src[vy][vx]
     return torch.tensor(out, dtype=torch.int64, device=seeds.device).reshape(h, w)
 

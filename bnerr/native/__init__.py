@@ -82,7 +82,8 @@ def _bind(library: ctypes.CDLL, why: str) -> Kernels:
     """Bind the expected functions; AttributeError if the library lacks one."""
     p, i64, f32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_float
     sort = library.bnerr_sort_pass
-    sort.argtypes = [p, p, p, f32, f32, f32, p, p, p, i64, i64, ctypes.c_int, ctypes.c_int]
+    c_int = ctypes.c_int
+    sort.argtypes = [p, p, p, f32, f32, f32, p, p, p, p, i64, i64, c_int, i64, i64, c_int]
     sort.restype = ctypes.c_int
     gather = library.bnerr_retarget
     gather.argtypes = [p, p, p, p, i64, i64, i64, i64, i64, i64, ctypes.c_int]
@@ -165,6 +166,9 @@ def native_sort_blocks(
     block: int,
     weights: tuple[float, float, float],
     threads: int = 1,
+    *,
+    groups: torch.Tensor | None = None,
+    grid_offset: tuple[int, int] = (0, 0),
 ) -> torch.Tensor | None:
     """The block sorting pass in C (the rule of :func:`bnerr.permute.sort_pass`).
 
@@ -173,11 +177,15 @@ def native_sort_blocks(
         seeds: ``[H, W]`` int64 CPU tensor.
         values: ``[H, W]`` float32 sort keys, or ``[3, H, W]`` float32 planes whose luminance
             ``(w0 * R + w1 * G) + w2 * B`` (float32, in that order) is the key.
-        order: ``[ceil(H / B) * ceil(W / B), B * B]`` uint8, each block's positions in mask order
-            (:class:`bnerr.permute.SortPlan`).
+        order: ``[ceil((H + oy) / B) * ceil((W + ox) / B), B * B]`` uint8, each block's positions
+            in mask order (:class:`bnerr.permute.SortPlan` for the same ``grid_offset``).
         block: B in 2..8.
         weights: ``(w0, w1, w2)``, used for ``[3, H, W]`` values (rounded to float32).
         threads: worker threads (split by block rows; the result does not depend on it).
+        groups: ``[H, W]`` int64 labels or None; with labels, each block sorts each group of equal
+            labels among its own pixels (scalar code, no SIMD: see :func:`bnerr.permute.sort_pass`).
+        grid_offset: ``(oy, ox)`` in ``[0, B)^2``: pixel (y, x) is in block
+            ``((y + oy) // B, (x + ox) // B)``.
 
     Returns:
         ``[H, W]`` int64, or None when the kernel refuses the sizes (the caller falls back).
@@ -194,9 +202,11 @@ def native_sort_blocks(
         floats = _float32(tuple(weights))
     else:
         planes, floats = [values.data_ptr(), None, None], [1.0, 0.0, 0.0]
+    labels = None if groups is None else groups.to(torch.int64).contiguous()
     code = kernels.sort_pass(
-        *planes, *floats, seeds.data_ptr(), order.data_ptr(), out.data_ptr(), h, w, block,
-        _threads(threads),
+        *planes, *floats, seeds.data_ptr(), order.data_ptr(),
+        None if labels is None else labels.data_ptr(), out.data_ptr(), h, w, block,
+        grid_offset[0], grid_offset[1], _threads(threads),
     )  # fmt: skip
     if code == 2:
         raise ValueRangeError(

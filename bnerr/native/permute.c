@@ -1,5 +1,6 @@
 /* bnerr's native CPU kernels for the seed permutation (docs/METHODS.md, section 4): the block
-   sorting pass (bnerr_sort_pass) and the retargeting pass (bnerr_retarget).
+   sorting pass (bnerr_sort_pass: optional groups and block-grid offset) and the retargeting
+   pass (bnerr_retarget).
 
    Built by bnerr.native at first use with the system C compiler into a shared library loaded
    with ctypes; no Python or torch headers. Every constant (the luminance weights, the block size,
@@ -34,8 +35,9 @@ typedef struct {
     float w0, w1, w2;
     const int64_t *seeds;
     const uint8_t *order;       /* [nblocks, B*B]: padded-local position (a*B+b) by mask rank */
+    const int64_t *groups;      /* [H, W] group labels, or NULL: one group per block */
     int64_t *out;
-    int64_t H, W, by0, by1;
+    int64_t H, W, oy, ox, by0, by1;
     int err;                    /* set when the plan holds a position outside its block */
 } job_t;
 
@@ -55,42 +57,76 @@ static inline int32_t load_bits(const job_t *j, int64_t idx) {
     return bits;
 }
 
-/* One block, any size (partial blocks at the right and bottom borders). */
+/* Grouped ranks of one block: the pixel with the k-th smallest (group, key, position) moves to
+   the position with the k-th smallest (group, mask rank). Groups compare by label, so each group's
+   pixels take each other's places only. */
+static void block_groups(job_t *j, const int B, const uint8_t *ord, int m, const int64_t *key,
+                         const int64_t *grp, const int *pos, const int64_t *src, int64_t y0,
+                         int64_t x0) {
+    int slot[64], at[64];
+    for (int i = 0; i < 64; ++i) slot[i] = -1;
+    for (int r = 0; r < m; ++r) slot[ord[r] & 63] = r;
+    for (int i = 0; i < m; ++i) {
+        const int mi = slot[pos[i]];
+        if (mi < 0) { j->err = 1; return; }
+        int c = 0;
+        for (int k = 0; k < m; ++k) c += grp[k] < grp[i] || (grp[k] == grp[i] && slot[pos[k]] < mi);
+        at[c] = pos[i];
+    }
+    for (int i = 0; i < m; ++i) {
+        int c = 0;
+        for (int k = 0; k < m; ++k) c += grp[k] < grp[i] || (grp[k] == grp[i] && key[k] < key[i]);
+        const int p = at[c];
+        j->out[(y0 + p / B) * j->W + x0 + p % B] = src[i];
+    }
+}
+
+/* One block, any size (partial blocks at every border when the grid is offset), with or without
+   groups. Block (by, bx) covers rows by*B - oy .. and columns bx*B - ox .., clipped to the image. */
 static void block_scalar(job_t *j, const int B, int64_t by, int64_t bx, int64_t nbx) {
     const int n = B * B;
-    const int64_t y0 = by * B, x0 = bx * B;
-    const int bh = (int)(j->H - y0 < B ? j->H - y0 : B);
-    const int bw = (int)(j->W - x0 < B ? j->W - x0 : B);
-    int64_t key[64];
+    const int64_t y0 = by * B - j->oy, x0 = bx * B - j->ox;
+    const int a0 = y0 < 0 ? (int)-y0 : 0, b0 = x0 < 0 ? (int)-x0 : 0;
+    const int a1 = (int)(j->H - y0 < B ? j->H - y0 : B);
+    const int b1 = (int)(j->W - x0 < B ? j->W - x0 : B);
+    int64_t key[64], grp[64], src[64];
     int pos[64];
     int m = 0;
-    for (int a = 0; a < bh; ++a)
-        for (int b = 0; b < bw; ++b) {
-            key[m] = (int64_t)okey(load_bits(j, (y0 + a) * j->W + x0 + b)) * 64 + (a * B + b);
+    for (int a = a0; a < a1; ++a)
+        for (int b = b0; b < b1; ++b) {
+            const int64_t idx = (y0 + a) * j->W + x0 + b;
+            key[m] = (int64_t)okey(load_bits(j, idx)) * 64 + (a * B + b);
+            grp[m] = j->groups ? j->groups[idx] : 0;
+            src[m] = j->seeds[idx];
             pos[m] = a * B + b;
             ++m;
         }
     const uint8_t *ord = j->order + (by * nbx + bx) * n;
+    for (int r = 0; r < m; ++r) {
+        const int p = ord[r];
+        if (p >= n || p / B < a0 || p / B >= a1 || p % B < b0 || p % B >= b1) { j->err = 1; return; }
+    }
+    if (j->groups) { block_groups(j, B, ord, m, key, grp, pos, src, y0, x0); return; }
     for (int i = 0; i < m; ++i) {
         int r = 0;
         for (int k = 0; k < m; ++k) r += key[k] < key[i];
-        const int p = ord[r], q = pos[i];
-        if (p >= n || p / B >= bh || p % B >= bw) { j->err = 1; continue; }
-        j->out[(y0 + p / B) * j->W + x0 + p % B] = j->seeds[(y0 + q / B) * j->W + x0 + q % B];
+        const int p = ord[r];
+        j->out[(y0 + p / B) * j->W + x0 + p % B] = src[i];
     }
 }
 
-/* Full blocks of one block row, 16 blocks per step, one block per SIMD lane. B is a compile-time
-   constant after inlining, so the loops below unroll. */
+/* Full blocks bx in [bx_first, bx_last) of one block row, 16 blocks per step, one block per SIMD
+   lane. B is a compile-time constant after inlining, so the loops below unroll. */
 static inline __attribute__((always_inline))
-void row_vector(job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx) {
+void row_vector(job_t *j, const int B, int64_t by, int64_t bx_first, int64_t bx_last, int64_t nbx) {
     const int n = B * B;
-    const int64_t y0 = by * B, W = j->W;
-    for (int64_t bx0 = 0; bx0 < nbx_full; bx0 += 16) {
-        const int lanes = nbx_full - bx0 < 16 ? (int)(nbx_full - bx0) : 16;
+    const int64_t y0 = by * B - j->oy, W = j->W;
+    for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += 16) {
+        const int lanes = bx_last - bx0 < 16 ? (int)(bx_last - bx0) : 16;
+        const int64_t xs = bx0 * B - j->ox;
         int32_t raw[64][16] __attribute__((aligned(64)));
         for (int a = 0; a < B; ++a) {
-            const int64_t row = (y0 + a) * W + bx0 * B;
+            const int64_t row = (y0 + a) * W + xs;
             for (int l = 0; l < 16; ++l)
                 for (int b = 0; b < B; ++b)
                     raw[a * B + b][l] = l < lanes ? load_bits(j, row + l * B + b) : 0;
@@ -106,7 +142,7 @@ void row_vector(job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx
             memcpy(rank[i], &c, 64);
         }
         for (int l = 0; l < lanes; ++l) {
-            const int64_t x0 = (bx0 + l) * B;
+            const int64_t x0 = xs + l * B;
             const uint8_t *ord = j->order + (by * nbx + bx0 + l) * n;
             for (int i = 0; i < n; ++i) {
                 const int p = ord[rank[i][l]];
@@ -118,14 +154,14 @@ void row_vector(job_t *j, const int B, int64_t by, int64_t nbx_full, int64_t nbx
 }
 
 static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
-    const int64_t nby_full = j->H / B, nbx_full = j->W / B, nbx = (j->W + B - 1) / B;
+    const int64_t nbx = (j->W + j->ox + B - 1) / B;
+    const int64_t bx_first = j->ox > 0, bx_last = (j->W + j->ox) / B;
     for (int64_t by = j->by0; by < j->by1; ++by) {
-        if (by < nby_full) {
-            row_vector(j, B, by, nbx_full, nbx);
-            for (int64_t bx = nbx_full; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
-        } else {
-            for (int64_t bx = 0; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
-        }
+        const int64_t y0 = by * B - j->oy;
+        const int full = !j->groups && y0 >= 0 && y0 + B <= j->H && bx_last > bx_first;
+        if (full) row_vector(j, B, by, bx_first, bx_last, nbx);
+        for (int64_t bx = 0; bx < nbx; ++bx)
+            if (!full || bx < bx_first || bx >= bx_last) block_scalar(j, B, by, bx, nbx);
     }
 }
 
@@ -175,17 +211,19 @@ static int clamp_threads(int threads, int64_t rows) {
 }
 
 /* Returns 0 on success, 2 if the plan was malformed (nothing written out of bounds), 1 on bad
-   sizes. Threads split the block rows; blocks are independent, so the result does not depend on
-   the thread count. */
+   sizes. The block grid starts at (-oy, -ox): block (by, bx) covers rows by*B - oy .. and columns
+   bx*B - ox ..; groups (NULL: none) restrict each block's sort to pixels with equal labels.
+   Threads split the block rows; blocks are independent, so the result does not depend on the
+   thread count. */
 int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0, float w1, float w2,
-                    const int64_t *seeds, const uint8_t *order, int64_t *out,
-                    int64_t H, int64_t W, int B, int threads) {
-    if (B < 2 || B > 8 || H < 1 || W < 1) return 1;
-    const int64_t nby = (H + B - 1) / B;
+                    const int64_t *seeds, const uint8_t *order, const int64_t *groups, int64_t *out,
+                    int64_t H, int64_t W, int B, int64_t oy, int64_t ox, int threads) {
+    if (B < 2 || B > 8 || H < 1 || W < 1 || oy < 0 || oy >= B || ox < 0 || ox >= B) return 1;
+    const int64_t nby = (H + oy + B - 1) / B;
     threads = clamp_threads(threads, nby);
     task_t tasks[64];
     for (int i = 0; i < threads; ++i) {
-        job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, out, H, W,
+        job_t jb = {v0, v1, v2, w0, w1, w2, seeds, order, groups, out, H, W, oy, ox,
                     nby * i / threads, nby * (i + 1) / threads, 0};
         tasks[i].job = jb;
         tasks[i].B = B;
