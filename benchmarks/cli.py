@@ -36,12 +36,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(err: BaseException) -> str | None:
+    """The one-line message of an error a user can act on, or None for a bug (a traceback)."""
+    if isinstance(err, BnerrError):
+        return str(err)
+    if isinstance(err, OSError):  # a file system's refusal the checks could not foresee
+        where = f"{err.filename}: " if err.filename else ""
+        return f"{where}{err.strerror or err}"
+    if isinstance(err, MemoryError) or (
+        isinstance(err, RuntimeError) and "alloc" in str(err).lower() and "memory" in str(err)
+    ):
+        return f"out of memory ({str(err).splitlines()[0] if str(err) else type(err).__name__})"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one subcommand; a user's error (bad input, file system, memory) is one line on stderr
+    and exit code 2, never a traceback."""
     args = build_parser().parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except BnerrError as err:
-        print(f"bnerr {args.command}: error: {err}", file=sys.stderr)
+    except (BnerrError, OSError, MemoryError, RuntimeError) as err:
+        message = _one_line(err)
+        if message is None:
+            raise
+        print(f"bnerr {args.command}: error: {message}", file=sys.stderr)
         return 2
 
 

@@ -1,4 +1,4 @@
-"""Training data for the U-Net, made with our own renderer: random scenes, noisy renders, references.
+"""Training data for the U-Net, from our own renderer: random scenes, noisy renders, references.
 
 Every scene here is drawn at random from its integer seed (numpy's PCG64, so the same seed gives the
 same scene on every machine) out of the renderer's declarative scene description
@@ -56,6 +56,7 @@ __all__ = [
     "pixel_seeds",
     "random_scene",
     "render_pair",
+    "training_set_bytes",
 ]
 
 #: Noise mixes of ``bnerr train --mix``.
@@ -101,11 +102,27 @@ class TrainingSpec:
         check_positive_int(self.seed, "TrainingSpec.seed", minimum=0)
 
 
+def training_set_bytes(spec: TrainingSpec, stored: bool = False) -> int:
+    """Rough bytes of the training set of ``spec``: stored (``stored=True``: the network's inputs
+    and targets, 12 float32 channels per pixel, as in the ``OUT.data`` cache), or the peak while
+    it is made (every pair's frame, 16 float32 buffers, and reference, the stacked set, and one
+    render's working set)."""
+    from benchmarks.commands.render import render_bytes
+
+    pixels = spec.size * spec.size
+    kept = spec.scenes * pixels * 12 * 4
+    if stored:
+        return kept
+    return kept + spec.scenes * pixels * (16 + 3) * 4 + render_bytes(spec.size, spec.size)
+
+
 # ----------------------------------------------------------------------------------------------
 # Random scenes
 
 
-def _albedo(rng: np.random.Generator, lo: float = 0.05, hi: float = 0.85) -> tuple[float, float, float]:
+def _albedo(
+    rng: np.random.Generator, lo: float = 0.05, hi: float = 0.85
+) -> tuple[float, float, float]:
     """A random RGB albedo, each channel in [lo, hi]: a tinted grey, or (half the time) a
     saturated color with one or two strong channels, like a snooker table's felt and balls."""
     if rng.uniform() < 0.5:
@@ -115,7 +132,9 @@ def _albedo(rng: np.random.Generator, lo: float = 0.05, hi: float = 0.85) -> tup
     strong = rng.uniform(0.3, 1.0) * hi
     weak = rng.uniform(0.0, 0.4) * strong
     mask = rng.permutation([True, rng.uniform() < 0.3, False])
-    return tuple(float(np.clip(strong if m else weak * rng.uniform(0.5, 1.0), lo, hi)) for m in mask)  # type: ignore
+    return tuple(
+        float(np.clip(strong if m else weak * rng.uniform(0.5, 1.0), lo, hi)) for m in mask
+    )  # type: ignore
 
 
 def _material(rng: np.random.Generator, textured: bool) -> Diffuse:
@@ -127,8 +146,15 @@ def _material(rng: np.random.Generator, textured: bool) -> Diffuse:
     if kind == 1:
         return Diffuse(Checker(_albedo(rng), _albedo(rng), cells, int(rng.integers(2, 24))))
     return Diffuse(
-        Felt(_albedo(rng, 0.1, 0.7), 8 * cells, 8 * cells, grain=float(rng.uniform(0.05, 0.4)),
-             nap=float(rng.uniform(0.0, 0.2)), bands=int(rng.integers(1, 8)), seed=int(rng.integers(1 << 16)))
+        Felt(
+            _albedo(rng, 0.1, 0.7),
+            8 * cells,
+            8 * cells,
+            grain=float(rng.uniform(0.05, 0.4)),
+            nap=float(rng.uniform(0.0, 0.2)),
+            bands=int(rng.integers(1, 8)),
+            seed=int(rng.integers(1 << 16)),
+        )
     )
 
 
@@ -140,7 +166,9 @@ def _frame_towards(normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, np.cross(normal, u)
 
 
-def _light(rng: np.random.Generator, index: int, room: float, height: float, ceiling_only: bool) -> Rectangle:
+def _light(
+    rng: np.random.Generator, index: int, room: float, height: float, ceiling_only: bool
+) -> Rectangle:
     """A rectangle light of random size, color and power: on the ceiling, free and aimed at the
     room's middle, or (often) standing in front of the back wall, facing the camera.
 
@@ -160,12 +188,20 @@ def _light(rng: np.random.Generator, index: int, room: float, height: float, cei
         center = (rng.uniform(-0.5, 0.5) * room, height - 1e-3, rng.uniform(-0.7, 0.3) * room)
         normal = np.array([0.0, -1.0, 0.0])
     elif kind < 0.75:  # a panel in front of the back wall, facing the camera: seen directly
-        center = (rng.uniform(-0.6, 0.6) * room, rng.uniform(0.3, 0.9) * height, rng.uniform(-0.95, -0.7) * room)
+        center = (
+            rng.uniform(-0.6, 0.6) * room,
+            rng.uniform(0.3, 0.9) * height,
+            rng.uniform(-0.95, -0.7) * room,
+        )
         normal = np.array([rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.1), 1.0])
         normal /= np.linalg.norm(normal)
     else:  # a free panel above the floor, aimed at a point near the room's middle
         angle = rng.uniform(0.0, 2.0 * math.pi)
-        center = (0.8 * room * math.sin(angle), rng.uniform(0.5, 0.9) * height, 0.8 * room * math.cos(angle))
+        center = (
+            0.8 * room * math.sin(angle),
+            rng.uniform(0.5, 0.9) * height,
+            0.8 * room * math.cos(angle),
+        )
         aim = np.array([rng.uniform(-0.3, 0.3) * room, rng.uniform(0.0, 0.3) * height, 0.0])
         normal = aim - np.asarray(center)
         normal /= np.linalg.norm(normal)
@@ -174,7 +210,9 @@ def _light(rng: np.random.Generator, index: int, room: float, height: float, cei
     def vec(x) -> tuple[float, float, float]:
         return tuple(float(c) for c in x)  # type: ignore[return-value]
 
-    return Rectangle(f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), material, emission)
+    return Rectangle(
+        f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), material, emission
+    )
 
 
 def _room(rng: np.random.Generator, room: float, height: float) -> list[Rectangle]:
@@ -183,19 +221,37 @@ def _room(rng: np.random.Generator, room: float, height: float) -> list[Rectangl
     Without walls the background is black, as around the benchmark's snooker table and fog box.
     """
     r, h = room, height
-    walls = [Rectangle("floor", (0.0, 0.0, 0.0), (r, 0.0, 0.0), (0.0, 0.0, -r), _material(rng, True))]
+    walls = [
+        Rectangle("floor", (0.0, 0.0, 0.0), (r, 0.0, 0.0), (0.0, 0.0, -r), _material(rng, True))
+    ]
     if rng.uniform() < 0.6:
-        walls.append(Rectangle("back", (0.0, h / 2, -r), (r, 0.0, 0.0), (0.0, h / 2, 0.0), _material(rng, True)))
+        walls.append(
+            Rectangle(
+                "back", (0.0, h / 2, -r), (r, 0.0, 0.0), (0.0, h / 2, 0.0), _material(rng, True)
+            )
+        )
     if rng.uniform() < 0.5:
-        walls.append(Rectangle("left", (-r, h / 2, 0.0), (0.0, h / 2, 0.0), (0.0, 0.0, r), _material(rng, True)))
+        walls.append(
+            Rectangle(
+                "left", (-r, h / 2, 0.0), (0.0, h / 2, 0.0), (0.0, 0.0, r), _material(rng, True)
+            )
+        )
     if rng.uniform() < 0.5:
-        walls.append(Rectangle("right", (r, h / 2, 0.0), (0.0, 0.0, r), (0.0, h / 2, 0.0), _material(rng, True)))
+        walls.append(
+            Rectangle(
+                "right", (r, h / 2, 0.0), (0.0, 0.0, r), (0.0, h / 2, 0.0), _material(rng, True)
+            )
+        )
     if rng.uniform() < 0.5:
-        walls.append(Rectangle("ceiling", (0.0, h, 0.0), (r, 0.0, 0.0), (0.0, 0.0, r), _material(rng, True)))
+        walls.append(
+            Rectangle("ceiling", (0.0, h, 0.0), (r, 0.0, 0.0), (0.0, 0.0, r), _material(rng, True))
+        )
     return walls
 
 
-def _objects(rng: np.random.Generator, room: float, x_range: tuple[float, float]) -> list[Sphere | Box]:
+def _objects(
+    rng: np.random.Generator, room: float, x_range: tuple[float, float]
+) -> list[Sphere | Box]:
     """One to three spheres and boxes standing on the floor, x within ``x_range`` (of ``room``)."""
     shapes: list[Sphere | Box] = []
     for i in range(int(rng.integers(1, 4))):
@@ -205,7 +261,11 @@ def _objects(rng: np.random.Generator, room: float, x_range: tuple[float, float]
         if rng.uniform() < 0.5:
             shapes.append(Sphere(f"sphere{i}", Fixed((x, size, z)), size, _material(rng, False)))
         else:
-            scale = (size * rng.uniform(0.5, 1.0), size * rng.uniform(0.5, 1.5), size * rng.uniform(0.5, 1.0))
+            scale = (
+                size * rng.uniform(0.5, 1.0),
+                size * rng.uniform(0.5, 1.5),
+                size * rng.uniform(0.5, 1.0),
+            )
             to_world = affine((x, scale[1], z), ((0.0, 1.0, 0.0), rng.uniform(0.0, 90.0)), scale)
             shapes.append(Box(f"box{i}", to_world, _material(rng, False)))
     return shapes
@@ -229,12 +289,18 @@ def random_scene(seed: int) -> Scene:
         side = 1.0 if rng.uniform() < 0.5 else -1.0
         lo = (min(0.3 * side, 0.95 * side) * room, 1e-2, -room * 0.95)
         hi = (max(0.3 * side, 0.95 * side) * room, height * rng.uniform(0.4, 0.95), room * 0.5)
-        medium = HomogeneousMedium(lo, hi, float(10.0 ** rng.uniform(-1.3, 0.2)), _albedo(rng, 0.5, 0.99))
+        medium = HomogeneousMedium(
+            lo, hi, float(10.0 ** rng.uniform(-1.3, 0.2)), _albedo(rng, 0.5, 0.99)
+        )
         x_range = (-0.6, -0.15) if side > 0 else (0.15, 0.6)
     shapes: list = _room(rng, room, height) + _objects(rng, room, x_range)
     lights = 1 + int(rng.uniform() < 0.35)
     shapes += [_light(rng, i, room, height, ceiling_only=medium is not None) for i in range(lights)]
-    eye = (rng.uniform(-0.5, 0.5) * room, rng.uniform(0.15, 0.8) * height, rng.uniform(0.6, 0.95) * room)
+    eye = (
+        rng.uniform(-0.5, 0.5) * room,
+        rng.uniform(0.15, 0.8) * height,
+        rng.uniform(0.6, 0.95) * room,
+    )
     # Looking down at the objects, or (40 %) up at the back wall and ceiling, so that lights are
     # often seen directly, as in the Cornell box: a denoiser must learn to keep them sharp.
     look_up = rng.uniform() < 0.4
@@ -259,7 +325,8 @@ def check_held_out(scenes: Sequence[Scene], named: Sequence[Scene]) -> None:
     for scene in scenes:
         if scene.name in names or (scene.shapes, scene.camera.frozen(), scene.medium) in contents:
             raise ValueRangeError(
-                f"training scene {scene.name!r}: expected a held-out scene, got benchmark scene content"
+                f"training scene {scene.name!r}: expected a held-out scene, "
+                "got benchmark scene content"
             )
 
 
@@ -278,7 +345,12 @@ def pixel_seeds(height: int, width: int, key: int) -> torch.Tensor:
 
 
 def render_pair(
-    scene: Scene, size: int, spp: int, reference_spp: int, key: int, blue: bool = False,
+    scene: Scene,
+    size: int,
+    spp: int,
+    reference_spp: int,
+    key: int,
+    blue: bool = False,
     sampler: str = "white",
 ) -> tuple[Frame, torch.Tensor]:
     """A noisy render of ``scene`` at ``spp`` and its reference color ``[3, size, size]``.
@@ -301,7 +373,9 @@ def render_pair(
     else:
         noise = make_sampler(check_name(sampler, SAMPLERS, "training sampler"))
     frame = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key), noise, spp)
-    reference = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key + 1), make_sampler("white"), reference_spp)
+    reference = renderers.render(
+        scene, 0, pixel_seeds(size, size, 2 * key + 1), make_sampler("white"), reference_spp
+    )
     return frame, reference.color
 
 
@@ -312,8 +386,9 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
     by the scene seed, blue noise for odd ``i`` when ``spec.mix == "white+blue"``, otherwise
     ``spec.sampler``.
     """
-    import renderers
     from tqdm.auto import tqdm
+
+    import renderers
 
     pairs = []
     scenes = [random_scene(spec.seed + i) for i in range(spec.scenes)]
@@ -322,6 +397,15 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
         seed = spec.seed + i
         spp = SPP_CHOICES[np.random.default_rng([seed, 0x5BB]).integers(len(SPP_CHOICES))]
         blue = spec.mix == "white+blue" and i % 2 == 1
-        pairs.append(render_pair(scene, spec.size, int(spp), spec.reference_spp, key=seed + 1, blue=blue,
-                                 sampler=spec.sampler))
+        pairs.append(
+            render_pair(
+                scene,
+                spec.size,
+                int(spp),
+                spec.reference_spp,
+                key=seed + 1,
+                blue=blue,
+                sampler=spec.sampler,
+            )
+        )
     return pairs

@@ -188,6 +188,41 @@ class ParamStore:
                 f"(stored: {', '.join(have) or 'nothing'})"
             ) from None
 
+    def resolve(self, denoiser: str, scene: str, spp: int | None = None) -> tuple[str, int]:
+        """The stored ``(scene key, spp)`` that ``scene`` and ``spp`` name for ``denoiser``.
+
+        ``scene`` is a stored key (``"direct/m1/owen_sobol/128x128"``) or its first part, the
+        scene's name (``"direct"``), which must then match exactly one key; ``spp`` may be None
+        when that key holds one spp. Denoisers without a grid (``unet``, ``oidn``) have no
+        entries: their ``(scene, spp)`` is returned as given (spp 0 when None).
+
+        Raises:
+            UnknownNameError: no key or several keys match, or the spp is ambiguous; the message
+                lists the candidates.
+        """
+        if denoiser not in GRIDS:
+            return scene, 0 if spp is None else spp
+        by_scene = self.entries.get(denoiser, {})
+        keys = (
+            [scene]
+            if scene in by_scene
+            else sorted(k for k in by_scene if k.split("/")[0] == scene)
+        )
+        if len(keys) != 1:
+            raise UnknownNameError(
+                f"tuned params: expected one {denoiser} entry for scene {scene!r}, got "
+                f"{len(keys)}: {', '.join(keys or sorted(by_scene)) or 'nothing stored'}"
+            )
+        if spp is not None:
+            return keys[0], spp
+        spps = sorted(by_scene[keys[0]], key=int)
+        if len(spps) != 1:
+            raise UnknownNameError(
+                f"tuned params: expected --spp for {denoiser}/{keys[0]}, which holds "
+                f"{', '.join(spps)} spp"
+            )
+        return keys[0], int(spps[0])
+
     def save(self, path: str | Path) -> None:
         """Write the store as JSON (sorted keys, so equal stores give equal files), atomically."""
         text = json.dumps(

@@ -8,15 +8,31 @@ from benchmarks.commands.render import parse_resolution
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.io import read_frame
 
-
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_writes_one_exr_and_png_per_frame(tmp_path, capsys):
-    code = main(["render", "--scene", "snooker", "--res", "12x8", "--spp", "2", "--frames", "2",
-                 "--start", "3", "--sampler", "owen_sobol", "--out", str(tmp_path)])
+    code = main(
+        [
+            "render",
+            "--scene",
+            "snooker",
+            "--res",
+            "12x8",
+            "--spp",
+            "2",
+            "--frames",
+            "2",
+            "--start",
+            "3",
+            "--sampler",
+            "owen_sobol",
+            "--out",
+            str(tmp_path),
+        ]
+    )
     assert code == 0
-    names = sorted(p.name for p in tmp_path.iterdir())
+    names = sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith("."))
     assert names == ["snooker_0003.exr", "snooker_0003.png", "snooker_0004.exr", "snooker_0004.png"]
     frame = read_frame(tmp_path / "snooker_0004.exr")
     assert frame.color.shape == (3, 8, 12)
@@ -29,8 +45,25 @@ def test_writes_one_exr_and_png_per_frame(tmp_path, capsys):
 
 
 def test_static_frames_do_not_move(tmp_path):
-    assert main(["render", "--scene", "direct", "--res", "8x8", "--spp", "1", "--frames", "2",
-                 "--static", "--out", str(tmp_path)]) == 0
+    assert (
+        main(
+            [
+                "render",
+                "--scene",
+                "direct",
+                "--res",
+                "8x8",
+                "--spp",
+                "1",
+                "--frames",
+                "2",
+                "--static",
+                "--out",
+                str(tmp_path),
+            ]
+        )
+        == 0
+    )
     assert read_frame(tmp_path / "direct_0001.exr").motion.abs().max() < 1e-3
 
 
@@ -52,3 +85,46 @@ def test_parse_resolution():
         parse_resolution("ax3")
     with pytest.raises(ValueRangeError, match="--res: expected width and height >= 1"):
         parse_resolution("4x-2")
+
+
+# -- issue 18: sizes and output paths checked before any work; one writer --------------------------
+
+
+def test_an_absurd_resolution_is_refused_before_allocating(tmp_path, capsys, monkeypatch):
+    import renderers
+
+    monkeypatch.setattr(renderers, "render", lambda *a, **k: pytest.fail("rendered"))
+    args = ["render", "--scene", "direct", "--res", "40000x40000", "--out", str(tmp_path / "o")]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "--res 40000x40000: expected a size that fits in memory" in err
+    assert "GiB available), got an estimate of" in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    ("out", "message"),
+    [
+        ("file", "expected a folder, got an existing file"),
+        ("file/sub", "an existing file"),
+        ("/proc/bnerr-render", "expected a folder that can be created"),
+        ("/proc/self", "expected a writable folder"),
+    ],
+)
+def test_bad_output_folders_fail_before_rendering_in_one_line(tmp_path, capsys, out, message):
+    (tmp_path / "file").write_text("x")
+    path = out if out.startswith("/") else str(tmp_path / out)
+    assert main(["render", "--scene", "direct", "--res", "4x4", "--out", path]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and message in err
+
+
+def test_a_second_render_into_the_same_folder_refuses(tmp_path, capsys):
+    from bnerr.outputs import output_lock
+
+    with output_lock(tmp_path, "bnerr render"):
+        args = ["render", "--scene", "direct", "--res", "4x4", "--spp", "1", "--out", str(tmp_path)]
+        assert main(args) == 2
+    assert "another bnerr render holds its lock" in capsys.readouterr().err
+    assert not list(tmp_path.glob("*.exr"))

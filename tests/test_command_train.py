@@ -5,8 +5,23 @@ import torch
 from benchmarks.cli import main
 from denoisers.unet import load_weights
 
-TINY = ["--scenes", "2", "--size", "8", "--reference-spp", "2", "--steps", "4", "--crop", "8",
-        "--batch-size", "2", "--checkpoint-every", "2", "--no-progress"]
+TINY = [
+    "--scenes",
+    "2",
+    "--size",
+    "8",
+    "--reference-spp",
+    "2",
+    "--steps",
+    "4",
+    "--crop",
+    "8",
+    "--batch-size",
+    "2",
+    "--checkpoint-every",
+    "2",
+    "--no-progress",
+]
 
 
 def test_train_writes_weights_with_their_command_and_resumes(tmp_path, capsys):
@@ -16,10 +31,13 @@ def test_train_writes_weights_with_their_command_and_resumes(tmp_path, capsys):
     payload = torch.load(out, weights_only=True)
     meta = payload["meta"]
     assert meta["finished"] and meta["step"] == 4 and [s for s, _ in meta["losses"]] == [2, 4]
-    assert meta["command"].startswith(f"bnerr train --out {out} --mix white --sampler owen_sobol --steps 4 --scenes 2 --size 8")
+    assert meta["command"].startswith(
+        f"bnerr train --out {out} --mix white --sampler owen_sobol --steps 4 --scenes 2 --size 8"
+    )
     assert (tmp_path / "w.pt.data").exists() and (tmp_path / "w.pt.ckpt").exists()
     first = load_weights(out).state_dict()
-    # Resuming a finished run (the cached data is reused, nothing is trained again) keeps the weights.
+    # Resuming a finished run (the cached data is reused, nothing is trained again) keeps the
+    # weights.
     assert main(["train", "--out", str(out), *TINY, "--resume"]) == 0
     again = load_weights(out).state_dict()
     assert all(torch.equal(first[k], again[k]) for k in first)
@@ -54,6 +72,74 @@ def test_cli_choices_are_the_libraries_names():
     register(parser.add_subparsers())
     train = parser.parse_args(["train", "--out", "w.pt"])
     assert train.loss == "l1_log+l1" and train.mix == "white" and train.sampler == "owen_sobol"
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices["train"]
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[
+        "train"
+    ]
     choices = {a.dest: tuple(a.choices) for a in sub._actions if a.choices}
     assert choices == {"mix": MIXES, "sampler": SAMPLERS, "loss": LOSSES}
+
+
+# -- issue 18: checked before rendering or training; one writer; stale temporaries ---------------
+
+
+def _no_work(monkeypatch):
+    import pytest
+
+    from benchmarks import training_data
+
+    monkeypatch.setattr(training_data, "make_pairs", lambda *a, **k: pytest.fail("rendered"))
+
+
+def test_out_naming_an_existing_folder_fails_before_training(tmp_path, capsys, monkeypatch):
+    _no_work(monkeypatch)
+    (tmp_path / "w.pt").mkdir()
+    assert main(["train", "--out", str(tmp_path / "w.pt"), *TINY]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "w.pt: expected a file name, got an existing folder" in err
+
+
+def test_out_under_proc_fails_before_training(capsys, monkeypatch):
+    _no_work(monkeypatch)
+    assert main(["train", "--out", "/proc/self/w.pt", *TINY]) == 2
+    assert "expected a writable folder" in capsys.readouterr().err
+
+
+def test_absurd_sizes_are_refused_before_rendering(tmp_path, capsys, monkeypatch):
+    _no_work(monkeypatch)
+    out = str(tmp_path / "w.pt")
+    assert main(["train", "--out", out, *TINY, "--size", "100000"]) == 2
+    assert "--size 100000 with --scenes 2: expected a size that fits in memory" in (
+        capsys.readouterr().err
+    )
+    assert main(["train", "--out", out, *TINY, "--batch-size", "100000000"]) == 2
+    assert "--batch-size 100000000 with --crop 8: expected a size that fits" in (
+        capsys.readouterr().err
+    )
+    assert not list(tmp_path.iterdir())
+
+
+def test_a_second_train_into_the_same_out_refuses(tmp_path, capsys, monkeypatch):
+    from bnerr.outputs import output_lock
+
+    _no_work(monkeypatch)
+    with output_lock(tmp_path, "bnerr train", lock_name=".w.pt.bnerr.lock"):
+        assert main(["train", "--out", str(tmp_path / "w.pt"), *TINY]) == 2
+    assert "another bnerr train holds its lock" in capsys.readouterr().err
+
+
+def test_temporaries_a_killed_run_left_are_removed_at_the_next_start(tmp_path):
+    import subprocess
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-c", "pass"])
+    proc.wait()
+    stale = [
+        tmp_path / f".w.pt.ckpt.bnerr-tmp-{proc.pid}-0123abcd.ckpt",
+        tmp_path / ".w.pt.ckpt.0123456789ab.tmp.ckpt",  # the naming before issue 18
+    ]
+    for path in stale:
+        path.write_bytes(b"half a checkpoint")
+    assert main(["train", "--out", str(tmp_path / "w.pt"), *TINY]) == 0
+    assert not any(path.exists() for path in stale)
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == [".w.pt.bnerr.lock", "w.pt", "w.pt.ckpt", "w.pt.data"]

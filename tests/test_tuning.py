@@ -5,6 +5,7 @@ import json
 
 import pytest
 import torch
+from _scene_renders import SCENES, mse, scene_renders
 
 from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
@@ -12,15 +13,15 @@ from denoisers import get_denoiser
 from denoisers.filters import Gaussian, Median
 from denoisers.tuning import GRIDS, PARAMS_FORMAT, ParamStore, grid_points, tune, tuned_denoiser
 
-from _scene_renders import SCENES, mse, scene_renders
-
 
 def _noisy_frames(count, noise, seed=0, size=32):
     """A smooth image and ``count`` noisy copies (Gaussian noise of std ``noise``)."""
     g = torch.Generator().manual_seed(seed)
     yy, xx = torch.meshgrid(torch.linspace(0, 1, size), torch.linspace(0, 1, size), indexing="ij")
     clean = torch.stack([0.5 + 0.3 * xx, 0.4 + 0.2 * yy, 0.3 + 0.1 * xx * yy])
-    frames = [Frame(color=clean + noise * torch.randn(3, size, size, generator=g)) for _ in range(count)]
+    frames = [
+        Frame(color=clean + noise * torch.randn(3, size, size, generator=g)) for _ in range(count)
+    ]
     return frames, [clean] * count
 
 
@@ -94,7 +95,9 @@ def test_untunable_denoiser_needs_no_stored_entry():
 
 def test_store_errors(tmp_path):
     store = ParamStore()
-    with pytest.raises(UnknownNameError, match="expected an entry for gaussian/snooker/4 spp, got none"):
+    with pytest.raises(
+        UnknownNameError, match="expected an entry for gaussian/snooker/4 spp, got none"
+    ):
         store.params("gaussian", "snooker", 4)
     with pytest.raises(UnknownNameError, match="expected an entry"):
         tuned_denoiser("gaussian", "snooker", 4, store)
@@ -103,7 +106,9 @@ def test_store_errors(tmp_path):
     with pytest.raises(FileFormatError, match="bad.json: expected a tuned-parameters JSON file"):
         ParamStore.load(bad)
     bad.write_text(json.dumps({"format": "other"}))
-    with pytest.raises(FileFormatError, match="expected format 'bnerr-tuned-params-v1', got 'other'"):
+    with pytest.raises(
+        FileFormatError, match="expected format 'bnerr-tuned-params-v1', got 'other'"
+    ):
         ParamStore.load(bad)
     with pytest.raises(FileFormatError, match="got no such file"):
         ParamStore.load(tmp_path / "missing.json")
@@ -120,10 +125,32 @@ def _tuned(scene, name):
 def test_tuned_filters_lower_mse_on_every_scene_at_4spp(scene, name, request):
     """Tuned on one white-noise frame, measured on an independent one (64 x 64, 4 spp)."""
     if (scene, name) == ("cornell", "median"):
-        request.applymarker(pytest.mark.xfail(strict=True, reason=(
-            "a median erodes the corners of the Cornell box's light (radiance 17 next to 0.5); "
-            "those few pixels cost more than all the noise the median removes"
-        )))
+        request.applymarker(
+            pytest.mark.xfail(
+                strict=True,
+                reason=(
+                    "a median erodes the corners of the Cornell box's light (radiance 17 next to "
+                    "0.5); those few pixels cost more than all the noise the median removes"
+                ),
+            )
+        )
     _, frame, reference = scene_renders(scene)
     denoised = get_denoiser(name, **_tuned(scene, name).params)(frame)
     assert mse(denoised, reference) < mse(frame.color, reference)
+
+
+def test_resolve_accepts_the_scene_name_alone_when_one_key_matches():
+    from bnerr.errors import UnknownNameError
+    from denoisers.tuning import ParamStore, TuneResult
+
+    store = ParamStore()
+    for key, spp in [("direct/m1/owen_sobol/128x128", 4), ("cornell/a", 4), ("cornell/b", 4)]:
+        store.put(TuneResult("gaussian", {"sigma": 1.0}, 0.1, 0.2, 1), key, spp)
+    assert store.resolve("gaussian", "direct") == ("direct/m1/owen_sobol/128x128", 4)
+    assert store.resolve("gaussian", "direct", 8) == ("direct/m1/owen_sobol/128x128", 8)
+    assert store.resolve("gaussian", "cornell/a") == ("cornell/a", 4)
+    assert store.resolve("unet", "direct") == ("direct", 0)
+    with pytest.raises(UnknownNameError, match="got 2: cornell/a, cornell/b"):
+        store.resolve("gaussian", "cornell")
+    with pytest.raises(UnknownNameError, match="got 0: cornell/a, cornell/b, direct/m1"):
+        store.resolve("gaussian", "teapot")

@@ -1,7 +1,11 @@
 """``bnerr denoise``: denoise one frame file (as ``bnerr render`` writes it) with a named denoiser.
 
     bnerr denoise --denoiser gaussian --in frame.exr --out out.exr --params sigma=1.5
-    bnerr denoise --denoiser atrous --in frame.exr --out out.exr --tuned params.json --scene cornell --spp 4
+    bnerr denoise --denoiser atrous --in frame.exr --out out.exr --tuned params.json --scene cornell
+
+``--scene`` takes a key of the tuned-parameters file (``cornell/m1/owen_sobol/128x128``) or just
+the scene's name when the file holds one key for it; ``--spp`` may be left out when that key has
+one spp. Otherwise the error lists the candidates.
 
 The output is the input frame with its color replaced by the denoised color (the auxiliary
 buffers are kept, so the file reads back as a Frame), and ``timings["denoise"]`` in milliseconds.
@@ -37,23 +41,40 @@ def parse_params(items: list[str]) -> dict[str, object]:
     return params
 
 
-def run(args: argparse.Namespace) -> int:
-    from bnerr.io import read_frame, write_frame
-    from denoisers import get_denoiser
+def _params(args: argparse.Namespace) -> dict[str, object]:
+    """``--params``, over the ``--tuned`` entry of ``--scene`` (and ``--spp``) when given."""
     from denoisers.tuning import ParamStore
 
     params = parse_params(args.params)
-    if args.tuned is not None:
-        if args.scene is None or args.spp is None:
-            raise DtypeError("--tuned: expected --scene and --spp with it, got them missing")
-        params = {**ParamStore.load(args.tuned).params(args.denoiser, args.scene, args.spp), **params}
-    denoiser = get_denoiser(args.denoiser, **params)
-    frame = read_frame(Path(args.input))
+    if args.tuned is None:
+        return params
+    if args.scene is None:
+        raise DtypeError("--tuned: expected --scene with it, got no --scene")
+    store = ParamStore.load(args.tuned)
+    key, spp = store.resolve(args.denoiser, args.scene, args.spp)
+    return {**store.params(args.denoiser, key, spp), **params}
+
+
+def run(args: argparse.Namespace) -> int:
+    from bnerr.io import read_frame, write_frame
+    from bnerr.outputs import check_output
+    from denoisers import get_denoiser
+
+    source = Path(args.input)
+    # The output is about as large as the input (same buffers, new color): check the folder
+    # before reading anything.
+    need = source.stat().st_size if source.is_file() else 0
+    output = check_output(args.output, "file", need_bytes=need)
+    if output.resolve() == source.resolve():
+        raise DtypeError(f"--out {output}: expected a file other than --in, got the same file")
+    denoiser = get_denoiser(args.denoiser, **_params(args))
+    frame = read_frame(source)
     start = time.perf_counter()
-    color = denoiser(frame)
+    color = denoiser(frame)  # checks every buffer it reads, and its output, for NaN
     elapsed_ms = 1000.0 * (time.perf_counter() - start)
     buffers = {**frame.buffers(), "color": color}
-    write_frame(Path(args.output), Frame(**buffers, timings={**frame.timings, "denoise": elapsed_ms}))
+    timings = {**frame.timings, "denoise": elapsed_ms}
+    write_frame(output, Frame(**buffers, timings=timings))
     print(f"{denoiser!r}: {frame.width}x{frame.height} in {elapsed_ms:.1f} ms -> {args.output}")
     return 0
 
@@ -69,10 +90,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         required=True,
         help="gaussian, bilateral, joint_bilateral, guided, median, atrous, unet or oidn",
     )
-    p.add_argument("--in", dest="input", required=True, metavar="FRAME.exr", help="frame from bnerr render")
-    p.add_argument("--out", dest="output", required=True, metavar="OUT.exr", help="where to write the result")
-    p.add_argument("--params", nargs="*", default=[], metavar="KEY=VALUE", help="denoiser parameters")
-    p.add_argument("--tuned", metavar="PARAMS.json", help="take parameters from a tuned-parameters file")
-    p.add_argument("--scene", help="scene name to look up in --tuned")
-    p.add_argument("--spp", type=int, help="spp to look up in --tuned")
+    p.add_argument(
+        "--in", dest="input", required=True, metavar="FRAME.exr", help="frame from bnerr render"
+    )
+    p.add_argument(
+        "--out", dest="output", required=True, metavar="OUT.exr", help="where to write the result"
+    )
+    p.add_argument(
+        "--params", nargs="*", default=[], metavar="KEY=VALUE", help="denoiser parameters"
+    )
+    p.add_argument(
+        "--tuned", metavar="PARAMS.json", help="take parameters from a tuned-parameters file"
+    )
+    p.add_argument(
+        "--scene",
+        help="scene key to look up in --tuned (direct/m1/owen_sobol/128x128), or the scene's name "
+        "alone (direct) when the file holds one key for it",
+    )
+    p.add_argument("--spp", type=int, help="spp to look up in --tuned (optional when it holds one)")
     p.set_defaults(func=run)

@@ -9,6 +9,12 @@ steps; (3) write the weights to ``OUT`` with the command line, the settings and 
 their metadata. ``--resume`` continues an interrupted run from its checkpoint; the result is the
 same as an uninterrupted run. ``--minutes`` caps the wall time of this call (the run then stops
 at a checkpoint and writes the weights so far; ``--resume`` continues it).
+
+Before rendering, the sizes (``--size``, ``--scenes``, ``--batch-size``) are checked against the
+memory they need and ``OUT``, ``OUT.data`` and ``OUT.ckpt`` against their kind, writability and
+free space (``--out`` naming an existing folder fails at once, not after training). While it
+runs, ``bnerr train`` holds a lock on ``OUT`` (a second run into the same ``OUT`` refuses) and
+first removes the hidden temporaries a killed run left next to those three files.
 """
 
 from __future__ import annotations
@@ -37,11 +43,21 @@ def load_or_render(spec, path: Path, progress: bool):
             cached = torch.load(path, map_location="cpu", weights_only=True)
         except Exception:  # a damaged cache is rendered again, never trusted
             cached = None
-        if isinstance(cached, dict) and cached.get("format") == DATA_FORMAT and cached.get("spec") == asdict(spec):
+        if (
+            isinstance(cached, dict)
+            and cached.get("format") == DATA_FORMAT
+            and cached.get("spec") == asdict(spec)
+        ):
             return TrainingSet(cached["inputs"], cached["targets"])
     data = make_training_set(make_pairs(spec, progress=progress))
     atomic_torch_save(
-        {"format": DATA_FORMAT, "spec": asdict(spec), "inputs": data.inputs, "targets": data.targets}, path
+        {
+            "format": DATA_FORMAT,
+            "spec": asdict(spec),
+            "inputs": data.inputs,
+            "targets": data.targets,
+        },
+        path,
     )
     return data
 
@@ -49,9 +65,11 @@ def load_or_render(spec, path: Path, progress: bool):
 def canonical_command(args: argparse.Namespace) -> str:
     """The full command line that reproduces this run's weights (every setting spelled out)."""
     return (
-        f"bnerr train --out {args.out} --mix {args.mix} --sampler {args.sampler} --steps {args.steps} --scenes {args.scenes} "
+        f"bnerr train --out {args.out} --mix {args.mix} --sampler {args.sampler} "
+        f"--steps {args.steps} --scenes {args.scenes} "
         f"--size {args.size} --reference-spp {args.reference_spp} --batch-size {args.batch_size} "
-        f"--crop {args.crop} --lr {args.lr} --loss {args.loss} --checkpoint-every {args.checkpoint_every} "
+        f"--crop {args.crop} --lr {args.lr} --loss {args.loss} "
+        f"--checkpoint-every {args.checkpoint_every} "
         f"--seed {args.seed} --threads {args.threads}"
     )
 
@@ -67,45 +85,103 @@ def run(args: argparse.Namespace) -> int:
         torch.set_num_threads(before)
 
 
-def _run(args: argparse.Namespace) -> int:
-    from benchmarks.training_data import TrainingSpec
-    from denoisers.train import TrainConfig, train
-    from denoisers.unet import save_weights
+def _settings(args: argparse.Namespace):
+    """The run's :class:`TrainingSpec` and :class:`TrainConfig`, checked before any work: the
+    network's size, the memory the training set and a batch need, and the output files."""
+    from benchmarks.training_data import TrainingSpec, training_set_bytes
+    from bnerr.errors import check_memory
+    from bnerr.outputs import check_output
+    from denoisers.train import TrainConfig, step_bytes
+    from denoisers.unet import check_parameter_count, parameter_count
 
-    start = time.perf_counter()
-    out = Path(args.out)
     spec = TrainingSpec(
-        scenes=args.scenes, size=args.size, reference_spp=args.reference_spp, mix=args.mix, seed=args.seed,
+        scenes=args.scenes,
+        size=args.size,
+        reference_spp=args.reference_spp,
+        mix=args.mix,
+        seed=args.seed,
         sampler=args.sampler,
     )
     config = TrainConfig(
-        steps=args.steps, batch_size=args.batch_size, crop=args.crop, lr=args.lr, seed=args.seed,
-        checkpoint_every=args.checkpoint_every, loss=args.loss,
+        steps=args.steps,
+        batch_size=args.batch_size,
+        crop=args.crop,
+        lr=args.lr,
+        seed=args.seed,
+        checkpoint_every=args.checkpoint_every,
+        loss=args.loss,
     )
-    data = load_or_render(spec, out.with_name(out.name + ".data"), progress=not args.no_progress)
+    check_parameter_count(config.widths, "train: widths")
+    check_memory(training_set_bytes(spec), f"--size {spec.size} with --scenes {spec.scenes}")
+    check_memory(step_bytes(config), f"--batch-size {config.batch_size} with --crop {config.crop}")
+    out = Path(args.out)
+    weights = 4 * parameter_count(config.widths)
+    # The data cache (inputs and targets), the checkpoint (weights and Adam's two moments).
+    need = {
+        out: weights,
+        _data_path(out): training_set_bytes(spec, stored=True),
+        _ckpt(out): 3 * weights,
+    }
+    for path, size in need.items():
+        check_output(path, "file", need_bytes=sum(need.values()) if path == out else size)
+    return spec, config
+
+
+def _data_path(out: Path) -> Path:
+    return out.with_name(out.name + ".data")
+
+
+def _ckpt(out: Path) -> Path:
+    return out.with_name(out.name + ".ckpt")
+
+
+def _run(args: argparse.Namespace) -> int:
+    from bnerr.outputs import clean_stale_temporaries, output_lock
+
+    start = time.perf_counter()
+    spec, config = _settings(args)
+    out = Path(args.out)
+    names = [out.name, _data_path(out).name, _ckpt(out).name]
+    with output_lock(out.parent, "bnerr train", lock_name=f".{out.name}.bnerr.lock"):
+        # A run killed while writing left hidden temporaries of these files: this run owns them.
+        clean_stale_temporaries(out.parent, names)
+        return _train(args, spec, config, out, start)
+
+
+def _train(args: argparse.Namespace, spec, config, out: Path, start: float) -> int:
+    from denoisers.train import train
+    from denoisers.unet import save_weights
+
+    data = load_or_render(spec, _data_path(out), progress=not args.no_progress)
     render_s = time.perf_counter() - start
     limit = None if args.minutes is None else max(args.minutes * 60.0 - render_s, 0.0)
     result = train(
-        data, config, out.with_name(out.name + ".ckpt"), resume=args.resume, time_limit_s=limit,
+        data,
+        config,
+        _ckpt(out),
+        resume=args.resume,
+        time_limit_s=limit,
         progress=not args.no_progress,
     )
     total_s = time.perf_counter() - start
-    command = canonical_command(args)
-    save_weights(
-        result.model,
-        out,
-        meta={
-            "command": command,
-            "spec": asdict(spec),
-            "config": asdict(config),
-            "step": result.step,
-            "finished": result.finished,
-            "losses": [list(x) for x in result.losses],
-            "seconds_this_call": {"render": render_s, "train": result.seconds, "total": total_s},
-        },
+    meta = {
+        "command": canonical_command(args),
+        "spec": asdict(spec),
+        "config": asdict(config),
+        "step": result.step,
+        "finished": result.finished,
+        "losses": [list(x) for x in result.losses],
+        "seconds_this_call": {"render": render_s, "train": result.seconds, "total": total_s},
+    }
+    save_weights(result.model, out, meta=meta)
+    if result.finished:
+        state = "finished"
+    else:
+        state = f"stopped at step {result.step} of {config.steps} (--resume continues)"
+    print(
+        f"{state}; render {render_s:.0f} s, train {result.seconds:.0f} s, "
+        f"total {total_s:.0f} s -> {out}"
     )
-    state = "finished" if result.finished else f"stopped at step {result.step} of {config.steps} (--resume continues)"
-    print(f"{state}; render {render_s:.0f} s, train {result.seconds:.0f} s, total {total_s:.0f} s -> {out}")
     for step, loss in result.losses:
         print(f"  step {step:6d}  loss {loss:.5f}")
     return 0
@@ -113,14 +189,27 @@ def _run(args: argparse.Namespace) -> int:
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "train", help="render training data and train the U-Net denoiser", description=__doc__.split("\n\n")[0]
+        "train",
+        help="render training data and train the U-Net denoiser",
+        description=__doc__.split("\n\n")[0],
     )
     p.add_argument("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
-    p.add_argument("--mix", default="white", choices=("white", "white+blue"), help="noise of the training inputs")
-    p.add_argument("--sampler", default="owen_sobol", choices=("white", "owen_sobol"),
-                   help="per-pixel sampler of the white-noise inputs (the benchmark renders with owen_sobol)")
+    p.add_argument(
+        "--mix",
+        default="white",
+        choices=("white", "white+blue"),
+        help="noise of the training inputs",
+    )
+    p.add_argument(
+        "--sampler",
+        default="owen_sobol",
+        choices=("white", "owen_sobol"),
+        help="per-pixel sampler of the white-noise inputs (the benchmark renders with owen_sobol)",
+    )
     p.add_argument("--steps", type=int, default=2500, help="optimizer steps of the full run")
-    p.add_argument("--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)")
+    p.add_argument(
+        "--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)"
+    )
     p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
     p.add_argument("--scenes", type=int, default=128, help="random training scenes (one pair each)")
     p.add_argument("--size", type=int, default=64, help="training image side in pixels")
@@ -128,14 +217,22 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--batch-size", type=int, default=16)
     p.add_argument("--crop", type=int, default=48, help="crop side (multiple of 8, at most --size)")
     p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
-    p.add_argument("--loss", default="l1_log+l1", choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"),
-                   help="training loss")
+    p.add_argument(
+        "--loss",
+        default="l1_log+l1",
+        choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"),
+        help="training loss",
+    )
     p.add_argument("--checkpoint-every", type=int, default=100)
     p.add_argument(
-        "--threads", type=int, default=2,
-        help="torch threads (2: both cores of an idle 2-core machine, 1.7x faster than 1; 1 when the "
-        "other core is busy, where two threads that wait on each other are slower)",
+        "--threads",
+        type=int,
+        default=2,
+        help="torch threads (2: both cores of an idle 2-core machine, 1.7x faster than 1; 1 when "
+        "the other core is busy, where two threads that wait on each other are slower)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seeds the scenes, the weights and the batches")
+    p.add_argument(
+        "--seed", type=int, default=0, help="seeds the scenes, the weights and the batches"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run)

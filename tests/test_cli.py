@@ -1,0 +1,42 @@
+"""Tests of benchmarks/cli.py: a user's error is one line on stderr and exit code 2."""
+
+import argparse
+
+import pytest
+
+from benchmarks import cli
+
+
+def _run_raising(monkeypatch, error):
+    def build_parser():
+        parser = argparse.ArgumentParser(prog="bnerr")
+        sub = parser.add_subparsers(dest="command", required=True)
+        p = sub.add_parser("boom")
+        p.set_defaults(func=lambda args: (_ for _ in ()).throw(error))
+        return parser
+
+    monkeypatch.setattr(cli, "build_parser", build_parser)
+    return cli.main(["boom"])
+
+
+@pytest.mark.parametrize(
+    ("error", "message"),
+    [
+        (OSError(28, "No space left on device", "/x/a.exr"), "/x/a.exr: No space left on device"),
+        (PermissionError(13, "Permission denied"), "Permission denied"),
+        (MemoryError(), "out of memory (MemoryError)"),
+        (
+            RuntimeError("DefaultCPUAllocator: not enough memory: you tried to allocate 9 GB"),
+            "out of",
+        ),
+    ],
+)
+def test_file_system_and_memory_errors_are_one_line(monkeypatch, capsys, error, message):
+    assert _run_raising(monkeypatch, error) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("bnerr boom: error: ") and message in err and err.count("\n") == 1
+
+
+def test_a_bug_still_shows_its_traceback(monkeypatch):
+    with pytest.raises(RuntimeError, match="a bug"):
+        _run_raising(monkeypatch, RuntimeError("a bug"))
