@@ -19,7 +19,9 @@ def test_npy_holds_the_generated_mask_and_the_report_names_the_fraction(tmp_path
 
 def test_exr_round_trips_a_vector_mask(tmp_path):
     out = tmp_path / "v.exr"
-    assert main(["mask", "--size", "16", "--dims", "2", "--iterations", "2", "--out", str(out)]) == 0
+    assert (
+        main(["mask", "--size", "16", "--dims", "2", "--iterations", "2", "--out", str(out)]) == 0
+    )
     mask = read_exr(out)["mask"]
     assert mask.shape == (2, 16, 16)
     for channel in mask:  # swaps of whole vectors keep each channel a permutation of (k+0.5)/N
