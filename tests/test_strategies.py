@@ -243,7 +243,7 @@ def test_absurd_sizes_are_refused_with_an_estimate_before_allocating(monkeypatch
         make_strategy("temporal", 40000, 40000)
     assert str(err.value) == (
         "height x width: expected a frame size whose temporal strategy fits in memory, got "
-        "40000 x 40000, which needs about 198.4 GB (124 bytes per pixel) with 64.0 GB available "
+        "40000 x 40000, which needs about 281.6 GB (176 bytes per pixel) with 64.0 GB available "
         "on cpu"
     )
     assert not allocated
@@ -256,7 +256,7 @@ def test_absurd_sizes_are_refused_with_an_estimate_before_allocating(monkeypatch
 
 
 def test_estimates_grow_with_the_frame_and_the_candidates():
-    assert estimate_bytes("white", 1080, 1920) == 1080 * 1920 * 84
+    assert estimate_bytes("white", 1080, 1920) == 1080 * 1920 * (64 + 44)
     assert estimate_bytes("temporal", 4, 4) == estimate_bytes("temporal_sort", 4, 4)
     assert estimate_bytes("oracle", 4, 4, K=8) < estimate_bytes("oracle", 4, 4, K=32)
     with pytest.raises(UnknownNameError):
