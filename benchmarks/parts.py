@@ -45,13 +45,23 @@ class Scene(Protocol):
 
 
 class Renderer(Protocol):
-    """``render(scene, t, seeds [H, W] int64, sampler, spp) -> Frame``.
+    """``render(scene, t, seeds [H, W] int64, sampler, spp, *, compile=None) -> Frame``.
 
-    The frame reports the render's wall time in ``timings["render"]`` (milliseconds).
+    The frame reports the render's wall time in ``timings["render"]`` (milliseconds). ``compile``
+    is the tracer's (:func:`renderers.render`): None is eager unless the environment says
+    otherwise, True runs its per-vertex stage through ``torch.compile``. The strategies' renders
+    pass nothing; the references pass :func:`benchmarks.references.reference_compile`.
     """
 
     def __call__(
-        self, scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+        self,
+        scene: Scene,
+        t: int,
+        seeds: torch.Tensor,
+        sampler: Sampler,
+        spp: int,
+        *,
+        compile: bool | None = None,
     ) -> Frame: ...
 
 

@@ -16,6 +16,15 @@ file name, :meth:`ReferenceCache.path`) holds every input of the render:
   the ``bnerr.sequences`` module (its file, or every ``.py`` under its package directory) and
   ``bnerr/hashing.py``. A change to the tracer or to a sampler never reuses a stale reference.
 
+**Compiled references.** A reference is rendered with ``compile=True`` exactly when it traces at
+least ``2^22`` paths (``H * W * spp >= REFERENCE_COMPILE_PATHS``; :func:`reference_compile`), and
+eagerly otherwise, whatever ``BNERR_COMPILE`` says. This is the tracer's former automatic rule
+(``compile=None`` compiled renders from 2^22 paths before compiling became opt-in): the committed
+results in ``results/`` were measured against references rendered under it (128x128 at 512 and
+1024 spp: compiled), and a compiled render differs from an eager one in the last bits, so keeping
+the rule keeps the references bit-identical to those and the committed results valid. The rule
+is part of the cache key through :data:`REFERENCE_FORMAT`.
+
 The reference's own noise adds its variance to every strategy's MSE alike; the records keep it
 (``Record.reference.floor``) so that a reader can see when it matters.
 
@@ -38,16 +47,21 @@ from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
 
 __all__ = [
+    "REFERENCE_COMPILE_PATHS",
     "REFERENCE_FORMAT",
     "ReferenceCache",
     "code_version",
+    "reference_compile",
     "reference_seeds",
     "reference_sources",
     "source_hash",
 ]
 
-#: Bumped by hand when the reference seeds' scheme or the cache's file layout changes.
-REFERENCE_FORMAT = "r2"
+#: Bumped by hand when the reference seeds' scheme, the compile rule (:func:`reference_compile`) or
+#: the cache's file layout changes.
+REFERENCE_FORMAT = "r3"
+#: References of at least this many paths (``H * W * spp``) are rendered with ``compile=True``.
+REFERENCE_COMPILE_PATHS = 1 << 22
 _REFERENCE_SALT = 0x5EED_BA5E  # keeps reference seeds apart from every strategy's seeds
 _REFERENCES_IN_MEMORY = 16  # a run revisits its measured frames once per seed set
 # The modules whose source a reference's pixels depend on (besides its own seeds).
@@ -65,6 +79,16 @@ def reference_seeds(height: int, width: int, t: int) -> torch.Tensor:
     index = torch.arange(height * width, dtype=torch.int64)
     seeds = mix32_45d9f3b(mix32_45d9f3b(index ^ _REFERENCE_SALT) ^ (t & MASK32))
     return seeds.reshape(height, width)
+
+
+def reference_compile(height: int, width: int, spp: int) -> bool:
+    """Whether a reference of ``height x width`` at ``spp`` is rendered with ``torch.compile``.
+
+    True exactly when ``height * width * spp >= 2^22`` (:data:`REFERENCE_COMPILE_PATHS`): the
+    tracer's former automatic rule, under which the committed results' references were rendered
+    (see the module docstring). The environment's ``BNERR_COMPILE`` does not enter.
+    """
+    return height * width * spp >= REFERENCE_COMPILE_PATHS
 
 
 def _module_files(name: str) -> dict[str, Path]:
@@ -148,7 +172,9 @@ class ReferenceCache:
         if frame is None:
             seeds = reference_seeds(run.height, run.width, t_render)
             sampler = self.parts.reference_sampler()
-            frame = self.parts.render(scene, t_render, seeds, sampler, run.reference_spp)
+            spp = run.reference_spp
+            compile = reference_compile(run.height, run.width, spp)
+            frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
             path.parent.mkdir(parents=True, exist_ok=True)
             write_frame(path, frame)
         if len(self._memory) >= _REFERENCES_IN_MEMORY:

@@ -30,10 +30,11 @@ class _Render:
     """A render whose colour is a fixed function of the seeds and t; reports 7 ms, records calls."""
 
     def __init__(self):
-        self.calls = []
+        self.calls, self.compiles = [], []
 
-    def __call__(self, scene, t, seeds, sampler, spp):
+    def __call__(self, scene, t, seeds, sampler, spp, *, compile=None):
         self.calls.append((t, spp))
+        self.compiles.append(compile)
         u = ((seeds * 2654435761 + t) % 1000003).float() / 1000003
         color = torch.stack([u, u * u, 1 - u]) * 2.0
         object_id = (torch.arange(seeds.numel()).view(seeds.shape) % 3).float()[None]

@@ -11,13 +11,16 @@ from benchmarks import references
 from benchmarks.parts import real_parts
 from benchmarks.plan import plan
 from benchmarks.references import (
+    REFERENCE_COMPILE_PATHS,
     ReferenceCache,
     code_version,
+    reference_compile,
     reference_seeds,
     reference_sources,
     source_hash,
 )
 from benchmarks.suites import Suite, Sweep
+from bnerr.frame import Frame
 from bnerr.io import read_frame
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -126,3 +129,33 @@ def test_source_hash_follows_labels_and_bytes(tmp_path):
     assert source_hash({"a.py": a}) != source_hash({"b.py": a})
     b.write_text("x = 2\n")
     assert source_hash({"a.py": a}) != source_hash({"a.py": b})
+
+
+def test_references_compile_exactly_from_2_22_paths_as_the_committed_results_did(monkeypatch):
+    # The tracer's former automatic rule (compiled from 2^22 paths), independent of BNERR_COMPILE.
+    assert REFERENCE_COMPILE_PATHS == 1 << 22
+    monkeypatch.setenv("BNERR_COMPILE", "1")
+    assert reference_compile(128, 128, 1024) and reference_compile(128, 128, 512)
+    assert reference_compile(64, 64, 1024)  # exactly 2^22
+    assert not reference_compile(64, 64, 1023) and not reference_compile(16, 12, 16)
+    assert not reference_compile(128, 128, 255) and reference_compile(128, 128, 256)
+
+
+class _Recording:
+    """A stand-in render that records the compile flag it is given (and returns a tiny frame)."""
+
+    def __init__(self):
+        self.compiles = []
+
+    def __call__(self, scene, t, seeds, sampler, spp, *, compile=None):
+        self.compiles.append(compile)
+        return Frame(color=torch.zeros(3, *seeds.shape))
+
+
+@pytest.mark.parametrize(("res", "spp", "want"), [((16, 12), 16, False), ((64, 64), 1024, True)])
+def test_the_cache_passes_the_compile_rule_to_the_renderer(tmp_path, res, spp, want):
+    recording = _Recording()
+    parts = dataclasses.replace(real_parts(), render=recording)
+    run = dataclasses.replace(_run(), width=res[0], height=res[1], reference_spp=spp)
+    ReferenceCache(tmp_path, parts).get(run, parts.get_scene("direct", True), 0)
+    assert recording.compiles == [want]
