@@ -1,5 +1,9 @@
-"""Tests of ``bnerr bench``'s output folder rules: one writer per folder (the lock), no silent
-discarding of finished cells (--overwrite), typed one-line errors for a garbled results file."""
+"""Tests of ``bnerr bench`` (benchmarks.commands.bench): the overrides reach the cells, the
+tables and charts are written, bad overrides are one-line errors, and the output folder rules: one
+writer per folder (the lock), no silent discarding of finished cells (--overwrite), typed one-line
+errors for a garbled results file."""
+
+import json
 
 import pytest
 
@@ -17,6 +21,60 @@ def _args(out, cache, *extra):
         "--res", "8x8", "--reference-spp", "4", "--seed-sets", "1", "--out", str(out),
         "--cache", str(cache), "--quiet", "--no-charts", *extra,
     ]  # fmt: skip
+
+
+def _two_strategies(tmp_path, *extra):
+    """A run of white and temporal on direct at 16x12 with every cell override given."""
+    return [
+        "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,temporal",
+        "--spp", "1", "--denoisers", "gaussian", "--frames", "2", "--warmup", "1",
+        "--res", "16x12", "--reference-spp", "8", "--seed-sets", "1",
+        "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"), "--quiet", *extra,
+    ]  # fmt: skip
+
+
+def test_bench_writes_the_tables_and_charts_with_the_overrides(tmp_path, capsys):
+    assert main(_two_strategies(tmp_path)) == 0
+    out = tmp_path / "out"
+    records = [json.loads(line) for line in (out / RESULTS_FILE).read_text().splitlines()]
+    got = sorted((r["cell"]["strategy"], r["cell"]["denoiser"]) for r in records)
+    assert got == [("temporal", "gaussian"), ("white", "gaussian")]
+    cell = records[0]["cell"]
+    keys = ("width", "height", "frames", "warmup", "reference_spp", "seed_sets")
+    assert tuple(cell[k] for k in keys) == (16, 12, 2, 1, 8, 1)
+    assert (out / "table.csv").exists() and "### direct" in (out / "table.md").read_text()
+    assert (out / "error_vs_time_direct.png").exists()
+    assert f"results written to {out}" in capsys.readouterr().out
+
+
+def test_bench_resume_keeps_the_results(tmp_path):
+    assert main(_two_strategies(tmp_path, "--no-charts")) == 0
+    before = (tmp_path / "out" / RESULTS_FILE).read_text()
+    assert main(_two_strategies(tmp_path, "--no-charts", "--resume")) == 0
+    assert (tmp_path / "out" / RESULTS_FILE).read_text() == before
+
+
+@pytest.mark.parametrize(
+    ("flag", "value", "message"),
+    [
+        ("--res", "16", "--res: expected WIDTHxHEIGHT such as 128x128, got '16'"),
+        ("--spp", "0", "--spp: expected an integer >= 1, got 0"),
+        ("--scenes", "nowhere", "unknown scene 'nowhere'"),
+        ("--strategies", "blue", "unknown strategy 'blue'"),
+        ("--denoisers", "magic", "unknown denoiser 'magic'"),
+    ],
+)
+def test_bench_reports_bad_overrides_as_errors(tmp_path, capsys, flag, value, message):
+    args = _two_strategies(tmp_path)
+    args[args.index(flag) + 1] = value
+    assert main(args) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_the_speed_suite_takes_no_cell_overrides(tmp_path, capsys):
+    assert main(["bench", "--suite", "speed", "--spp", "4", "--out", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--suite speed: expected no cell overrides (it runs timing scripts), got --spp" in err
 
 
 def test_a_second_bench_into_a_locked_folder_refuses(tmp_path, capsys):

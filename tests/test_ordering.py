@@ -63,25 +63,37 @@ _KNOWN_FAILURES = {
     ("temporal", "indirect", 4, "gaussian"): _OWEN_SOBOL_4SPP,
     ("temporal", "indirect", 4, "atrous"): _OWEN_SOBOL_4SPP,
     ("oracle", "direct", 1, "atrous"): (
-        "Not established at this power: the oracle's ratio to temporal after a-trous on direct at 1 "
-        "spp is below 1 (about 0.85) but its interval reaches above 1; the edge-avoiding filter's "
-        "colour weights react to the noise itself, so its MSE varies strongly between frames."
+        "Not established at this power: the oracle's ratio to temporal after a-trous on direct at "
+        "1 spp is below 1 (about 0.85) but its interval reaches above 1; the edge-avoiding "
+        "filter's colour weights react to the noise itself, so its MSE varies strongly "
+        "between frames."
     ),
 }
 
 
 def _cells(strategy):
     return [
-        pytest.param(*c, marks=pytest.mark.xfail(strict=True, reason=_KNOWN_FAILURES[(strategy, *c)]))
-        if (strategy, *c) in _KNOWN_FAILURES else c
+        pytest.param(
+            *c, marks=pytest.mark.xfail(strict=True, reason=_KNOWN_FAILURES[(strategy, *c)])
+        )
+        if (strategy, *c) in _KNOWN_FAILURES
+        else c
         for c in _CELLS
     ]
 
 
 def _index(records):
+    """The runner's :class:`benchmarks.records.Record` s keyed by scene, spp, denoiser, strategy,
+    motion and region."""
     return {
-        (r["cell"]["scene"], r["cell"]["spp"], r["cell"]["denoiser"], r["cell"]["strategy"], r["cell"]["motion"],
-         r["cell"]["region"]): r
+        (
+            r.cell.scene,
+            r.cell.spp,
+            r.cell.denoiser,
+            r.cell.strategy,
+            r.cell.motion,
+            r.cell.region,
+        ): r
         for r in records
     }
 
@@ -96,15 +108,25 @@ def cache(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def ordering(tmp_path_factory, cache):
-    sweep = Sweep(scenes=SCENES, strategies=("white", "temporal", "oracle"), spp=SPP, denoisers=DENOISERS, **_COMMON)
+    sweep = Sweep(
+        scenes=SCENES,
+        strategies=("white", "temporal", "oracle"),
+        spp=SPP,
+        denoisers=DENOISERS,
+        **_COMMON,
+    )
     suite = Suite("ordering", "test", sweeps=(sweep,), crops=False)
-    return _index(run_suite(suite, tmp_path_factory.mktemp("ordering"), cache_dir=cache, progress=False))
+    return _index(
+        run_suite(suite, tmp_path_factory.mktemp("ordering"), cache_dir=cache, progress=False)
+    )
 
 
 def _ratio(records, a, b, kind, level, scene, spp, denoiser, motion=1, region="all"):
     """Paired ratio of strategy ``a``'s MSE to ``b``'s (``kind`` raw or den) on one cell."""
+
     def stats(strategy):
-        return np.asarray(records[scene, spp, denoiser, strategy, motion, region][kind]["mse"])
+        record = records[scene, spp, denoiser, strategy, motion, region]
+        return np.asarray(getattr(record, kind)["mse"])
 
     return paired_ratio(stats(a), stats(b), level=level)
 
@@ -112,14 +134,18 @@ def _ratio(records, a, b, kind, level, scene, spp, denoiser, motion=1, region="a
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "spp", "denoiser"), _cells("temporal"))
 def test_temporal_beats_white_after_denoising(ordering, scene, spp, denoiser):
-    ratio = _ratio(ordering, "temporal", "white", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser)
+    ratio = _ratio(
+        ordering, "temporal", "white", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser
+    )
     assert ratio.hi < 1.0, f"temporal / white = {ratio}"
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "spp", "denoiser"), _cells("oracle"))
 def test_oracle_beats_temporal_after_denoising(ordering, scene, spp, denoiser):
-    ratio = _ratio(ordering, "oracle", "temporal", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser)
+    ratio = _ratio(
+        ordering, "oracle", "temporal", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser
+    )
     assert ratio.hi < 1.0, f"oracle / temporal = {ratio}"
 
 
@@ -127,13 +153,19 @@ def test_oracle_beats_temporal_after_denoising(ordering, scene, spp, denoiser):
 @pytest.mark.parametrize(("scene", "spp"), [(s, n) for s in SCENES for n in SPP])
 @pytest.mark.parametrize("strategy", ["temporal", "oracle"])
 def test_raw_mse_is_the_same_for_every_strategy(ordering, scene, spp, strategy):
-    ratio = _ratio(ordering, strategy, "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian")
+    ratio = _ratio(
+        ordering, strategy, "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
+    )
     assert ratio.lo <= 1.0 <= ratio.hi, f"raw {strategy} / white = {ratio}"
 
 
 # The failure cases: where the temporal method is expected to degrade to white noise, never worse.
 _FAILURES = [
-    ("snooker", 1, "all"),  # textured felt: a seed's value says more about the texture than the seed
+    (
+        "snooker",
+        1,
+        "all",
+    ),  # textured felt: a seed's value says more about the texture than the seed
     ("snooker", 1, "edges"),  # object edges: a seed moved across an edge lands on another object
     ("indirect", 8, "all"),  # camera motion 8x faster: the seed's neighbourhood changes every frame
 ]
@@ -143,19 +175,35 @@ _FAILURE_LEVEL = 1 - 0.05 / (len(_FAILURES) * len(DENOISERS))
 @pytest.fixture(scope="module")
 def failures(tmp_path_factory, cache):
     sweeps = (
-        Sweep(scenes=("snooker",), strategies=("white", "temporal"), spp=(1,), denoisers=DENOISERS,
-              conditions=(Condition(), Condition(region="edges")), **_FAILURE_COMMON),
-        Sweep(scenes=("indirect",), strategies=("white", "temporal"), spp=(1,), denoisers=DENOISERS,
-              conditions=(Condition(motion=8),), **_FAILURE_COMMON),
+        Sweep(
+            scenes=("snooker",),
+            strategies=("white", "temporal"),
+            spp=(1,),
+            denoisers=DENOISERS,
+            conditions=(Condition(), Condition(region="edges")),
+            **_FAILURE_COMMON,
+        ),
+        Sweep(
+            scenes=("indirect",),
+            strategies=("white", "temporal"),
+            spp=(1,),
+            denoisers=DENOISERS,
+            conditions=(Condition(motion=8),),
+            **_FAILURE_COMMON,
+        ),
     )
     suite = Suite("failures", "test", sweeps=sweeps, crops=False)
-    return _index(run_suite(suite, tmp_path_factory.mktemp("failures"), cache_dir=cache, progress=False))
+    return _index(
+        run_suite(suite, tmp_path_factory.mktemp("failures"), cache_dir=cache, progress=False)
+    )
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "motion", "region"), _FAILURES)
 @pytest.mark.parametrize("denoiser", DENOISERS)
-def test_temporal_is_never_worse_than_white_on_the_failure_cases(failures, scene, motion, region, denoiser):
+def test_temporal_is_never_worse_than_white_on_the_failure_cases(
+    failures, scene, motion, region, denoiser
+):
     cell = dict(scene=scene, spp=1, denoiser=denoiser, motion=motion, region=region)
     ratio = _ratio(failures, "temporal", "white", "den", _FAILURE_LEVEL, **cell)
     assert ratio.lo <= 1.0, f"temporal / white = {ratio}"
