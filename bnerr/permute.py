@@ -529,6 +529,27 @@ def _resolve_plan(
     return _PLANS.get(_check_mask(mask, h, w, device), block, grid)
 
 
+def _check_pass(
+    seeds: object,
+    values: object,
+    mask: object,
+    block: object,
+    groups: object,
+    grid_offset: object,
+) -> tuple[torch.Tensor, SortPlan, torch.Tensor | None]:
+    """:func:`sort_pass`'s checks: ``(values, plan, groups as int64 or None)``."""
+    h, w = _check_seeds(seeds)
+    block = _check_block(block)
+    values = _check_values(values, h, w)
+    if values.device != seeds.device:
+        raise ValueRangeError(
+            f"values: expected a tensor on {seeds.device} like seeds, got {values.device}"
+        )
+    plan = _resolve_plan(mask, block, h, w, seeds.device, grid_offset)
+    labels = None if groups is None else _check_groups(groups, h, w, seeds.device)
+    return values, plan, labels
+
+
 def sort_pass(
     seeds: torch.Tensor,
     values: torch.Tensor,
@@ -580,15 +601,7 @@ def sort_pass(
         2..8, a grid offset outside ``[0, B)^2`` or unlike the plan's, tensors on different
         devices.
     """
-    h, w = _check_seeds(seeds)
-    block = _check_block(block)
-    values = _check_values(values, h, w)
-    if values.device != seeds.device:
-        raise ValueRangeError(
-            f"values: expected a tensor on {seeds.device} like seeds, got {values.device}"
-        )
-    plan = _resolve_plan(mask, block, h, w, seeds.device, grid_offset)
-    labels = None if groups is None else _check_groups(groups, h, w, seeds.device)
+    values, plan, labels = _check_pass(seeds, values, mask, block, groups, grid_offset)
     if seeds.numel() == 0:
         return seeds.clone()
     rgb = values.ndim == 3 and values.shape[0] == 3

@@ -128,8 +128,15 @@ def collision_depth(depth: torch.Tensor, object_id: torch.Tensor | None = None) 
     Returns:
         ``[1, H, W]`` float32, a new tensor on ``depth``'s device.
     """
-    check_shape(check_tensor(depth, "depth"), "1 H W", "depth")
+    size = check_shape(check_tensor(depth, "depth"), "1 H W", "depth")
     check_dtype(depth, FLOAT_DTYPES, "depth")
+    if object_id is not None:
+        osize = check_shape(check_tensor(object_id, "object_id"), "1 H W", "object_id")
+        if osize != size or object_id.device != depth.device:
+            raise ShapeError(
+                f"object_id: expected [1, {size['H']}, {size['W']}] on {depth.device} like depth, "
+                f"got {list(object_id.shape)} on {object_id.device}"
+            )
     escaped = depth == 0 if object_id is None else object_id < 0
     return depth.to(torch.float32).masked_fill(escaped, math.inf)
 
