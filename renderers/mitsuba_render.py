@@ -50,11 +50,14 @@ draw samples outside ``SamplingIntegrator::render`` (particle tracers).
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import importlib
 import importlib.util
 import os
+import sys
 import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -114,11 +117,26 @@ def unavailable_reason(variant: str = "llvm_ad_rgb") -> str | None:
     Loads the variant to ask Dr.Jit which LLVM it found (that compiles nothing, so it cannot hit
     the abort an old LLVM causes).
     """
-    try:
-        load_mitsuba(variant)
-    except MitsubaUnavailableError as err:
-        return str(err)
+    with _keep_variant():
+        try:
+            load_mitsuba(variant)
+        except MitsubaUnavailableError as err:
+            return str(err)
     return None
+
+
+@contextlib.contextmanager
+def _keep_variant() -> Iterator[None]:
+    """Restore Mitsuba's active variant on exit (other code, e.g. renderers.mitsuba, relies on
+    the variant it set; the functions here set theirs only while they work)."""
+    mi = sys.modules.get("mitsuba")
+    before = mi.variant() if mi is not None else None
+    try:
+        yield
+    finally:
+        mi = sys.modules.get("mitsuba")
+        if before is not None and mi is not None and mi.variant() != before:
+            mi.set_variant(before)
 
 
 def load_mitsuba(variant: str = "llvm_ad_rgb") -> ModuleType:
@@ -395,12 +413,14 @@ class MitsubaRender:
                 f"seeds: expected [{self.height}, {self.width}] (the film), got {list(seeds.shape)}"
             )
         self.plugin.configure(seeds, sampler)
-        if self.mi.variant() != self.variant:  # someone switched variants since we loaded
-            self.mi.set_variant(self.variant)
-        watch = Stopwatch()
-        color = self._render(self.integrator)
-        aovs = None if self.aov is None else self._render(self.aov)
-        return _frame(color, aovs, watch.ms(), seeds.device)
+        with _keep_variant():
+            if self.mi.variant() != self.variant:
+                self.mi.set_variant(self.variant)
+            watch = Stopwatch()
+            color = self._render(self.integrator)
+            aovs = None if self.aov is None else self._render(self.aov)
+            ms = watch.ms()
+        return _frame(color, aovs, ms, seeds.device)
 
     def _render(self, integrator) -> torch.Tensor:
         """One render of the scene by ``integrator`` with evaluated loops: ``[H, W, C]``."""
@@ -464,10 +484,11 @@ def mitsuba_render_fn(
     """
     spp = check_positive_int(spp, "spp")
     make_sampler(sampler_name)  # the name is checked now rather than in the middle of a render
-    mi = load_mitsuba(variant)
-    register(variant)
-    loaded = _load(mi, scene, _sampler_spec(spp, PLUGIN, sampler_name), params or {})
-    return MitsubaRender(mi, loaded, spp, aovs)
+    with _keep_variant():
+        mi = load_mitsuba(variant)
+        register(variant)
+        loaded = _load(mi, scene, _sampler_spec(spp, PLUGIN, sampler_name), params or {})
+        return MitsubaRender(mi, loaded, spp, aovs)
 
 
 def mitsuba_reference(
@@ -485,7 +506,8 @@ def mitsuba_reference(
     """
     spp = check_positive_int(spp, "spp")
     seed = check_positive_int(seed, "seed", minimum=0)
-    mi = load_mitsuba(variant)
-    loaded = _load(mi, scene, _sampler_spec(spp, "independent", ""), params or {})
-    image = mi.render(loaded, spp=spp, seed=seed)
-    return torch.from_numpy(np.array(image, dtype=np.float32)).permute(2, 0, 1)[:3].contiguous()
+    with _keep_variant():
+        mi = load_mitsuba(variant)
+        loaded = _load(mi, scene, _sampler_spec(spp, "independent", ""), params or {})
+        image = np.array(mi.render(loaded, spp=spp, seed=seed), dtype=np.float32)
+    return torch.from_numpy(image).permute(2, 0, 1)[:3].contiguous()

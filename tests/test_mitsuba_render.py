@@ -259,3 +259,20 @@ def test_temporal_lowers_the_blurred_error_of_mitsuba_renders(single_threaded):
     print(f"raw {raw}, blurred {blurred}")
     assert blurred.hi < 0.9, blurred
     assert raw.lo <= 1.0 <= raw.hi, raw
+
+
+@needs_mitsuba
+@pytest.mark.reference
+def test_the_active_variant_is_left_as_it_was(single_threaded):
+    mi = mr.load_mitsuba()
+    mi.set_variant("scalar_rgb")  # what renderers.mitsuba's users set
+    try:
+        render = mr.mitsuba_render_fn(SCENE, spp=1, params={"resolution": "8"})
+        assert mi.variant() == "scalar_rgb"
+        frame = render(pixel_seeds(8, 8, 0))
+        reference = mr.mitsuba_reference(SCENE, spp=4, params={"resolution": "8"})
+        assert mi.variant() == "scalar_rgb" and mr.unavailable_reason() is None
+        assert mi.variant() == "scalar_rgb"
+        assert frame.color.shape == reference.shape == (3, 8, 8)
+    finally:
+        mi.set_variant("llvm_ad_rgb")
