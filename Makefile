@@ -1,16 +1,28 @@
-# Two commands: `make run` and `make test` (ruff lint and format check, then pytest). Each creates .venv on first use and
-# reinstalls only when pyproject.toml changed (the stamp file tracks it).
+# Two commands: `make run` and `make test` (ruff lint and format check, then pytest). Each
+# creates .venv on first use and reinstalls only when pyproject.toml changed (the stamp file
+# tracks it). The extras: dev (pytest, hypothesis, ruff), reference (Mitsuba 3, OIDN, FLIP) and
+# cluster (Ray). Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it
+# installs libllvm19 (best effort; without it the tests that need it skip and say why).
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test bench clean
+.PHONY: run test bench clean llvm
+
+llvm:
+	@if ldconfig -p 2>/dev/null | grep -q 'libLLVM.so.19\|libLLVM-19'; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  (apt-get install -y -qq libllvm19 >/dev/null 2>&1 || \
+	   (apt-get update -qq >/dev/null 2>&1 && apt-get install -y -qq libllvm19 >/dev/null 2>&1)) || \
+	  echo "note: libllvm19 not installed; tests of Mitsuba's LLVM variants will skip"; \
+	else echo "note: no libLLVM 19 (Debian: apt-get install libllvm19); tests of Mitsuba's LLVM variants will skip"; fi
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[dev,reference]'
+	$(BIN)/python -m pip install --quiet -e '.[dev,reference,cluster]'
+	@$(MAKE) --no-print-directory llvm
 	touch $(STAMP)
 
 # The quick suite writes to out/quick (ignored by git), so running it never edits the
