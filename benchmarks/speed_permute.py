@@ -9,7 +9,12 @@ threads and 0.60 ms on an RTX 2080 for their 1080p sort):
   measured in the same run and interleaved with the above, so the ratio survives a busy machine;
 - the torch fallback path of ``sort_pass`` (what runs without a C compiler, and on CUDA);
 - the plan (mask side, once per mask offset) and the retargeting pass (every frame), with the
-  native gather and with torch gather indices (uncached).
+  native gather and with torch gather indices (uncached);
+- the options of docs/METHODS.md, section 8 (``gap``): the sort pass with groups and with a
+  shifted block grid (native kernel and torch path), the sort keys (``bnerr.sortkeys``: residual,
+  relative, demodulated), the group labels, and the bijective reprojection (``bnerr.reproject``,
+  forward and backward), on synthetic buffers (objects of a few hundred pixels, a pan with
+  jitter, random depths).
 
 Each figure is the median of ``repeats`` runs after one warm-up, with ``threads`` torch threads
 (the native kernel uses as many threads). Timings depend on the machine and on what else runs on
@@ -28,7 +33,9 @@ import torch
 from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.permute import _sort_torch, luminance, plan_sort, sort_pass
+from bnerr.reproject import reproject_seeds
 from bnerr.retarget import Retarget, load_retarget, retarget_sources
+from bnerr.sortkeys import group_labels, sort_key
 from bnerr.timing import sync
 
 __all__ = ["argsort_sort_pass", "main", "measure"]
@@ -89,6 +96,61 @@ def _inputs(width: int, height: int, block: int, device: torch.device, mask_size
     return color, lum, seeds, mask, plan
 
 
+def _gap_buffers(width: int, height: int, device: torch.device) -> dict[str, torch.Tensor]:
+    """Synthetic guide buffers: object ids in patches of 37 x 23 pixels (5 objects), a random unit
+    normal per patch, random albedo and depth, and a 1.3-pixel pan with Gaussian jitter."""
+    gen = torch.Generator().manual_seed(1)
+    ys = torch.arange(height)[:, None]
+    xs = torch.arange(width)[None, :]
+    patch = (xs // 37 + (ys // 23) * (width // 37 + 1)).reshape(-1)
+    oid = ((xs // 37 + ys // 23) % 5).float()[None]
+    normals = torch.randn(3, int(patch.max()) + 1, generator=gen)
+    normals = normals / normals.norm(dim=0, keepdim=True)
+    motion = torch.randn(2, height, width, generator=gen) * 0.5
+    motion[0] += 1.3
+    return {
+        "oid": oid.to(device),
+        "normal": normals[:, patch].reshape(3, height, width).to(device),
+        "albedo": torch.rand(3, height, width, generator=gen).to(device),
+        "depth": (torch.rand(1, height, width, generator=gen) * 10 + 1).to(device),
+        "motion": motion.to(device),
+    }
+
+
+def _gap_fns(
+    color: torch.Tensor, lum: torch.Tensor, seeds: torch.Tensor, mask: torch.Tensor, block: int
+) -> dict[str, Callable[[], object]]:
+    """The section 8 options, each a function of no arguments (``measure()['gap']``)."""
+    height, width = lum.shape
+    b = _gap_buffers(width, height, lum.device)
+    labels = group_labels(b["oid"], b["normal"])
+    plan = plan_sort(mask, block)
+    grid = (block // 2, block // 2)
+    shifted = plan_sort(mask, block, grid)
+    albedo, depth, motion = b["albedo"], b["depth"], b["motion"]
+    return {
+        "sort_pass_groups_ms": lambda: sort_pass(seeds, lum, plan, block, groups=labels),
+        "sort_pass_groups_torch_ms": lambda: _sort_torch(seeds, lum, plan, labels),
+        "sort_pass_grid_ms": lambda: sort_pass(seeds, lum, shifted, block),
+        "sort_pass_grid_torch_ms": lambda: _sort_torch(seeds, lum, shifted),
+        "plan_grid_ms": lambda: plan_sort(mask, block, grid),
+        "group_labels_ms": lambda: group_labels(b["oid"], b["normal"]),
+        "group_labels_depth_ms": lambda: group_labels(b["oid"], b["normal"], depth),
+        "key_luminance_ms": lambda: sort_key(color),
+        "key_luminance_demod_ms": lambda: sort_key(color, demodulate=True, albedo=albedo),
+        "key_residual_ms": lambda: sort_key(color, "residual", labels=labels),
+        "key_residual_unguided_ms": lambda: sort_key(color, "residual"),
+        "key_residual_5x5_ms": lambda: sort_key(color, "residual", labels=labels, radius=2),
+        "key_relative_demod_ms": lambda: sort_key(
+            color, "relative", demodulate=True, albedo=albedo, labels=labels
+        ),
+        "reproject_forward_ms": lambda: reproject_seeds(seeds, motion, depth),
+        "reproject_backward_ms": lambda: reproject_seeds(
+            seeds, motion, depth, direction="backward"
+        ),
+    }
+
+
 def measure(
     width: int = 1920,
     height: int = 1080,
@@ -103,7 +165,8 @@ def measure(
     Keys: ``sort_pass_lum_ms``, ``sort_pass_rgb_ms``, ``argsort_ms``, ``ratio`` (argsort over
     sort_pass_lum), ``torch_path_ms``, ``plan_ms``, ``retarget_ms`` (as the temporal strategy
     runs it: the native gather where available), ``retarget_torch_ms`` (torch gather indices,
-    uncached), and ``native`` (the C kernels' status), ``threads``, ``device``, ``size``.
+    uncached), ``gap`` (the section 8 options by name, ms, median of ``max(3, repeats // 5)``
+    runs), and ``native`` (the C kernels' status), ``threads``, ``device``, ``size``.
     """
     device = torch.device(device)
     before = torch.get_num_threads()
@@ -133,6 +196,9 @@ def measure(
             {"plan": lambda: plan_sort(mask, block)}, max(3, repeats // 10), device
         )["plan"]
         result["ratio"] = result["argsort_ms"] / result["sort_pass_lum_ms"]
+        result["gap"] = _interleaved(
+            _gap_fns(color, lum, seeds, mask, block), max(3, repeats // 5), device
+        )
         result["native"] = native.status() if device.type == "cpu" else "not used on " + device.type
         result["threads"] = torch.get_num_threads()
         result["device"] = str(device)
@@ -152,8 +218,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeats", type=int, default=50)
     parser.add_argument("--threads", type=int, default=2, help="torch threads (default 2)")
     parser.add_argument("--device", default="cpu")
+    parser.add_argument("--mask-size", type=int, default=64)
     args = parser.parse_args(argv)
-    r = measure(args.width, args.height, args.block, args.repeats, args.threads, args.device)
+    r = measure(
+        args.width, args.height, args.block, args.repeats, args.threads, args.device, args.mask_size
+    )
     where = f"{r['size']}, {r['device']}, {r['threads']} threads"
     print(f"permutation passes, {where}, median of {args.repeats}")
     print(f"  native kernel: {r['native']}")
@@ -165,6 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  retargeting pass                 {r['retarget_ms']:8.2f} ms")
     print(f"  retargeting pass, torch indices  {r['retarget_torch_ms']:8.2f} ms")
     print(f"  mask plan (once per offset)      {r['plan_ms']:8.2f} ms")
+    print("  closing the gap (docs/METHODS.md, section 8):")
+    for name, ms in r["gap"].items():
+        print(f"    {name.removesuffix('_ms'):30s} {ms:8.2f} ms")
     return 0
 
 

@@ -36,6 +36,15 @@ seed moved to p then carries the old mask value ``M(q + d(q))``, close to the ne
   results.
 - :func:`load_retarget`: the shipped displacement field for the shipped scalar mask of size T.
 
+**With the options of docs/METHODS.md, section 8.** The field lives in mask space, not in the
+sorting pass's blocks: pass frame t's *mask* offset ``o_t`` (the one the sorted mask was tiled
+at), whatever block-grid offset (``sort_pass(..., grid_offset=g_t)``) or groups the sorting pass
+used. After a sort, the seed at p is ranked like ``M(p + o_t)`` among its block's (or group's)
+pixels, however the blocks were cut, and the field moves it to where ``M(. + o_t + s)`` wants
+that rank; the grid offset only changes which seeds competed. Reprojection along motion
+(:func:`bnerr.reproject.reproject_seeds`) comes after this pass, carrying the retargeted seed image
+from frame t's screen to frame t + 1's.
+
 Not for: masks other than the one a field was optimized for (run :func:`optimize_retarget` on
 yours), or a step that changes between frames.
 """

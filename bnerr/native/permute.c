@@ -58,24 +58,34 @@ static inline int32_t load_bits(const job_t *j, int64_t idx) {
 }
 
 /* Grouped ranks of one block: the pixel with the k-th smallest (group, key, position) moves to
-   the position with the k-th smallest (group, mask rank). Groups compare by label, so each group's
-   pixels take each other's places only. */
+   the position with the k-th smallest (group, mask rank). Groups compare by a local id (the index
+   of the group's first pixel in the block), so that both composites pack into one int64 and each
+   rank is one count of comparisons; any order of the groups gives the same moves, since each
+   group's pixels take each other's places only. */
 static void block_groups(job_t *j, const int B, const uint8_t *ord, int m, const int64_t *key,
                          const int64_t *grp, const int *pos, const int64_t *src, int64_t y0,
                          int64_t x0) {
     int slot[64], at[64];
+    int64_t vk[64], mk[64];
     for (int i = 0; i < 64; ++i) slot[i] = -1;
     for (int r = 0; r < m; ++r) slot[ord[r] & 63] = r;
     for (int i = 0; i < m; ++i) {
-        const int mi = slot[pos[i]];
-        if (mi < 0) { j->err = 1; return; }
+        int gid = i;
+        for (int k = 0; k < i; ++k)
+            if (grp[k] == grp[i]) { gid = k; break; }
+        if (slot[pos[i]] < 0) { j->err = 1; return; }
+        /* key = okey * 64 + position, okey a signed 32-bit value: 38 bits with its sign. */
+        vk[i] = ((int64_t)gid << 40) + key[i] + ((int64_t)1 << 38);
+        mk[i] = (int64_t)gid * 64 + slot[pos[i]];
+    }
+    for (int i = 0; i < m; ++i) {
         int c = 0;
-        for (int k = 0; k < m; ++k) c += grp[k] < grp[i] || (grp[k] == grp[i] && slot[pos[k]] < mi);
+        for (int k = 0; k < m; ++k) c += mk[k] < mk[i];
         at[c] = pos[i];
     }
     for (int i = 0; i < m; ++i) {
         int c = 0;
-        for (int k = 0; k < m; ++k) c += grp[k] < grp[i] || (grp[k] == grp[i] && key[k] < key[i]);
+        for (int k = 0; k < m; ++k) c += vk[k] < vk[i];
         const int p = at[c];
         j->out[(y0 + p / B) * j->W + x0 + p % B] = src[i];
     }
