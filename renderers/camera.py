@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from renderers.geometry import where
 from renderers.scene import Camera
 
 __all__ = ["CameraFrame", "camera_frame", "generate_rays", "project"]
@@ -112,7 +113,7 @@ def project(
     v = points if directions else points - cam.origin[:, None]
     z = cam.forward @ v
     in_front = z > 0
-    z_safe = torch.where(in_front, z, torch.ones_like(z))
+    z_safe = where(in_front, z, torch.ones_like(z))
     sx = (cam.right @ v) / (z_safe * cam.tan_x)
     sy = (cam.up @ v) / (z_safe * cam.tan_y)
     return (sx + 1.0) * 0.5 * cam.width, (1.0 - sy) * 0.5 * cam.height, in_front

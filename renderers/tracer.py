@@ -76,6 +76,7 @@ from renderers.geometry import (
     scene_tensors,
     spawn_offset,
     surface_at,
+    where,
 )
 from renderers.layout import Layout
 from renderers.scene import Scene
@@ -127,7 +128,7 @@ def _power_heuristic(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """``a^2 / (a^2 + b^2)``, 0 where both vanish (Veach 1997, eq. 9.13 with beta = 2)."""
     a2, b2 = a * a, b * b
     s = a2 + b2
-    return torch.where(s > 0, a2 / torch.where(s > 0, s, 1.0), 0.0)
+    return where(s > 0, a2 / where(s > 0, s, 1.0), 0.0)
 
 
 def emission(
@@ -144,10 +145,10 @@ def emission(
     segment's direction, or None for camera rays (weight 1). The light-sampling density of the
     same point is ``light_pdf_area * t^2 / cos_light``.
     """
-    le = torch.where(front, hit_emission, 0.0)
+    le = where(front, hit_emission, 0.0)
     if prev_pdf is None:
         return le
-    t = torch.where(front, t, 0.0)
+    t = where(front, t, 0.0)
     p_light = light_pdf_area * t * t / cos_light.clamp_min(1e-12)
     return le * _power_heuristic(prev_pdf, p_light)
 
@@ -160,7 +161,7 @@ def _pick_light(st: SceneTensors, u_choice: torch.Tensor | None, n: int) -> torc
     j = (u_choice * st.num_lights).floor().clamp_max(st.num_lights - 1)
     picked = rows[0][:, None].expand(-1, n)
     for light in range(1, st.num_lights):
-        picked = torch.where(j == light, rows[light][:, None], picked)
+        picked = where(j == light, rows[light][:, None], picked)
     return picked
 
 
@@ -191,24 +192,24 @@ def next_event(
     dist = dist2.sqrt()
     w = w / dist
     cos_light = -dot(w, light[9:12])
-    cos_surface = torch.where(on_surface, dot(w, normal), 1.0)
+    cos_surface = where(on_surface, dot(w, normal), 1.0)
     ok = (cos_light > 0) & (cos_surface > 0)
     p_light = dist2 / (st.num_lights * cos_light.clamp_min(1e-12) * light[12])  # (1/L)(1/A) d^2/cos
     weight = cos_surface / p_light
     if mis:
-        p_dir = torch.where(on_surface, cos_surface * _INV_PI, _INV_4PI)
+        p_dir = where(on_surface, cos_surface * _INV_PI, _INV_4PI)
         weight = weight * _power_heuristic(p_light, p_dir)
     t_block, _ = intersect(st, x, w, with_object=False)
     ok = ok & (t_block >= dist * (1.0 - 1e-4))
     if st.medium is not None:
         weight = weight * _transmittance(st, x, w, dist)
-    return torch.where(ok, f * light[13:16] * weight, 0.0)
+    return where(ok, f * light[13:16] * weight, 0.0)
 
 
 def _orthonormal(n: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Two tangents completing ``n [3, N]`` to an orthonormal basis (Duff et al. 2017, JCGT 6)."""
     nx, ny, nz = n[0], n[1], n[2]
-    sign = torch.where(nz >= 0, 1.0, -1.0)
+    sign = where(nz >= 0, 1.0, -1.0)
     a = -1.0 / (sign + nz)
     b = nx * ny * a
     t1 = torch.stack([1.0 + sign * nx * nx * a, sign * b, -sign * nx])
@@ -227,9 +228,9 @@ def sample_direction(
     a = 2.0 * u[0] - 1.0
     b = 2.0 * u[1] - 1.0
     use_a = a.abs() > b.abs()
-    r = torch.where(use_a, a, b)
-    ratio = torch.where(use_a, b / torch.where(a == 0, 1.0, a), a / torch.where(b == 0, 1.0, b))
-    phi = torch.where(use_a, (math.pi / 4) * ratio, (math.pi / 2) - (math.pi / 4) * ratio)
+    r = where(use_a, a, b)
+    ratio = where(use_a, b / where(a == 0, 1.0, a), a / where(b == 0, 1.0, b))
+    phi = where(use_a, (math.pi / 4) * ratio, (math.pi / 2) - (math.pi / 4) * ratio)
     dx, dy = r * torch.cos(phi), r * torch.sin(phi)
     dz = (1.0 - dx * dx - dy * dy).clamp_min(0.0).sqrt()
     t1, t2 = _orthonormal(normal)
@@ -239,8 +240,8 @@ def sample_direction(
     s = (1.0 - z * z).clamp_min(0.0).sqrt()
     phi_s = 2.0 * math.pi * u[1]
     d_sphere = torch.stack([s * torch.cos(phi_s), s * torch.sin(phi_s), z])
-    d = torch.where(on_surface, d_surface, d_sphere)
-    pdf = torch.where(on_surface, dz * _INV_PI, _INV_4PI)
+    d = where(on_surface, d_surface, d_sphere)
+    pdf = where(on_surface, dz * _INV_PI, _INV_4PI)
     return d, pdf
 
 
@@ -278,7 +279,7 @@ def vertex_step(
     if st.medium is not None:
         scatter, s = sample_medium(st, o, d, t, u_distance)
         scatter = scatter & alive
-        beta = torch.where(scatter, beta * st.medium_albedo[:, None], beta)
+        beta = where(scatter, beta * st.medium_albedo[:, None], beta)
     else:
         scatter, s = torch.zeros_like(alive), torch.zeros_like(t)
     cos_hit = -dot(d, hit.normal)
@@ -288,22 +289,22 @@ def vertex_step(
         hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf
     )
     alive = front | scatter
-    beta = torch.where(alive, beta, 0.0)
+    beta = where(alive, beta, 0.0)
     # -- shade: the new vertex, on a surface (pushed off it) or in the medium
     on_surface = ~scatter
     p_surface = hit.position + spawn_offset(hit.position) * hit.normal
-    x = torch.where(scatter, o + torch.where(scatter, s, 0.0) * d, p_surface)
-    f = torch.where(on_surface, hit.albedo * _INV_PI, _INV_4PI)  # BSDF or phase function
+    x = where(scatter, o + where(scatter, s, 0.0) * d, p_surface)
+    f = where(on_surface, hit.albedo * _INV_PI, _INV_4PI)  # BSDF or phase function
     # -- next-event estimation (full weight at the last vertex)
     nee = next_event(
         st, x, hit.normal, on_surface, f, u_choice, u_light, mis=u_direction is not None
     )
-    radiance = radiance + torch.where(alive, beta * nee, 0.0)
+    radiance = radiance + where(alive, beta * nee, 0.0)
     if u_direction is None:
         return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
     # -- sample the next direction (BSDF or phase function)
     d, pdf = sample_direction(hit.normal, on_surface, u_direction)
-    beta = torch.where(on_surface, beta * hit.albedo, beta)
+    beta = where(on_surface, beta * hit.albedo, beta)
     return x, d, beta, radiance, alive, pdf, hit.albedo, hit.normal
 
 
@@ -380,15 +381,15 @@ def _center_buffers(
     o, d = generate_rays(cam, cx, cy)
     t, obj = intersect(st, o, d)
     hit = obj >= 0
-    p = o + torch.where(hit, t, 0.0) * d
+    p = o + where(hit, t, 0.0) * d
     p_prev = p - st.translation[obj.clamp_min(0)].T  # undo the object's own motion
     x_pt, y_pt, front_pt = project(cam_prev, p_prev)
     x_dir, y_dir, front_dir = project(cam_prev, d, directions=True)
-    x_prev = torch.where(hit, x_pt, x_dir)
-    y_prev = torch.where(hit, y_pt, y_dir)
-    valid = torch.where(hit, front_pt, front_dir)
-    motion = torch.where(valid, torch.stack([cx - x_prev, cy - y_prev]), 0.0)
-    return torch.where(hit, t, 0.0), obj.to(torch.float32), motion
+    x_prev = where(hit, x_pt, x_dir)
+    y_prev = where(hit, y_pt, y_dir)
+    valid = where(hit, front_pt, front_dir)
+    motion = where(valid, torch.stack([cx - x_prev, cy - y_prev]), 0.0)
+    return where(hit, t, 0.0), obj.to(torch.float32), motion
 
 
 # --------------------------------------------------------------------------------------------

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from renderers.geometry import intersect, medium_interval, scene_tensors, surface_at
+from renderers.geometry import intersect, medium_interval, scene_tensors, surface_at, where
 from renderers.scene import (
     Box,
     Camera,
@@ -126,3 +126,50 @@ def test_medium_interval():
     t0, t1 = medium_interval(st, o, d)
     assert t0.tolist()[:2] == [4.0, 0.0] and t1.tolist()[:2] == [6.0, 2.0]
     assert t0[2] >= t1[2]  # a miss is an empty interval
+
+
+@pytest.mark.parametrize("dtype", [torch.float32, torch.float64, torch.int32, torch.int64])
+def test_where_is_torch_where_bit_for_bit(dtype):
+    """The bitwise blend equals torch.where: NaN payloads, -0, inf, scalars, broadcasting."""
+    g = torch.Generator().manual_seed(3)
+    n = 257
+    mask = torch.rand(n, generator=g) > 0.5
+    if dtype.is_floating_point:
+        a = torch.randn(3, n, generator=g, dtype=dtype)
+        b = torch.randn(3, n, generator=g, dtype=dtype)
+        a[0, :9] = torch.tensor([float("nan"), -0.0, 0.0, float("inf"), -float("inf")] * 2)[:9]
+        scalars = [0.0, -0.0, 1.0, -1.5, float("inf"), 0.1]
+    else:
+        a = torch.randint(-(2**31), 2**31 - 1, (3, n), generator=g).to(dtype)
+        b = torch.randint(-(2**31), 2**31 - 1, (3, n), generator=g).to(dtype)
+        scalars = [0, -1, 7]
+    cases = [(a, b), (a[:, :1], b), (a, b[1]), (a[0], b[2])]
+    cases += [(a, s) for s in scalars] + [(s, b[0]) for s in scalars]
+    cases += [(scalars[1], scalars[2])]
+    bits = {1: torch.uint8, 4: torch.int32, 8: torch.int64}
+    for x, y in cases:
+        want, got = torch.where(mask, x, y), where(mask, x, y)
+        assert got.dtype == want.dtype and got.shape == want.shape
+        size = want.element_size()
+        assert torch.equal(got.view(bits[size]), want.view(bits[size]))
+
+
+def test_where_falls_back_for_bool():
+    mask = torch.tensor([True, False, True])
+    x, y = torch.tensor([True, True, False]), torch.tensor([False, False, True])
+    assert torch.equal(where(mask, x, y), torch.tensor([True, False, False]))
+
+
+def test_box_normals_do_not_depend_on_the_lane_count():
+    """The fast normalization (per-row norms) equals torch's norm for every lane count."""
+    box = Box("box", affine((0.3, -0.2, 0.1), ((1.0, 2.0, 0.5), 33.0), (0.7, 1.3, 0.4)), RED)
+    st = scene_tensors(scene_of(box), 0)
+    rng = np.random.default_rng(4)
+    points = torch.tensor(rng.normal(size=(3, 300)), dtype=torch.float32)
+    o = points + 5.0
+    d = -o / o.norm(dim=0, keepdim=True)
+    t, obj = intersect(st, o, d)
+    full = surface_at(st, o, d, t, obj).normal
+    for n in (1, 2, 3, 17, 300):
+        part = surface_at(st, o[:, :n], d[:, :n], t[:n], obj[:n]).normal
+        assert torch.equal(part, full[:, :n])
