@@ -36,15 +36,18 @@ from __future__ import annotations
 import hashlib
 import importlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import torch
 
-from benchmarks.parts import Parts, Scene
 from benchmarks.plan import Run
 from bnerr.errors import FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
+
+if TYPE_CHECKING:  # parts imports this module (code_version): types only, no import cycle
+    from benchmarks.parts import Parts, Scene
 
 __all__ = [
     "REFERENCE_COMPILE_PATHS",

@@ -34,6 +34,42 @@ Names, as the benchmark tables name them (docs/METHODS.md, sections 3 and 4):
   luminance (``b`` the scalar mask at the frame's offset), its buffers assembled into one frame.
   K renders per frame: the upper bound that the temporal algorithm approximates.
 
+The rivals (docs/METHODS.md, sections 5 and 7): a-priori patterns that need no previous frame,
+and the temporal method over a Z-order sampler. Their seed image holds each pixel's *key* (the
+lane's seed that the Z-order samplers read, :func:`bnerr.sequences.zsobol_keys`,
+:func:`bnerr.sequences.cycles_keys`), and they need ``spp`` at construction (the samplers' blocks
+are ``spp`` long):
+
+- ``zsobol``: pbrt-v4's ZSobolSampler: the identity key image ``zsobol_keys(H, W)`` and the
+  ``zsobol`` sampler built with ``(width, height, spp, seed)``; the scramble's seed is fresh every
+  frame (pbrt's ``seed`` option keyed by (seed set, t), as an animation with a changing seed), so
+  frames are independent like white's. spp must be a power of two (pbrt's blocks).
+- ``cycles_blue``: Blender Cycles' ``BLUE_NOISE_PURE`` for final frames: keys
+  ``cycles_keys(H, W, seed_t)`` with a fresh seed every frame (Cycles' animated seed) and the
+  ``cycles_pure`` sampler over one global Owen-Sobol sequence of seed 0, as in Cycles.
+- ``zsobol_t``: temporal Z-order: the identity key image and the ``zsobol_t`` sampler at frame t
+  (:meth:`bnerr.sequences.ZSobolTSampler.at_frame`), one scramble seed per seed set for all
+  frames, so consecutive frames take neighbouring blocks of one sequence. spp a power of two.
+- ``bnds_st``: ``bnds`` with spatiotemporal blue-noise slices (:func:`bnerr.stbn.load_stbn`,
+  vector, 64x64x32, D = 2 per slice) instead of one mask shifted by the R2 step: frame t rotates
+  dimension pair k (dimensions 2k, 2k + 1) by slice ``(t + k * F // P) mod F`` of the STBN mask,
+  ``P`` the number of pairs and F = 32 its slices, unshifted. Each pair thus gets its own slice
+  (pairs never share a rotation within a frame) and each pixel's rotation of one pair follows the
+  mask's blue series along t. ``P`` is the channel count ``bnds`` would take (the shipped vector
+  mask with the fewest channels covering the scene's D, 2, 4 or 8) divided by 2, so ``bnds_st``
+  and ``bnds`` rotate the same dimensions and both fall back to white noise beyond them.
+- ``temporal_zsobol``: Heitz & Belcour's sort and retarget passes (as ``temporal``) permuting
+  ZSobol's keys instead of hashed seeds: S_0 is the identity key image, the sampler is ``zsobol``
+  with one scramble seed per seed set (a key must keep its sequence from frame to frame for the
+  sort to mean anything), and S_t stays a permutation of the keys.
+
+**Which sampler renders.** Every strategy has ``sampler_name``, the sampler its renders use.
+``white``, ``temporal``, ``temporal_sort`` and ``oracle`` take the per-pixel sampler they are
+given (the benchmark's ``sampler`` condition); the others dictate their own
+(:data:`OWN_SAMPLERS`: ``bnds`` and ``bnds_st`` the ``bnds`` sampler, ``zsobol`` and
+``temporal_zsobol`` ``zsobol``, ``cycles_blue`` ``cycles_pure``, ``zsobol_t`` ``zsobol_t``) and
+ignore the condition; the benchmark records ``sampler_name`` with each cell.
+
 **Sampler.** The paper gives every pixel its own sequence, selected by the pixel's seed; which
 sequence family is orthogonal to the method. ``white``, ``temporal``, ``temporal_sort`` and
 ``oracle`` all use the same per-pixel sampler (``sampler="owen_sobol"`` by default, Owen-scrambled
@@ -76,17 +112,24 @@ from bnerr.hashing import MASK32, lowbias32_, lowbias32_host, signed32
 from bnerr.masks import frame_offset, load_mask, r2_step, shipped_masks, tile_mask
 from bnerr.permute import SortPass, SortPlan, histogram_select, plan_sort
 from bnerr.retarget import Retarget, load_retarget
-from bnerr.sequences import Sampler, make_sampler
+from bnerr.sequences import Sampler, cycles_keys, make_sampler, zsobol_keys
+from bnerr.stbn import load_stbn, stbn_frame
 from bnerr.timing import Stopwatch, sync
 
 __all__ = [
+    "OWN_SAMPLERS",
     "STRATEGIES",
+    "BNDSSTStrategy",
     "BNDSStrategy",
+    "CyclesBlueStrategy",
     "OracleStrategy",
     "RenderFn",
     "Strategy",
     "TemporalStrategy",
+    "TemporalZSobolStrategy",
     "WhiteStrategy",
+    "ZSobolStrategy",
+    "ZSobolTStrategy",
     "estimate_bytes",
     "make_strategy",
     "pixel_seeds",
@@ -99,6 +142,8 @@ RenderFn = Callable[[torch.Tensor, Sampler], Frame]
 _SALT_FRAME = 0x9E3779B9
 _SALT_STREAM = 0x85EBCA6B
 _STREAM_WHITE, _STREAM_TEMPORAL, _STREAM_BNDS, _STREAM_ORACLE = 1, 2, 3, 4
+_STREAM_ZSOBOL, _STREAM_CYCLES, _STREAM_ZSOBOL_T, _STREAM_BNDS_ST = 5, 6, 7, 8
+_STREAM_TEMPORAL_ZSOBOL = 9
 # Memory the temporal strategies may spend on cached per-offset tables (plans, gather indices).
 _CACHE_BYTES = 64 << 20
 
@@ -153,7 +198,10 @@ _FRAME_BYTES = 16 * 4
 # over construction and four frames at 2048x2048 on the CPU with preallocated stand-in frames:
 # white 22-43 (a seed image: int32 words, their int64 copy, the masked result), temporal 81 and
 # temporal_sort 52-108 (the seed image carried, luminance, the sort and retargeting passes' keys,
-# indices and output; the higher figure on the torch path), oracle with K = 4 172.
+# indices and output; the higher figure on the torch path), oracle with K = 4 172. The rivals
+# hold a key image (8) and make it once (zsobol, zsobol_t) or every frame (cycles_blue, and
+# bnds_st's per-pixel seeds) through a few int64 temporaries: counted as a seed image;
+# temporal_zsobol as temporal.
 _SEED_BYTES = 44
 _TEMPORAL_BYTES = 112
 # The oracle holds K candidate frames and their luminance (4), then the choice (8), the assembled
@@ -166,7 +214,7 @@ def _per_pixel(name: str, K: int) -> int:
     """Estimated peak bytes per pixel of one frame of strategy ``name`` (K: oracle candidates)."""
     if name == "oracle":
         return K * _ORACLE_CANDIDATE_BYTES + _ORACLE_ONCE_BYTES
-    if name in ("temporal", "temporal_sort"):
+    if name in ("temporal", "temporal_sort", "temporal_zsobol"):
         return _FRAME_BYTES + _TEMPORAL_BYTES
     return _FRAME_BYTES + _SEED_BYTES
 
@@ -226,6 +274,23 @@ def _check_fits(what: str, height: int, width: int, per_pixel: int, device: torc
         )
 
 
+def _per_pixel_sampler(name: str) -> Sampler:
+    """The per-pixel sampler of white, temporal, temporal_sort and oracle (checked by name)."""
+    return make_sampler(check_name(name, ("owen_sobol", "white"), "per-pixel sampler"))
+
+
+def _power_of_two_spp(spp: object, strategy: str) -> int:
+    """``spp`` checked: an int >= 1 and a power of two (the Z-order samplers' block length)."""
+    if spp is None:
+        raise ValueRangeError(f"spp: expected the samples per pixel for {strategy}, got None")
+    spp = check_positive_int(spp, "spp")
+    if spp & (spp - 1):
+        raise ValueRangeError(
+            f"spp: expected a power of two for {strategy} (its per-pixel blocks), got {spp}"
+        )
+    return spp
+
+
 # --------------------------------------------------------------------------------------------------
 # The interface
 
@@ -237,9 +302,15 @@ class Strategy:
         name: the registry name (``make_strategy(name)``).
         height, width: the image size every render must return.
         overhead_ms: wall milliseconds of the last :meth:`frame` spent outside ``render``.
+        sampler_name: the sampler the renders use: the per-pixel sampler given, or the one a
+            strategy dictates (:data:`OWN_SAMPLERS`).
+        stateful: whether frame t depends on the frames before it (the temporal strategies); a
+            stateless strategy's frame t is the same whether or not frames 0..t-1 were made.
     """
 
     name: str = ""
+    sampler_name: str = ""
+    stateful: bool = False
 
     def __init__(
         self, height: int, width: int, *, seed: int = 0, device: torch.device | str = "cpu"
@@ -314,9 +385,8 @@ class WhiteStrategy(Strategy):
         device: torch.device | str = "cpu",
     ) -> None:
         super().__init__(height, width, seed=seed, device=device)
-        self.sampler = make_sampler(
-            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
-        )
+        self.sampler = _per_pixel_sampler(sampler)
+        self.sampler_name = sampler
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         key = _stream_key(self.seed, t, _STREAM_WHITE)
@@ -331,6 +401,7 @@ class BNDSStrategy(Strategy):
     """
 
     name = "bnds"
+    sampler_name = "bnds"
 
     def __init__(
         self,
@@ -357,6 +428,154 @@ class BNDSStrategy(Strategy):
         return render(pixel_seeds(self.height, self.width, key, self.device), sampler)
 
 
+class ZSobolStrategy(Strategy):
+    """``zsobol``: pbrt-v4's ZSobolSampler, the identity key image and a fresh scramble per frame.
+
+    Args:
+        spp: samples per pixel, a power of two (pbrt's per-pixel blocks).
+    """
+
+    name = "zsobol"
+    sampler_name = "zsobol"
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        spp: int,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self.spp = _power_of_two_spp(spp, self.name)
+        super().__init__(height, width, seed=seed, device=device)
+        self.keys = zsobol_keys(height, width, self.device)
+
+    def _frame(self, t: int, render: RenderFn) -> Frame:
+        key = _stream_key(self.seed, t, _STREAM_ZSOBOL)
+        sampler = make_sampler(
+            "zsobol", width=self.width, height=self.height, spp=self.spp, seed=key
+        )
+        return render(self.keys, sampler)
+
+
+class CyclesBlueStrategy(Strategy):
+    """``cycles_blue``: Cycles' ``BLUE_NOISE_PURE``, keys scrambled by a fresh seed every frame.
+
+    Args:
+        spp: samples per pixel (each pixel's block of the global sequence is spp long; any spp,
+            though only a power of two keeps the blocks aligned, as in Cycles).
+    """
+
+    name = "cycles_blue"
+    sampler_name = "cycles_pure"
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        spp: int,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        if spp is None:
+            raise ValueRangeError("spp: expected the samples per pixel for cycles_blue, got None")
+        self.spp = check_positive_int(spp, "spp")
+        super().__init__(height, width, seed=seed, device=device)
+        self.sampler = make_sampler("cycles_pure", spp=self.spp, seed0=0)
+
+    def _frame(self, t: int, render: RenderFn) -> Frame:
+        key = _stream_key(self.seed, t, _STREAM_CYCLES)
+        return render(cycles_keys(self.height, self.width, key, self.device), self.sampler)
+
+
+class ZSobolTStrategy(Strategy):
+    """``zsobol_t``: temporal Z-order, the identity key image and the sampler at frame t.
+
+    One scramble seed per seed set for every frame: frame t's blocks neighbour frame t - 1's in
+    the same sequence. Frame t depends on t alone, not on earlier frames (stateless).
+
+    Args:
+        spp: samples per pixel, a power of two.
+    """
+
+    name = "zsobol_t"
+    sampler_name = "zsobol_t"
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        spp: int,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self.spp = _power_of_two_spp(spp, self.name)
+        super().__init__(height, width, seed=seed, device=device)
+        key = _stream_key(self.seed, 0, _STREAM_ZSOBOL_T)
+        self.sampler = make_sampler("zsobol_t", width=width, height=height, spp=self.spp, seed=key)
+        self.keys = zsobol_keys(height, width, self.device)
+
+    def _frame(self, t: int, render: RenderFn) -> Frame:
+        return render(self.keys, self.sampler.at_frame(t))
+
+
+class BNDSSTStrategy(Strategy):
+    """``bnds_st``: Georgiev-Fajardo dithering with spatiotemporal blue-noise slices.
+
+    Frame t rotates dimension pair k by slice ``(t + k * (F // P)) mod F`` of the vector STBN mask
+    ``[F, 2, T, T]`` (``P = channels // 2`` pairs; see the module docstring), unshifted. As in
+    ``bnds``, the shared sequence's seed and the per-pixel seeds of the dimensions beyond the
+    mask's are fresh every frame.
+
+    Args:
+        stbn: ``[F, 2, T, T]`` float32 vector STBN mask in [0, 1) (:func:`bnerr.stbn.load_stbn`).
+        channels: rotated dimensions, even, >= 2 (pairs of slices).
+    """
+
+    name = "bnds_st"
+    sampler_name = "bnds"
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        stbn: torch.Tensor,
+        channels: int = 2,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        super().__init__(height, width, seed=seed, device=device)
+        check_tensor(stbn, "stbn")
+        if stbn.ndim != 4 or stbn.shape[1] != 2 or stbn.shape[0] < 1:
+            raise ShapeError(f"stbn: expected [F, 2, T, T] with F >= 1, got {list(stbn.shape)}")
+        channels = check_positive_int(channels, "channels", minimum=2)
+        if channels % 2:
+            raise ValueRangeError(f"channels: expected an even number, got {channels}")
+        self.stbn = stbn
+        self.pairs = channels // 2
+        self.slice_step = max(1, stbn.shape[0] // self.pairs)
+
+    def slices(self, t: int) -> list[int]:
+        """The STBN slice of each dimension pair in frame ``t``: ``[P]`` indices in [0, F)."""
+        frames = self.stbn.shape[0]
+        return [(t + k * self.slice_step) % frames for k in range(self.pairs)]
+
+    def mask(self, t: int) -> torch.Tensor:
+        """Frame ``t``'s vector mask ``[2P, T, T]``: the pairs' slices stacked, in order."""
+        return torch.cat([stbn_frame(self.stbn, i) for i in self.slices(t)])
+
+    def _frame(self, t: int, render: RenderFn) -> Frame:
+        key = _stream_key(self.seed, t, _STREAM_BNDS_ST)
+        sampler = make_sampler(
+            "bnds", mask=self.mask(t), offset=(0, 0), seed0=lowbias32_host(key + 1)
+        )
+        return render(pixel_seeds(self.height, self.width, key, self.device), sampler)
+
+
 class TemporalStrategy(Strategy):
     """``temporal`` (sort and retarget) and ``temporal_sort`` (sort only), Heitz & Belcour 2019.
 
@@ -367,6 +586,8 @@ class TemporalStrategy(Strategy):
     full cycle of them fits in 64 MB each, and not at all otherwise (a cache smaller than the cycle
     would never hit). At 1920x1080 with T = 64 the plans are cached and the indices are not.
     """
+
+    stateful = True
 
     def __init__(
         self,
@@ -380,11 +601,8 @@ class TemporalStrategy(Strategy):
         retarget: torch.Tensor | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
-        self.name = "temporal" if retarget is not None else "temporal_sort"
+        self.name = self._variant(retarget is not None)
         super().__init__(height, width, seed=seed, device=device)
-        self.sampler = make_sampler(
-            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
-        )
         self.mask = mask
         self.mask_size = mask.shape[-1]
         self.sorter = SortPass(block)
@@ -393,9 +611,19 @@ class TemporalStrategy(Strategy):
         self._plan_slots = cycle if cycle * height * width <= _CACHE_BYTES else 0
         index_slots = cycle if cycle * 4 * height * width <= _CACHE_BYTES else 0
         self.retarget = None if retarget is None else Retarget(retarget, cache=index_slots)
-        self.seeds = pixel_seeds(
-            height, width, _stream_key(self.seed, 0, _STREAM_TEMPORAL), self.device
+        self.seeds, self.sampler = self._initial(sampler)
+        self.sampler_name = self.sampler.name
+
+    def _variant(self, retarget: bool) -> str:
+        """The registry name of this variant."""
+        return "temporal" if retarget else "temporal_sort"
+
+    def _initial(self, sampler: str) -> tuple[torch.Tensor, Sampler]:
+        """S_0 (distinct hashed seeds ``[H, W]`` int64) and the per-pixel sampler."""
+        seeds = pixel_seeds(
+            self.height, self.width, _stream_key(self.seed, 0, _STREAM_TEMPORAL), self.device
         )
+        return seeds, _per_pixel_sampler(sampler)
 
     def _plan(self, offset: tuple[int, int], device: torch.device) -> SortPlan:
         key = (offset, device)
@@ -418,6 +646,47 @@ class TemporalStrategy(Strategy):
             seeds = self.retarget(seeds, offset)
         self.seeds = seeds
         return out
+
+
+class TemporalZSobolStrategy(TemporalStrategy):
+    """``temporal_zsobol``: the sort and retarget passes permuting ZSobol's per-pixel keys.
+
+    S_0 is the identity key image ``zsobol_keys(H, W)``, so frame 0 is exactly pbrt's ZSobol;
+    the sampler is ``zsobol`` with one scramble seed for the whole run (keyed by the seed set), so
+    a key keeps its sample sequence from frame to frame, which is what lets its error be predicted
+    from the previous frame. S_t stays a permutation of the keys (both passes are bijections).
+
+    Args:
+        spp: samples per pixel, a power of two (the sampler's blocks).
+        (the others as :class:`TemporalStrategy`; ``sampler`` is not taken: it is ``zsobol``.)
+    """
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        spp: int,
+        mask: torch.Tensor,
+        block: int = 4,
+        retarget: torch.Tensor,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        self.spp = _power_of_two_spp(spp, "temporal_zsobol")
+        super().__init__(
+            height, width, seed=seed, mask=mask, block=block, retarget=retarget, device=device
+        )
+
+    def _variant(self, retarget: bool) -> str:
+        return "temporal_zsobol"
+
+    def _initial(self, sampler: str) -> tuple[torch.Tensor, Sampler]:
+        key = _stream_key(self.seed, 0, _STREAM_TEMPORAL_ZSOBOL)
+        zsobol = make_sampler(
+            "zsobol", width=self.width, height=self.height, spp=self.spp, seed=key
+        )
+        return zsobol_keys(self.height, self.width, self.device), zsobol
 
 
 class OracleStrategy(Strategy):
@@ -443,9 +712,8 @@ class OracleStrategy(Strategy):
     ) -> None:
         self.K = check_positive_int(K, "K")
         super().__init__(height, width, seed=seed, device=device)
-        self.sampler = make_sampler(
-            check_name(sampler, ("owen_sobol", "white"), "per-pixel sampler")
-        )
+        self.sampler = _per_pixel_sampler(sampler)
+        self.sampler_name = sampler
         self.mask = mask
         self.mask_size = mask.shape[-1]
 
@@ -490,16 +758,60 @@ class OracleStrategy(Strategy):
 # Construction by name
 
 #: The strategy names, as the benchmark tables name them.
-STRATEGIES: tuple[str, ...] = ("bnds", "oracle", "temporal", "temporal_sort", "white")
+STRATEGIES: tuple[str, ...] = (
+    "bnds",
+    "bnds_st",
+    "cycles_blue",
+    "oracle",
+    "temporal",
+    "temporal_sort",
+    "temporal_zsobol",
+    "white",
+    "zsobol",
+    "zsobol_t",
+)
+
+#: Strategy -> the sampler it dictates, whatever per-pixel sampler it is given; the strategies
+#: not listed render with the per-pixel sampler they are given.
+OWN_SAMPLERS: dict[str, str] = {
+    "bnds": "bnds",
+    "bnds_st": "bnds",
+    "cycles_blue": "cycles_pure",
+    "temporal_zsobol": "zsobol",
+    "zsobol": "zsobol",
+    "zsobol_t": "zsobol_t",
+}
+
+#: The STBN mask ``bnds_st`` dithers with: ``load_stbn("vector", 64, 32)``.
+STBN_MASK = ("vector", 64, 32)
+
+
+def _vector_dims(size: int, dimensions: int | None, mask_dims: int | None) -> int:
+    """Channels of the shipped vector mask of size T with the fewest covering ``dimensions``."""
+    if mask_dims is not None:
+        return mask_dims
+    dims = sorted(m[2] for m in shipped_masks() if m[0] == "vector" and m[1] == size)
+    wanted = 2 if dimensions is None else dimensions
+    return next((d for d in dims if d >= wanted), dims[-1] if dims else wanted)
 
 
 def _vector_mask(size: int, dimensions: int | None, mask_dims: int | None) -> torch.Tensor:
     """The shipped vector mask of size T with the fewest channels covering ``dimensions``."""
-    if mask_dims is None:
-        dims = sorted(m[2] for m in shipped_masks() if m[0] == "vector" and m[1] == size)
-        wanted = 2 if dimensions is None else dimensions
-        mask_dims = next((d for d in dims if d >= wanted), dims[-1] if dims else wanted)
-    return load_mask("vector", size, mask_dims)
+    return load_mask("vector", size, _vector_dims(size, dimensions, mask_dims))
+
+
+def _rival(
+    name: str, height: int, width: int, spp: int | None, common: dict, channels: int
+) -> Strategy:
+    """The a-priori rivals: zsobol, cycles_blue, zsobol_t, bnds_st."""
+    if name == "zsobol":
+        return ZSobolStrategy(height, width, spp=spp, **common)
+    if name == "cycles_blue":
+        return CyclesBlueStrategy(height, width, spp=spp, **common)
+    if name == "zsobol_t":
+        return ZSobolTStrategy(height, width, spp=spp, **common)
+    stbn = load_stbn(*STBN_MASK)
+    return BNDSSTStrategy(height, width, stbn=stbn, channels=channels, **common)
 
 
 def make_strategy(
@@ -509,6 +821,7 @@ def make_strategy(
     *,
     seed: int = 0,
     sampler: str = "owen_sobol",
+    spp: int | None = None,
     mask_size: int = 64,
     block: int = 4,
     K: int = 32,
@@ -523,20 +836,25 @@ def make_strategy(
         height, width: the frame size.
         seed: seed set index (>= 0): different seeds give independent runs.
         sampler: the per-pixel sampler of white, temporal, temporal_sort and oracle:
-            ``"owen_sobol"`` (default) or ``"white"``.
-        mask_size: T of the shipped masks (scalar for temporal, temporal_sort and oracle; vector
-            for bnds) and of the shipped retargeting field.
+            ``"owen_sobol"`` (default) or ``"white"``; the strategies of :data:`OWN_SAMPLERS`
+            ignore it (their ``sampler_name`` says what they render with).
+        spp: samples per pixel the renders will take: required by zsobol, zsobol_t and
+            temporal_zsobol (a power of two) and cycles_blue; ignored by the others.
+        mask_size: T of the shipped masks (scalar for temporal, temporal_sort, temporal_zsobol and
+            oracle; vector for bnds) and of the shipped retargeting field.
         block: the sorting pass's block size (2..8).
         K: the oracle's number of candidates.
         dimensions: the integrand's dimensionality D (``scene.dimensions``); bnds takes the shipped
-            vector mask with the fewest channels >= D (the most channels if none covers D).
+            vector mask with the fewest channels >= D (the most channels if none covers D), and
+            bnds_st rotates as many dimensions with STBN slices.
         mask_dims: force the vector mask's channel count instead.
         device: where the seeds are made.
 
     Raises:
         UnknownNameError: unknown strategy or sampler name, or no shipped mask/field of that size.
         ValueRangeError: a frame size whose estimated memory (:func:`estimate_bytes`) exceeds
-            what ``device`` has free; refused before anything is allocated.
+            what ``device`` has free, refused before anything is allocated; spp missing or not a
+            power of two for a strategy that needs one.
     """
     need = estimate_bytes(name, height, width, K)
     _check_fits(name, height, width, need // (height * width), torch.device(device))
@@ -547,10 +865,32 @@ def make_strategy(
         return BNDSStrategy(
             height, width, mask=_vector_mask(mask_size, dimensions, mask_dims), **common
         )
+    if name in ("zsobol", "cycles_blue", "zsobol_t", "bnds_st"):
+        channels = _vector_dims(mask_size, dimensions, mask_dims)
+        return _rival(name, height, width, spp, common, channels)
     scalar = load_mask("scalar", mask_size)
     if name == "oracle":
         return OracleStrategy(height, width, sampler=sampler, mask=scalar, K=K, **common)
-    field = load_retarget(mask_size) if name == "temporal" else None
+    return _temporal(name, height, width, sampler, spp, scalar, mask_size, block, common)
+
+
+def _temporal(
+    name: str,
+    height: int,
+    width: int,
+    sampler: str,
+    spp: int | None,
+    scalar: torch.Tensor,
+    mask_size: int,
+    block: int,
+    common: dict,
+) -> TemporalStrategy:
+    """temporal, temporal_sort and temporal_zsobol, with the shipped mask and field of size T."""
+    field = load_retarget(mask_size) if name != "temporal_sort" else None
+    if name == "temporal_zsobol":
+        return TemporalZSobolStrategy(
+            height, width, spp=spp, mask=scalar, block=block, retarget=field, **common
+        )
     return TemporalStrategy(
         height, width, sampler=sampler, mask=scalar, block=block, retarget=field, **common
     )
