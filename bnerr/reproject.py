@@ -144,13 +144,12 @@ def collision_depth(depth: torch.Tensor, object_id: torch.Tensor | None = None) 
 def _claims(motion: torch.Tensor, h: int, w: int, sign: float) -> tuple[torch.Tensor, torch.Tensor]:
     """``(landing [H*W] int64, on_screen [H*W] bool)``: where each pixel's claim lands, the
     pixel ``p + sign * motion(p)`` rounded; NaN motion reads as 0, off screen is not a claim."""
-    m = motion.to(torch.float64)
-    still = torch.isnan(m).any(dim=0, keepdim=True)
-    m = m.masked_fill(still, 0.0)
+    mx, my = motion[0].to(torch.float64), motion[1].to(torch.float64)
+    still = torch.isnan(mx) | torch.isnan(my)
     ys = torch.arange(h, device=motion.device, dtype=torch.float64)[:, None]
     xs = torch.arange(w, device=motion.device, dtype=torch.float64)[None, :]
-    tx = torch.floor(xs + sign * m[0] + 0.5)
-    ty = torch.floor(ys + sign * m[1] + 0.5)
+    tx = torch.floor(xs + (sign * mx).masked_fill_(still, 0.0) + 0.5)
+    ty = torch.floor(ys + (sign * my).masked_fill_(still, 0.0) + 0.5)
     inside = (tx >= 0) & (tx < w) & (ty >= 0) & (ty < h)  # false for infinities
     landing = torch.where(inside, ty * w + tx, 0.0).to(torch.int64)
     return landing.reshape(-1), inside.reshape(-1)
@@ -182,19 +181,19 @@ def reproject_sources(
     else:
         key = _ordered_keys(depth2).reshape(-1).to(torch.int64) + 2**31  # in [0, 2^32)
         priority = (key << _INDEX_BITS) | index
-    best = torch.full((n,), torch.iinfo(torch.int64).max, dtype=torch.int64, device=device)
-    best.scatter_reduce_(0, landing[inside], priority[inside], "amin")
-    win = inside & (best.gather(0, landing) == priority)
-    if direction == "forward":
-        source, target = index[win], landing[win]
-    else:
-        source, target = landing[win], index[win]
-    src = torch.empty(n, dtype=torch.int64, device=device)
-    src[target] = source
-    claimed = torch.zeros(n, dtype=torch.bool, device=device)
-    claimed[target] = True
-    used = torch.zeros(n, dtype=torch.bool, device=device)
-    used[source] = True
+    never = torch.iinfo(torch.int64).max  # the priority of no claim: it never wins
+    priority = torch.where(inside, priority, never)
+    best = torch.full((n,), never, dtype=torch.int64, device=device)
+    best.scatter_reduce_(0, landing, priority, "amin")
+    win = inside & (best.gather(0, landing) == priority)  # claimant side, [n]
+    contested = best != never  # landing side: has a winner, [n]
+    # No boolean indexing below (each would be a nonzero pass): losers scatter into a spare slot.
+    if direction == "forward":  # claimant = source i, landing = target
+        spare = torch.empty(n + 1, dtype=torch.int64, device=device)
+        spare.scatter_(0, torch.where(win, landing, n), index)
+        src, claimed, used = spare[:n], contested, win
+    else:  # claimant = target i, landing = source
+        src, claimed, used = torch.where(win, landing, -1), win, contested
     # The wins form a partial bijection, so as many sources are unused as targets unclaimed.
     src[torch.nonzero(~claimed).reshape(-1)] = torch.nonzero(~used).reshape(-1)
     return src
