@@ -22,7 +22,9 @@ import pytest
 import torch
 
 from bnerr import native
-from bnerr.permute import sort_pass, sort_pass_reference
+from bnerr.color import LUMINANCE_WEIGHTS
+from bnerr.errors import ValueRangeError
+from bnerr.permute import plan_sort, sort_pass, sort_pass_reference
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 
@@ -226,3 +228,34 @@ def test_cache_folder_others_can_write_to_is_not_used(fresh, monkeypatch):
         assert kernels is not None and len(messages) == 1
         assert "belongs to uid 12345" in messages[0]
         assert list(folder.iterdir()) == []
+
+
+@needs_cc
+def test_sort_kernel_takes_groups_and_grid_offsets_and_refuses_bad_ones():
+    # The real kernel (built in the user's cache): groups and shifted grids agree with the slow
+    # twin; an offset outside [0, B)^2 is refused (None: the caller falls back), a plan whose
+    # positions leave a grouped block raises rather than write out of bounds.
+    kernels = native.load()
+    if kernels is None:
+        pytest.skip(f"native kernels unavailable: {native.status()}")
+    gen = torch.Generator().manual_seed(2)
+    seeds = torch.randperm(13 * 21, generator=gen).view(13, 21)
+    lum = torch.randint(0, 3, (13, 21), generator=gen).float()
+    mask = torch.rand(13, 21, generator=gen)
+    groups = torch.randint(0, 2, (13, 21), generator=gen)
+    for grid in ((0, 0), (2, 1), (3, 3)):
+        order = plan_sort(mask, 4, grid).order
+        want = sort_pass_reference(seeds, lum, mask, 4, groups=groups, grid_offset=grid)
+        got = native.native_sort_blocks(
+            kernels, seeds, lum, order, 4, LUMINANCE_WEIGHTS, 2, groups=groups, grid_offset=grid
+        )
+        assert torch.equal(got, want), grid
+    order = plan_sort(mask, 4).order
+    bad = native.native_sort_blocks(
+        kernels, seeds, lum, order, 4, LUMINANCE_WEIGHTS, grid_offset=(4, 0)
+    )
+    assert bad is None
+    broken = order.clone()
+    broken[-1, 0] = 15  # the last block is 1 x 1 (13 x 21 in 4 x 4 blocks): position 15 is off
+    with pytest.raises(ValueRangeError, match=r"mask: expected a plan made by plan_sort"):
+        native.native_sort_blocks(kernels, seeds, lum, broken, 4, LUMINANCE_WEIGHTS, groups=groups)
