@@ -27,6 +27,16 @@ comparisons are exact and identical on every device.
 **Borders.** Blocks at the right and bottom borders may be partial (``H`` or ``W`` not a multiple
 of ``B``); a partial block sorts only its own pixels.
 
+**Options for closing the gap to the oracle** (docs/METHODS.md, section 8). ``groups [H, W]``:
+inside each block, each group of equal labels is sorted on its own (its pixels in mask order take
+its seeds in value order); a bijection inside every group, so inside every block.
+``grid_offset=(oy, ox)`` in ``[0, B)^2``: pixel (y, x) lies in block ``((y + oy) // B,
+(x + ox) // B)``, so blocks are partial at every border; a strategy that changes it between
+frames (e.g. ``(B/2, B/2)`` every other frame) lets seeds cross the previous frame's block
+boundaries. The plan depends on it (:func:`plan_sort`'s ``grid_offset``); the retargeting pass
+does not (it takes the mask offset). Neither option changes the pass without it: no groups and a
+zero offset call the op exactly as before and give bit-identical output.
+
 **Speed.** What depends only on the mask and the block size (each block's pixels in mask order)
 is computed once into a :class:`SortPlan` (:func:`plan_sort`) and cached, keyed by the mask
 tensor's identity and version, so that passing the same mask tensor every frame reuses it.
@@ -41,8 +51,8 @@ a few tens of ms at 1080p on CPU, fast on CUDA). All paths give bit-identical ou
 :func:`luminance` is :func:`bnerr.color.luminance`, re-exported here.
 
 Not for: sorting by anything but one scalar per pixel (pass your own key as ``values [H, W]``,
-e.g. a demodulated luminance), or permutations that cross block boundaries (that is
-:mod:`bnerr.retarget`).
+e.g. :func:`bnerr.sortkeys.sort_key`), or permutations that cross the blocks of one frame (that
+is :mod:`bnerr.retarget`, and :mod:`bnerr.reproject` along motion).
 """
 
 from __future__ import annotations
