@@ -311,25 +311,27 @@ def atrous_filter(
     that radiance, amplified, into the neighbours (measured: 130 times the noisy MSE on the
     ``medium`` scene, against 0.5 without demodulation).
 
-    Values a renderer legitimately writes: a depth of ``+inf`` (how some renderers mark an
-    escaped ray) is read as 0, the background depth our tracer writes; such pixels have no
-    normal either, so they average only among themselves. A firefly above about 1e18 (a
-    finite 1e20 made the whole image NaN: its squared luminance overflows float32 in the
-    variance) switches the filter to float64, whose output is returned in the input's dtype.
-    NaN and ``-inf`` are refused before (:class:`ATrous` checks its buffers).
+    Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
+    1e18 switches to float64 (see :class:`ATrous`).
     """
     depth = torch.where(torch.isposinf(depth), torch.zeros_like(depth), depth)
+    sigmas = (sigma_color, sigma_normal, sigma_depth)
     if _needs_float64(color, depth):
-        wide = atrous_filter(
-            color.double(),
-            normal.double(),
-            depth.double(),
-            iterations,
-            sigma_color,
-            sigma_normal,
-            sigma_depth,
-        )
+        wide = _atrous(color.double(), normal.double(), depth.double(), iterations, *sigmas)
         return wide.to(color.dtype)
+    return _atrous(color, normal, depth, iterations, *sigmas)
+
+
+def _atrous(
+    color: torch.Tensor,
+    normal: torch.Tensor,
+    depth: torch.Tensor,
+    iterations: int,
+    sigma_color: float,
+    sigma_normal: float,
+    sigma_depth: float,
+) -> torch.Tensor:
+    """:func:`atrous_filter` on finite inputs whose squares fit their dtype."""
     unit, hit = _unit_normals(normal)
     padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
     gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
@@ -485,7 +487,15 @@ class Median(Denoiser):
 
 
 class ATrous(Denoiser):
-    """Edge-avoiding a-trous filter (spatial SVGF); see :func:`atrous_filter`."""
+    """Edge-avoiding a-trous filter (spatial SVGF); see :func:`atrous_filter`.
+
+    Values a renderer legitimately writes: a depth of ``+inf`` (how some renderers mark an
+    escaped ray) is read as 0, the background depth our tracer writes; such pixels have no
+    normal either, so they average only among themselves. A firefly above about 1e18 (a finite
+    1e20 made the whole image NaN: its squared luminance overflows float32 in the variance)
+    switches the filter to float64, whose output is returned in the input's dtype. NaN and
+    ``-inf`` in color, normal or depth are refused with :class:`~bnerr.errors.NonFiniteError`.
+    """
 
     name = "atrous"
     requires = frozenset({"depth", "normal"})

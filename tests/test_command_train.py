@@ -115,6 +115,8 @@ def test_absurd_sizes_are_refused_before_rendering(tmp_path, capsys, monkeypatch
     assert "--batch-size 100000000 with --crop 8: expected a size that fits" in (
         capsys.readouterr().err
     )
+    assert main(["train", "--out", out, *TINY, "--crop", "16"]) == 2
+    assert "--crop: expected at most --size (8) pixels, got 16" in capsys.readouterr().err
     assert not list(tmp_path.iterdir())
 
 

@@ -89,7 +89,7 @@ def _settings(args: argparse.Namespace):
     """The run's :class:`TrainingSpec` and :class:`TrainConfig`, checked before any work: the
     network's size, the memory the training set and a batch need, and the output files."""
     from benchmarks.training_data import TrainingSpec, training_set_bytes
-    from bnerr.errors import check_memory
+    from bnerr.errors import ValueRangeError, check_memory
     from bnerr.outputs import check_output
     from denoisers.train import TrainConfig, step_bytes
     from denoisers.unet import check_parameter_count, parameter_count
@@ -111,6 +111,10 @@ def _settings(args: argparse.Namespace):
         checkpoint_every=args.checkpoint_every,
         loss=args.loss,
     )
+    if config.crop > spec.size:
+        raise ValueRangeError(
+            f"--crop: expected at most --size ({spec.size}) pixels, got {config.crop}"
+        )
     check_parameter_count(config.widths, "train: widths")
     check_memory(training_set_bytes(spec), f"--size {spec.size} with --scenes {spec.scenes}")
     check_memory(step_bytes(config), f"--batch-size {config.batch_size} with --crop {config.crop}")
