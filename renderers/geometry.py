@@ -365,30 +365,60 @@ def surface_at(
 ) -> SurfaceHit:
     """Position, normal and material of the hits ``(t, obj)`` of :func:`intersect`.
 
-    A running select over the objects (no gathers, which would keep the compiled loop scalar).
+    Compiled (or off the CPU): a running select over the objects (no gathers, which would keep
+    the compiled loop scalar). Eager on the CPU: the per-object constants come from one gather
+    (:func:`_constants_by_gather`, the same values), and only the normals that vary over a
+    shape (spheres, boxes) and textures are selected.
     """
     hit = obj >= 0
     p = o + where(hit, t, 0.0) * d
-    zero = torch.zeros_like(p)
-    normal, albedo, emission = zero, zero, zero
-    light_pdf = torch.zeros_like(t)
+    if _eager_cpu(p):
+        normal, albedo, emission, light_pdf = _constants_by_gather(st, obj)
+    else:
+        normal, albedo, emission, light_pdf = _constants_by_select(st, obj, p)
     for k, i in enumerate(st.sphere_ids):
         row = st.spheres[k]
         mask = obj == i
         normal = _select(mask, (p - row[0:3, None]) * row[4], normal)
-    for k, i in enumerate(st.rect_ids):
-        normal = _select(obj == i, st.rects[k, 0:3], normal)
     for k, i in enumerate(st.box_ids):
         normal = _select(obj == i, _box_normal(st.boxes[k], p), normal)
+    for i, offset, nu, nv in st.textures:
+        albedo = _select(obj == i, _texture(st, p, i, offset, nu, nv), albedo)
+    return SurfaceHit(p * hit, normal, albedo, emission, light_pdf)
+
+
+def _constants_by_select(
+    st: SceneTensors, obj: torch.Tensor, p: torch.Tensor
+) -> tuple[torch.Tensor, ...]:
+    """Per lane, the constants of object ``obj [N]``: rectangle normal, mean albedo, emission
+    (``[3, N]``, zero where they do not apply) and light-sampling density ``[N]``, by a running
+    select over the objects."""
+    zero = torch.zeros_like(p)
+    normal, albedo, emission = zero, zero, zero
+    light_pdf = torch.zeros_like(p[0])
+    for k, i in enumerate(st.rect_ids):
+        normal = _select(obj == i, st.rects[k, 0:3], normal)
     for i in range(st.num_objects):
         mask = obj == i
         albedo = _select(mask, st.albedo[i], albedo)
         if i in st.light_ids:
             emission = _select(mask, st.emission[i], emission)
             light_pdf = where(mask, st.light_pdf_area[i], light_pdf)
-    for i, offset, nu, nv in st.textures:
-        albedo = _select(obj == i, _texture(st, p, i, offset, nu, nv), albedo)
-    return SurfaceHit(p * hit, normal, albedo, emission, light_pdf)
+    return normal, albedo, emission, light_pdf
+
+
+def _constants_by_gather(st: SceneTensors, obj: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """:func:`_constants_by_select`'s values from one ``index_select`` of a ``[10, P + 1]``
+    table (column 0 for escaped rays, all zero; column i + 1 for object i)."""
+    table = torch.zeros(10, st.num_objects + 1, dtype=st.albedo.dtype, device=obj.device)
+    table[3:6, 1:] = st.albedo.T
+    for k, i in enumerate(st.rect_ids):
+        table[0:3, i + 1] = st.rects[k, 0:3]
+    for i in st.light_ids:
+        table[6:9, i + 1] = st.emission[i]
+        table[9, i + 1] = st.light_pdf_area[i]
+    rows = torch.index_select(table, 1, obj + 1)
+    return rows[0:3], rows[3:6], rows[6:9], rows[9]
 
 
 def _box_normal(row: torch.Tensor, p: torch.Tensor) -> torch.Tensor:

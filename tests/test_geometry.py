@@ -173,3 +173,16 @@ def test_box_normals_do_not_depend_on_the_lane_count():
     for n in (1, 2, 3, 17, 300):
         part = surface_at(st, o[:, :n], d[:, :n], t[:n], obj[:n]).normal
         assert torch.equal(part, full[:, :n])
+
+
+@pytest.mark.parametrize("name", ["cornell", "snooker", "medium"])
+def test_constants_by_gather_equal_the_running_select(name):
+    """The eager gather of per-object constants equals its select twin, bit for bit."""
+    from renderers import get_scene
+    from renderers.geometry import _constants_by_gather, _constants_by_select
+
+    st = scene_tensors(get_scene(name), 1)
+    obj = torch.arange(-1, st.num_objects).repeat(5)
+    p = torch.zeros(3, obj.shape[0])
+    for fast, slow in zip(_constants_by_gather(st, obj), _constants_by_select(st, obj, p)):
+        assert torch.equal(fast.view(torch.int32), slow.view(torch.int32))
