@@ -1,0 +1,526 @@
+"""Animated comparisons: per scene, an MP4 and a small GIF of the strategies side by side.
+
+The grid's columns are the reference and each strategy (``reference | white | temporal | ...``);
+its rows the raw frames and the same frames after one denoiser. Every tile is tone-mapped with
+the project's one tone map (:func:`bnerr.color.preview_u8`) and labelled on the frame (text drawn
+with matplotlib's Agg renderer, no other font dependency).
+
+**What the animation shows is what the tables measure.** A strategy's frames are rendered the
+way a benchmark run renders them (:mod:`benchmarks.measure`): the strategy is built for seed set
+``seed_set`` with the run's per-pixel sampler, a temporal (stateful) strategy renders the
+``warmup`` frames before the first frame shown and a stateless one skips them, the renderer sees
+frame ``t * motion``, and the shown frames are ``t = warmup .. warmup + frames - 1``. The
+references come from the benchmark's reference cache (:class:`benchmarks.references.ReferenceCache`,
+the same seeds, sampler and files). The denoiser takes the parameters the benchmark tuned on
+white noise for that scene, condition, resolution and spp when a tuned-parameters file holds
+them (``results/quality/tuned_params.json``), else its defaults; the caption says which.
+
+- :func:`render_tiles`: the linear ``[3, H, W]`` tiles of every column and row, frame by frame.
+- :func:`compose_frame`: one labelled grid frame ``[H, W, 3]`` uint8 from them.
+- :func:`animate_scene`: both files of one scene; :func:`write_animations`: every scene of a
+  suite, the call ``bnerr bench`` makes at the end of a suite.
+
+The MP4 goes through imageio's ffmpeg plugin (libx264, yuv420p, one encoder thread); the GIF
+through imageio's pillow plugin, from a centre crop of each tile and the first few frames, to stay
+small. Both are written atomically (:func:`bnerr.io.atomic_write`).
+
+Not for: measuring (:mod:`benchmarks.measure`), or single frames (``bnerr render``).
+"""
+
+from __future__ import annotations
+
+import functools
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from benchmarks.measure import _BoundRender, _scene_for, _stored, _t_reference, _t_render
+from benchmarks.measure import _tuning_key as tuning_key
+from benchmarks.parts import Denoiser, Parts
+from benchmarks.plan import Run
+from benchmarks.references import ReferenceCache
+from bnerr.color import preview_u8
+from bnerr.errors import DtypeError, check_name, check_positive_int
+from bnerr.frame import Frame
+from bnerr.io import atomic_write
+from bnerr.outputs import check_output, output_lock
+
+__all__ = [
+    "SHOWN_RIVALS",
+    "Animation",
+    "Tiles",
+    "animate_scene",
+    "compose_frame",
+    "default_strategies",
+    "render_tiles",
+    "write_animations",
+    "write_gif",
+    "write_mp4",
+]
+
+#: Rival strategies shown after white and temporal by default, when registered (in this order).
+SHOWN_RIVALS: tuple[str, ...] = ("bnds_st", "zsobol_t", "temporal_zsobol")
+_REFERENCE = "reference"
+_HEADER = 14  # pixels of the column-name strip
+_CAPTION = 13  # pixels per caption line
+_ROW_LABEL = 14  # pixels of the rotated row-name strip
+_BLOCK = 16  # the MP4 frame is padded to a multiple of this (libx264's macro block)
+
+
+def default_strategies() -> tuple[str, ...]:
+    """``white``, ``temporal`` and the registered :data:`SHOWN_RIVALS`."""
+    from bnerr.strategies import STRATEGIES
+
+    return ("white", "temporal") + tuple(s for s in SHOWN_RIVALS if s in STRATEGIES)
+
+
+@dataclass(frozen=True)
+class Animation:
+    """One scene's animated comparison: what is rendered and how it is written.
+
+    Attributes:
+        scene: scene name (``renderers.SCENES``).
+        strategies: the strategy columns after the reference.
+        denoiser: the second row's denoiser (``denoisers.DENOISERS``).
+        frames: frames shown (``t = warmup .. warmup + frames - 1``); warmup: frames before them.
+        width, height: frame size in pixels; spp: samples per pixel of the strategies' renders.
+        seed_set: the benchmark seed set the strategies start from (0 is a run's first).
+        sampler: the strategies' per-pixel sampler; motion: camera speed (as a benchmark
+            condition: 0 static, k the animation k times faster).
+        reference_spp: samples per pixel of the references (the benchmark's cache).
+        fps: frames per second of both files.
+        gif_crop: side of the centre crop of each tile in the GIF (the whole tile if larger).
+        gif_frames: frames in the GIF (the first ones).
+    """
+
+    scene: str
+    strategies: tuple[str, ...]
+    denoiser: str = "gaussian"
+    frames: int = 16
+    warmup: int = 6
+    width: int = 128
+    height: int = 128
+    spp: int = 4
+    seed_set: int = 0
+    sampler: str = "owen_sobol"
+    motion: int = 1
+    reference_spp: int = 1024
+    fps: int = 8
+    gif_crop: int = 64
+    gif_frames: int = 8
+
+    def check(self, known: dict[str, tuple[str, ...]]) -> Animation:
+        """Check names against ``known`` (:func:`benchmarks.parts.known_names`) and sizes.
+
+        Raises:
+            UnknownNameError: an unknown scene, strategy or denoiser.
+            DtypeError, ValueRangeError: a count that is not a positive integer.
+        """
+        check_name(self.scene, known["known_scenes"], "scene")
+        if not self.strategies:
+            raise DtypeError("strategies: expected at least one strategy, got none")
+        for name in self.strategies:
+            check_name(name, known["known_strategies"], "strategy")
+        check_name(self.denoiser, known["known_denoisers"], "denoiser")
+        for name in ("frames", "width", "height", "spp", "reference_spp", "fps", "gif_crop"):
+            check_positive_int(getattr(self, name), name)
+        for name in ("warmup", "seed_set", "motion", "gif_frames"):
+            check_positive_int(getattr(self, name), name, minimum=0)
+        return self
+
+    def run(self) -> Run:
+        """The benchmark run whose references and tuned parameters this animation shares."""
+        return Run(
+            scene=self.scene,
+            strategy=_REFERENCE,
+            spp=self.spp,
+            motion=self.motion,
+            depth=None,
+            sampler=self.sampler,
+            frames=self.frames,
+            warmup=self.warmup,
+            width=self.width,
+            height=self.height,
+            seed_sets=self.seed_set + 1,
+            reference_spp=self.reference_spp,
+            denoisers=(self.denoiser,),
+            regions=("all",),
+            metrics=(),
+            crops=False,
+        )
+
+    @property
+    def times(self) -> range:
+        """The frames shown, as the benchmark numbers them."""
+        return range(self.warmup, self.warmup + self.frames)
+
+
+@dataclass
+class Tiles:
+    """The linear images of one animation, before tone mapping.
+
+    Attributes:
+        columns: column names, ``("reference", *strategies)``.
+        raw, den: column -> one ``[3, H, W]`` float32 image per shown frame (the reference's
+            ``den`` is the reference itself: it is not denoised).
+        denoiser_label: what the second row shows (denoiser and where its parameters came from).
+        seconds: column -> seconds spent rendering (and denoising) it.
+    """
+
+    columns: tuple[str, ...]
+    raw: dict[str, list[torch.Tensor]]
+    den: dict[str, list[torch.Tensor]]
+    denoiser_label: str
+    seconds: dict[str, float] = field(default_factory=dict)
+
+
+def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
+    """Strategy ``name``'s frames at ``spec.times``, rendered as a benchmark run renders them.
+
+    A stateful strategy (``parts.stateful``) renders the warmup frames first; a stateless one
+    starts at the first shown frame (its frame t does not depend on earlier frames).
+    """
+    from bnerr import strategies
+
+    run = spec.run()
+    scene = _scene_for(run, parts)
+    strategy = strategies.make_strategy(
+        name,
+        spec.height,
+        spec.width,
+        seed=spec.seed_set,
+        sampler=spec.sampler,
+        spp=spec.spp,
+        dimensions=scene.dimensions,
+    )
+    render = _BoundRender(parts, scene, spec.spp)
+    first = 0 if parts.stateful(strategy) else spec.warmup
+    frames = []
+    for t in range(first, spec.warmup + spec.frames):
+        render.t_render = _t_render(run, t)
+        frame = strategy.frame(t, render)
+        if t >= spec.warmup:
+            frames.append(frame)
+    return frames
+
+
+def render_references(parts: Parts, references: ReferenceCache, spec: Animation) -> list[Frame]:
+    """The reference frames at ``spec.times`` (from the benchmark's cache, rendered if missing)."""
+    run = spec.run()
+    scene = _scene_for(run, parts)
+    return [references.get(run, scene, _t_reference(run, t)) for t in spec.times]
+
+
+def _format_params(params: dict) -> str:
+    return " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items())
+
+
+def tuned_denoiser(parts: Parts, spec: Animation, store) -> tuple[Denoiser, str]:
+    """The denoiser with the parameters the benchmark tuned for this scene, condition,
+    resolution and spp in ``store`` (a :class:`denoisers.tuning.ParamStore`, or None), else its
+    defaults; and a label saying which."""
+    stored = (
+        None if store is None else _stored(store, spec.denoiser, tuning_key(spec.run()), spec.spp)
+    )
+    denoiser = parts.make_denoiser(spec.denoiser, stored)
+    params = getattr(denoiser, "params", None)
+    shown = _format_params(dict(params())) if callable(params) else ""
+    source = "tuned on white noise" if stored is not None else "default parameters"
+    return denoiser, f"{spec.denoiser} {shown} ({source})".replace("  ", " ")
+
+
+def render_tiles(parts: Parts, references: ReferenceCache, spec: Animation, store=None) -> Tiles:
+    """Render every column of ``spec``: the references and each strategy, raw and denoised.
+
+    Returns:
+        :class:`Tiles`; ``raw[name][i]`` is the ``color [3, H, W]`` of the frame the strategy
+        renders at ``spec.times[i]`` (bit for bit), ``den[name][i]`` the denoiser's output on it.
+    """
+    denoiser, label = tuned_denoiser(parts, spec, store)
+    tiles = Tiles(columns=(_REFERENCE, *spec.strategies), raw={}, den={}, denoiser_label=label)
+    start = time.perf_counter()
+    refs = [f.color for f in render_references(parts, references, spec)]
+    tiles.raw[_REFERENCE] = tiles.den[_REFERENCE] = refs
+    tiles.seconds[_REFERENCE] = time.perf_counter() - start
+    for name in spec.strategies:
+        start = time.perf_counter()
+        frames = render_strategy(parts, spec, name)
+        tiles.raw[name] = [f.color for f in frames]
+        tiles.den[name] = [denoiser(f) for f in frames]
+        tiles.seconds[name] = time.perf_counter() - start
+    return tiles
+
+
+# --------------------------------------------------------------------------------------------------
+# Drawing
+
+
+@functools.lru_cache(maxsize=512)
+def text_strip(
+    text: str, width: int, height: int, size_px: float, rotate: bool = False
+) -> np.ndarray:
+    """``text`` in white on black, centred in a ``[height, width, 3]`` uint8 strip (read-only).
+
+    Drawn with matplotlib's Agg renderer and its bundled DejaVu Sans at ``size_px`` pixels, so it
+    is the same on every machine with the same matplotlib; ``rotate`` writes upwards.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    dpi = 100
+    fig = Figure(figsize=(width / dpi, height / dpi), dpi=dpi, facecolor="black")
+    canvas = FigureCanvasAgg(fig)
+    fig.text(
+        0.5,
+        0.5,
+        text,
+        color="white",
+        ha="center",
+        va="center",
+        rotation=90 if rotate else 0,
+        fontsize=size_px * 72 / dpi,
+        family="DejaVu Sans",
+    )
+    canvas.draw()
+    strip = np.asarray(canvas.buffer_rgba())[:height, :width, :3].copy()
+    strip.setflags(write=False)
+    return strip
+
+
+def fit_size(texts: Sequence[str], along: int, across: int) -> float:
+    """One font size in pixels at which each of ``texts`` fits a strip ``along`` pixels long and
+    ``across`` pixels high (DejaVu Sans averages about 0.6 em per character)."""
+    longest = max((len(t) for t in texts), default=1)
+    return min(across * 0.8, along / max(longest * 0.62, 1.0))
+
+
+def _crop(image: torch.Tensor, size: int | None) -> torch.Tensor:
+    if size is None:
+        return image
+    h, w = image.shape[-2:]
+    ch, cw = min(size, h), min(size, w)
+    y0, x0 = (h - ch) // 2, (w - cw) // 2
+    return image[..., y0 : y0 + ch, x0 : x0 + cw]
+
+
+def _tile(image: torch.Tensor, crop: int | None, scale: int) -> np.ndarray:
+    u8 = preview_u8(_crop(image, crop))
+    return np.repeat(np.repeat(u8, scale, axis=0), scale, axis=1) if scale > 1 else u8
+
+
+def compose_frame(
+    tiles: Tiles, index: int, caption: Sequence[str], *, crop: int | None = None, scale: int = 1
+) -> np.ndarray:
+    """Frame ``index`` of the grid as ``[H, W, 3]`` uint8: caption lines, column names, then the
+    raw row and the denoised row (each tile tone-mapped by :func:`bnerr.color.preview_u8`, centre
+    cropped to ``crop`` and enlarged ``scale`` times by pixel repetition)."""
+    rows = []  # (row name, [th, n * tw, 3] tiles)
+    for label, images in (("raw", tiles.raw), (tiles.denoiser_label.split()[0], tiles.den)):
+        row = np.concatenate([_tile(images[c][index], crop, scale) for c in tiles.columns], axis=1)
+        rows.append((label, row))
+    th, tw = rows[0][1].shape[0], rows[0][1].shape[1] // len(tiles.columns)
+    size = fit_size(tiles.columns, tw, _HEADER)
+    header = np.concatenate([text_strip(c, tw, _HEADER, size) for c in tiles.columns], axis=1)
+    body = [header] + [row for _, row in rows]
+    body = np.concatenate(body, axis=0)
+    left = np.concatenate(
+        [np.zeros((_HEADER, _ROW_LABEL, 3), np.uint8)]
+        + [text_strip(label, _ROW_LABEL, th, size, rotate=True) for label, _ in rows],
+        axis=0,
+    )
+    grid = np.concatenate([left, body], axis=1)
+    size = fit_size(caption, grid.shape[1], _CAPTION)
+    lines = [text_strip(line, grid.shape[1], _CAPTION, size) for line in caption]
+    return np.ascontiguousarray(np.concatenate([*lines, grid], axis=0))
+
+
+def _pad(frame: np.ndarray, multiple: int) -> np.ndarray:
+    h, w = frame.shape[:2]
+    ph, pw = -h % multiple, -w % multiple
+    return np.pad(frame, ((0, ph), (0, pw), (0, 0))) if ph or pw else frame
+
+
+# --------------------------------------------------------------------------------------------------
+# Writing
+
+
+def write_mp4(path: str | Path, frames: Sequence[np.ndarray], fps: int, quality: int = 7) -> Path:
+    """Write ``frames`` (each ``[H, W, 3]`` uint8, all one size) as an H.264 MP4, atomically.
+
+    Frames are padded with black to a multiple of 16 pixels (so ffmpeg does not resize them);
+    libx264 runs on one thread, yuv420p, imageio's ``quality`` scale (0-10).
+    """
+    import imageio.v2 as imageio
+
+    path = Path(path)
+    with atomic_write(path) as tmp:
+        writer = imageio.get_writer(
+            tmp,
+            format="FFMPEG",
+            mode="I",
+            fps=fps,
+            codec="libx264",
+            quality=quality,
+            pixelformat="yuv420p",
+            macro_block_size=_BLOCK,
+            ffmpeg_log_level="error",
+            ffmpeg_params=["-threads", "1"],
+        )
+        try:
+            for frame in frames:
+                writer.append_data(_pad(frame, _BLOCK))
+        finally:
+            writer.close()
+    return path
+
+
+def write_gif(path: str | Path, frames: Sequence[np.ndarray], fps: int) -> Path:
+    """Write ``frames`` (each ``[H, W, 3]`` uint8) as a looping GIF, atomically.
+
+    The palette is one median-cut palette of at most 128 colours made from the first frame and
+    used for every frame, without dithering (noise dithered compresses badly); the same frames
+    give the same bytes.
+    """
+    import imageio.v3 as iio
+    from PIL import Image
+
+    first = Image.fromarray(frames[0])
+    palette = first.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=0)
+    indexed = [
+        np.asarray(
+            Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE).convert("RGB")
+        )
+        for f in frames
+    ]
+    path = Path(path)
+    with atomic_write(path) as tmp:
+        iio.imwrite(
+            tmp,
+            np.stack(indexed),
+            extension=".gif",
+            plugin="pillow",
+            duration=round(1000 / fps),
+            loop=0,
+        )
+    return path
+
+
+def _caption(spec: Animation, tiles: Tiles, t: int) -> list[str]:
+    return [
+        f"{spec.scene}  {spec.width}x{spec.height}  {spec.spp} spp  t={t}  seed set "
+        f"{spec.seed_set}  {spec.sampler}  reference {spec.reference_spp} spp",
+        f"row 2: {tiles.denoiser_label}",
+    ]
+
+
+def animate_scene(
+    parts: Parts, references: ReferenceCache, spec: Animation, out_dir: str | Path, store=None
+) -> dict[str, object]:
+    """Render ``spec`` and write ``<scene>.mp4`` (every frame, whole tiles) and ``<scene>.gif``
+    (the first ``gif_frames`` frames, centre crops of ``gif_crop`` pixels) into ``out_dir``.
+
+    Returns:
+        ``{"mp4": path, "gif": path, "seconds": {column: s, "encode": s}}``.
+    """
+    out = Path(out_dir)
+    tiles = render_tiles(parts, references, spec, store)
+    start = time.perf_counter()
+    frames = [compose_frame(tiles, i, _caption(spec, tiles, t)) for i, t in enumerate(spec.times)]
+    mp4 = write_mp4(out / f"{spec.scene}.mp4", frames, spec.fps)
+    crop = spec.gif_crop if spec.gif_crop < max(spec.width, spec.height) else None
+    shown = list(spec.times)[: spec.gif_frames or spec.frames]
+    small = [
+        compose_frame(tiles, i, _caption(spec, tiles, t), crop=crop) for i, t in enumerate(shown)
+    ]
+    gif = write_gif(out / f"{spec.scene}.gif", small, spec.fps)
+    seconds = dict(tiles.seconds, encode=time.perf_counter() - start)
+    return {"mp4": mp4, "gif": gif, "seconds": seconds}
+
+
+def load_store(path: str | Path | None):
+    """The tuned parameters at ``path`` (:class:`denoisers.tuning.ParamStore`), or None when
+    ``path`` is None or no such file exists (the denoiser then runs with its defaults)."""
+    from denoisers.tuning import ParamStore
+
+    if path is None or not Path(path).is_file():
+        return None
+    return ParamStore.load(path)
+
+
+def write_animations(
+    suite,
+    out_dir: str | Path,
+    *,
+    cache_dir: str | Path = "cache/references",
+    params=None,
+    scenes: Sequence[str] | None = None,
+    strategies: Sequence[str] | None = None,
+    denoiser: str = "gaussian",
+    frames: int = 16,
+    spp: int | None = None,
+    **options,
+) -> list[dict[str, object]]:
+    """One animation per scene of ``suite`` (a :class:`benchmarks.suites.Suite` or its name),
+    written into ``out_dir`` (checked first, then locked for the whole run).
+
+    The suite's first sweep gives the scenes, resolution, warmup, reference spp and spp (its
+    smallest unless ``spp`` is given); ``strategies`` defaults to :func:`default_strategies`;
+    ``params`` is the tuned-parameters file (``<suite out>/tuned_params.json``; missing: the
+    denoiser's defaults). ``options`` go to :class:`Animation` (``fps``, ``seed_set``, ...).
+
+    Returns:
+        :func:`animate_scene`'s result per scene.
+    """
+    from benchmarks.parts import known_names
+    from benchmarks.suites import get_suite
+
+    sweep = (get_suite(suite) if isinstance(suite, str) else suite).sweeps[0]
+    specs = [
+        Animation(
+            scene=name,
+            strategies=tuple(strategies or default_strategies()),
+            denoiser=denoiser,
+            frames=frames,
+            warmup=sweep.warmup,
+            width=sweep.res[0],
+            height=sweep.res[1],
+            spp=min(sweep.spp) if spp is None else spp,
+            reference_spp=sweep.reference_spp,
+            **options,
+        ).check(known_names())
+        for name in (scenes or sweep.scenes)
+    ]
+    return animate(specs, out_dir, cache_dir=cache_dir, params=params)
+
+
+def animate(
+    specs: Sequence[Animation],
+    out_dir: str | Path,
+    *,
+    cache_dir: str | Path,
+    params=None,
+    parts: Parts | None = None,
+    on_scene=None,
+) -> list[dict[str, object]]:
+    """Write every animation of ``specs`` into ``out_dir``: the folder is checked
+    (:func:`bnerr.outputs.check_output`) and the tuned parameters read before any render, and
+    the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout. ``on_scene`` is
+    called with each scene's result."""
+    from benchmarks.parts import real_parts
+
+    out = check_output(out_dir, "dir", need_bytes=2**20 * len(specs))
+    store = load_store(params)
+    parts = real_parts() if parts is None else parts
+    references = ReferenceCache(cache_dir, parts)
+    results = []
+    with output_lock(out, "bnerr animate"):
+        for spec in specs:
+            result = animate_scene(parts, references, spec, out, store)
+            results.append(result)
+            if on_scene is not None:
+                on_scene(spec, result)
+    return results

@@ -1,0 +1,118 @@
+"""``bnerr animate``: per scene, an MP4 and a small GIF comparing the strategies frame by frame.
+
+    bnerr animate --scene cornell --strategies white,temporal --frames 16 --out results/animations
+    bnerr animate --scenes direct indirect --res 96x96 --spp 4 --reference-spp 256 --threads 1
+
+Each file is a grid: columns ``reference | <strategies>`` (default: white, temporal and the
+registered rivals bnds_st, zsobol_t, temporal_zsobol), rows raw and after ``--denoiser`` (with
+the parameters the benchmark tuned for that scene, resolution and spp in ``--params`` when it
+holds them, else the denoiser's defaults: the caption says which), labelled on the frames and
+tone-mapped with the project's tone map. The frames are the ones a benchmark run renders for seed
+set ``--seed-set``: the strategy's warmup frames first (temporal strategies), then
+``t = warmup .. warmup + frames - 1``; the references come from the benchmark's cache
+(``--cache``). ``<scene>.mp4`` holds every frame at full size, ``<scene>.gif`` the first
+``--gif-frames`` frames of a ``--gif-crop`` centre crop of each tile (benchmarks.animate).
+
+Every name, number and the output folder are checked before any rendering; the command holds
+the folder's lock while it writes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+from bnerr.errors import check_positive_int
+
+__all__ = ["register", "run"]
+
+
+def _names(values: list[str] | None) -> list[str] | None:
+    """Accept both ``--scenes a b`` and ``--scenes a,b``."""
+    if values is None:
+        return None
+    return [v for item in values for v in item.split(",") if v]
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "animate",
+        help="write per-scene MP4 and GIF comparisons of the strategies, raw and denoised",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    add = parser.add_argument
+    add("--scene", "--scenes", dest="scenes", nargs="+", required=True, metavar="NAME")
+    add("--strategies", nargs="+", metavar="NAME", help="strategy columns (default: see above)")
+    add("--denoiser", default="gaussian", help="denoiser of the second row (default gaussian)")
+    add("--frames", type=int, default=16, help="frames shown (default 16)")
+    add("--warmup", type=int, default=6, help="frames rendered before them (default 6)")
+    add("--res", default="128x128", help="WIDTHxHEIGHT (default 128x128)")
+    add("--spp", type=int, default=4, help="samples per pixel (default 4)")
+    add("--seed-set", type=int, default=0, help="the benchmark seed set (default 0)")
+    add("--reference-spp", type=int, default=1024, help="reference spp (default 1024)")
+    add("--fps", type=int, default=8, help="frames per second (default 8)")
+    add("--gif-crop", type=int, default=64, help="centre crop of each GIF tile (default 64)")
+    add("--gif-frames", type=int, default=8, help="frames in the GIF (default 8; 0: all)")
+    add(
+        "--params",
+        type=Path,
+        default=Path("results/quality/tuned_params.json"),
+        help="tuned denoiser parameters (default results/quality/tuned_params.json)",
+    )
+    add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
+    add("--out", type=Path, default=Path("results/animations"), help="output folder")
+    add("--threads", type=int, help="torch intra-op threads; 1 on a shared machine")
+    parser.set_defaults(func=run)
+
+
+def _specs(args: argparse.Namespace) -> list:
+    from benchmarks.animate import Animation, default_strategies
+    from benchmarks.commands.render import parse_resolution
+    from benchmarks.parts import known_names
+
+    width, height = parse_resolution(args.res)
+    strategies = tuple(_names(args.strategies) or default_strategies())
+    known = known_names()
+    return [
+        Animation(
+            scene=scene,
+            strategies=strategies,
+            denoiser=args.denoiser,
+            frames=args.frames,
+            warmup=args.warmup,
+            width=width,
+            height=height,
+            spp=args.spp,
+            seed_set=args.seed_set,
+            reference_spp=args.reference_spp,
+            fps=args.fps,
+            gif_crop=args.gif_crop,
+            gif_frames=args.gif_frames,
+        ).check(known)
+        for scene in _names(args.scenes)
+    ]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Check everything, then render and write each scene, printing its files and timings."""
+    import torch
+
+    from benchmarks.animate import animate
+
+    if args.threads is not None:
+        torch.set_num_threads(check_positive_int(args.threads, "--threads"))
+    specs = _specs(args)
+    start = time.perf_counter()
+
+    def report(spec, result) -> None:
+        seconds = "  ".join(f"{k} {v:.1f}s" for k, v in result["seconds"].items())
+        sizes = "  ".join(
+            f"{result[k]} ({Path(result[k]).stat().st_size / 1024:.0f} KiB)" for k in ("mp4", "gif")
+        )
+        print(f"{spec.scene}: {sizes}\n  {seconds}", flush=True)
+
+    animate(specs, args.out, cache_dir=args.cache, params=args.params, on_scene=report)
+    print(f"{len(specs)} animation(s) written to {args.out} in {time.perf_counter() - start:.0f} s")
+    return 0
