@@ -70,6 +70,7 @@ from bnerr.sequences import Sampler
 from renderers.camera import CameraFrame, camera_frame, generate_rays, project
 from renderers.geometry import (
     SceneTensors,
+    SurfaceHit,
     dot,
     intersect,
     medium_interval,
@@ -180,7 +181,8 @@ def next_event(
     Args:
         x: ``[3, N]`` shading points (surface points already pushed off the surface).
         normal: ``[3, N]`` surface normals (ignored where not ``on_surface``).
-        on_surface: ``[N]`` True for a surface vertex, False for a medium vertex.
+        on_surface: ``[N]`` True for a surface vertex, False for a medium vertex; None: all
+            on surfaces (a scene without a medium).
         f: ``[3, N]`` BSDF or phase value (albedo / pi, or 1 / (4 pi) in the medium).
         u_choice: ``[N]`` light choice or None (one light); ``u_light [2, N]`` point on it.
         mis: weight against the density of the direction sample (False at the last vertex).
@@ -192,12 +194,16 @@ def next_event(
     dist = dist2.sqrt()
     w = w / dist
     cos_light = -dot(w, light[9:12])
-    cos_surface = where(on_surface, dot(w, normal), 1.0)
+    cos_surface = dot(w, normal)
+    if on_surface is not None:
+        cos_surface = where(on_surface, cos_surface, 1.0)
     ok = (cos_light > 0) & (cos_surface > 0)
     p_light = dist2 / (st.num_lights * cos_light.clamp_min(1e-12) * light[12])  # (1/L)(1/A) d^2/cos
     weight = cos_surface / p_light
     if mis:
-        p_dir = where(on_surface, cos_surface * _INV_PI, _INV_4PI)
+        p_dir = cos_surface * _INV_PI
+        if on_surface is not None:
+            p_dir = where(on_surface, p_dir, _INV_4PI)
         weight = weight * _power_heuristic(p_light, p_dir)
     t_block, _ = intersect(st, x, w, with_object=False)
     ok = ok & (t_block >= dist * (1.0 - 1e-4))
@@ -218,12 +224,13 @@ def _orthonormal(n: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def sample_direction(
-    normal: torch.Tensor, on_surface: torch.Tensor, u: torch.Tensor
+    normal: torch.Tensor, on_surface: torch.Tensor | None, u: torch.Tensor
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """Next direction ``[3, N]`` and its solid-angle density ``[N]``; ``u [2, N]`` in [0, 1).
 
     Surface: cosine-weighted around ``normal`` via the concentric disk mapping (Shirley & Chiu
     1997), density ``cos / pi``. Medium: uniform on the sphere, density ``1 / (4 pi)``.
+    ``on_surface [N]`` chooses between them per lane; None: surface everywhere.
     """
     a = 2.0 * u[0] - 1.0
     b = 2.0 * u[1] - 1.0
@@ -235,6 +242,8 @@ def sample_direction(
     dz = (1.0 - dx * dx - dy * dy).clamp_min(0.0).sqrt()
     t1, t2 = _orthonormal(normal)
     d_surface = dx * t1 + dy * t2 + dz * normal
+    if on_surface is None:
+        return d_surface, dz * _INV_PI
     # Uniform sphere: z = 1 - 2 u0, phi = 2 pi u1.
     z = 1.0 - 2.0 * u[0]
     s = (1.0 - z * z).clamp_min(0.0).sqrt()
@@ -247,6 +256,23 @@ def sample_direction(
 
 # --------------------------------------------------------------------------------------------
 # One vertex of all paths, and the bounce loop
+
+
+def _shading_point(
+    o: torch.Tensor,
+    d: torch.Tensor,
+    hit: SurfaceHit,
+    scatter: torch.Tensor | None,
+    s: torch.Tensor | None,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The new vertex ``x [3, N]`` (a surface point pushed off the surface, or the scattering
+    point ``o + s d`` where ``scatter [N]``; None: no medium) and its BSDF or phase value
+    ``f [3, N]``."""
+    p_surface = hit.position + spawn_offset(hit.position) * hit.normal
+    if scatter is None:
+        return p_surface, hit.albedo * _INV_PI
+    x = where(scatter, o + where(scatter, s, 0.0) * d, p_surface)
+    return x, where(~scatter, hit.albedo * _INV_PI, _INV_4PI)
 
 
 def vertex_step(
@@ -275,26 +301,26 @@ def vertex_step(
     # -- intersect: nearest surface along the segment
     t, obj = intersect(st, o, d)
     hit = surface_at(st, o, d, t, obj)
-    # -- medium: a scattering event before the surface replaces it
+    # -- medium: a scattering event before the surface replaces it (scatter None: no medium,
+    # every vertex lies on a surface, and the selects between the two cases are skipped)
+    scatter = s = None
     if st.medium is not None:
         scatter, s = sample_medium(st, o, d, t, u_distance)
         scatter = scatter & alive
         beta = where(scatter, beta * st.medium_albedo[:, None], beta)
-    else:
-        scatter, s = torch.zeros_like(alive), torch.zeros_like(t)
     cos_hit = -dot(d, hit.normal)
-    front = (obj >= 0) & (cos_hit > 0) & alive & ~scatter
+    front = (obj >= 0) & (cos_hit > 0) & alive
+    if scatter is not None:
+        front = front & ~scatter
     # -- emission: a light reached by the previous direction sample (MIS against NEE)
     radiance = radiance + beta * emission(
         hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf
     )
-    alive = front | scatter
+    alive = front if scatter is None else front | scatter
     beta = where(alive, beta, 0.0)
     # -- shade: the new vertex, on a surface (pushed off it) or in the medium
-    on_surface = ~scatter
-    p_surface = hit.position + spawn_offset(hit.position) * hit.normal
-    x = where(scatter, o + where(scatter, s, 0.0) * d, p_surface)
-    f = where(on_surface, hit.albedo * _INV_PI, _INV_4PI)  # BSDF or phase function
+    on_surface = None if scatter is None else ~scatter
+    x, f = _shading_point(o, d, hit, scatter, s)
     # -- next-event estimation (full weight at the last vertex)
     nee = next_event(
         st, x, hit.normal, on_surface, f, u_choice, u_light, mis=u_direction is not None
@@ -304,7 +330,10 @@ def vertex_step(
         return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
     # -- sample the next direction (BSDF or phase function)
     d, pdf = sample_direction(hit.normal, on_surface, u_direction)
-    beta = where(on_surface, beta * hit.albedo, beta)
+    if on_surface is None:
+        beta = beta * hit.albedo
+    else:
+        beta = where(on_surface, beta * hit.albedo, beta)
     return x, d, beta, radiance, alive, pdf, hit.albedo, hit.normal
 
 
