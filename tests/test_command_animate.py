@@ -1,0 +1,84 @@
+"""Tests for ``bnerr animate`` (benchmarks.commands.animate): files written, one-line errors."""
+
+import imageio.v2 as imageio
+import imageio.v3 as iio
+import pytest
+
+from benchmarks.cli import main
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def _args(tmp_path, *extra):
+    return [
+        "animate",
+        "--scene",
+        "direct",
+        "--strategies",
+        "white,temporal",
+        "--frames",
+        "3",
+        "--warmup",
+        "1",
+        "--res",
+        "32x24",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "4",
+        "--gif-crop",
+        "16",
+        "--gif-frames",
+        "2",
+        "--params",
+        str(tmp_path / "no_params.json"),
+        "--cache",
+        str(tmp_path / "cache"),
+        *extra,
+    ]
+
+
+def test_writes_mp4_and_gif_per_scene(tmp_path, capsys):
+    out = tmp_path / "anim"
+    assert main(_args(tmp_path, "--out", str(out), "--threads", "1")) == 0
+    printed = capsys.readouterr().out
+    assert "direct: " in printed and "1 animation(s) written" in printed
+    names = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
+    assert names == ["direct.gif", "direct.mp4"]
+    with imageio.get_reader(out / "direct.mp4", format="FFMPEG") as reader:
+        frames = list(reader.iter_data())
+    assert len(frames) == 3
+    # caption 2 x 13 + header 14 + rows 2 x 24 = 88, padded to 96; 14 + 3 x 32 = 110 -> 112
+    assert frames[0].shape == (96, 112, 3)
+    gif = iio.imread(out / "direct.gif", index=None)
+    assert gif.shape[:3] == (2, 2 * 13 + 14 + 2 * 16, 14 + 3 * 16)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--scene", "nope"], "unknown scene 'nope'"),
+        (["--strategies", "white,nope"], "unknown strategy 'nope'"),
+        (["--denoiser", "nope"], "unknown denoiser 'nope'"),
+        (["--res", "32by24"], "--res: expected WxH"),
+        (["--res", "0x24"], "--res: expected width and height >= 1"),
+        (["--frames", "0"], "frames: expected an integer >= 1"),
+        (["--threads", "0"], "--threads: expected an integer >= 1"),
+    ],
+)
+def test_bad_input_is_one_line(tmp_path, capsys, extra, message):
+    assert main(_args(tmp_path, "--out", str(tmp_path / "anim"), *extra)) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("bnerr animate: error: ")
+    assert message in err
+    assert not (tmp_path / "cache").exists()  # refused before any render
+
+
+def test_unwritable_out_is_one_line(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    for out in (blocker, blocker / "sub", "/proc/bnerr-animate"):
+        assert main(_args(tmp_path, "--out", str(out))) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and err.startswith("bnerr animate: error: --out ")
+    assert not (tmp_path / "cache").exists()
