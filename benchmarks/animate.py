@@ -459,18 +459,17 @@ def write_animations(
     params=None,
     scenes: Sequence[str] | None = None,
     strategies: Sequence[str] | None = None,
-    denoiser: str = "gaussian",
-    frames: int = 16,
-    spp: int | None = None,
     **options,
 ) -> list[dict[str, object]]:
     """One animation per scene of ``suite`` (a :class:`benchmarks.suites.Suite` or its name),
     written into ``out_dir`` (checked first, then locked for the whole run).
 
-    The suite's first sweep gives the scenes, resolution, warmup, reference spp and spp (its
-    smallest unless ``spp`` is given); ``strategies`` defaults to :func:`default_strategies`;
-    ``params`` is the tuned-parameters file (``<suite out>/tuned_params.json``; missing: the
-    denoiser's defaults). ``options`` go to :class:`Animation` (``fps``, ``seed_set``, ...).
+    The suite's first sweep gives the scenes, resolution, warmup and reference spp, and the spp:
+    4 when the sweep measures it (the animations' usual setting), else its smallest.
+    ``strategies`` defaults to :func:`default_strategies`; ``params`` is the tuned-parameters file
+    (``<suite out>/tuned_params.json``; missing: the denoiser's defaults). ``options`` set or
+    override any other field of :class:`Animation` (``frames``, ``reference_spp``, ``denoiser``,
+    ``fps``, ...).
 
     Returns:
         :func:`animate_scene`'s result per scene.
@@ -479,21 +478,17 @@ def write_animations(
     from benchmarks.suites import get_suite
 
     sweep = (get_suite(suite) if isinstance(suite, str) else suite).sweeps[0]
-    specs = [
-        Animation(
-            scene=name,
-            strategies=tuple(strategies or default_strategies()),
-            denoiser=denoiser,
-            frames=frames,
-            warmup=sweep.warmup,
-            width=sweep.res[0],
-            height=sweep.res[1],
-            spp=min(sweep.spp) if spp is None else spp,
-            reference_spp=sweep.reference_spp,
-            **options,
-        ).check(known_names())
-        for name in (scenes or sweep.scenes)
-    ]
+    fields = dict(
+        strategies=tuple(strategies or default_strategies()),
+        warmup=sweep.warmup,
+        width=sweep.res[0],
+        height=sweep.res[1],
+        spp=4 if 4 in sweep.spp else min(sweep.spp),
+        reference_spp=sweep.reference_spp,
+    )
+    fields.update(options)
+    known = known_names()
+    specs = [Animation(scene=name, **fields).check(known) for name in (scenes or sweep.scenes)]
     return animate(specs, out_dir, cache_dir=cache_dir, params=params)
 
 

@@ -21,6 +21,7 @@ from benchmarks.animate import (
     render_tiles,
     text_strip,
     tuned_denoiser,
+    write_animations,
     write_gif,
     write_mp4,
 )
@@ -204,3 +205,26 @@ def test_default_strategies_start_with_white_and_temporal():
     names = default_strategies()
     assert names[:2] == ("white", "temporal")
     assert set(names) <= set(strategies.STRATEGIES)
+
+
+def test_write_animations_follows_the_suite(tmp_path):
+    from benchmarks.suites import Suite, Sweep
+
+    sweep = Sweep(
+        scenes=("direct",),
+        strategies=("white",),
+        spp=(1, 2),
+        denoisers=("gaussian",),
+        frames=2,
+        warmup=1,
+        res=(16, 12),
+        reference_spp=4,
+    )
+    suite = Suite(name="tiny", description="tiny", sweeps=(sweep,))
+    results = write_animations(
+        suite, tmp_path / "anim", cache_dir=tmp_path / "c", strategies=("white",), frames=2
+    )
+    assert [r["mp4"].name for r in results] == ["direct.mp4"]
+    assert _mp4_frames(results[0]["mp4"])[0].shape == (64, 48, 3)  # 26 + 14 + 24; 14 + 2 x 16
+    refs = sorted(p.name for p in (tmp_path / "c" / "direct").iterdir())
+    assert len(refs) == 2 and all("16x12_spp4_" in n for n in refs)
