@@ -47,7 +47,7 @@ from bnerr.color import preview_u8
 from bnerr.errors import DtypeError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from bnerr.outputs import check_output, output_lock
+from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 
 __all__ = [
     "SHOWN_RIVALS",
@@ -503,8 +503,9 @@ def animate(
 ) -> list[dict[str, object]]:
     """Write every animation of ``specs`` into ``out_dir``: the folder is checked
     (:func:`bnerr.outputs.check_output`) and the tuned parameters read before any render, and
-    the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout. ``on_scene`` is
-    called with each scene's result."""
+    the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout (the temporaries a
+    killed run left for these files are removed first). ``on_scene`` is called with each scene's
+    result."""
     from benchmarks.parts import real_parts
 
     out = check_output(out_dir, "dir", need_bytes=2**20 * len(specs))
@@ -513,6 +514,7 @@ def animate(
     references = ReferenceCache(cache_dir, parts)
     results = []
     with output_lock(out, "bnerr animate"):
+        clean_stale_temporaries(out, [f"{s.scene}.{ext}" for s in specs for ext in ("mp4", "gif")])
         for spec in specs:
             result = animate_scene(parts, references, spec, out, store)
             results.append(result)

@@ -228,3 +228,13 @@ def test_write_animations_follows_the_suite(tmp_path):
     assert _mp4_frames(results[0]["mp4"])[0].shape == (64, 48, 3)  # 26 + 14 + 24; 14 + 2 x 16
     refs = sorted(p.name for p in (tmp_path / "c" / "direct").iterdir())
     assert len(refs) == 2 and all("16x12_spp4_" in n for n in refs)
+
+
+def test_animate_removes_its_own_stale_temporaries(tmp_path, parts, cache):
+    out = tmp_path / "anim"
+    out.mkdir()
+    stale = out / ".direct.gif.bnerr-tmp-999999999-0123abcd.gif"
+    stale.write_bytes(b"x")
+    spec = dataclasses.replace(SPEC, strategies=("white",), frames=1, gif_frames=1)
+    animate([spec], out, cache_dir=cache.root, parts=parts)
+    assert not stale.exists() and (out / "direct.gif").is_file()

@@ -43,7 +43,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     add = parser.add_argument
-    add("--scene", "--scenes", dest="scenes", nargs="+", required=True, metavar="NAME")
+    add(
+        "--scene",
+        "--scenes",
+        dest="scenes",
+        nargs="+",
+        required=True,
+        metavar="NAME",
+        help="scene name(s), space- or comma-separated",
+    )
     add("--strategies", nargs="+", metavar="NAME", help="strategy columns (default: see above)")
     add("--denoiser", default="gaussian", help="denoiser of the second row (default gaussian)")
     add("--frames", type=int, default=16, help="frames shown (default 16)")
