@@ -11,6 +11,10 @@ pixel region. One run yields one :class:`benchmarks.records.Record` per cell (de
   ``timings["render"]`` (the renderer's own clock, summed over the strategy's renders: the oracle
   renders K candidates), ``perm_ms`` its ``timings["strategy"]`` (everything the strategy does
   outside the renderer) and ``denoise_ms`` a :class:`bnerr.timing.Stopwatch` around the denoiser.
+- **Samplers**: a record keeps ``render_sampler``, the sampler the strategy's renders used
+  (``strategy.sampler_name``): the run's per-pixel ``sampler`` condition, or the strategy's own
+  (bnds, bnds_st, zsobol, cycles_blue, zsobol_t, temporal_zsobol ignore the condition). The
+  cell's ``sampler`` stays the condition, so every record pairs with white's under it.
 - **Fair denoisers** (:func:`tune_denoisers`): each filter's parameters are tuned once per scene,
   condition and spp on white-noise frames (:mod:`denoisers.tuning`) and used unchanged for every
   strategy.
@@ -153,6 +157,7 @@ class _Measurement:
             **{f"denoise_ms/{d}": [] for d in denoisers},
         }
         self.measured_t: list[int] = []
+        self.render_sampler = run.sampler
         self.floors: list[float] = []
         self.crop: dict[str, np.ndarray] = {}
 
@@ -212,6 +217,7 @@ class _Measurement:
                     "den": self.spectra[cell.denoiser].result(),
                 },
                 crop=crop_file,
+                render_sampler=self.render_sampler,
             )
             for cell in self.run.cells()
         ]
@@ -245,8 +251,9 @@ def measure_run(
     tick = on_frame if on_frame is not None else (lambda: None)
     for group in range(run.seed_sets):
         strategy = parts.make_strategy(
-            run.strategy, scene, run.height, run.width, group, run.sampler
+            run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
         )
+        measurement.render_sampler = getattr(strategy, "sampler_name", "") or run.sampler
         measurement.start_seed_set()
         first = 0 if parts.stateful(strategy) else run.warmup
         for _ in range(first):  # the skipped warmup frames count as done
@@ -308,7 +315,7 @@ def tune_denoisers(
         scene = _scene_for(run, parts)
         render = _BoundRender(parts, scene, run.spp)
         strategy = parts.make_strategy(
-            "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler
+            "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
         )
         frames, refs = [], []
         for t in range(run.warmup, run.warmup + min(run.frames, 4)):

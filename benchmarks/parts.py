@@ -66,9 +66,17 @@ class Renderer(Protocol):
 
 
 class Strategy(Protocol):
-    """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame."""
+    """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame.
+
+    ``sampler_name`` is the sampler its renders use: the run's per-pixel ``sampler`` condition,
+    or the one the strategy dictates (the Z-order and dithering strategies,
+    :data:`bnerr.strategies.OWN_SAMPLERS`); the records keep it. ``stateful``: whether a frame
+    depends on the earlier frames.
+    """
 
     overhead_ms: float
+    sampler_name: str
+    stateful: bool
 
     def frame(self, t: int, render: Callable[[torch.Tensor, Sampler], Frame]) -> Frame: ...
 
@@ -86,7 +94,10 @@ class Parts:
     Attributes:
         get_scene: ``(name, animated) -> scene``.
         render: the :class:`Renderer`.
-        make_strategy: ``(name, scene, height, width, seed, sampler) -> Strategy``.
+        make_strategy: ``(name, scene, height, width, seed, sampler, spp) -> Strategy``:
+            ``sampler`` the per-pixel sampler condition (a strategy with its own sampler ignores
+            it), ``spp`` the samples per pixel its renders take (the Z-order samplers' block
+            length).
         stateful: ``(strategy) -> bool``: whether a frame depends on the earlier frames (the
             temporal strategies). Only those render the warmup frames; a stateless strategy's
             frame t is the same whether or not frames 0..t-1 were rendered, so the runner skips
@@ -104,7 +115,7 @@ class Parts:
 
     get_scene: Callable[[str, bool], Scene]
     render: Renderer
-    make_strategy: Callable[[str, Scene, int, int, int, str], Strategy]
+    make_strategy: Callable[[str, Scene, int, int, int, str, int], Strategy]
     stateful: Callable[[Strategy], bool]
     make_denoiser: Callable[[str, dict | None], Denoiser]
     tune_denoiser: Callable[[str, list[Frame], list[torch.Tensor]], TuneResult | None]
@@ -127,9 +138,11 @@ def real_parts() -> Parts:
     def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
         return tuning.tune(name, frames, refs) if name in tuning.GRIDS else None
 
-    def make_strategy(name: str, scene: Scene, height: int, width: int, seed: int, sampler: str):
+    def make_strategy(
+        name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
+    ):
         return strategies.make_strategy(
-            name, height, width, seed=seed, sampler=sampler, dimensions=scene.dimensions
+            name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
         )
 
     def reference_sampler() -> Sampler:
@@ -141,7 +154,7 @@ def real_parts() -> Parts:
         get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
         render=renderers.render,
         make_strategy=make_strategy,
-        stateful=lambda strategy: isinstance(strategy, strategies.TemporalStrategy),
+        stateful=lambda strategy: bool(getattr(strategy, "stateful", False)),
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,

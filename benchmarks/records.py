@@ -13,7 +13,11 @@ seed set x measured frame:
   ``t`` (the measured frame indices ``[F]``), ``raw`` and ``den`` (metric name -> per-frame pairs
   ``[S][F][2]`` of :class:`bnerr.metrics.FrameMetrics`, before and after denoising),
   ``denoiser_params``, ``timings``, ``reference``, ``spectrum`` (``"raw"`` and ``"den"``) and
-  ``crop`` (the crops file relative to the output folder, or None). On disk the record also holds
+  ``crop`` (the crops file relative to the output folder, or None) and ``render_sampler`` (the
+  sampler the strategy's renders used, ``strategy.sampler_name``: the cell's per-pixel
+  ``sampler`` condition or the strategy's own; None, and absent on disk, in files written
+  before it was recorded).
+  On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
 - :class:`ReferenceInfo`: ``spp``, ``floor`` (the mean variance of the reference's pixel means, or
@@ -97,6 +101,7 @@ class Record:
     reference: ReferenceInfo
     spectrum: dict[str, Spectrum]
     crop: str | None
+    render_sampler: str | None = None
 
     @property
     def key(self) -> str:
@@ -106,6 +111,8 @@ class Record:
     def to_json(self) -> dict[str, Any]:
         """The JSON object of one ``cells.jsonl`` line."""
         out = dataclasses.asdict(self)
+        if out["render_sampler"] is None:  # files from before it was recorded stay byte-identical
+            del out["render_sampler"]
         out["key"] = self.key
         return out
 
@@ -130,6 +137,7 @@ class Record:
                 reference=ReferenceInfo(**data["reference"]),
                 spectrum={kind: Spectrum(**data["spectrum"][kind]) for kind in ("raw", "den")},
                 crop=data["crop"],
+                render_sampler=data.get("render_sampler"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)

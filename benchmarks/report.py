@@ -12,6 +12,9 @@ a report can be rebuilt without rendering anything (``python -m benchmarks.repor
   scene and condition, each strategy's post-denoise MSE as a fraction of white's,
   the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time per frame; and the list
   of cells where a strategy is worse than white beyond its interval.
+- ``decision.md`` (:func:`decision_table`): for each scene, condition, spp and denoiser, the
+  strategy with the lowest post-denoise MSE, its ratio to white with the interval, and its cost
+  per frame (render + permutation ms): the table a renderer team choosing a strategy reads.
 - Charts (matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state):
   ``error_vs_time_<group>.png`` (post-denoise MSE against render + permutation + denoise time per
   frame, one line per strategy through its spp values, one panel per denoiser),
@@ -41,7 +44,11 @@ from bnerr.metrics import bootstrap_interval, paired_ratio
 __all__ = [
     "COLUMNS",
     "HEADLINE_STRATEGIES",
+    "DECISION_EXCLUDES",
+    "best_rows",
+    "decision_table",
     "markdown_table",
+    "render_sampler",
     "summarize",
     "write_charts",
     "write_report",
@@ -96,9 +103,21 @@ COLUMNS: tuple[str, ...] = (
     "reference_floor",
     "worse_than_white",
     "raw_differs_from_white",
+    "render_sampler",
 )
 
-_STRATEGY_ORDER = ("white", "bnds", "temporal_sort", "temporal", "oracle")
+_STRATEGY_ORDER = (
+    "white",
+    "bnds",
+    "bnds_st",
+    "zsobol",
+    "cycles_blue",
+    "zsobol_t",
+    "temporal_sort",
+    "temporal",
+    "temporal_zsobol",
+    "oracle",
+)
 
 
 def _stats(record: Record, kind: str, metric: str) -> np.ndarray | None:
@@ -161,7 +180,19 @@ def _row(rec: Record, white: Record | None, resamples: int, seed: int) -> dict:
     row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
     raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
     row["raw_differs_from_white"] = None if raw_lo is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
+    row["render_sampler"] = render_sampler(rec)
     return {c: row.get(c) for c in COLUMNS}
+
+
+def render_sampler(record: Record) -> str:
+    """The sampler a record's frames were rendered with: the recorded one, or for files written
+    before it was recorded the strategy's own (:data:`bnerr.strategies.OWN_SAMPLERS`), else the
+    cell's per-pixel sampler condition."""
+    from bnerr.strategies import OWN_SAMPLERS
+
+    if record.render_sampler:
+        return record.render_sampler
+    return OWN_SAMPLERS.get(record.cell.strategy, record.cell.sampler)
 
 
 def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -> list[dict]:
@@ -290,6 +321,7 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
         "(95% paired bootstrap interval).",
         "",
     ]
+    lines += _sampler_note(rows)
     lines += _table(["spp", "denoiser", *strategies], _den_body(rows, strategies))
     lines += [
         "",
@@ -309,6 +341,25 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
         "",
     ]
     return lines
+
+
+def _sampler_note(rows: list[dict]) -> list[str]:
+    """A line naming the strategies that rendered with their own sampler instead of the group's
+    per-pixel sampler condition (none: no line, so older tables stay as they were)."""
+    condition = rows[0]["sampler"]
+    own: dict[str, list[str]] = defaultdict(list)
+    for s in _strategies(rows):
+        used = {r["render_sampler"] for r in rows if r["strategy"] == s} - {condition, None}
+        for name in sorted(used):
+            own[name].append(s)
+    if not own:
+        return []
+    listed = "; ".join(f"{', '.join(names)}: {sampler}" for sampler, names in own.items())
+    return [
+        f"Samplers: {condition} per-pixel sequences, except the strategies that dictate their "
+        f"own ({listed}); every ratio is to white under the same condition.",
+        "",
+    ]
 
 
 def _raw_differences(rows: Sequence[dict]) -> list[str]:
@@ -406,6 +457,89 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
             ),
         )
         lines.append("")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------------------------------
+# Decision table
+
+
+#: Left out of the decision table by default: the oracle renders K candidates per frame (an
+#: upper bound on what the temporal method approximates, not a strategy to adopt).
+DECISION_EXCLUDES: tuple[str, ...] = ("oracle",)
+
+
+def best_rows(
+    rows: Sequence[dict], exclude: Sequence[str] = DECISION_EXCLUDES
+) -> dict[tuple, dict]:
+    """Per (group key, spp, denoiser): the row of the strategy with the lowest pooled post-denoise
+    MSE (white included, ``exclude`` left out; ties go to the earlier strategy in the report's
+    order)."""
+    best: dict[tuple, dict] = {}
+    order = {s: i for i, s in enumerate(_strategies(rows))}
+    for row in rows:
+        if row.get("den_mse") is None or row["strategy"] in exclude:
+            continue
+        key = (_group_key(row), row["spp"], row["denoiser"])
+        old = best.get(key)
+        rank = (row["den_mse"], order[row["strategy"]])
+        if old is None or rank < (old["den_mse"], order[old["strategy"]]):
+            best[key] = row
+    return best
+
+
+def _left_out(exclude: Sequence[str]) -> str:
+    """The decision table's note on the strategies it leaves out."""
+    why = {"oracle": "it renders K candidates per frame: an upper bound, not a strategy to adopt"}
+    return "".join(f" Left out: {s}" + (f" ({why[s]})." if s in why else ".") for s in exclude)
+
+
+def _decision_cell(row: dict) -> str:
+    cost = f"{row['render_ms']:.0f} + {row['perm_ms']:.1f} ms"
+    if row["strategy"] == "white" or row.get("den_mse_ratio") is None:
+        return f"{row['strategy']} ({cost})"
+    name = row["strategy"]
+    if row["den_mse_ratio_hi"] < 1.0:
+        name = f"**{name}**"
+    ratio = (
+        f"{row['den_mse_ratio']:.2f} [{row['den_mse_ratio_lo']:.2f}, {row['den_mse_ratio_hi']:.2f}]"
+    )
+    return f"{name} {ratio} ({cost})"
+
+
+def decision_table(
+    rows: Sequence[dict],
+    title: str = "Which strategy to use",
+    exclude: Sequence[str] = DECISION_EXCLUDES,
+) -> str:
+    """For each scene, condition and spp, per denoiser: the strategy with the lowest post-denoise
+    MSE, its MSE as a fraction of white's (95% paired interval) and its cost per frame (render +
+    permutation milliseconds, the strategy's whole overhead included); ``exclude`` left out."""
+    best = best_rows(rows, exclude)
+    groups = sorted(
+        {k[0] for k in best}, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4])
+    )
+    denoisers = sorted({k[2] for k in best})
+    body = []
+    for group in groups:
+        for spp in sorted({k[1] for k in best if k[0] == group}):
+            cells = [best.get((group, spp, d)) for d in denoisers]
+            body.append(
+                [_group_title(group), str(spp)]
+                + ["-" if c is None else _decision_cell(c) for c in cells]
+            )
+    lines = [
+        f"# {title}",
+        "",
+        "Per scene, condition, spp and denoiser: the strategy with the lowest post-denoise MSE, "
+        "its MSE as a fraction of white's with the 95% paired bootstrap interval, and its cost per "
+        "frame (render + permutation ms). Bold: below white beyond the interval; a strategy named "
+        "without bold is lowest by its point estimate only; white: no strategy was lower."
+        + _left_out(exclude),
+        "",
+        *_table(["scene", "spp", *denoisers], body),
+        "",
+    ]
     return "\n".join(lines)
 
 
@@ -561,7 +695,8 @@ def write_report(
     title: str | None = None,
     charts: bool = True,
 ) -> str:
-    """Write ``table.csv``, ``table.md`` and the charts into ``out_dir``; return the Markdown.
+    """Write ``table.csv``, ``table.md``, ``decision.md`` and the charts into ``out_dir``; return
+    the Markdown of ``table.md``.
 
     Args:
         out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
@@ -577,6 +712,8 @@ def write_report(
         Path(tmp).write_text(_csv_text(rows))
     with atomic_write(out / "table.md") as tmp:
         Path(tmp).write_text(text)
+    with atomic_write(out / "decision.md") as tmp:
+        Path(tmp).write_text(decision_table(rows))
     if charts:
         write_charts(rows, records, out)
     return text

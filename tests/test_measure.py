@@ -56,8 +56,8 @@ class _Store:
 
 
 def _parts(render):
-    def make_strategy(name, scene, height, width, seed, sampler):
-        return strategies.make_strategy(name, height, width, seed=seed, sampler=sampler)
+    def make_strategy(name, scene, height, width, seed, sampler, spp):
+        return strategies.make_strategy(name, height, width, seed=seed, sampler=sampler, spp=spp)
 
     def make_denoiser(name, params):
         scale = (params or {}).get("scale", 1.0)
@@ -67,7 +67,7 @@ def _parts(render):
         get_scene=lambda name, animated: _Scene(),
         render=render,
         make_strategy=make_strategy,
-        stateful=lambda s: isinstance(s, strategies.TemporalStrategy),
+        stateful=lambda s: s.stateful,
         make_denoiser=make_denoiser,
         tune_denoiser=lambda name, frames, refs: name if name == "half" else None,
         reference_sampler=lambda: make_sampler("owen_sobol"),
@@ -122,9 +122,9 @@ def test_denoisers_are_tuned_once_on_the_white_tuning_seed_set(tmp_path):
     made = []
     parts = dataclasses.replace(
         parts,
-        make_strategy=lambda name, scene, h, w, seed, sampler: (
+        make_strategy=lambda name, scene, h, w, seed, sampler, spp: (
             made.append((name, seed))
-            or strategies.make_strategy(name, h, w, seed=seed, sampler=sampler)
+            or strategies.make_strategy(name, h, w, seed=seed, sampler=sampler, spp=spp)
         ),
     )
     store = _Store()
@@ -141,3 +141,22 @@ def test_denoisers_are_tuned_once_on_the_white_tuning_seed_set(tmp_path):
     tune_denoisers(dataclasses.replace(run, denoisers=("half",)), parts, refs, store)
     # already stored: nothing rendered or tuned again
     assert made == [("white", TUNING_SEED_SET)] and len(store.puts) == 1
+
+
+_RENDERED_WITH = [
+    ("white", "owen_sobol"),
+    ("zsobol", "zsobol"),
+    ("temporal_zsobol", "zsobol"),
+    ("bnds_st", "bnds"),
+]
+
+
+@pytest.mark.parametrize(("strategy", "want"), _RENDERED_WITH)
+def test_records_keep_the_sampler_the_strategy_rendered_with(tmp_path, strategy, want):
+    render = _Render()
+    parts = _parts(render)
+    run = _run(strategy, crops=False)
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    assert {r.render_sampler for r in records} == {want}
+    assert {r.cell.sampler for r in records} == {"owen_sobol"}  # the condition, paired with white

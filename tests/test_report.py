@@ -10,7 +10,14 @@ import pytest
 
 from benchmarks import report
 from benchmarks.plan import Cell
-from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings, write_records
+from benchmarks.records import (
+    Record,
+    ReferenceInfo,
+    Spectrum,
+    Timings,
+    load_records,
+    write_records,
+)
 from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
 from bnerr.metrics import paired_ratio
 
@@ -204,9 +211,85 @@ def test_write_report_reads_the_results_file_when_given_no_records(tmp_path):
 _QUICK = Path(__file__).resolve().parents[1] / "results" / "quick"
 
 
+def _without_last_column(text: str) -> list[list[str]]:
+    return [row[:-1] for row in csv.reader(text.splitlines())]
+
+
 @pytest.mark.skipif(not (_QUICK / "cells.jsonl").exists(), reason="no committed quick results")
 def test_the_committed_quick_tables_regenerate_byte_identical(tmp_path):
+    # table.md byte for byte; table.csv in every committed column, plus the render_sampler column
+    # added last since (the committed records predate it: the strategy's own or the condition's).
     shutil.copy(_QUICK / "cells.jsonl", tmp_path / "cells.jsonl")
     write_report(tmp_path, title="bnerr bench --suite quick", charts=False)
     assert (tmp_path / "table.md").read_bytes() == (_QUICK / "table.md").read_bytes()
-    assert (tmp_path / "table.csv").read_bytes() == (_QUICK / "table.csv").read_bytes()
+    new, old = (tmp_path / "table.csv").read_text(), (_QUICK / "table.csv").read_text()
+    if COLUMNS[-1] not in old.splitlines()[0].split(","):
+        assert COLUMNS[-1] == "render_sampler"
+        assert _without_last_column(new) == [row for row in csv.reader(old.splitlines())]
+        assert {row["render_sampler"] for row in csv.DictReader(new.splitlines())} == {"owen_sobol"}
+    else:
+        assert new == old
+
+
+_COMMITTED = [
+    Path(__file__).resolve().parents[1] / "results" / name for name in ("quick", "quality")
+]
+
+
+@pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
+def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed_results(folder):
+    if not (folder / "cells.jsonl").exists():
+        pytest.skip(f"no committed results in {folder.name}")
+    rows = summarize(load_records(folder), resamples=200)
+    best = report.best_rows(rows)
+    cells = {(r["scene"], r["spp"], r["denoiser"]) for r in rows if r["region"] == "all"}
+    assert {(k[0][0], k[1], k[2]) for k in best} == cells
+    for (group, spp, denoiser), row in best.items():
+        same = [
+            r
+            for r in rows
+            if report._group_key(r) == group
+            and (r["spp"], r["denoiser"]) == (spp, denoiser)
+            and r["strategy"] not in report.DECISION_EXCLUDES
+        ]
+        assert row["den_mse"] == min(r["den_mse"] for r in same) and row["strategy"] != "oracle"
+    text = report.decision_table(rows)
+    lines = [line for line in text.splitlines() if line.startswith("| ")][1:]
+    assert len(lines) == len({(k[0], k[1]) for k in best})
+    for row in best.values():
+        cell = report._decision_cell(row)
+        assert f"({row['render_ms']:.0f} + {row['perm_ms']:.1f} ms)" in cell
+        if row["strategy"] != "white":
+            assert f"{row['den_mse_ratio']:.2f} [" in cell
+            assert cell.startswith("**") == (row["den_mse_ratio_hi"] < 1.0)
+
+
+def test_the_decision_table_bolds_only_an_established_winner():
+    rows = summarize(_records(), resamples=200)
+    text = report.decision_table(rows, title="T")
+    assert text.startswith("# T\n")
+    (line1,) = [line for line in text.splitlines() if line.startswith("| direct | 1 |")]
+    assert "**temporal** " in line1  # temporal below white beyond the interval at 1 spp
+    assert "Left out: oracle (it renders K candidates per frame" in text
+    with_oracle = report.best_rows(rows, exclude=())
+    assert {r["strategy"] for r in with_oracle.values()} <= {"white", "temporal", "oracle"}
+    assert "| direct | 4 |" in text
+
+
+def test_a_strategy_with_its_own_sampler_is_named_in_its_section():
+    records = _records() + [
+        dataclasses.replace(
+            _record("zsobol", 1, "gaussian", _WHITE, _WHITE), render_sampler="zsobol"
+        )
+    ]
+    rows = summarize(records, resamples=200)
+    assert {r["strategy"]: r["render_sampler"] for r in rows}["zsobol"] == "zsobol"
+    text = markdown_table(rows)
+    assert (
+        "Samplers: owen_sobol per-pixel sequences, except the strategies that dictate their own "
+        in text
+    )
+    assert "(zsobol: zsobol)" in text
+    old = dataclasses.replace(records[-1], render_sampler=None)
+    assert report.render_sampler(old) == "zsobol"  # files from before: the strategy's own
+    assert "Samplers:" not in markdown_table(summarize(_records(), resamples=200))
