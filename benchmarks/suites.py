@@ -16,13 +16,18 @@ The four suites (issue 6):
 - ``quick``: two scenes, the three strategies that bracket the method (white, temporal, oracle) and
   two cheap denoisers at 128x128; at most 5 minutes on the 2-core development machine (on one
   thread when the machine is shared: ``--threads 1``); ``make run``.
-- ``quality``: every scene, strategy and kornia/learned denoiser at 1, 4 and 16 spp; resolution
-  chosen so that the suite stays within about an hour on the same machine.
+- ``quality``: every scene, strategy (the rivals zsobol, cycles_blue, zsobol_t, bnds_st and
+  temporal_zsobol among them) and kornia/learned denoiser at 1, 4 and 16 spp, 128x128: 51
+  minutes on the same machine before the rivals, estimated 65-80 with them (each adds about one
+  render per frame, at 1-3x white's render time for the Z-order samplers; the oracle's 32
+  renders per frame still dominate).
 - ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
 - ``stability``: the cases where the temporal method is expected to fail: textured against
   untextured snooker, object edges, static against fast camera motion, Owen-Sobol against white
   per-pixel sequences, 1 to 64 spp, 1 to 8 bounces; reported as each strategy's post-denoise MSE
-  ratio to white with its interval.
+  ratio to white with its interval. The rivals (:data:`RIVALS`) run in every sweep but the
+  per-pixel sequences one: they dictate their own sampler (``bnerr.strategies.OWN_SAMPLERS``), so
+  that condition would render them twice alike.
 
 Not for: per-scene parameter tuning (the denoisers' parameters come from :mod:`denoisers.tuning`,
 tuned on white noise), or anything that changes what a strategy does.
@@ -36,12 +41,23 @@ from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 
-__all__ = ["REGIONS", "SAMPLERS", "SUITES", "Condition", "Suite", "Sweep", "get_suite", "resolve"]
+__all__ = [
+    "REGIONS",
+    "RIVALS",
+    "SAMPLERS",
+    "SUITES",
+    "Condition",
+    "Suite",
+    "Sweep",
+    "get_suite",
+    "resolve",
+]
 
 #: Pixel regions the metrics can be restricted to.
 REGIONS: tuple[str, ...] = ("all", "edges")
 
-#: Per-pixel samplers a strategy can draw its sequences from (``bnds`` always uses its own).
+#: Per-pixel samplers a strategy can draw its sequences from (the strategies with their own
+#: sampler, bnds and the rivals, ignore the choice).
 SAMPLERS: tuple[str, ...] = ("owen_sobol", "white")
 
 
@@ -58,7 +74,9 @@ class Condition:
         region: ``"all"`` pixels, or ``"edges"``: pixels within one pixel of an object-id
             discontinuity of the reference (:func:`bnerr.metrics.edge_mask`).
         sampler: the per-pixel sequences of white, temporal, temporal_sort and oracle:
-            ``"owen_sobol"`` (the strategies' default) or ``"white"`` (a hash). ``bnds`` ignores it.
+            ``"owen_sobol"`` (the strategies' default) or ``"white"`` (a hash). The strategies
+            with their own sampler (bnds and the rivals, ``bnerr.strategies.OWN_SAMPLERS``) ignore
+            it; their records say what they rendered with (``Record.render_sampler``).
             It matters: a seed's error must carry over to the neighbouring pixel it is moved to,
             and the stratified error of Owen-scrambled Sobol carries over less than white noise's.
     """
@@ -154,7 +172,9 @@ class Suite:
 
 
 _ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
-_ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle")
+#: The a-priori patterns and the temporal method over ZSobol (issue 13), measured against the rest.
+RIVALS: tuple[str, ...] = ("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol")
+_ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle", *RIVALS)
 _ALL_DENOISERS = (
     "gaussian",
     "bilateral",
@@ -198,7 +218,7 @@ SUITES: dict[str, Suite] = {
     "quality": Suite(
         name="quality",
         description=(
-            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (about an hour)"
+            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (65-80 minutes)"
         ),
         sweeps=(
             Sweep(
@@ -231,7 +251,7 @@ SUITES: dict[str, Suite] = {
             # object edges, where a seed moved across an edge lands on another object.
             Sweep(
                 scenes=("snooker", "snooker_plain"),
-                strategies=("white", "temporal", "temporal_sort", "oracle"),
+                strategies=("white", "temporal", "temporal_sort", "oracle", *RIVALS),
                 spp=(1, 4),
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
@@ -242,7 +262,7 @@ SUITES: dict[str, Suite] = {
             # Motion: static camera, the scene's animation, and the animation 8 times faster.
             Sweep(
                 scenes=("direct", "indirect"),
-                strategies=("white", "temporal", "temporal_sort"),
+                strategies=("white", "temporal", "temporal_sort", *RIVALS),
                 spp=(1, 4),
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
@@ -272,7 +292,7 @@ SUITES: dict[str, Suite] = {
             # (32 renders per frame) stops at 16 spp, as in the quality suite.
             Sweep(
                 scenes=("indirect",),
-                strategies=("white", "bnds", "temporal"),
+                strategies=("white", "bnds", "temporal", *RIVALS),
                 spp=(1, 2, 4, 8, 16, 32, 64),
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
@@ -284,7 +304,7 @@ SUITES: dict[str, Suite] = {
             # covers the first few) and where the temporal method should not care.
             Sweep(
                 scenes=("cornell",),
-                strategies=("white", "bnds", "temporal"),
+                strategies=("white", "bnds", "temporal", *RIVALS),
                 spp=(1, 4),
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),

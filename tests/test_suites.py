@@ -4,7 +4,16 @@ import dataclasses
 
 import pytest
 
-from benchmarks.suites import REGIONS, SAMPLERS, SUITES, Condition, Sweep, get_suite, resolve
+from benchmarks.suites import (
+    REGIONS,
+    RIVALS,
+    SAMPLERS,
+    SUITES,
+    Condition,
+    Sweep,
+    get_suite,
+    resolve,
+)
 from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 
 
@@ -39,7 +48,9 @@ def test_quality_covers_every_scene_strategy_and_denoiser_at_1_4_16_spp():
 
     cells = list(_cells(get_suite("quality")))
     assert {c[0] for c in cells} == set(renderers.SCENES)
-    assert {c[1] for c in cells} == {"white", "bnds", "temporal", "temporal_sort", "oracle"}
+    assert {c[1] for c in cells} == {"white", "bnds", "temporal", "temporal_sort", "oracle"} | set(
+        RIVALS
+    )
     assert {c[2] for c in cells} == {1, 4, 16}
     assert {c[3] for c in cells} == set(denoisers.DENOISERS)
 
@@ -115,3 +126,39 @@ def test_runs_count_renders_not_denoisers_or_regions():
         conditions=(Condition(), Condition(region="edges"), Condition(motion=0)),
     )
     assert sweep.runs == 2 * 2 * 2 * 2 * 2
+
+
+def test_the_rivals_are_in_every_stability_sweep_but_the_per_pixel_sequences_one():
+    from bnerr.strategies import OWN_SAMPLERS, STRATEGIES
+
+    assert set(RIVALS) <= set(STRATEGIES) and set(RIVALS) <= set(OWN_SAMPLERS)
+    for sweep in get_suite("stability").sweeps:
+        varies_sampler = len({c.sampler for c in sweep.conditions}) > 1
+        assert set(RIVALS).isdisjoint(sweep.strategies) == varies_sampler, sweep.scenes
+
+
+@pytest.mark.parametrize("name", ["quality", "stability"])
+def test_every_planned_run_builds_its_strategy(name):
+    # The suites' plans still work with the rivals: every run's strategy can be built for its
+    # scene, depth and spp (the Z-order ones need spp a power of two), and no run is planned twice.
+    import renderers
+    from benchmarks.parts import real_parts
+    from benchmarks.plan import plan
+
+    parts = real_parts()
+    runs = plan(get_suite(name))
+    renders = {
+        (r.scene, r.strategy, r.spp, r.motion, r.depth, r.sampler, r.reference_spp) for r in runs
+    }
+    assert len(renders) == len(runs)
+    built = set()
+    for run in runs:
+        key = (run.scene, run.strategy, run.spp, run.depth)
+        if key in built:
+            continue
+        built.add(key)
+        scene = renderers.get_scene(run.scene, animated=run.motion != 0)
+        if run.depth is not None:
+            scene = parts.with_depth(scene, run.depth)
+        strategy = parts.make_strategy(run.strategy, scene, 8, 8, 0, run.sampler, run.spp)
+        assert strategy.name == run.strategy
