@@ -295,6 +295,23 @@ def _t_rect(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor
     return where((t > 0) & (a.abs() <= 1) & (b.abs() <= 1), t, torch.inf)
 
 
+def _t_rects(rows: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
+    """:func:`_t_rect` of every row of ``rows [R, 15]`` at once, ``[R, N]``: the same float
+    operations in the same order on each element, in R times fewer (and R times larger) ops."""
+
+    def dots(v: torch.Tensor, c: int) -> torch.Tensor:  # dot(v, row[c:c+3]) per row, [R, N]
+        return (
+            v[0] * rows[:, c : c + 1]
+            + v[1] * rows[:, c + 1 : c + 2]
+            + v[2] * rows[:, c + 2 : c + 3]
+        )
+
+    t = (rows[:, 3:4] - dots(o, 0)) / dots(d, 0)
+    a = dots(o, 4) - rows[:, 7:8] + t * dots(d, 4)
+    b = dots(o, 8) - rows[:, 11:12] + t * dots(d, 8)
+    return where((t > 0) & (a.abs() <= 1) & (b.abs() <= 1), t, torch.inf)
+
+
 def _t_box(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
     t_near = t_far = None
     for axis in range(3):
@@ -307,6 +324,22 @@ def _t_box(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
         t_far = hi if t_far is None else torch.minimum(t_far, hi)
     t = where(t_near > 0, t_near, t_far)
     return where((t_near <= t_far) & (t > 0), t, torch.inf)
+
+
+def _distances(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor
+) -> list[tuple[int, torch.Tensor]]:
+    """``(object id, t [N])`` of every primitive, in test order (spheres, rectangles, boxes).
+
+    Eager on the CPU, the rectangles are tested all at once (:func:`_t_rects`, same values).
+    """
+    out = [(i, _t_sphere(st.spheres[k], o, d)) for k, i in enumerate(st.sphere_ids)]
+    if _eager_cpu(o) and len(st.rect_ids) > 1:
+        t_rects = _t_rects(st.rects, o, d)
+        out += [(i, t_rects[k]) for k, i in enumerate(st.rect_ids)]
+    else:
+        out += [(i, _t_rect(st.rects[k], o, d)) for k, i in enumerate(st.rect_ids)]
+    return out + [(i, _t_box(st.boxes[k], o, d)) for k, i in enumerate(st.box_ids)]
 
 
 def intersect(
@@ -326,17 +359,10 @@ def intersect(
     """
     t = torch.full_like(o[0], torch.inf)
     obj = torch.full(t.shape, -1, dtype=torch.int64, device=t.device) if with_object else None
-    tests = [
-        (_t_sphere, st.spheres, st.sphere_ids),
-        (_t_rect, st.rects, st.rect_ids),
-        (_t_box, st.boxes, st.box_ids),
-    ]
-    for test, rows, ids in tests:
-        for k, object_id in enumerate(ids):
-            tk = test(rows[k], o, d)
-            if with_object:
-                obj = where(tk < t, object_id, obj)
-            t = torch.minimum(tk, t)
+    for object_id, tk in _distances(st, o, d):
+        if with_object:
+            obj = where(tk < t, object_id, obj)
+        t = torch.minimum(tk, t)
     return t, obj
 
 
