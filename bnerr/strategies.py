@@ -198,11 +198,13 @@ _FRAME_BYTES = 16 * 4
 # over construction and four frames at 2048x2048 on the CPU with preallocated stand-in frames:
 # white 22-43 (a seed image: int32 words, their int64 copy, the masked result), temporal 81 and
 # temporal_sort 52-108 (the seed image carried, luminance, the sort and retargeting passes' keys,
-# indices and output; the higher figure on the torch path), oracle with K = 4 172. The rivals
-# hold a key image (8) and make it once (zsobol, zsobol_t) or every frame (cycles_blue, and
-# bnds_st's per-pixel seeds) through a few int64 temporaries: counted as a seed image;
-# temporal_zsobol as temporal.
+# indices and output; the higher figure on the torch path), oracle with K = 4 172. The rivals,
+# measured the same way with spp 4: zsobol and zsobol_t 33 (the key image, made once through a
+# few int64 temporaries), bnds_st 34 (as bnds: fresh seeds), cycles_blue 87 (fresh keys every
+# frame: Morton code, base-4 scramble in int32 and int64 copies), temporal_zsobol 54 (as
+# temporal).
 _SEED_BYTES = 44
+_CYCLES_BYTES = 96
 _TEMPORAL_BYTES = 112
 # The oracle holds K candidate frames and their luminance (4), then the choice (8), the assembled
 # frame and one temporary of torch.where per buffer (2 frames) and a seed image.
@@ -216,6 +218,8 @@ def _per_pixel(name: str, K: int) -> int:
         return K * _ORACLE_CANDIDATE_BYTES + _ORACLE_ONCE_BYTES
     if name in ("temporal", "temporal_sort", "temporal_zsobol"):
         return _FRAME_BYTES + _TEMPORAL_BYTES
+    if name == "cycles_blue":
+        return _FRAME_BYTES + _CYCLES_BYTES
     return _FRAME_BYTES + _SEED_BYTES
 
 
