@@ -1,8 +1,9 @@
 """Typed errors and the input checks that raise them.
 
 Every public function of bnerr, renderers, denoisers and benchmarks checks its input at the
-boundary with these helpers (STYLE.md habit 4) and raises one of these errors, whose message names
-what was expected and what came. Private helpers trust their callers.
+boundary with these helpers (never with ``assert``, which ``python -O`` removes) and raises one of
+these errors, whose message names what was expected and what came. Private helpers trust their
+callers.
 
 The error classes also derive from the matching builtin (``ValueError``, ``TypeError``,
 ``OSError``) so that callers who catch the builtin keep working.

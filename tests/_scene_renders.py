@@ -35,7 +35,7 @@ SCENES = tuple(renderers.SCENES)
 
 
 def _render(name: str, key: int, spp: int, sampler: str = "white") -> Frame:
-    """Scene ``name`` (static) at t = 0, seed key ``key``, per-pixel ``sampler``, ``SIZE x SIZE``."""
+    """Scene ``name`` (static) at t = 0, seed key ``key``, per-pixel ``sampler``, SIZE x SIZE."""
     scene = renderers.get_scene(name, animated=False)
     return renderers.render(scene, 0, pixel_seeds(SIZE, SIZE, key), make_sampler(sampler), spp)
 

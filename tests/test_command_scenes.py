@@ -10,7 +10,11 @@ def test_table_lists_every_scene_with_its_dimensions():
     assert [r["name"] for r in rows] == list(SCENES)
     for row in rows:
         scene = get_scene(row["name"])
-        assert (row["D"], row["depth"], row["lights"]) == (scene.dimensions, scene.max_depth, len(scene.lights))
+        assert (row["D"], row["depth"], row["lights"]) == (
+            scene.dimensions,
+            scene.max_depth,
+            len(scene.lights),
+        )
 
 
 def test_prints_the_table_and_a_layout(capsys):

@@ -4,13 +4,12 @@ import importlib
 
 import pytest
 import torch
+from _scene_renders import SCENES, mse, scene_renders
 
 import denoisers.oidn as oidn_module
 from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.oidn import MissingExtraError, oidn_denoise
-
-from _scene_renders import SCENES, mse, scene_renders
 
 pyoidn = pytest.importorskip("pyoidn", reason="needs the optional extra 'reference'")
 pytestmark = pytest.mark.reference
@@ -50,7 +49,9 @@ def test_missing_extra_names_it(monkeypatch):
         return real(name, *args)
 
     monkeypatch.setattr(oidn_module.importlib, "import_module", fake_import)
-    with pytest.raises(MissingExtraError, match=r"oidn: expected the optional extra 'reference'.*pyoidn"):
+    with pytest.raises(
+        MissingExtraError, match=r"oidn: expected the optional extra 'reference'.*pyoidn"
+    ):
         get_denoiser("oidn")
     assert issubclass(MissingExtraError, ImportError)
 

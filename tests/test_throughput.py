@@ -4,7 +4,6 @@ import pytest
 
 from benchmarks import throughput
 
-
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
@@ -16,12 +15,15 @@ def test_measure_ours():
 
 def test_measure_side_by_side(monkeypatch):
     pytest.importorskip("mitsuba")
-    result = throughput.measure(("direct",), 8, 8, 2, repeats=1, compile=False, variants=("scalar_rgb",))
+    result = throughput.measure(
+        ("direct",), 8, 8, 2, repeats=1, compile=False, variants=("scalar_rgb",)
+    )
     row = result["direct"]
     assert result["settings"]["spp"] == 2
     assert row["mitsuba_scalar_rgb"]["samples_per_s"] > 0
     assert row["ratio_scalar_rgb"] == pytest.approx(
-        row["bnerr"]["samples_per_s"] / row["mitsuba_scalar_rgb"]["samples_per_s"])
+        row["bnerr"]["samples_per_s"] / row["mitsuba_scalar_rgb"]["samples_per_s"]
+    )
 
 
 def test_missing_llvm_or_broken_variant_is_an_error_string(monkeypatch):

@@ -24,7 +24,9 @@ def _bounds(shape):
         return c - shape.radius, c + shape.radius
     if isinstance(shape, Box):
         m = np.asarray(shape.to_world)
-        corners = np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) @ m.T
+        corners = (
+            np.array([[x, y, z, 1.0] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) @ m.T
+        )
         return corners.min(0), corners.max(0)
     c, u, v = (np.asarray(x) for x in (shape.center, shape.u, shape.v))
     corners = np.array([c + a * u + b * v for a in (-1, 1) for b in (-1, 1)])
@@ -56,7 +58,9 @@ def test_the_population_covers_what_the_benchmark_needs():
     scenes = [random_scene(i) for i in range(100)]
     assert {s.max_depth for s in scenes} == {2, 3, 4, 5}
     assert 5 <= sum(s.medium is not None for s in scenes) <= 40
-    textured = sum(any(isinstance(x, Rectangle) and x.material.textured for x in s.shapes) for s in scenes)
+    textured = sum(
+        any(isinstance(x, Rectangle) and x.material.textured for x in s.shapes) for s in scenes
+    )
     assert textured >= 50
     assert any(len(s.lights) == 2 for s in scenes) and any(len(s.lights) == 1 for s in scenes)
 
@@ -64,7 +68,9 @@ def test_the_population_covers_what_the_benchmark_needs():
 def test_benchmark_scenes_are_held_out():
     named = [renderers.get_scene(name, animated=False) for name in renderers.SCENES]
     check_held_out([random_scene(i) for i in range(50)], named)
-    with pytest.raises(ValueRangeError, match="training scene 'cornell': expected a held-out scene"):
+    with pytest.raises(
+        ValueRangeError, match="training scene 'cornell': expected a held-out scene"
+    ):
         check_held_out([named[0]], named)
 
 
@@ -98,17 +104,26 @@ def test_blue_noise_pairs_use_the_bnds_sampler():
     white, ref = render_pair(scene, size=8, spp=2, reference_spp=4, key=5)
     blue, ref_blue = render_pair(scene, size=8, spp=2, reference_spp=4, key=5, blue=True)
     assert torch.equal(ref, ref_blue) and not torch.equal(white.color, blue.color)
-    pairs = make_pairs(TrainingSpec(scenes=2, size=8, reference_spp=2, mix="white+blue", seed=0), progress=False)
-    assert torch.equal(pairs[0][0].color, make_pairs(TrainingSpec(scenes=1, size=8, reference_spp=2), progress=False)[0][0].color)
+    pairs = make_pairs(
+        TrainingSpec(scenes=2, size=8, reference_spp=2, mix="white+blue", seed=0), progress=False
+    )
+    assert torch.equal(
+        pairs[0][0].color,
+        make_pairs(TrainingSpec(scenes=1, size=8, reference_spp=2), progress=False)[0][0].color,
+    )
 
 
 def test_owen_sobol_inputs_keep_the_reference_and_are_checked():
     scene = random_scene(1)
     white, ref = render_pair(scene, size=8, spp=4, reference_spp=4, key=5)
-    sobol, ref_sobol = render_pair(scene, size=8, spp=4, reference_spp=4, key=5, sampler="owen_sobol")
+    sobol, ref_sobol = render_pair(
+        scene, size=8, spp=4, reference_spp=4, key=5, sampler="owen_sobol"
+    )
     assert torch.equal(ref, ref_sobol) and not torch.equal(white.color, sobol.color)
     spec = TrainingSpec(scenes=1, size=8, reference_spp=4, sampler="owen_sobol")
     white_spec = TrainingSpec(scenes=1, size=8, reference_spp=4)
-    assert torch.equal(make_pairs(spec, progress=False)[0][1], make_pairs(white_spec, progress=False)[0][1])
+    assert torch.equal(
+        make_pairs(spec, progress=False)[0][1], make_pairs(white_spec, progress=False)[0][1]
+    )
     with pytest.raises(UnknownNameError, match="unknown training sampler 'sobol'"):
         TrainingSpec(sampler="sobol")

@@ -1,7 +1,7 @@
 """``bnerr scenes``: list the named scenes with their dimension counts, depth and what they model.
 
-    bnerr scenes
-    bnerr scenes --layout medium     # which sampler dimension feeds which decision
+bnerr scenes
+bnerr scenes --layout medium     # which sampler dimension feeds which decision
 """
 
 from __future__ import annotations
@@ -18,15 +18,17 @@ def table() -> list[dict[str, object]]:
     rows = []
     for name in SCENES:
         scene = get_scene(name)
-        rows.append({
-            "name": name,
-            "D": scene.dimensions,
-            "depth": scene.max_depth,
-            "lights": len(scene.lights),
-            "objects": len(scene.shapes),
-            "medium": scene.medium is not None,
-            "description": scene.description,
-        })
+        rows.append(
+            {
+                "name": name,
+                "D": scene.dimensions,
+                "depth": scene.max_depth,
+                "lights": len(scene.lights),
+                "objects": len(scene.shapes),
+                "medium": scene.medium is not None,
+                "description": scene.description,
+            }
+        )
     return rows
 
 
@@ -35,18 +37,27 @@ def run(args: argparse.Namespace) -> int:
 
     if args.layout:
         scene = get_scene(args.layout)
-        print(f"{scene.name}: D = {scene.dimensions}, max_depth = {scene.max_depth} (Mitsuba's convention)")
+        print(
+            f"{scene.name}: D = {scene.dimensions}, "
+            f"max_depth = {scene.max_depth} (Mitsuba's convention)"
+        )
         for line in scene.layout.describe():
             print(f"  {line}")
         return 0
     rows = table()
     width = max(len(r["name"]) for r in rows)
-    print(f"{'name':<{width}}  {'D':>3}  {'depth':>5}  {'lights':>6}  {'medium':>6}  what it models")
+    print(
+        f"{'name':<{width}}  {'D':>3}  {'depth':>5}  {'lights':>6}  {'medium':>6}  what it models"
+    )
     for r in rows:
-        print(f"{r['name']:<{width}}  {r['D']:>3}  {r['depth']:>5}  {r['lights']:>6}  "
-              f"{'yes' if r['medium'] else 'no':>6}  {r['description']}")
-    print("\ndepth: Mitsuba's max_depth (segments of the longest path; 2 = direct light only). "
-          "Every scene is animated over t; --static in bnerr render freezes it at t = 0.")
+        print(
+            f"{r['name']:<{width}}  {r['D']:>3}  {r['depth']:>5}  {r['lights']:>6}  "
+            f"{'yes' if r['medium'] else 'no':>6}  {r['description']}"
+        )
+    print(
+        "\ndepth: Mitsuba's max_depth (segments of the longest path; 2 = direct light only). "
+        "Every scene is animated over t; --static in bnerr render freezes it at t = 0."
+    )
     return 0
 
 
