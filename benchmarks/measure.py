@@ -27,6 +27,7 @@ Not for: timing the parts in isolation at 1080p (the ``speed`` suite, :mod:`benc
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -35,8 +36,7 @@ import torch
 
 from benchmarks.parts import Denoiser, Parts, Scene
 from benchmarks.plan import Run
-from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
-from benchmarks.references import ReferenceCache
+from benchmarks.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
 from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
@@ -45,7 +45,23 @@ from bnerr.metrics import FrameMetrics, edge_mask
 from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
-__all__ = ["TUNING_SEED_SET", "ParamStore", "measure_run", "tune_denoisers"]
+__all__ = [
+    "TUNING_SEED_SET",
+    "ParamStore",
+    "References",
+    "SeedSetResult",
+    "finish_run",
+    "make_denoisers",
+    "measure_run",
+    "measure_seed_set",
+    "merge_seed_sets",
+    "missing_tuning",
+    "store_tuned",
+    "tune_denoisers",
+    "tune_missing",
+    "tuned_params",
+    "tuning_key",
+]
 
 #: The seed set of the white frames the denoisers are tuned on: no measured run uses it.
 TUNING_SEED_SET = 1_000_003
@@ -62,6 +78,13 @@ class ParamStore(Protocol):
     def put(self, result: Any, scene: str, spp: int) -> None: ...
 
     def params(self, denoiser: str, scene: str, spp: int) -> dict: ...
+
+
+class References(Protocol):
+    """The references as measuring reads them (:class:`benchmarks.references.ReferenceCache`, or
+    the frames a Ray task was handed)."""
+
+    def get(self, run: Run, scene: Scene, t_render: int) -> Frame: ...
 
 
 class _BoundRender:
@@ -81,25 +104,6 @@ def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
     ch, cw = min(size, h), min(size, w)
     y0, x0 = (h - ch) // 2, (w - cw) // 2
     return x[..., y0 : y0 + ch, x0 : x0 + cw]
-
-
-class _SpectrumMean:
-    """Running mean of the radially averaged power spectrum of ``[3, H, W]`` error images."""
-
-    def __init__(self) -> None:
-        self.freq: list[float] | None = None
-        self.total: torch.Tensor | None = None
-        self.count = 0
-
-    def add(self, err: torch.Tensor) -> None:
-        freq, power = radial_power_spectrum(err.to(torch.float64), tile=_SPECTRUM_TILE)
-        self.freq = freq.tolist()
-        self.total = power.cpu() if self.total is None else self.total + power.cpu()
-        self.count += 1
-
-    def result(self) -> Spectrum:
-        power = (self.total / self.count).tolist() if self.count else []
-        return Spectrum(freq=self.freq or [], power=power)
 
 
 def _scene_for(run: Run, parts: Parts) -> Scene:
@@ -139,136 +143,249 @@ def _params(denoiser: Denoiser) -> dict:
     return dict(params()) if callable(params) else {}
 
 
-class _Measurement:
-    """Everything measured in one run: metrics, timings, spectra and crops, per cell."""
+@dataclass
+class SeedSetResult:
+    """What one seed set of a run measured: the unit of work both schedulers compute
+    (:func:`measure_seed_set`), picklable, merged into records by :func:`merge_seed_sets`.
 
-    def __init__(self, run: Run, denoisers: dict[str, Denoiser]) -> None:
-        self.run = run
-        self.denoisers = denoisers
+    Per measured frame, in order (F frames): ``raw[region][metric]`` and
+    ``den[(denoiser, region)][metric]`` are ``[F, 2]`` float64 ``(numerator, denominator)``
+    pairs (:meth:`bnerr.metrics.FrameMetrics.stats`); ``power[kind]`` the error's radial power
+    spectrum per frame (``kind`` ``"raw"`` or a denoiser name; ``[F]`` tensors of ``[B]``
+    float64 at ``freq``); ``timings[series]`` milliseconds ``[F]``; ``floors`` the reference's
+    mean variance per frame (frames without a variance buffer add none). ``crop``: the previews
+    of the first measured frame (seed set 0 of a run with crops only), else empty.
+    """
+
+    group: int
+    dimensions: int
+    render_sampler: str
+    measured_t: list[int]
+    raw: dict[str, dict[str, torch.Tensor]]
+    den: dict[tuple[str, str], dict[str, torch.Tensor]]
+    freq: list[float]
+    power: dict[str, list[torch.Tensor]]
+    timings: dict[str, list[float]]
+    floors: list[float]
+    denoiser_params: dict[str, dict] = field(default_factory=dict)
+    crop: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+class _SeedSetMeasurement:
+    """Everything measured in one seed set: metrics, timings, spectra and crops, per cell."""
+
+    def __init__(self, run: Run, group: int, denoisers: dict[str, Denoiser]) -> None:
+        self.run, self.group, self.denoisers = run, group, denoisers
         metrics, regions = run.metrics, run.regions
         self.raw = {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions}
         self.den = {
             (d, r): FrameMetrics(metrics, tile=_SPECTRUM_TILE) for d in denoisers for r in regions
         }
-        self.spectra = {"raw": _SpectrumMean(), **{d: _SpectrumMean() for d in denoisers}}
-        self.timings: dict[str, list[list[float]]] = {
+        self.freq: list[float] = []
+        self.power: dict[str, list[torch.Tensor]] = {"raw": [], **{d: [] for d in denoisers}}
+        self.timings: dict[str, list[float]] = {
             "render_ms": [],
             "perm_ms": [],
             **{f"denoise_ms/{d}": [] for d in denoisers},
         }
         self.measured_t: list[int] = []
-        self.render_sampler = run.sampler
         self.floors: list[float] = []
         self.crop: dict[str, np.ndarray] = {}
 
-    def start_seed_set(self) -> None:
-        for series in self.timings.values():
-            series.append([])
+    def _spectrum(self, kind: str, err: torch.Tensor) -> None:
+        freq, power = radial_power_spectrum(err.to(torch.float64), tile=_SPECTRUM_TILE)
+        self.freq = freq.tolist()
+        self.power[kind].append(power.cpu())
 
-    def add(self, group: int, t: int, frame: Frame, ref: Frame) -> None:
-        """Measure frame ``t`` of seed set ``group`` (with its timings) against its reference."""
-        if group == 0:
-            self.measured_t.append(t)
+    def add(self, t: int, frame: Frame, ref: Frame) -> None:
+        """Measure frame ``t`` (with its timings) against its reference."""
+        self.measured_t.append(t)
         if ref.variance is not None:
             self.floors.append(float(ref.variance.to(torch.float64).mean()))
         masks = _region_masks(self.run, ref)
-        self.timings["render_ms"][-1].append(float(frame.timings.get("render", 0.0)))
-        self.timings["perm_ms"][-1].append(float(frame.timings.get("strategy", 0.0)))
+        self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
+        self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         for region, mask in masks.items():
-            self.raw[region].update(frame.color, ref.color, mask, group=group)
-        self.spectra["raw"].add(frame.color - ref.color)
+            self.raw[region].update(frame.color, ref.color, mask)
+        self._spectrum("raw", frame.color - ref.color)
         outputs = {}
         for name, denoiser in self.denoisers.items():
             watch = Stopwatch()
             out = denoiser(frame)
-            self.timings[f"denoise_ms/{name}"][-1].append(watch.ms(out))
+            self.timings[f"denoise_ms/{name}"].append(watch.ms(out))
             outputs[name] = out
-            self.spectra[name].add(out - ref.color)
+            self._spectrum(name, out - ref.color)
             for region, mask in masks.items():
-                self.den[name, region].update(out, ref.color, mask, group=group)
-        if self.run.crops and group == 0 and not self.crop:
-            self._keep_crop(frame, ref, outputs)
+                self.den[name, region].update(out, ref.color, mask)
+        if self.run.crops and self.group == 0 and not self.crop:
+            images = {"reference": ref.color, "raw": frame.color}
+            images.update({f"denoised/{n}": o for n, o in outputs.items()})
+            self.crop = {k: preview_u8(_center_crop(v, _CROP)) for k, v in images.items()}
 
-    def _keep_crop(self, frame: Frame, ref: Frame, outputs: dict[str, torch.Tensor]) -> None:
-        images = {"reference": ref.color, "raw": frame.color}
-        images.update({f"denoised/{n}": o for n, o in outputs.items()})
-        self.crop = {k: preview_u8(_center_crop(v, _CROP)) for k, v in images.items()}
-
-    def records(self, scene: Scene, version: str, crop_file: str | None) -> list[Record]:
-        floor = float(np.mean(self.floors)) if self.floors else None
-        reference = ReferenceInfo(spp=self.run.reference_spp, floor=floor, version=version)
+    def result(self, dimensions: int, render_sampler: str) -> SeedSetResult:
         metrics = self.run.metrics
-        return [
-            Record(
-                cell=cell,
-                dimensions=int(getattr(scene, "dimensions", 0)),
-                t=list(self.measured_t),
-                raw={m: self.raw[cell.region].stats(m).tolist() for m in metrics},
-                den={m: self.den[cell.denoiser, cell.region].stats(m).tolist() for m in metrics},
-                denoiser_params=_params(self.denoisers[cell.denoiser]),
-                timings=Timings(
-                    render_ms=self.timings["render_ms"],
-                    perm_ms=self.timings["perm_ms"],
-                    denoise_ms=self.timings[f"denoise_ms/{cell.denoiser}"],
-                ),
-                reference=reference,
-                spectrum={
-                    "raw": self.spectra["raw"].result(),
-                    "den": self.spectra[cell.denoiser].result(),
-                },
-                crop=crop_file,
-                render_sampler=self.render_sampler,
-            )
-            for cell in self.run.cells()
-        ]
+
+        def pairs(acc: FrameMetrics) -> dict[str, torch.Tensor]:
+            return {m: acc.stats(m)[0] for m in metrics}
+
+        return SeedSetResult(
+            group=self.group,
+            dimensions=dimensions,
+            render_sampler=render_sampler,
+            measured_t=list(self.measured_t),
+            raw={r: pairs(acc) for r, acc in self.raw.items()},
+            den={key: pairs(acc) for key, acc in self.den.items()},
+            freq=self.freq,
+            power=self.power,
+            timings=self.timings,
+            floors=self.floors,
+            denoiser_params={name: _params(d) for name, d in self.denoisers.items()},
+            crop=self.crop,
+        )
+
+
+def _mean_spectrum(freq: list[float], per_frame: list[torch.Tensor]) -> Spectrum:
+    """The mean of the per-frame spectra, summed in frame order (as one running sum would)."""
+    if not per_frame:
+        return Spectrum(freq=[], power=[])
+    total = per_frame[0]
+    for power in per_frame[1:]:
+        total = total + power
+    return Spectrum(freq=freq, power=(total / len(per_frame)).tolist())
+
+
+def merge_seed_sets(
+    run: Run, results: list[SeedSetResult], version: str, crop_file: str | None
+) -> list[Record]:
+    """One record per cell of ``run.cells()`` from its seed sets' results (any order in, seed
+    set order used): ``[S][F]`` arrays stacked by seed set, spectra and floors averaged over
+    every measured frame in seed set then frame order.
+
+    Raises:
+        ValueRangeError: the results are not exactly seed sets ``0 .. run.seed_sets - 1``.
+    """
+    ordered = sorted(results, key=lambda r: r.group)
+    if [r.group for r in ordered] != list(range(run.seed_sets)):
+        raise ValueRangeError(
+            f"merge_seed_sets {run.label}: expected seed sets 0..{run.seed_sets - 1}, "
+            f"got {[r.group for r in ordered]}"
+        )
+    first, last = ordered[0], ordered[-1]
+    floors = [f for r in ordered for f in r.floors]
+    reference = ReferenceInfo(
+        spp=run.reference_spp, floor=float(np.mean(floors)) if floors else None, version=version
+    )
+
+    def stacked(pick: Callable[[SeedSetResult], dict[str, torch.Tensor]]) -> MetricPairs:
+        return {m: torch.stack([pick(r)[m] for r in ordered]).tolist() for m in run.metrics}
+
+    def series(name: str) -> list[list[float]]:
+        return [list(r.timings[name]) for r in ordered]
+
+    def spectrum(kind: str) -> Spectrum:
+        return _mean_spectrum(first.freq, [p for r in ordered for p in r.power[kind]])
+
+    return [
+        Record(
+            cell=cell,
+            dimensions=first.dimensions,
+            t=list(first.measured_t),
+            raw=stacked(lambda r, region=cell.region: r.raw[region]),
+            den=stacked(lambda r, key=(cell.denoiser, cell.region): r.den[key]),
+            denoiser_params=dict(last.denoiser_params[cell.denoiser]),
+            timings=Timings(
+                render_ms=series("render_ms"),
+                perm_ms=series("perm_ms"),
+                denoise_ms=series(f"denoise_ms/{cell.denoiser}"),
+            ),
+            reference=reference,
+            spectrum={"raw": spectrum("raw"), "den": spectrum(cell.denoiser)},
+            crop=crop_file,
+            render_sampler=last.render_sampler,
+        )
+        for cell in run.cells()
+    ]
+
+
+def measure_seed_set(
+    run: Run,
+    parts: Parts,
+    references: References,
+    denoisers: dict[str, Denoiser],
+    group: int,
+    *,
+    on_frame: Callable[[], None] | None = None,
+) -> SeedSetResult:
+    """Render, denoise and measure seed set ``group`` of ``run``: the unit of work of both the
+    serial loop (:func:`measure_run`) and the Ray tasks (:mod:`benchmarks.ray_runner`).
+
+    Args:
+        run: what to measure (:func:`benchmarks.plan.plan`).
+        parts: the parts that render and permute.
+        references: the references (:class:`~benchmarks.references.ReferenceCache`, or anything
+            with its ``get(run, scene, t_render)``).
+        denoisers: name -> denoiser (with its tuned parameters) for every name in
+            ``run.denoisers``.
+        group: the seed set, ``0 <= group < run.seed_sets`` (the strategy's seed).
+        on_frame: called after every frame, rendered or skipped (the progress bar).
+    """
+    if not 0 <= group < run.seed_sets:
+        raise ValueRangeError(
+            f"measure_seed_set: expected a seed set in [0, {run.seed_sets}), got {group}"
+        )
+    scene = _scene_for(run, parts)
+    chosen = {name: denoisers[name] for name in run.denoisers}
+    measurement = _SeedSetMeasurement(run, group, chosen)
+    render = _BoundRender(parts, scene, run.spp)
+    tick = on_frame if on_frame is not None else (lambda: None)
+    strategy = parts.make_strategy(
+        run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
+    )
+    first = 0 if parts.stateful(strategy) else run.warmup
+    for _ in range(first):  # the skipped warmup frames count as done
+        tick()
+    for t in range(first, run.warmup + run.frames):
+        render.t_render = _t_render(run, t)
+        frame = strategy.frame(t, render)
+        tick()
+        if t >= run.warmup:
+            measurement.add(t, frame, references.get(run, scene, _t_reference(run, t)))
+    sampler = getattr(strategy, "sampler_name", "") or run.sampler
+    return measurement.result(int(getattr(scene, "dimensions", 0)), sampler)
+
+
+def finish_run(
+    run: Run, results: list[SeedSetResult], version: str, crops_dir: Path | None
+) -> list[Record]:
+    """Save the crops (if any, and ``crops_dir``) and merge the seed sets into records."""
+    crop = next((r.crop for r in results if r.group == 0 and r.crop), None)
+    crop_file = _save_crop(run, crop, crops_dir) if crop and crops_dir is not None else None
+    return merge_seed_sets(run, results, version, crop_file)
 
 
 def measure_run(
     run: Run,
     parts: Parts,
-    references: ReferenceCache,
+    references: References,
     denoisers: dict[str, Denoiser],
     *,
     crops_dir: Path | None = None,
     on_frame: Callable[[], None] | None = None,
 ) -> list[Record]:
-    """Render, denoise and measure every frame of ``run``; return one record per cell.
+    """Render, denoise and measure every seed set of ``run`` in turn; return one record per cell.
 
     Args:
-        run: what to measure (:func:`benchmarks.plan.plan`).
-        parts: the parts that render and permute.
-        references: the reference cache.
-        denoisers: name -> denoiser (with its tuned parameters) for every name in ``run.denoisers``.
+        run, parts, references, denoisers, on_frame: as :func:`measure_seed_set`.
         crops_dir: where to save the side-by-side crops (if ``run.crops``), or None.
-        on_frame: called after every rendered frame (the progress bar).
 
     Returns:
         One :class:`~benchmarks.records.Record` per cell of ``run.cells()``, in that order.
     """
-    scene = _scene_for(run, parts)
-    measurement = _Measurement(run, {name: denoisers[name] for name in run.denoisers})
-    render = _BoundRender(parts, scene, run.spp)
-    tick = on_frame if on_frame is not None else (lambda: None)
-    for group in range(run.seed_sets):
-        strategy = parts.make_strategy(
-            run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
-        )
-        measurement.render_sampler = getattr(strategy, "sampler_name", "") or run.sampler
-        measurement.start_seed_set()
-        first = 0 if parts.stateful(strategy) else run.warmup
-        for _ in range(first):  # the skipped warmup frames count as done
-            tick()
-        for t in range(first, run.warmup + run.frames):
-            render.t_render = _t_render(run, t)
-            frame = strategy.frame(t, render)
-            tick()
-            if t >= run.warmup:
-                ref = references.get(run, scene, _t_reference(run, t))
-                measurement.add(group, t, frame, ref)
-    crop_file = None
-    if measurement.crop and crops_dir is not None:
-        crop_file = _save_crop(run, measurement.crop, crops_dir)
-    return measurement.records(scene, parts.code_version, crop_file)
+    results = [
+        measure_seed_set(run, parts, references, denoisers, group, on_frame=on_frame)
+        for group in range(run.seed_sets)
+    ]
+    return finish_run(run, results, parts.code_version, crops_dir)
 
 
 def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
@@ -287,7 +404,7 @@ def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
 # Fair denoiser parameters
 
 
-def _tuning_key(run: Run) -> str:
+def tuning_key(run: Run) -> str:
     """What the tuned parameters depend on besides spp: scene, condition, sampler and resolution."""
     depth = "" if run.depth is None else f"/d{run.depth}"
     return f"{run.scene}/m{run.motion}{depth}/{run.sampler}/{run.width}x{run.height}"
@@ -300,33 +417,65 @@ def _stored(store: ParamStore, name: str, key: str, spp: int) -> dict | None:
     return None
 
 
+def missing_tuning(run: Run, store: ParamStore) -> list[str]:
+    """The run's denoisers with no parameters in ``store`` for its :func:`tuning_key` and spp
+    (those without a grid among them: they are never stored)."""
+    key = tuning_key(run)
+    return [d for d in run.denoisers if _stored(store, d, key, run.spp) is None]
+
+
+def tune_missing(
+    run: Run, parts: Parts, references: References, names: list[str]
+) -> dict[str, Any]:
+    """Tune ``names`` for ``run``'s scene, condition and spp on white noise: name -> TuneResult,
+    or None for a denoiser with nothing to tune.
+
+    The frames are ``min(frames, 4)`` measured frames rendered with the ``white`` strategy from
+    a seed set no measured run uses (:data:`TUNING_SEED_SET`), against the same references.
+    Nothing is rendered when ``names`` is empty.
+    """
+    if not names:
+        return {}
+    scene = _scene_for(run, parts)
+    render = _BoundRender(parts, scene, run.spp)
+    strategy = parts.make_strategy(
+        "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
+    )
+    frames, refs = [], []
+    for t in range(run.warmup, run.warmup + min(run.frames, 4)):
+        render.t_render = _t_render(run, t)
+        frames.append(strategy.frame(t, render))
+        refs.append(references.get(run, scene, _t_reference(run, t)).color)
+    return {name: parts.tune_denoiser(name, frames, refs) for name in names}
+
+
+def store_tuned(run: Run, store: ParamStore, results: dict[str, Any]) -> None:
+    """Put the results of :func:`tune_missing` (those not None) in ``store`` under ``run``'s
+    :func:`tuning_key` and spp."""
+    key = tuning_key(run)
+    for result in results.values():
+        if result is not None:
+            store.put(result, key, run.spp)
+
+
+def tuned_params(run: Run, store: ParamStore) -> dict[str, dict | None]:
+    """Name -> the stored parameters of each of the run's denoisers (None: nothing to tune)."""
+    key = tuning_key(run)
+    return {name: _stored(store, name, key, run.spp) for name in run.denoisers}
+
+
+def make_denoisers(parts: Parts, params: dict[str, dict | None]) -> dict[str, Denoiser]:
+    """Name -> denoiser built with its parameters (:func:`tuned_params`)."""
+    return {name: parts.make_denoiser(name, p) for name, p in params.items()}
+
+
 def tune_denoisers(
-    run: Run, parts: Parts, references: ReferenceCache, store: ParamStore
+    run: Run, parts: Parts, references: References, store: ParamStore
 ) -> dict[str, Denoiser]:
     """The run's denoisers with parameters tuned on white noise for its scene, condition and spp.
 
-    Parameters missing from ``store`` are tuned now, on ``min(frames, 4)`` frames rendered with
-    the ``white`` strategy from a seed set no measured run uses (:data:`TUNING_SEED_SET`), against
-    the same references, and put in the store; then every strategy's run uses them unchanged.
+    Parameters missing from ``store`` are tuned now (:func:`tune_missing`) and put in the store;
+    then every strategy's run uses them unchanged.
     """
-    key = _tuning_key(run)
-    missing = [d for d in run.denoisers if _stored(store, d, key, run.spp) is None]
-    if missing:
-        scene = _scene_for(run, parts)
-        render = _BoundRender(parts, scene, run.spp)
-        strategy = parts.make_strategy(
-            "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
-        )
-        frames, refs = [], []
-        for t in range(run.warmup, run.warmup + min(run.frames, 4)):
-            render.t_render = _t_render(run, t)
-            frames.append(strategy.frame(t, render))
-            refs.append(references.get(run, scene, _t_reference(run, t)).color)
-        for name in missing:
-            result = parts.tune_denoiser(name, frames, refs)
-            if result is not None:
-                store.put(result, key, run.spp)
-    return {
-        name: parts.make_denoiser(name, _stored(store, name, key, run.spp))
-        for name in run.denoisers
-    }
+    store_tuned(run, store, tune_missing(run, parts, references, missing_tuning(run, store)))
+    return make_denoisers(parts, tuned_params(run, store))
