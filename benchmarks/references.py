@@ -135,12 +135,14 @@ class ReferenceCache:
     memory).
 
     Args:
-        root: cache folder (``cache/references`` by default in the CLI; git-ignored).
+        root: cache folder (``cache/references`` by default in the CLI; git-ignored), or None to
+            keep references in memory only (a Ray worker whose node cannot write the cache
+            folder: its references travel through the object store).
         parts: the parts that render; ``parts.code_version`` enters every key.
     """
 
-    def __init__(self, root: str | Path, parts: Parts) -> None:
-        self.root = Path(root)
+    def __init__(self, root: str | Path | None, parts: Parts) -> None:
+        self.root = Path(root) if root is not None else None
         self.parts = parts
         self._memory: dict[str, Frame] = {}
 
@@ -155,7 +157,7 @@ class ReferenceCache:
             f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"
             f"_{REFERENCE_FORMAT}_{version}.exr"
         )
-        return self.root / run.scene / name
+        return (self.root if self.root is not None else Path()) / run.scene / name
 
     def get(self, run: Run, scene: Scene, t_render: int) -> Frame:
         """The reference Frame of ``scene`` at renderer frame ``t_render`` for ``run``'s settings.
@@ -167,7 +169,7 @@ class ReferenceCache:
         if key in self._memory:
             return self._memory[key]
         frame = None
-        if path.exists():
+        if self.root is not None and path.exists():
             try:
                 frame = read_frame(path)
             except FileFormatError:
@@ -178,8 +180,9 @@ class ReferenceCache:
             spp = run.reference_spp
             compile = reference_compile(run.height, run.width, spp)
             frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            write_frame(path, frame)
+            if self.root is not None:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                write_frame(path, frame)
         if len(self._memory) >= _REFERENCES_IN_MEMORY:
             self._memory.pop(next(iter(self._memory)))
         self._memory[key] = frame

@@ -7,6 +7,11 @@ pending run (:func:`benchmarks.measure.measure_run`) against cached references
 (:mod:`benchmarks.references`), and rewrites ``<out>/cells.jsonl`` atomically after every run
 (:mod:`benchmarks.records`), so an interrupted sweep loses at most the run in progress.
 
+The unit of work is one seed set of a run (:func:`benchmarks.measure.measure_seed_set`); the
+serial loop here and the Ray tasks of :mod:`benchmarks.ray_runner` both compute it and merge a
+run's seed sets the same way, so their records are the same bit for bit (timings aside); both
+start from :func:`start_sweep` and write through :meth:`SweepState.add`.
+
 The parts (scenes, renderer, strategies, denoisers) come through :class:`benchmarks.parts.Parts`,
 so the runner can be tested with stand-ins. One writer per output folder is the caller's job
 (``bnerr bench`` holds :func:`bnerr.outputs.output_lock` on ``--out`` for the whole run).
@@ -17,19 +22,83 @@ Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from benchmarks.measure import measure_run, tune_denoisers
 from benchmarks.parts import Parts, real_parts
-from benchmarks.plan import pending
+from benchmarks.plan import Run, pending
 from benchmarks.records import Record, check_no_results, load_records, write_records
 from benchmarks.references import ReferenceCache
 from benchmarks.suites import Suite
 
-__all__ = ["TUNED_PARAMS_FILE", "run_suite"]
+__all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
 
 #: Name of the tuned denoiser parameters file inside the output folder.
 TUNED_PARAMS_FILE = "tuned_params.json"
+
+
+@dataclass
+class SweepState:
+    """A sweep in progress: its output folder, parts, records, tuned parameters and pending runs.
+
+    Records are written in one order whatever the order runs finish in: those kept from the
+    results file first, then the pending runs' cells in plan order.
+    """
+
+    out: Path
+    parts: Parts
+    records: dict[str, Record]
+    store: Any
+    todo: list[Run]
+    order: list[str] = field(default_factory=list)
+
+    @property
+    def params_path(self) -> Path:
+        return self.out / TUNED_PARAMS_FILE
+
+    def save_params(self) -> None:
+        self.store.save(self.params_path)
+
+    def add(self, measured: list[Record]) -> None:
+        """Keep a finished run's records and rewrite the results file atomically."""
+        self.records.update((r.key, r) for r in measured)
+        self.write()
+
+    def ordered(self) -> list[Record]:
+        """The records, kept ones first, then the pending runs' cells in plan order."""
+        rank = {key: i for i, key in enumerate(self.order)}
+        keys = sorted(self.records, key=lambda k: rank.get(k, len(rank)))
+        return [self.records[k] for k in keys]
+
+    def write(self) -> None:
+        write_records(self.out, self.ordered())
+
+
+def start_sweep(
+    suite: Suite, out_dir: str | Path, parts: Parts | None, *, resume: bool, overwrite: bool
+) -> SweepState:
+    """Check the output folder, load what ``resume`` keeps and plan the pending runs.
+
+    Raises:
+        ResultsExistError: finished cells in ``out_dir`` and neither ``resume`` nor
+            ``overwrite``; nothing is written.
+        FileFormatError: with ``resume``, a results or tuned-parameters file that is not valid.
+    """
+    from denoisers.tuning import ParamStore
+
+    out = Path(out_dir)
+    if not resume and not overwrite:
+        check_no_results(out)
+    records = {r.key: r for r in load_records(out)} if resume else {}
+    parts = real_parts() if parts is None else parts
+    out.mkdir(parents=True, exist_ok=True)
+    params_path = out / TUNED_PARAMS_FILE
+    store = ParamStore.load(params_path) if resume and params_path.exists() else ParamStore()
+    todo = pending(suite, records)
+    order = list(records) + [c.key() for run in todo for c in run.cells() if c.key() not in records]
+    return SweepState(out=out, parts=parts, records=records, store=store, todo=todo, order=order)
 
 
 def run_suite(
@@ -58,34 +127,23 @@ def run_suite(
     """
     from tqdm import tqdm
 
-    from denoisers.tuning import ParamStore
-
-    out = Path(out_dir)
-    if not resume and not overwrite:
-        check_no_results(out)
-    records = {r.key: r for r in load_records(out)} if resume else {}
-    parts = real_parts() if parts is None else parts
-    out.mkdir(parents=True, exist_ok=True)
-    params_path = out / TUNED_PARAMS_FILE
-    store = ParamStore.load(params_path) if resume and params_path.exists() else ParamStore()
-    todo = pending(suite, records)
-    references = ReferenceCache(cache_dir, parts)
-    total = sum(r.seed_sets * (r.warmup + r.frames) for r in todo)
+    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite)
+    references = ReferenceCache(cache_dir, sweep.parts)
+    total = sum(r.seed_sets * (r.warmup + r.frames) for r in sweep.todo)
     with tqdm(total=total, unit="frame", disable=not progress, dynamic_ncols=True) as bar:
-        for run in todo:
+        for run in sweep.todo:
             bar.set_description(run.label)
-            denoisers = tune_denoisers(run, parts, references, store)
-            store.save(params_path)
+            denoisers = tune_denoisers(run, sweep.parts, references, sweep.store)
+            sweep.save_params()
             measured = measure_run(
                 run,
-                parts,
+                sweep.parts,
                 references,
                 denoisers,
-                crops_dir=out / "crops",
+                crops_dir=sweep.out / "crops",
                 on_frame=lambda: bar.update(1),
             )
-            records.update((r.key, r) for r in measured)
-            write_records(out, records.values())
-    if not todo:
-        write_records(out, records.values())
-    return list(records.values())
+            sweep.add(measured)
+    if not sweep.todo:
+        sweep.write()
+    return sweep.ordered()
