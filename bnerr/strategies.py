@@ -95,6 +95,7 @@ import dataclasses
 import math
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import torch
 
@@ -111,27 +112,35 @@ from bnerr.frame import Frame
 from bnerr.hashing import MASK32, lowbias32_, lowbias32_host, signed32
 from bnerr.masks import frame_offset, load_mask, r2_step, shipped_masks, tile_mask
 from bnerr.permute import SortPass, SortPlan, histogram_select, plan_sort
+from bnerr.reproject import collision_depth, reproject_seeds
 from bnerr.retarget import Retarget, load_retarget
 from bnerr.sequences import Sampler, cycles_keys, make_sampler, zsobol_keys
+from bnerr.sortkeys import group_labels, sort_key
 from bnerr.stbn import load_stbn, stbn_frame
 from bnerr.timing import Stopwatch, sync
 
 __all__ = [
     "OWN_SAMPLERS",
     "STRATEGIES",
+    "VARIANT_BASES",
+    "VARIANT_OPTIONS",
     "BNDSSTStrategy",
     "BNDSStrategy",
     "CyclesBlueStrategy",
     "OracleStrategy",
     "RenderFn",
     "Strategy",
+    "TemporalOptions",
     "TemporalStrategy",
     "TemporalZSobolStrategy",
+    "VARIANTS",
     "WhiteStrategy",
     "ZSobolStrategy",
     "ZSobolTStrategy",
+    "check_strategy_name",
     "estimate_bytes",
     "make_strategy",
+    "parse_variant",
     "pixel_seeds",
 ]
 
@@ -210,10 +219,17 @@ _TEMPORAL_BYTES = 112
 # frame and one temporary of torch.where per buffer (2 frames) and a seed image.
 _ORACLE_CANDIDATE_BYTES = _FRAME_BYTES + 4
 _ORACLE_ONCE_BYTES = 8 + 2 * _FRAME_BYTES + _SEED_BYTES
+# A temporal variant's passes beyond temporal's, counted from their buffers (not measured): the
+# key and the smoothing's sum, count and window temporaries (float32, about 6 x 4), group labels
+# (int64, 2 x 8 with the smoothing's), reprojection (float64 landing coordinates, int64 landing,
+# priority, best and sources: about 7 x 8).
+_VARIANT_BYTES = 96
 
 
 def _per_pixel(name: str, K: int) -> int:
     """Estimated peak bytes per pixel of one frame of strategy ``name`` (K: oracle candidates)."""
+    if "+" in name:
+        return _FRAME_BYTES + _TEMPORAL_BYTES + _VARIANT_BYTES
     if name == "oracle":
         return K * _ORACLE_CANDIDATE_BYTES + _ORACLE_ONCE_BYTES
     if name in ("temporal", "temporal_sort", "temporal_zsobol"):
@@ -230,14 +246,14 @@ def estimate_bytes(name: str, height: int, width: int, K: int = 32) -> int:
     (a frame with every buffer is 64 bytes per pixel); not the renderer's own working memory.
 
     Args:
-        name: one of :data:`STRATEGIES`.
+        name: one of :data:`STRATEGIES`, or a temporal variant (:func:`parse_variant`).
         height, width: the frame size.
         K: the oracle's number of candidates.
 
     Returns:
         Bytes (an int).
     """
-    check_name(name, STRATEGIES, "strategy")
+    check_strategy_name(name)
     pixels = check_positive_int(height, "height") * check_positive_int(width, "width")
     return pixels * _per_pixel(name, check_positive_int(K, "K"))
 
@@ -293,6 +309,135 @@ def _power_of_two_spp(spp: object, strategy: str) -> int:
             f"spp: expected a power of two for {strategy} (its per-pixel blocks), got {spp}"
         )
     return spp
+
+
+# --------------------------------------------------------------------------------------------------
+# Temporal variants: the options of docs/METHODS.md, section 8, named ``base+option+option``
+
+#: The strategies a variant name may start with.
+VARIANT_BASES: tuple[str, ...] = ("temporal", "temporal_zsobol")
+#: The options a variant name may carry, in the order they must appear (one per group at most).
+VARIANT_OPTIONS: tuple[str, ...] = (
+    "residual",
+    "relative",
+    "demod",
+    "groups",
+    "groups_normal",
+    "groups_depth",
+    "shift",
+    "shift_r2",
+    "reproject",
+)
+# Options that exclude each other: one sort key, one kind of group, one grid shift.
+_EXCLUSIVE: tuple[tuple[str, ...], ...] = (
+    ("residual", "relative"),
+    ("groups", "groups_normal", "groups_depth"),
+    ("shift", "shift_r2"),
+)
+# The R2 sequence's generator for two dimensions (1 / plastic number and its square).
+_R2_ALPHA = (0.7548776662466927, 0.5698402909980532)
+
+
+@dataclass(frozen=True)
+class TemporalOptions:
+    """What a temporal variant changes in the per-frame passes (all off: Heitz & Belcour's).
+
+    Attributes:
+        key: the sort key, ``"luminance"``, ``"residual"`` or ``"relative"``
+            (:func:`bnerr.sortkeys.sort_key`; the smoothing is guided by the group labels of the
+            object id and normal where the frame has them).
+        demodulate: divide the radiance by the albedo before taking the key.
+        groups: None, or sort only among pixels sharing ``"object"`` (the object id),
+            ``"normal"`` (and the normal's dominant axis) or ``"depth"`` (and a depth bin):
+            :func:`bnerr.sortkeys.group_labels`.
+        shift: None, or the block grid's per-frame offset: ``"half"`` (B/2, B/2) on odd frames,
+            (0, 0) on even ones; ``"r2"`` the R2 sequence's point ``t mod B^2`` scaled to
+            ``[0, B)^2`` (so that the offsets cycle with period B^2).
+        reproject: after the sort and retarget passes, move each seed along the frame's motion
+            (forward prediction: frame t's motion t-1 -> t stands for t -> t + 1;
+            :func:`bnerr.reproject.reproject_seeds`, collisions resolved by depth).
+    """
+
+    key: str = "luminance"
+    demodulate: bool = False
+    groups: str | None = None
+    shift: str | None = None
+    reproject: bool = False
+
+    @property
+    def suffix(self) -> str:
+        """The options as a name suffix, ``"+residual+groups+shift+reproject"`` ('' for none)."""
+        parts = [] if self.key == "luminance" else [self.key]
+        parts += ["demod"] if self.demodulate else []
+        parts += [] if self.groups is None else [_GROUP_OPTION[self.groups]]
+        parts += [] if self.shift is None else [_SHIFT_OPTION[self.shift]]
+        parts += ["reproject"] if self.reproject else []
+        return "".join("+" + p for p in parts)
+
+    @property
+    def plain(self) -> bool:
+        """Whether every option is off (the paper's passes, bit for bit)."""
+        return self == TemporalOptions()
+
+    def grid_offset(self, t: int, block: int) -> tuple[int, int]:
+        """Frame ``t``'s block grid offset ``(oy, ox)`` in ``[0, B)^2``."""
+        if self.shift == "half":
+            return (block // 2, block // 2) if t % 2 else (0, 0)
+        if self.shift == "r2":
+            k = t % (block * block)
+            return tuple(int(block * ((0.5 + k * a) % 1.0)) for a in _R2_ALPHA)
+        return (0, 0)
+
+    def grid_period(self, block: int) -> int:
+        """Frames after which :meth:`grid_offset` repeats."""
+        return {None: 1, "half": 2, "r2": block * block}[self.shift]
+
+
+_GROUP_OPTION = {"object": "groups", "normal": "groups_normal", "depth": "groups_depth"}
+_SHIFT_OPTION = {"half": "shift", "r2": "shift_r2"}
+
+
+def parse_variant(name: object) -> tuple[str, TemporalOptions]:
+    """``(base, options)`` of a strategy name; a name without ``+`` has no options.
+
+    Args:
+        name: ``base`` or ``base+option+...``: base one of :data:`VARIANT_BASES` (with options)
+            or :data:`STRATEGIES`; options from :data:`VARIANT_OPTIONS`, in that order, at most
+            one of each exclusive group (one key kind, one kind of groups, one shift).
+
+    Raises:
+        UnknownNameError: an unknown base or option. ValueRangeError: options repeated, out of
+        order or exclusive (the message gives the accepted spelling).
+    """
+    if not isinstance(name, str) or "+" not in name:
+        return check_name(name, STRATEGIES, "strategy"), TemporalOptions()
+    base, *opts = name.split("+")
+    check_name(base, VARIANT_BASES, "variant base")
+    for opt in opts:
+        check_name(opt, VARIANT_OPTIONS, "temporal option")
+    ranks = [VARIANT_OPTIONS.index(o) for o in opts]
+    clash = next((g for g in _EXCLUSIVE if len(set(opts) & set(g)) > 1), None)
+    if clash is not None or ranks != sorted(set(ranks)):
+        why = f"at most one of {'/'.join(clash)}" if clash else "each option once"
+        order = "+".join(VARIANT_OPTIONS)
+        raise ValueRangeError(
+            f"strategy: expected options in the order {order}, {why}, got {name!r}"
+        )
+    groups = {v: k for k, v in _GROUP_OPTION.items()}
+    shifts = {v: k for k, v in _SHIFT_OPTION.items()}
+    return base, TemporalOptions(
+        key=next((o for o in opts if o in ("residual", "relative")), "luminance"),
+        demodulate="demod" in opts,
+        groups=next((groups[o] for o in opts if o in groups), None),
+        shift=next((shifts[o] for o in opts if o in shifts), None),
+        reproject="reproject" in opts,
+    )
+
+
+def check_strategy_name(name: object) -> str:
+    """``name`` checked: a registered strategy or a well-formed variant (:func:`parse_variant`)."""
+    parse_variant(name)
+    return name
 
 
 # --------------------------------------------------------------------------------------------------
@@ -581,7 +726,8 @@ class BNDSSTStrategy(Strategy):
 
 
 class TemporalStrategy(Strategy):
-    """``temporal`` (sort and retarget) and ``temporal_sort`` (sort only), Heitz & Belcour 2019.
+    """``temporal`` (sort and retarget) and ``temporal_sort`` (sort only), Heitz & Belcour 2019,
+    and their variants (``temporal+...``, :class:`TemporalOptions`).
 
     State: the seed image S_t, a permutation of S_0 forever. Per frame: render S_t, then sort
     against the mask at offset o_t and, with ``retarget=True``, apply the retargeting field at
@@ -589,6 +735,19 @@ class TemporalStrategy(Strategy):
     per pixel) and the retargeting indices (4 bytes per pixel) of every offset are cached when a
     full cycle of them fits in 64 MB each, and not at all otherwise (a cache smaller than the cycle
     would never hit). At 1920x1080 with T = 64 the plans are cached and the indices are not.
+
+    With ``options`` (docs/METHODS.md, section 8), per frame: the sort key is
+    :func:`bnerr.sortkeys.sort_key` of the frame (``key``, ``demodulate``; the smoothing guided by
+    the object id and normal where the frame has them), the sort runs per group of
+    :func:`bnerr.sortkeys.group_labels` (``groups``) on the block grid shifted by
+    :meth:`TemporalOptions.grid_offset` (``shift``; the plans are then cached per (mask offset,
+    grid offset) over their common period), the retargeting pass is unchanged (it takes the mask
+    offset whatever the grid), and with ``reproject`` the seeds then move along the frame's motion
+    buffer to where its surfaces are predicted to be in the next frame (forward, constant
+    velocity: the strategy only sees frame t's buffers, and the renderer it is given is bound to t
+    by the caller, so frame t + 1's motion is not reachable from here). Each pass is a bijection,
+    so S_t stays a permutation of S_0. Options the frame lacks a buffer for (object id, albedo,
+    motion, depth) raise :class:`ValueRangeError`. No options: the paper's passes, bit for bit.
     """
 
     stateful = True
@@ -603,16 +762,19 @@ class TemporalStrategy(Strategy):
         mask: torch.Tensor,
         block: int = 4,
         retarget: torch.Tensor | None = None,
+        options: TemporalOptions | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
-        self.name = self._variant(retarget is not None)
+        self.options = TemporalOptions() if options is None else options
+        self.name = self._variant(retarget is not None) + self.options.suffix
         super().__init__(height, width, seed=seed, device=device)
         self.mask = mask
         self.mask_size = mask.shape[-1]
         self.sorter = SortPass(block)
         cycle = _offset_cycle(self.mask_size)
+        plan_cycle = math.lcm(cycle, self.options.grid_period(block))
         self._plans: dict[tuple, SortPlan] = {}
-        self._plan_slots = cycle if cycle * height * width <= _CACHE_BYTES else 0
+        self._plan_slots = plan_cycle if plan_cycle * height * width <= _CACHE_BYTES else 0
         index_slots = cycle if cycle * 4 * height * width <= _CACHE_BYTES else 0
         self.retarget = None if retarget is None else Retarget(retarget, cache=index_slots)
         self.seeds, self.sampler = self._initial(sampler)
@@ -629,12 +791,14 @@ class TemporalStrategy(Strategy):
         )
         return seeds, _per_pixel_sampler(sampler)
 
-    def _plan(self, offset: tuple[int, int], device: torch.device) -> SortPlan:
-        key = (offset, device)
+    def _plan(
+        self, offset: tuple[int, int], device: torch.device, grid: tuple[int, int] = (0, 0)
+    ) -> SortPlan:
+        key = (offset, device) if grid == (0, 0) else (offset, device, grid)
         plan = self._plans.get(key)
         if plan is None:
             tiled = tile_mask(self.mask.to(device), self.height, self.width, offset)
-            plan = plan_sort(tiled, self.sorter.block)
+            plan = plan_sort(tiled, self.sorter.block, grid)
             if self._plan_slots:
                 if len(self._plans) >= self._plan_slots:  # another device: start over
                     self._plans.clear()
@@ -645,11 +809,49 @@ class TemporalStrategy(Strategy):
         out = render(self.seeds, self.sampler)
         device = out.color.device
         offset = frame_offset(t, self.mask_size)
-        seeds = self.sorter(self.seeds.to(device), out.color, self._plan(offset, device))
+        if self.options.plain:
+            seeds = self.sorter(self.seeds.to(device), out.color, self._plan(offset, device))
+        else:
+            seeds = self._variant_sort(t, out, offset)
         if self.retarget is not None:
             seeds = self.retarget(seeds, offset)
+        if self.options.reproject:
+            motion = _needed(out.motion, "motion", self.name)
+            depth = collision_depth(_needed(out.depth, "depth", self.name), out.object_id)
+            seeds = reproject_seeds(seeds, motion, depth)
         self.seeds = seeds
         return out
+
+    def _variant_sort(self, t: int, out: Frame, offset: tuple[int, int]) -> torch.Tensor:
+        """The sorting pass with the options' key, groups and grid offset: ``[H, W]`` int64."""
+        opts, device = self.options, out.color.device
+        labels = groups = None
+        if opts.groups is not None or (opts.key != "luminance" and out.object_id is not None):
+            oid = _needed(out.object_id, "object_id", self.name)
+            normal = None if opts.groups == "object" else out.normal
+            depth = out.depth if opts.groups == "depth" else None
+            labels = group_labels(oid, normal, depth)
+            groups = labels if opts.groups is not None else None
+        if opts.demodulate:
+            _needed(out.albedo, "albedo", self.name)
+        if opts.key == "luminance" and not opts.demodulate:
+            values = out.color
+        else:
+            values = sort_key(
+                out.color, opts.key, demodulate=opts.demodulate, albedo=out.albedo, labels=labels
+            )
+        grid = opts.grid_offset(t, self.sorter.block)
+        plan = self._plan(offset, device, grid)
+        return self.sorter(self.seeds.to(device), values, plan, groups=groups)
+
+
+def _needed(buffer: torch.Tensor | None, what: str, strategy: str) -> torch.Tensor:
+    """``buffer``, or :class:`ValueRangeError`: ``strategy`` needs the frame's ``what``."""
+    if buffer is None:
+        raise ValueRangeError(
+            f"render: expected a frame with a {what} buffer for {strategy}, got none"
+        )
+    return buffer
 
 
 class TemporalZSobolStrategy(TemporalStrategy):
@@ -675,11 +877,19 @@ class TemporalZSobolStrategy(TemporalStrategy):
         mask: torch.Tensor,
         block: int = 4,
         retarget: torch.Tensor,
+        options: TemporalOptions | None = None,
         device: torch.device | str = "cpu",
     ) -> None:
         self.spp = _power_of_two_spp(spp, "temporal_zsobol")
         super().__init__(
-            height, width, seed=seed, mask=mask, block=block, retarget=retarget, device=device
+            height,
+            width,
+            seed=seed,
+            mask=mask,
+            block=block,
+            retarget=retarget,
+            options=options,
+            device=device,
         )
 
     def _variant(self, retarget: bool) -> str:
@@ -761,18 +971,40 @@ class OracleStrategy(Strategy):
 # --------------------------------------------------------------------------------------------------
 # Construction by name
 
+#: The registered temporal variants (docs/METHODS.md, section 8): each option alone, then the
+#: combinations the ablation measures. :func:`make_strategy` builds any well-formed variant
+#: (:func:`parse_variant`); these are the ones the benchmark's command line knows by name.
+VARIANTS: tuple[str, ...] = (
+    "temporal+residual",
+    "temporal+relative",
+    "temporal+demod",
+    "temporal+relative+demod",
+    "temporal+groups",
+    "temporal+groups_normal",
+    "temporal+shift",
+    "temporal+shift_r2",
+    "temporal+reproject",
+    "temporal+residual+groups+shift+reproject",
+    "temporal_zsobol+residual+groups+shift+reproject",
+)
+
 #: The strategy names, as the benchmark tables name them.
-STRATEGIES: tuple[str, ...] = (
-    "bnds",
-    "bnds_st",
-    "cycles_blue",
-    "oracle",
-    "temporal",
-    "temporal_sort",
-    "temporal_zsobol",
-    "white",
-    "zsobol",
-    "zsobol_t",
+STRATEGIES: tuple[str, ...] = tuple(
+    sorted(
+        (
+            "bnds",
+            "bnds_st",
+            "cycles_blue",
+            "oracle",
+            "temporal",
+            "temporal_sort",
+            "temporal_zsobol",
+            "white",
+            "zsobol",
+            "zsobol_t",
+            *VARIANTS,
+        )
+    )
 )
 
 #: Strategy -> the sampler it dictates, whatever per-pixel sampler it is given; the strategies
@@ -836,7 +1068,9 @@ def make_strategy(
     """Build the strategy registered as ``name`` for ``height x width`` frames.
 
     Args:
-        name: one of :data:`STRATEGIES`.
+        name: one of :data:`STRATEGIES`, or any temporal variant ``base+option+...``
+            (:func:`parse_variant`: base ``temporal`` or ``temporal_zsobol``, options from
+            :data:`VARIANT_OPTIONS` in that order, e.g. ``temporal+residual+groups+shift``).
         height, width: the frame size.
         seed: seed set index (>= 0): different seeds give independent runs.
         sampler: the per-pixel sampler of white, temporal, temporal_sort and oracle:
@@ -862,7 +1096,10 @@ def make_strategy(
     """
     need = estimate_bytes(name, height, width, K)
     _check_fits(name, height, width, need // (height * width), torch.device(device))
+    base, options = parse_variant(name)
     common = {"seed": seed, "device": device}
+    if not options.plain:
+        return _temporal(base, height, width, sampler, spp, options, mask_size, block, common)
     if name == "white":
         return WhiteStrategy(height, width, sampler=sampler, **common)
     if name == "bnds":
@@ -872,10 +1109,10 @@ def make_strategy(
     if name in ("zsobol", "cycles_blue", "zsobol_t", "bnds_st"):
         channels = _vector_dims(mask_size, dimensions, mask_dims)
         return _rival(name, height, width, spp, common, channels)
-    scalar = load_mask("scalar", mask_size)
     if name == "oracle":
+        scalar = load_mask("scalar", mask_size)
         return OracleStrategy(height, width, sampler=sampler, mask=scalar, K=K, **common)
-    return _temporal(name, height, width, sampler, spp, scalar, mask_size, block, common)
+    return _temporal(name, height, width, sampler, spp, options, mask_size, block, common)
 
 
 def _temporal(
@@ -884,17 +1121,16 @@ def _temporal(
     width: int,
     sampler: str,
     spp: int | None,
-    scalar: torch.Tensor,
+    options: TemporalOptions,
     mask_size: int,
     block: int,
     common: dict,
 ) -> TemporalStrategy:
-    """temporal, temporal_sort and temporal_zsobol, with the shipped mask and field of size T."""
+    """temporal, temporal_sort and temporal_zsobol (``name``, the base) with ``options``, the
+    shipped scalar mask and retargeting field of size T."""
+    scalar = load_mask("scalar", mask_size)
     field = load_retarget(mask_size) if name != "temporal_sort" else None
+    passes = {"mask": scalar, "block": block, "retarget": field, "options": options}
     if name == "temporal_zsobol":
-        return TemporalZSobolStrategy(
-            height, width, spp=spp, mask=scalar, block=block, retarget=field, **common
-        )
-    return TemporalStrategy(
-        height, width, sampler=sampler, mask=scalar, block=block, retarget=field, **common
-    )
+        return TemporalZSobolStrategy(height, width, spp=spp, **passes, **common)
+    return TemporalStrategy(height, width, sampler=sampler, **passes, **common)

@@ -19,10 +19,12 @@ from bnerr.stbn import load_stbn
 from bnerr.strategies import (
     OWN_SAMPLERS,
     STRATEGIES,
+    VARIANTS,
     BNDSStrategy,
     OracleStrategy,
     estimate_bytes,
     make_strategy,
+    parse_variant,
     pixel_seeds,
 )
 
@@ -47,10 +49,23 @@ def _hash_render(record: list | None = None, special: bool = False):
             color=color,
             albedo=torch.stack([1 - u, u, u * 0.5]),
             depth=(seeds % 7).float()[None],
+            **_features(h, w),
             timings={"render": 1.0},
         )
 
     return render
+
+
+def _features(h: int, w: int) -> dict:
+    """Geometric buffers that depend on the pixel only: 3 objects and the background in vertical
+    bands, normals by band, a motion of (1.4, -0.6) px that takes the right border off screen."""
+    x = torch.arange(w).expand(h, w)
+    band = (x * 4 // w).float()
+    return {
+        "object_id": (band - 1)[None],
+        "normal": torch.stack([band - 1.5, torch.ones(h, w), torch.zeros(h, w)]),
+        "motion": torch.stack([torch.full((h, w), 1.4), torch.full((h, w), -0.6)]),
+    }
 
 
 def _block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
@@ -71,7 +86,11 @@ def test_names_are_sorted_and_complete():
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
+        *VARIANTS,
     }
+    for name in VARIANTS:
+        base, options = parse_variant(name)
+        assert base + options.suffix == name and not options.plain
     assert set(OWN_SAMPLERS) <= set(STRATEGIES)
 
 
