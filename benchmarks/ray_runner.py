@@ -1,0 +1,323 @@
+"""The sweep behind ``bnerr bench --ray``: the serial runner's work as Ray tasks, on one machine or
+a cluster.
+
+The unit of work is the serial runner's: one seed set of a run (scene, strategy, spp, condition,
+seed set), computed by :func:`benchmarks.measure.measure_seed_set` in a Ray task and merged by
+:func:`benchmarks.measure.finish_run` on the driver once every seed set of the run is back, so
+the records are the serial runner's bit for bit (timings aside). Three kinds of task:
+
+- **references**: one task per distinct reference (scene, condition, frame, resolution, spp; the
+  cache file name, :meth:`benchmarks.references.ReferenceCache.path`), so no two tasks render the
+  same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
+  storage) and writes it otherwise (atomically); the frame itself travels to the tasks that need
+  it through the object store, so nodes need not share the cache folder.
+- **tuning**: one task per (scene, condition, resolution, spp) whose denoisers are not in
+  ``tuned_params.json`` yet (:func:`benchmarks.measure.tune_missing`, white noise, the tuning
+  seed set). The driver stores the parameters and saves the file when it returns, and only then
+  submits the measuring tasks that need them.
+- **measuring**: one task per seed set of each pending run.
+
+As in the serial runner, ``cells.jsonl`` is rewritten atomically each time a run's last seed set
+comes back, in plan order whatever the order runs finish in; an interrupted sweep (Ctrl-C, a
+failed task, a lost node) loses the runs in progress, and ``--resume`` measures only the missing
+cells. A failed task cancels the others and its error is raised on the driver. Each task sets
+torch's threads to the CPUs Ray gave it (``cpus_per_task``). The progress bar counts finished
+tasks.
+
+Not for: choosing what to measure (:mod:`benchmarks.plan`), or the speed suite.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from benchmarks.measure import (
+    SeedSetResult,
+    _t_reference,
+    finish_run,
+    make_denoisers,
+    measure_seed_set,
+    missing_tuning,
+    scene_for,
+    store_tuned,
+    tune_missing,
+    tuned_params,
+    tuning_key,
+)
+from benchmarks.parts import Parts
+from benchmarks.plan import Run
+from benchmarks.records import Record
+from benchmarks.references import ReferenceCache
+from benchmarks.runner import SweepState, start_sweep
+from benchmarks.suites import Suite
+from bnerr.errors import BnerrError, check_positive_int
+from bnerr.frame import Frame
+
+__all__ = ["INSTALL_HINT", "RayUnavailableError", "require_ray", "run_suite_ray"]
+
+#: How to install Ray (the ``cluster`` extra).
+INSTALL_HINT = "pip install '.[cluster]'"
+
+
+class RayUnavailableError(BnerrError, ImportError):
+    """``--ray`` without the ``ray`` package (the ``cluster`` extra)."""
+
+
+def require_ray() -> ModuleType:
+    """Import ``ray``, or raise :class:`RayUnavailableError` saying how to install it."""
+    try:
+        import ray
+    except ImportError as err:
+        raise RayUnavailableError(
+            f"--ray: expected the optional extra 'cluster' ({INSTALL_HINT}, which provides "
+            f"ray), got {type(err).__name__}: {err}"
+        ) from None
+    return ray
+
+
+# --------------------------------------------------------------------------------------------------
+# Tasks (plain functions: the scheduler wraps them with ray.remote)
+
+
+def _use_task_cpus() -> None:
+    """Set torch's intra-op threads to the CPUs Ray assigned to the running task (at least 1)."""
+    import ray
+    import torch
+
+    cpus = ray.get_runtime_context().get_assigned_resources().get("CPU", 1.0)
+    torch.set_num_threads(max(1, int(cpus)))
+
+
+class _GivenReferences:
+    """The references a task was handed, by renderer frame (``get`` as ReferenceCache's)."""
+
+    def __init__(self, t_refs: list[int], frames: tuple[Frame, ...]) -> None:
+        self.frames = dict(zip(t_refs, frames, strict=True))
+
+    def get(self, run: Run, scene: Any, t_render: int) -> Frame:
+        return self.frames[t_render]
+
+
+def _reference_task(run: Run, parts: Parts, cache_root: str, t_ref: int) -> Frame:
+    """Read or render (and cache) ``run``'s reference at renderer frame ``t_ref``."""
+    _use_task_cpus()
+    scene = scene_for(run, parts)
+    try:
+        return ReferenceCache(cache_root, parts).get(run, scene, t_ref)
+    except PermissionError:  # a node that cannot write the cache: the object store carries it
+        return ReferenceCache(None, parts).get(run, scene, t_ref)
+
+
+def _tune_task(
+    run: Run, parts: Parts, names: list[str], t_refs: list[int], *frames: Frame
+) -> dict[str, Any]:
+    """:func:`benchmarks.measure.tune_missing` against the references handed in."""
+    _use_task_cpus()
+    return tune_missing(run, parts, _GivenReferences(t_refs, frames), names)
+
+
+def _measure_task(
+    run: Run,
+    group: int,
+    parts: Parts,
+    params: dict[str, dict | None],
+    t_refs: list[int],
+    *frames: Frame,
+) -> SeedSetResult:
+    """:func:`benchmarks.measure.measure_seed_set` with denoisers built from ``params``."""
+    _use_task_cpus()
+    denoisers = make_denoisers(parts, params)
+    return measure_seed_set(run, parts, _GivenReferences(t_refs, frames), denoisers, group)
+
+
+# --------------------------------------------------------------------------------------------------
+# The driver
+
+
+def _measured_refs(run: Run, count: int | None = None) -> list[int]:
+    """The renderer frames of the references of ``run``'s measured frames (the first ``count``),
+    without repeats (a static scene has one)."""
+    frames = range(run.warmup, run.warmup + (run.frames if count is None else count))
+    return list(dict.fromkeys(_t_reference(run, t) for t in frames))
+
+
+@dataclass
+class _Job:
+    """A task in flight: its kind and what the driver does when it returns."""
+
+    kind: str  # "reference", "tune" or "measure"
+    run: Run | None = None
+    tkey: tuple[str, int] | None = None
+
+
+class _Scheduler:
+    """Submits the tasks of a sweep and handles them as they finish."""
+
+    def __init__(self, ray: ModuleType, sweep: SweepState, cache_root: str, cpus: int) -> None:
+        self.ray, self.sweep, self.cache_root = ray, sweep, cache_root
+        options = dict(num_cpus=cpus, max_retries=0)
+        self.reference_fn = ray.remote(**options)(_reference_task)
+        self.tune_fn = ray.remote(**options)(_tune_task)
+        self.measure_fn = ray.remote(**options)(_measure_task)
+        self.parts_ref = ray.put(sweep.parts)
+        self.naming = ReferenceCache(cache_root, sweep.parts)
+        self.references: dict[str, Any] = {}
+        self.inflight: dict[Any, _Job] = {}
+        self.waiting: dict[tuple[str, int], list[Run]] = defaultdict(list)
+        self.results: dict[Run, list[SeedSetResult]] = defaultdict(list)
+
+    def _references(self, run: Run, t_refs: list[int]) -> list[Any]:
+        """The object refs of ``run``'s references at ``t_refs``, submitting each once."""
+        refs = []
+        for t_ref in t_refs:
+            name = str(self.naming.path(run, t_ref))
+            if name not in self.references:
+                ref = self.reference_fn.remote(run, self.parts_ref, self.cache_root, t_ref)
+                self.references[name] = ref
+                self.inflight[ref] = _Job("reference")
+            refs.append(self.references[name])
+        return refs
+
+    def submit_all(self) -> None:
+        """Tuning tasks for the parameters not stored yet; measuring tasks for the other runs."""
+        missing: dict[tuple[str, int], list[str]] = {}
+        first: dict[tuple[str, int], Run] = {}
+        for run in self.sweep.todo:
+            tkey = (tuning_key(run), run.spp)
+            names = missing.setdefault(tkey, [])
+            names.extend(n for n in missing_tuning(run, self.sweep.store) if n not in names)
+            first.setdefault(tkey, run)
+            self.waiting[tkey].append(run)
+        for tkey, names in missing.items():
+            if names:
+                run = first[tkey]
+                t_refs = _measured_refs(run, min(run.frames, 4))
+                frames = self._references(run, t_refs)
+                ref = self.tune_fn.remote(run, self.parts_ref, names, t_refs, *frames)
+                self.inflight[ref] = _Job("tune", run=run, tkey=tkey)
+            else:
+                self._submit_measures(tkey)
+
+    def _submit_measures(self, tkey: tuple[str, int]) -> None:
+        for run in self.waiting.pop(tkey, []):
+            params = tuned_params(run, self.sweep.store)
+            t_refs = _measured_refs(run)
+            frames = self._references(run, t_refs)
+            for group in range(run.seed_sets):
+                ref = self.measure_fn.remote(run, group, self.parts_ref, params, t_refs, *frames)
+                self.inflight[ref] = _Job("measure", run=run)
+
+    def handle(self, ref: Any) -> None:
+        """Act on a finished task (raises its error if it failed)."""
+        job = self.inflight.pop(ref)
+        if job.kind == "reference":
+            return  # a failed reference fails the tasks that need it
+        value = self.ray.get(ref)
+        if job.kind == "tune":
+            store_tuned(job.run, self.sweep.store, value)
+            self.sweep.save_params()
+            self._submit_measures(job.tkey)
+            return
+        done = self.results[job.run]
+        done.append(value)
+        if len(done) == job.run.seed_sets:
+            del self.results[job.run]
+            crops = self.sweep.out / "crops"
+            self.sweep.add(finish_run(job.run, done, self.sweep.parts.code_version, crops))
+
+    def cancel(self) -> None:
+        for ref in list(self.inflight):
+            try:
+                self.ray.cancel(ref)
+            except Exception:  # noqa: BLE001  (a task that just finished cannot be cancelled)
+                pass
+        self.inflight.clear()
+
+
+def _task_count(sweep: SweepState) -> int:
+    """Every task the sweep will run: references, tunings and seed sets (for the progress bar)."""
+    naming = ReferenceCache(None, sweep.parts)
+    refs, tunings = set(), set()
+    for run in sweep.todo:
+        refs.update(naming.path(run, t) for t in _measured_refs(run))
+        if missing_tuning(run, sweep.store):
+            tunings.add((tuning_key(run), run.spp))
+    return len(refs) + len(tunings) + sum(r.seed_sets for r in sweep.todo)
+
+
+def _connect(ray: ModuleType, address: str) -> bool:
+    """Join ``address`` (``auto``: the cluster this machine belongs to, else a new local
+    instance) unless Ray is already initialised; return whether this call started it."""
+    if ray.is_initialized():
+        return False
+    ray.init(address=None if address == "auto" else address, include_dashboard=False)
+    return True
+
+
+def _handle(ray: ModuleType, scheduler: _Scheduler, ref: Any) -> None:
+    """``scheduler.handle(ref)``; a task's error of our own kind (bad input, a file) is raised as
+    itself (one line on the command line), any other with the task's traceback."""
+    try:
+        scheduler.handle(ref)
+    except ray.exceptions.RayTaskError as err:
+        cause = getattr(err, "cause", None)
+        if isinstance(cause, BnerrError):
+            raise cause from None
+        raise
+
+
+def run_suite_ray(
+    suite: Suite,
+    out_dir: str | Path,
+    *,
+    address: str = "auto",
+    parts: Parts | None = None,
+    cache_dir: str | Path = "cache/references",
+    resume: bool = False,
+    overwrite: bool = False,
+    progress: bool = True,
+    cpus_per_task: int = 1,
+) -> list[Record]:
+    """:func:`benchmarks.runner.run_suite` with every seed set of every run a Ray task.
+
+    Args:
+        address: the Ray cluster: ``auto`` (the one ``ray start`` made on this machine, or
+            ``RAY_ADDRESS``; else a new local instance), ``local`` (a new local instance) or
+            ``HOST:PORT`` of a head node. Ignored when Ray is already initialised.
+        cpus_per_task: CPUs each task asks Ray for, and torch's threads inside it.
+        suite, out_dir, parts, cache_dir, resume, overwrite, progress: as ``run_suite``.
+
+    Raises:
+        RayUnavailableError: ray is not installed.
+        ResultsExistError, FileFormatError: as ``run_suite``.
+        Any error of a task, on the driver, after the others are cancelled.
+    """
+    from tqdm import tqdm
+
+    ray = require_ray()
+    cpus = check_positive_int(cpus_per_task, "cpus_per_task")
+    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite)
+    if not sweep.todo:
+        sweep.write()
+        return sweep.ordered()
+    sweep.save_params()
+    started = _connect(ray, address)
+    scheduler = _Scheduler(ray, sweep, str(Path(cache_dir).resolve()), cpus)
+    try:
+        total = _task_count(sweep)
+        with tqdm(total=total, unit="task", disable=not progress, dynamic_ncols=True) as bar:
+            scheduler.submit_all()
+            while scheduler.inflight:
+                ready, _ = ray.wait(list(scheduler.inflight), num_returns=1, fetch_local=False)
+                for ref in ready:
+                    _handle(ray, scheduler, ref)
+                    bar.update(1)
+    finally:
+        scheduler.cancel()
+        if started:
+            ray.shutdown()
+    return sweep.ordered()

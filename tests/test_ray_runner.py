@@ -1,0 +1,142 @@
+"""Tests of benchmarks.ray_runner on a local 2-CPU Ray instance: a tiny suite gives the serial
+runner's records bit for bit (timings aside), a failed task stops the sweep with its own error and
+``resume`` completes it, and tasks set torch's threads from the CPUs Ray gave them.
+
+Everything renders with the real path tracer at 16x12; Ray's start-up dominates the time.
+"""
+
+import dataclasses
+import json
+import sys
+import time
+
+import pytest
+
+ray = pytest.importorskip("ray", reason="ray is not installed (pip install '.[cluster]')")
+
+from benchmarks import ray_runner  # noqa: E402
+from benchmarks.parts import real_parts  # noqa: E402
+from benchmarks.records import RESULTS_FILE, load_records  # noqa: E402
+from benchmarks.runner import TUNED_PARAMS_FILE, run_suite  # noqa: E402
+from benchmarks.suites import Suite, Sweep  # noqa: E402
+from bnerr.errors import ValueRangeError  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+
+def _suite():
+    sweep = Sweep(
+        scenes=("direct",),
+        strategies=("white", "temporal"),
+        spp=(1,),
+        denoisers=("gaussian", "median"),
+        frames=2,
+        warmup=1,
+        res=(16, 12),
+        reference_spp=16,
+        seed_sets=2,
+    )
+    return Suite(name="tiny", description="test", sweeps=(sweep,), crops=True)
+
+
+def _measured(record):
+    """Everything of a record but its timings (the metric values, spectra, parameters...)."""
+    data = record.to_json()
+    del data["timings"]
+    return data
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    # the stand-in parts below live in this test module, which Ray's workers cannot import
+    ray.cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    yield ray
+    ray.shutdown()
+
+
+@pytest.fixture(scope="module")
+def serial(tmp_path_factory):
+    """The tiny suite measured by the serial runner: (output dir, cache dir, records)."""
+    out, cache = tmp_path_factory.mktemp("serial"), tmp_path_factory.mktemp("cache")
+    return out, cache, run_suite(_suite(), out, cache_dir=cache, progress=False)
+
+
+def _same_as_serial(serial_out, serial_records, out, records):
+    assert [r.key for r in records] == [r.key for r in serial_records]
+    assert [_measured(r) for r in records] == [_measured(r) for r in serial_records]
+    assert load_records(out) == records
+    for rec in records:
+        assert rec.crop is None or (
+            (out / rec.crop).read_bytes() == (serial_out / rec.crop).read_bytes()
+        )
+    stored = json.loads((out / TUNED_PARAMS_FILE).read_text())
+    assert stored == json.loads((serial_out / TUNED_PARAMS_FILE).read_text())
+
+
+def test_ray_gives_the_serial_records_bit_for_bit(local_ray, serial, tmp_path):
+    serial_out, cache, serial_records = serial
+    # the serial run's cache: every reference is read back from its EXR file
+    records = ray_runner.run_suite_ray(_suite(), tmp_path, cache_dir=cache, progress=False)
+    _same_as_serial(serial_out, serial_records, tmp_path, records)
+    assert sum(1 for r in records if r.crop) == 4
+
+
+class _FailingStrategy:
+    """Parts whose ``make_strategy`` fails for one seed set of one strategy (after a pause, so
+    that other runs can finish first)."""
+
+    def __init__(self, make_strategy, strategy, group):
+        self.make_strategy, self.strategy, self.group = make_strategy, strategy, group
+
+    def __call__(self, name, scene, height, width, seed, sampler, spp):
+        if (name, seed) == (self.strategy, self.group):
+            time.sleep(2.0)
+            raise ValueRangeError(f"test: expected no failure, got one for {name} seed set {seed}")
+        return self.make_strategy(name, scene, height, width, seed, sampler, spp)
+
+
+def test_a_failed_task_stops_the_sweep_and_resume_completes_it(local_ray, serial, tmp_path):
+    serial_out, _, serial_records = serial
+    parts = real_parts()
+    failing = dataclasses.replace(
+        parts, make_strategy=_FailingStrategy(parts.make_strategy, "temporal", 1)
+    )
+    cache = tmp_path / "cache"  # a fresh cache: the reference tasks render and write it
+    out = tmp_path / "out"
+    with pytest.raises(ValueRangeError, match="temporal seed set 1"):
+        ray_runner.run_suite_ray(_suite(), out, parts=failing, cache_dir=cache, progress=False)
+    first = {r.key: r for r in load_records(out)}
+    # the white run usually finishes during the pause; temporal never does
+    assert {r.cell.strategy for r in first.values()} <= {"white"}
+    assert len(list(cache.rglob("*.exr"))) == 2
+    records = ray_runner.run_suite_ray(
+        _suite(), out, parts=parts, cache_dir=cache, resume=True, progress=False
+    )
+    _same_as_serial(serial_out, serial_records, out, records)
+    for rec in records:  # the cells of the first pass were kept, not measured again
+        if rec.key in first:
+            assert rec == first[rec.key]
+
+
+def test_resume_with_nothing_pending_writes_the_same_file(local_ray, serial, tmp_path):
+    serial_out, cache, _ = serial
+    (tmp_path / RESULTS_FILE).write_bytes((serial_out / RESULTS_FILE).read_bytes())
+    records = ray_runner.run_suite_ray(
+        _suite(), tmp_path, cache_dir=cache, resume=True, progress=False
+    )
+    assert (tmp_path / RESULTS_FILE).read_bytes() == (serial_out / RESULTS_FILE).read_bytes()
+    assert len(records) == 4
+
+
+def _threads_in_task():
+    import torch
+
+    ray_runner._use_task_cpus()
+    return torch.get_num_threads()
+
+
+def test_tasks_take_torch_threads_from_their_cpus(local_ray):
+    for cpus in (1, 2):
+        task = local_ray.remote(num_cpus=cpus)(_threads_in_task)
+        assert local_ray.get(task.remote()) == cpus
