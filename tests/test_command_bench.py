@@ -4,6 +4,7 @@ writer per folder (the lock), no silent discarding of finished cells (--overwrit
 errors for a garbled results file."""
 
 import json
+import sys
 
 import pytest
 
@@ -125,3 +126,18 @@ def test_resume_and_overwrite_exclude_each_other(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(_args(tmp_path / "out", tmp_path / "cache", "--resume", "--overwrite"))
     assert "not allowed with argument" in capsys.readouterr().err
+
+
+def test_bench_ray_without_ray_says_how_to_install_it(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "ray", None)  # import ray raises ImportError
+    assert main(_args(tmp_path / "out", tmp_path / "cache", "--ray")) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "pip install '.[cluster]'" in err
+    assert err.startswith("bnerr bench: error: --ray: expected the optional extra 'cluster'")
+    assert not (tmp_path / "out").exists()  # refused before any work
+
+
+def test_bench_ray_cpus_must_be_positive(tmp_path, capsys):
+    pytest.importorskip("ray", reason="ray is not installed (pip install '.[cluster]')")
+    assert main(_args(tmp_path / "out", tmp_path / "cache", "--ray", "--ray-cpus", "0")) == 2
+    assert "--ray-cpus" in capsys.readouterr().err

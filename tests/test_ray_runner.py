@@ -140,3 +140,21 @@ def test_tasks_take_torch_threads_from_their_cpus(local_ray):
     for cpus in (1, 2):
         task = local_ray.remote(num_cpus=cpus)(_threads_in_task)
         assert local_ray.get(task.remote()) == cpus
+
+
+def test_bench_ray_on_the_command_line_matches_the_serial_command(local_ray, tmp_path):
+    from benchmarks.cli import main
+
+    def args(out, *extra):
+        return [
+            "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,temporal",
+            "--spp", "1", "--denoisers", "gaussian", "--frames", "1", "--warmup", "1",
+            "--res", "16x12", "--reference-spp", "8", "--seed-sets", "2", "--out", str(out),
+            "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts", *extra,
+        ]  # fmt: skip
+
+    assert main(args(tmp_path / "serial")) == 0
+    assert main(args(tmp_path / "ray", "--ray")) == 0
+    serial, records = load_records(tmp_path / "serial"), load_records(tmp_path / "ray")
+    assert [_measured(r) for r in records] == [_measured(r) for r in serial]
+    assert (tmp_path / "ray" / "table.csv").exists()  # its timing columns differ, as they may

@@ -5,6 +5,7 @@ Examples::
     bnerr bench --suite quick
     bnerr bench --suite quality --scenes direct cornell --spp 1 4 --out /tmp/q --resume
     bnerr bench --suite stability --res 48x48 --frames 4
+    bnerr bench --suite quality --ray HEAD:6379      # every seed set a task on a Ray cluster
 
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
 records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.report`). References are
@@ -13,6 +14,12 @@ the output folder and measures only the missing cells; without it, a folder that
 finished cells is refused unless ``--overwrite`` says to discard them. The command holds the
 output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a second
 ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
+
+``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks (:mod:`benchmarks.ray_runner`;
+the ``cluster`` extra): ``auto`` (the default when the flag has no value) joins the cluster this
+machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else starts a local instance;
+``HOST:PORT`` joins a head node. The records are the serial runner's bit for bit (timings aside);
+``--resume`` works the same. ``--ray-cpus`` sets the CPUs (and torch threads) of each task.
 """
 
 from __future__ import annotations
@@ -109,6 +116,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
         "machine, where OpenMP barriers stall whenever a thread is descheduled",
     )
+    add(
+        "--ray",
+        nargs="?",
+        const="auto",
+        metavar="ADDRESS",
+        help="run the cells as Ray tasks: auto (default: this machine's cluster, else a local "
+        "instance), local, or HOST:PORT of a head node (needs: pip install '.[cluster]')",
+    )
+    add("--ray-cpus", type=int, default=1, help="CPUs (and torch threads) per Ray task")
     add("--no-charts", action="store_true", help="write the tables only")
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)
@@ -119,6 +135,7 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
+    given += ["--ray"] if args.ray is not None else []
     if given:
         raise ValueRangeError(
             f"--suite {suite.name}: expected no cell overrides (it runs timing scripts), got "
@@ -144,14 +161,15 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
         reference_spp=_count(args.reference_spp, "--reference-spp"),
         **known_names(),
     )
-    records = runner.run_suite(
-        suite,
-        out,
-        cache_dir=args.cache,
-        resume=args.resume,
-        overwrite=args.overwrite,
-        progress=not args.quiet,
+    common = dict(
+        cache_dir=args.cache, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet
     )
+    if args.ray is not None:
+        from benchmarks.ray_runner import run_suite_ray
+
+        records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)
+    else:
+        records = runner.run_suite(suite, out, **common)
     title = f"bnerr bench --suite {suite.name}"
     return report.write_report(out, records, title=title, charts=not args.no_charts)
 
@@ -165,6 +183,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
+    if args.ray is not None:  # before any work: say how to install it
+        from benchmarks.ray_runner import require_ray
+
+        require_ray()
+        check_positive_int(args.ray_cpus, "--ray-cpus")
     suite = suites.get_suite(args.suite)
     out = args.out or Path("results") / suite.name
     with output_lock(out, "bnerr bench"):
