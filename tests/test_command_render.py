@@ -128,3 +128,96 @@ def test_a_second_render_into_the_same_folder_refuses(tmp_path, capsys):
         assert main(args) == 2
     assert "another bnerr render holds its lock" in capsys.readouterr().err
     assert not list(tmp_path.glob("*.exr"))
+
+
+def _benchmark_frames(strategy, seed_set, frames, warmup=0, res=(16, 12), spp=1):
+    """The frames ``bnerr bench`` renders for one seed set: t -> Frame, captured from the strategy
+    the runner builds (:func:`benchmarks.measure.measure_seed_set`)."""
+    import dataclasses
+
+    from benchmarks.measure import measure_seed_set
+    from benchmarks.parts import real_parts
+    from benchmarks.plan import plan
+    from benchmarks.suites import Suite, Sweep
+
+    base, seen = real_parts(), {}
+
+    class _Capturing:
+        def __init__(self, inner):
+            self.inner = inner
+            self.overhead_ms, self.stateful = inner.overhead_ms, inner.stateful
+            self.sampler_name = inner.sampler_name
+
+        def frame(self, t, render):
+            seen[t] = self.inner.frame(t, render)
+            return seen[t]
+
+    def make_strategy(*args):
+        return _Capturing(base.make_strategy(*args))
+
+    class _NoReference:  # measuring is not the point: compare each frame with itself
+        def get(self, run, scene, t):
+            return seen[t]
+
+    sweep = Sweep(scenes=("direct",), strategies=(strategy,), spp=(spp,), denoisers=("gaussian",),
+                  frames=frames, warmup=warmup, res=res, reference_spp=1,
+                  seed_sets=seed_set + 1)  # fmt: skip
+    (run,) = plan(Suite("t", "t", sweeps=(sweep,)))
+    run = dataclasses.replace(run, denoisers=())
+    parts = dataclasses.replace(base, make_strategy=make_strategy)
+    measure_seed_set(run, parts, _NoReference(), {}, seed_set)
+    return seen
+
+
+def _render_strategy(out, strategy, *extra):
+    return main(["render", "--scene", "direct", "--res", "16x12", "--spp", "1",
+                 "--strategy", strategy, "--out", str(out), *extra])  # fmt: skip
+
+
+def test_strategy_frames_are_the_benchmarks_frames_bit_for_bit(tmp_path):
+    assert _render_strategy(tmp_path, "temporal", "--frames", "8", "--seed-set", "1") == 0
+    exrs = sorted(tmp_path.glob("direct_*.exr"))
+    assert [p.name for p in exrs] == [f"direct_{t:04d}.exr" for t in range(8)]
+    assert len(list(tmp_path.glob("direct_*.png"))) == 8
+    bench = _benchmark_frames("temporal", seed_set=1, frames=8)
+    for t, path in enumerate(exrs):
+        written = read_frame(path)
+        assert set(written.buffers()) == set(bench[t].buffers())
+        for name, value in bench[t].buffers().items():
+            assert torch.equal(written.buffers()[name], value), (t, name)
+    other = tmp_path / "seed_set_0"
+    assert _render_strategy(other, "temporal", "--frames", "1") == 0
+    assert not torch.equal(read_frame(other / "direct_0000.exr").color, read_frame(exrs[0]).color)
+
+
+def test_a_stateful_strategy_carries_its_state_into_a_later_start(tmp_path):
+    assert _render_strategy(tmp_path, "temporal", "--frames", "2", "--start", "3") == 0
+    assert sorted(p.name for p in tmp_path.glob("*.exr")) == ["direct_0003.exr", "direct_0004.exr"]
+    bench = _benchmark_frames("temporal", seed_set=0, frames=2, warmup=3)
+    for t in (3, 4):
+        assert torch.equal(read_frame(tmp_path / f"direct_{t:04d}.exr").color, bench[t].color)
+
+
+def test_a_stateless_strategy_starts_where_asked_as_the_benchmark_does(tmp_path):
+    assert _render_strategy(tmp_path, "zsobol", "--frames", "1", "--start", "2") == 0
+    bench = _benchmark_frames("zsobol", seed_set=0, frames=1, warmup=2)
+    assert list(bench) == [2]  # the benchmark skips a stateless strategy's warmup too
+    assert torch.equal(read_frame(tmp_path / "direct_0002.exr").color, bench[2].color)
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--strategy", "nope"], "nope"),
+        (["--strategy", "temporal", "--seed", "3"], "--seed: expected no --seed with --strategy"),
+        (["--seed-set", "2"], "--seed-set: expected it with --strategy only"),
+        (["--strategy", "temporal", "--seed-set", "-1"], "--seed-set"),
+    ],
+)
+def test_strategy_errors_are_one_line_before_anything_is_written(tmp_path, capsys, extra, message):
+    out = tmp_path / "out"
+    args = ["render", "--scene", "direct", "--res", "8x8", "--spp", "1", "--out", str(out)]
+    assert main([*args, *extra]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+    assert not list(out.glob("*.exr")) if out.exists() else True

@@ -2,12 +2,20 @@
 
     bnerr render --scene cornell --res 256x256 --spp 16 --frames 4 --sampler owen_sobol --out out
     bnerr render --scene snooker --res 320x180 --spp 4 --frames 1 --static --out out/snooker
+    bnerr render --scene cornell --res 128x128 --spp 4 --strategy temporal --frames 8 --out out/t
 
 Frame t is written to ``DIR/<scene>_<t>.exr`` (color, albedo, normal, depth, motion, object_id and
 variance layers, timings in the header; read it back with ``bnerr.io.read_frame``) and
 ``DIR/<scene>_<t>.png`` (tone-mapped sRGB preview). Every frame gets its own seed image
 (``bnerr.strategies.pixel_seeds`` with a key made of ``--seed`` and t), so frames are independent
-white-noise or Owen-Sobol renders; strategies that choose seeds live in ``bnerr bench``.
+white-noise or Owen-Sobol renders.
+
+With ``--strategy NAME`` (any registered strategy, :data:`bnerr.strategies.STRATEGIES`) the
+strategy chooses the seeds instead, its state carried from frame to frame: frame t is the frame
+``bnerr bench`` renders at t for seed set ``--seed-set`` (the strategy's seed) under the
+``--sampler`` condition (default ``owen_sobol``, the benchmark's), bit for bit. A stateful
+strategy (the temporal ones) renders frames ``0 .. --start - 1`` too, unwritten, to carry its
+state; a stateless one starts at ``--start``, as the benchmark skips its warmup.
 
 Before rendering, the resolution is checked against the memory it needs and ``DIR`` against its
 kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR``'s lock
@@ -73,36 +81,92 @@ def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
     check_positive_int(args.spp, "--spp")
     check_positive_int(args.frames, "--frames")
     check_positive_int(args.start, "--start", minimum=0)
+    if args.strategy is None and args.seed_set is not None:
+        raise ValueRangeError(
+            f"--seed-set: expected it with --strategy only, got --seed-set {args.seed_set}"
+        )
+    if args.strategy is not None and args.seed is not None:
+        raise ValueRangeError(
+            f"--seed: expected no --seed with --strategy (the strategy's seeds come from "
+            f"--seed-set), got --seed {args.seed}"
+        )
+    if args.seed_set is not None:
+        check_positive_int(args.seed_set, "--seed-set", minimum=0)
     check_memory(render_bytes(width, height), f"--res {width}x{height}")
     need = OUTPUT_BYTES_PER_PIXEL * width * height * args.frames
     return width, height, check_output(args.out, "dir", need_bytes=need)
 
 
+def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, dimensions: int) -> None:
+    elapsed = max(elapsed, 1e-9)
+    rate = width * height * spp / elapsed / 1e6
+    print(
+        f"{stem}.exr  {width}x{height} {spp} spp D={dimensions} "
+        f"{elapsed:.2f} s ({rate:.2f} M samples/s)"
+    )
+
+
+def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int):
+    """``(t, frame, seconds)`` of the fixed-seed renders: every frame its own seed image."""
+    from bnerr.sequences import make_sampler
+    from bnerr.strategies import pixel_seeds
+    from renderers import render
+
+    sampler = make_sampler(args.sampler or "white")
+    seed = args.seed or 0
+    for t in range(args.start, args.start + args.frames):
+        seeds = pixel_seeds(height, width, (seed * 100003 + t) * height * width)
+        start = time.perf_counter()
+        frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile or None)
+        yield t, frame, time.perf_counter() - start
+
+
+def _strategy_frames(args: argparse.Namespace, strategy, scene):
+    """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, as the benchmark renders
+    them (:func:`benchmarks.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
+    renderer's frame t; a stateful strategy's earlier frames are rendered, not yielded."""
+    from renderers import render
+
+    first = 0 if getattr(strategy, "stateful", False) else args.start
+    for t in range(first, args.start + args.frames):
+
+        def render_t(seeds, sampler, t=t):
+            return render(scene, t, seeds, sampler, args.spp, compile=args.compile or None)
+
+        start = time.perf_counter()
+        frame = strategy.frame(t, render_t)
+        if t >= args.start:
+            yield t, frame, time.perf_counter() - start
+
+
 def run(args: argparse.Namespace) -> int:
     from bnerr.io import write_frame, write_png
     from bnerr.outputs import clean_stale_temporaries, output_lock
-    from bnerr.sequences import make_sampler
-    from bnerr.strategies import pixel_seeds
-    from renderers import get_scene, render
+    from bnerr.strategies import make_strategy
+    from renderers import get_scene
 
     width, height, out = _check_args(args)
     scene = get_scene(args.scene, animated=not args.static)
-    sampler = make_sampler(args.sampler)
+    if args.strategy is None:
+        frames = _fixed_seed_frames(args, scene, height, width)
+    else:  # built before the lock: a bad name or spp is refused before anything is written
+        strategy = make_strategy(
+            args.strategy,
+            height,
+            width,
+            seed=args.seed_set or 0,
+            sampler=args.sampler or "owen_sobol",
+            spp=args.spp,
+            dimensions=scene.dimensions,
+        )
+        frames = _strategy_frames(args, strategy, scene)
     with output_lock(out, "bnerr render"):
         clean_stale_temporaries(out)
-        for t in range(args.start, args.start + args.frames):
-            seeds = pixel_seeds(height, width, (args.seed * 100003 + t) * height * width)
-            start = time.perf_counter()
-            frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile or None)
-            elapsed = time.perf_counter() - start
+        for t, frame, seconds in frames:
             stem = out / f"{scene.name}_{t:04d}"
             write_frame(stem.with_suffix(".exr"), frame)
             write_png(stem.with_suffix(".png"), frame.color, exposure=args.exposure)
-            rate = width * height * args.spp / elapsed / 1e6
-            print(
-                f"{stem}.exr  {width}x{height} {args.spp} spp D={scene.dimensions} "
-                f"{elapsed:.2f} s ({rate:.2f} M samples/s)"
-            )
+            _report(stem, seconds, width, height, args.spp, scene.dimensions)
     return 0
 
 
@@ -118,9 +182,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--frames", type=int, default=1, help="number of frames (default 1)")
     p.add_argument("--start", type=int, default=0, help="first frame index t (default 0)")
     p.add_argument(
-        "--sampler", choices=SAMPLER_NAMES, default="white", help="sequence (default white)"
+        "--sampler",
+        choices=SAMPLER_NAMES,
+        help="sequence (default white; owen_sobol with --strategy, the benchmark's condition)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed-image key (default 0)")
+    p.add_argument("--seed", type=int, help="seed-image key without --strategy (default 0)")
+    p.add_argument(
+        "--strategy",
+        metavar="NAME",
+        help="render with a seed strategy (temporal, white, zsobol_t...), its state carried from "
+        "frame to frame: the frames bnerr bench renders for --seed-set",
+    )
+    p.add_argument(
+        "--seed-set", type=int, help="the strategy's seed set, as in bnerr bench (default 0)"
+    )
     p.add_argument("--static", action="store_true", help="the scene's static variant (no motion)")
     p.add_argument(
         "--compile",
