@@ -57,6 +57,7 @@ __all__ = [
     "merge_seed_sets",
     "missing_tuning",
     "store_tuned",
+    "scene_for",
     "tune_denoisers",
     "tune_missing",
     "tuned_params",
@@ -106,7 +107,8 @@ def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
     return x[..., y0 : y0 + ch, x0 : x0 + cw]
 
 
-def _scene_for(run: Run, parts: Parts) -> Scene:
+def scene_for(run: Run, parts: Parts) -> Scene:
+    """The run's scene: animated unless motion 0, with its depth condition."""
     scene = parts.get_scene(run.scene, run.motion != 0)
     if run.depth is not None:
         scene = parts.with_depth(scene, run.depth)
@@ -333,7 +335,7 @@ def measure_seed_set(
         raise ValueRangeError(
             f"measure_seed_set: expected a seed set in [0, {run.seed_sets}), got {group}"
         )
-    scene = _scene_for(run, parts)
+    scene = scene_for(run, parts)
     chosen = {name: denoisers[name] for name in run.denoisers}
     measurement = _SeedSetMeasurement(run, group, chosen)
     render = _BoundRender(parts, scene, run.spp)
@@ -410,6 +412,10 @@ def tuning_key(run: Run) -> str:
     return f"{run.scene}/m{run.motion}{depth}/{run.sampler}/{run.width}x{run.height}"
 
 
+_tuning_key = tuning_key  # the name benchmarks.animate imports
+_scene_for = scene_for  # the name benchmarks.animate imports
+
+
 def _stored(store: ParamStore, name: str, key: str, spp: int) -> dict | None:
     """The stored parameters, or None for a denoiser without any (nothing to tune)."""
     if str(spp) in store.entries.get(name, {}).get(key, {}):
@@ -436,7 +442,7 @@ def tune_missing(
     """
     if not names:
         return {}
-    scene = _scene_for(run, parts)
+    scene = scene_for(run, parts)
     render = _BoundRender(parts, scene, run.spp)
     strategy = parts.make_strategy(
         "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
