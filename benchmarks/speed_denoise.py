@@ -1,9 +1,11 @@
 """Time each denoiser on a 1920 x 1080 frame: ``python -m benchmarks.speed_denoise``.
 
-The frame is synthetic (random color, albedo, normal, depth): the filters' and networks' cost does
-not depend on the image content. Each denoiser runs once to warm up (allocations, OIDN's device,
-oneDNN's kernel choice) and then ``repeats`` times; the median is reported. Denoisers whose
-optional extra is missing are skipped and reported as such.
+The frame is synthetic (random color, albedo, normal, depth, motion, object id): the filters' and
+networks' cost does not depend on the image content. Each denoiser runs once to warm up
+(allocations, OIDN's device, oneDNN's kernel choice) and then ``repeats`` times; the median is
+reported. A stateful denoiser (TAA, SVGF) is reset first and then fed the frame as one sequence,
+so the timed calls reproject a history, as every frame of a sequence but its first does.
+Denoisers whose optional extra is missing are skipped and reported as such.
 
 Timings depend on the machine and on what else runs on it; report them with the machine.
 """
@@ -24,13 +26,16 @@ __all__ = ["main", "measure", "synthetic_frame"]
 
 
 def synthetic_frame(height: int = 1080, width: int = 1920, seed: int = 0) -> Frame:
-    """A random frame with every buffer a denoiser may read (color, albedo, normal, depth)."""
+    """A random frame with every buffer a denoiser may read (color, albedo, normal, depth, motion
+    ``[2, H, W]`` of at most half a pixel, object_id ``[1, H, W]`` all 0)."""
     g = torch.Generator().manual_seed(seed)
     return Frame(
         color=torch.rand(3, height, width, generator=g).square() * 4.0,
         albedo=torch.rand(3, height, width, generator=g),
         normal=torch.nn.functional.normalize(torch.randn(3, height, width, generator=g), dim=0),
         depth=torch.rand(1, height, width, generator=g) + 1.0,
+        motion=torch.rand(2, height, width, generator=g) - 0.5,
+        object_id=torch.zeros(1, height, width),
     )
 
 
@@ -56,11 +61,12 @@ def measure(
         except (MissingExtraError, FileFormatError):
             results[name] = None
             continue
-        denoiser(frame)  # warm-up
+        denoiser.reset()
+        denoiser(frame, t=0)  # warm-up (and a stateful one's first frame: no history yet)
         times = []
-        for _ in range(repeats):
+        for t in range(1, repeats + 1):
             watch = Stopwatch()
-            out = denoiser(frame)
+            out = denoiser(frame, t=t)
             times.append(watch.ms(out) / 1e3)
         results[name] = statistics.median(times)
     return results

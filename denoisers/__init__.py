@@ -5,6 +5,9 @@ Names (the registry, :data:`DENOISERS`):
 - ``gaussian``, ``bilateral``, ``median``: kornia filters that read the color only;
 - ``joint_bilateral``, ``guided``: kornia filters guided by albedo and normal;
 - ``atrous``: the edge-avoiding a-trous wavelet filter, the spatial part of SVGF (normal, depth);
+- ``taa``, ``svgf``: temporal accumulation alone, and followed by the a-trous filter guided by the
+  variance over time (:mod:`denoisers.temporal`); **stateful**: call ``reset()`` at the start of
+  each sequence and feed its frames in order (motion, depth, normal, object_id);
 - ``unet``: a small OIDN-style U-Net trained here (:mod:`denoisers.train`);
 - ``oidn``: Intel Open Image Denoise, the production reference (optional extra ``reference``).
 
@@ -21,6 +24,7 @@ from bnerr.errors import UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
 from denoisers.oidn import OIDN, MissingExtraError
+from denoisers.temporal import SVGF, TAA
 from denoisers.unet import UNetDenoiser
 
 __all__ = [
@@ -36,7 +40,18 @@ __all__ = [
 DENOISERS: dict[str, type[Denoiser]] = {
     cls.name: cls
     for cls in sorted(
-        (ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median, OIDN, UNetDenoiser),
+        (
+            ATrous,
+            Bilateral,
+            Gaussian,
+            Guided,
+            JointBilateral,
+            Median,
+            OIDN,
+            SVGF,
+            TAA,
+            UNetDenoiser,
+        ),
         key=lambda c: c.name,
     )
 }

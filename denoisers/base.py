@@ -5,9 +5,12 @@ class around it that stores its parameters. The class is what the registry hands
 out and what the benchmark calls; it checks the frame at the boundary once, so the functions below
 it trust their inputs.
 
-What a denoiser is not: it keeps no state between frames (no temporal accumulation, no history
-buffers). The temporal strategies move error between frames; a denoiser that also accumulated over
-time would mix the two effects the benchmark wants to separate.
+Most denoisers keep no state between frames (``stateful = False``): each frame is denoised alone,
+so the error a temporal strategy moves between frames is not mixed with an accumulation over time.
+The temporal denoisers (:mod:`denoisers.temporal`: TAA, SVGF) do accumulate; they say so with
+``stateful = True``. Every denoiser has :meth:`Denoiser.reset` and takes an optional frame index
+``t``, so a caller treats all of them alike: reset at the start of each sequence, feed its frames in
+order. For a stateless denoiser both are no-ops.
 """
 
 from __future__ import annotations
@@ -81,24 +84,45 @@ class Denoiser:
     :class:`MissingBufferError` naming it, a non-finite one :class:`NonFiniteError`) and returns
     a float32 tensor on the frame's device, checked finite: a denoiser never hands back NaN.
 
+    Stateful subclasses set ``stateful = True`` and override :meth:`reset` and
+    :meth:`_check_sequence` (called with the frame and its index before :meth:`denoise`).
+
     Attributes:
         name: the registry name (``"gaussian"``, ``"unet"``, ...).
         requires: buffer names the denoiser reads besides ``color``.
         infinite_ok: buffers of ``requires`` that may hold ``+inf`` (see :func:`check_frame`).
+        stateful: whether the output depends on the frames denoised before (since :meth:`reset`).
     """
 
     name: ClassVar[str] = ""
+    stateful: ClassVar[bool] = False
     requires: frozenset[str] = frozenset()
     infinite_ok: frozenset[str] = frozenset()
 
-    def __call__(self, frame: Frame) -> torch.Tensor:
+    def __call__(self, frame: Frame, t: int | None = None) -> torch.Tensor:
+        """Denoise ``frame`` (``[3, H, W]`` out); ``t`` is its index in the sequence, if known.
+
+        Raises:
+            DtypeError: ``t`` is not an int (or None).
+            SequenceError: (stateful denoisers) ``t`` does not follow the previous frame's index,
+                or the frame's size is not the sequence's; see :mod:`denoisers.temporal`.
+        """
         who = f"denoiser {self.name!r}"
         frame = check_frame(frame, self.requires, who, self.infinite_ok)
+        if t is not None and (isinstance(t, bool) or not isinstance(t, int)):
+            raise DtypeError(f"{who}: t: expected an int frame index, got {t!r}")
+        self._check_sequence(frame, t)
         out = self.denoise(frame)
         # Catch a subclass that breaks the contract here rather than in the caller's metric.
         check_shape(out, f"3 {frame.height} {frame.width}", f"{who} output")
         check_finite(out, f"{who} output (finite input)")
         return out
+
+    def reset(self) -> None:
+        """Forget every frame seen so far: the next frame starts a new sequence (no-op here)."""
+
+    def _check_sequence(self, frame: Frame, t: int | None) -> None:
+        """Check that ``frame`` (index ``t``) continues the sequence, and record it (no-op here)."""
 
     def denoise(self, frame: Frame) -> torch.Tensor:
         """Denoise a frame already checked by ``__call__``; return ``[3, H, W]`` float32."""

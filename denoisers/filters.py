@@ -25,7 +25,13 @@ import torch
 import torch.nn.functional as F
 
 from bnerr.color import LUMINANCE_WEIGHTS
-from bnerr.errors import ValueRangeError, check_memory, check_positive_int, check_range
+from bnerr.errors import (
+    ValueRangeError,
+    check_memory,
+    check_positive_int,
+    check_range,
+    check_shape,
+)
 from bnerr.frame import Frame
 from denoisers.base import Denoiser
 
@@ -285,6 +291,7 @@ def atrous_filter(
     sigma_color: float = 4.0,
     sigma_normal: float = 128.0,
     sigma_depth: float = 1.0,
+    variance: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """Edge-avoiding a-trous wavelet filter: the spatial part of SVGF.
 
@@ -298,12 +305,16 @@ def atrous_filter(
       ``w_l = exp(-|l_p - l_q| / (sigma_color sqrt(g3x3(Var l_p))))``;
     - the luminance variance is filtered along with the color (squared weights).
 
-    Shapes: ``color``, ``normal`` ``[3, H, W]``, ``depth [1, H, W]`` -> ``[3, H, W]``.
+    Shapes: ``color``, ``normal`` ``[3, H, W]``, ``depth [1, H, W]``, ``variance [H, W]`` or
+    None -> ``[3, H, W]``.
 
-    What differs from SVGF: no temporal accumulation (a denoiser here sees one frame), so the
-    initial luminance variance is always the spatial estimate SVGF falls back on for pixels
-    without history (here a plain 7 x 7 box window, not SVGF's bilateral one), and the depth
-    gradient is the larger of the central differences in x and y. And no albedo demodulation:
+    ``variance`` is the initial luminance variance per pixel, e.g. SVGF's temporal estimate from
+    accumulated moments (:class:`denoisers.temporal.SVGF`); its NaN entries, and all pixels when
+    it is None, take the spatial estimate SVGF falls back on for pixels without history (here a
+    plain 7 x 7 box window, not SVGF's bilateral one). With None the filter sees one frame alone.
+
+    What differs from SVGF besides: the depth gradient is the larger of the central differences
+    in x and y. And no albedo demodulation:
     SVGF filters ``color / albedo`` and multiplies back, which needs the directly visible emission
     in a buffer of its own and an albedo that describes the whole pixel. Our frames have neither:
     emitters, pixels that straddle an edge and pixels seen through a medium carry radiance that
@@ -313,13 +324,35 @@ def atrous_filter(
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
     1e18 switches to float64 (see :class:`ATrous`).
+
+    Raises:
+        ShapeError: ``variance`` is not ``[H, W]``.
+        ValueRangeError: ``variance`` holds a negative or infinite entry (NaN is allowed).
     """
+    if variance is not None:
+        _check_variance(variance, color)
     depth = torch.where(torch.isposinf(depth), torch.zeros_like(depth), depth)
     sigmas = (sigma_color, sigma_normal, sigma_depth)
     if _needs_float64(color, depth):
-        wide = _atrous(color.double(), normal.double(), depth.double(), iterations, *sigmas)
+        wide_var = None if variance is None else variance.double()
+        wide = _atrous(
+            color.double(), normal.double(), depth.double(), iterations, *sigmas, wide_var
+        )
         return wide.to(color.dtype)
-    return _atrous(color, normal, depth, iterations, *sigmas)
+    return _atrous(color, normal, depth, iterations, *sigmas, variance)
+
+
+def _check_variance(variance: torch.Tensor, color: torch.Tensor) -> None:
+    """Refuse an initial variance that is not ``[H, W]`` of ``color``, or negative, or infinite."""
+    check_shape(variance, f"{color.shape[1]} {color.shape[2]}", "atrous_filter: variance")
+    bad = ~(torch.isnan(variance) | ((variance >= 0) & torch.isfinite(variance)))
+    if bool(bad.any()):
+        first = [int(i) for i in bad.nonzero()[0]]
+        raise ValueRangeError(
+            f"atrous_filter: variance: expected values >= 0 and finite (or NaN: spatial "
+            f"estimate), got {int(bad.sum())} others, first {float(variance[tuple(first)])} at "
+            f"pixel (y, x) = ({first[0]}, {first[1]})"
+        )
 
 
 def _atrous(
@@ -330,6 +363,7 @@ def _atrous(
     sigma_color: float,
     sigma_normal: float,
     sigma_depth: float,
+    initial: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """:func:`atrous_filter` on finite inputs whose squares fit their dtype."""
     unit, hit = _unit_normals(normal)
@@ -338,6 +372,8 @@ def _atrous(
     gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
     depth_width = torch.maximum(gx, gy)
     variance = _spatial_variance(luminance(color))
+    if initial is not None:
+        variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
     for i in range(iterations):
         color, variance = _atrous_step(
             color,

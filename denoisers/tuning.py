@@ -16,6 +16,10 @@ File format (JSON, written atomically)::
 Only the filters have parameters to tune (:data:`GRIDS`); ``unet`` and ``oidn`` have none and are
 looked up with their defaults.
 
+Stateful denoisers (``taa``, ``svgf``: ``stateful = True``) are tuned on a sequence: the frames in
+their order, each candidate reset and fed all of them, its MSE taken over the frames after the
+first :data:`STATEFUL_SKIP` (while its history fills up its output is not what it will be).
+
 This module renders nothing (denoisers do not import the renderer): the caller passes the noisy
 frames and the reference.
 """
@@ -37,16 +41,18 @@ from bnerr.errors import (
     ValueRangeError,
     check_name,
     check_positive_int,
+    check_range,
     check_shape,
 )
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from denoisers import get_denoiser
+from denoisers import DENOISERS, get_denoiser
 from denoisers.base import Denoiser
 
 __all__ = [
     "GRIDS",
     "PARAMS_FORMAT",
+    "STATEFUL_SKIP",
     "ParamStore",
     "TuneResult",
     "grid_points",
@@ -69,7 +75,12 @@ GRIDS: dict[str, dict[str, tuple]] = {
         "sigma_space": (1.0, 2.0, 3.0),
     },
     "median": {"kernel_size": (3, 5)},
+    "svgf": {"alpha": (0.1, 0.2, 0.4), "iterations": (1, 3), "sigma_color": (0.5, 1.0, 2.0)},
+    "taa": {"alpha": (0.05, 0.1, 0.2, 0.3, 0.5)},
 }
+
+#: Frames a stateful denoiser is fed, by default, before the frames its MSE is measured on.
+STATEFUL_SKIP = 2
 
 
 def grid_points(grid: Mapping[str, Sequence]) -> list[dict]:
@@ -86,8 +97,10 @@ class TuneResult:
         denoiser: the filter's name.
         params: the grid point with the lowest MSE (the first one on a tie).
         mse: its MSE to the reference, averaged over the frames.
-        noisy_mse: the MSE of the noisy frames themselves.
+        noisy_mse: the MSE of the noisy frames themselves (the measured ones).
+        frames: how many frames the MSEs average over.
         table: every grid point with its MSE, in grid order.
+        skipped: leading frames denoised but not measured (a stateful denoiser's warm-up).
     """
 
     denoiser: str
@@ -96,6 +109,7 @@ class TuneResult:
     noisy_mse: float
     frames: int
     table: list[tuple[dict, float]] = field(default_factory=list)
+    skipped: int = 0
 
 
 def _mse(a: torch.Tensor, b: torch.Tensor) -> float:
@@ -107,23 +121,30 @@ def tune(
     frames: Sequence[Frame],
     references: Sequence[torch.Tensor],
     grid: Mapping[str, Sequence] | None = None,
+    skip: int | None = None,
 ) -> TuneResult:
     """Grid-search filter ``name`` on white-noise ``frames`` against ``references``.
 
     Args:
         name: a tunable filter (a key of :data:`GRIDS`).
-        frames: noisy renders of one scene at one spp, made with the white sampler.
+        frames: noisy renders of one scene at one spp, made with the white sampler. For a
+            stateful denoiser, one sequence in frame order (same size, consecutive times): each
+            candidate is reset and fed them all with indices ``t = 0, 1, ...``.
         references: the reference color ``[3, H, W]`` of each frame (the same tensor may repeat
             when the frames share a time ``t``).
         grid: overrides :data:`GRIDS`\\ ``[name]``.
+        skip: leading frames left out of the MSE (a stateful denoiser still sees them); default
+            0, and ``min(STATEFUL_SKIP, len(frames) - 1)`` for a stateful denoiser.
 
     Returns:
-        The best parameters by mean MSE over the frames.
+        The best parameters by mean MSE over the frames after ``skip``.
 
     Raises:
         UnknownNameError: ``name`` is not tunable.
-        ValueRangeError: no frames, or not one reference per frame.
+        ValueRangeError: no frames, not one reference per frame, or ``skip`` leaves none.
+        DtypeError: ``skip`` is not an int.
         ShapeError: a reference does not match its frame.
+        SequenceError: (stateful) the frames are not all of one size.
     """
     check_name(name, list(GRIDS), "tunable denoiser")
     if len(frames) == 0 or len(frames) != len(references):
@@ -133,14 +154,38 @@ def tune(
         )
     for i, (frame, ref) in enumerate(zip(frames, references)):
         check_shape(ref, f"3 {frame.height} {frame.width}", f"tune: references[{i}]")
-    noisy = sum(_mse(f.color, r) for f, r in zip(frames, references)) / len(frames)
+    stateful = DENOISERS[name].stateful
+    if skip is None:
+        skip = min(STATEFUL_SKIP, len(frames) - 1) if stateful else 0
+    if isinstance(skip, bool) or not isinstance(skip, int):
+        raise DtypeError(f"tune: skip: expected an int, got {type(skip).__name__} {skip!r}")
+    check_range(skip, "tune: skip", 0, len(frames) - 1)
+    measured = list(zip(frames[skip:], references[skip:]))
+    noisy = sum(_mse(f.color, r) for f, r in measured) / len(measured)
     table = []
     for params in grid_points(grid if grid is not None else GRIDS[name]):
         denoiser = get_denoiser(name, **params)
-        mse = sum(_mse(denoiser(f), r) for f, r in zip(frames, references)) / len(frames)
-        table.append((params, mse))
+        table.append((params, _mean_mse(denoiser, frames, references, skip)))
     best, best_mse = min(table, key=lambda row: row[1])  # min keeps the first of equal values
-    return TuneResult(name, best, best_mse, noisy, len(frames), table)
+    return TuneResult(name, best, best_mse, noisy, len(measured), table, skip)
+
+
+def _mean_mse(
+    denoiser: Denoiser,
+    frames: Sequence[Frame],
+    references: Sequence[torch.Tensor],
+    skip: int,
+) -> float:
+    """Mean MSE of ``denoiser`` over ``frames[skip:]``; a stateful one is reset and fed all."""
+    denoiser.reset()
+    total = 0.0
+    for t, (frame, ref) in enumerate(zip(frames, references)):
+        if t < skip and not denoiser.stateful:
+            continue
+        out = denoiser(frame, t=t)
+        if t >= skip:
+            total += _mse(out, ref)
+    return total / (len(frames) - skip)
 
 
 def _atomic_write_text(path: Path, text: str) -> None:

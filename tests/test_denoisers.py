@@ -8,7 +8,19 @@ from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameErro
 from bnerr.frame import Frame
 from denoisers import DENOISERS, Denoiser, MissingBufferError, check_frame, get_denoiser
 
-NAMES = ["atrous", "bilateral", "gaussian", "guided", "joint_bilateral", "median", "oidn", "unet"]
+NAMES = [
+    "atrous",
+    "bilateral",
+    "gaussian",
+    "guided",
+    "joint_bilateral",
+    "median",
+    "oidn",
+    "svgf",
+    "taa",
+    "unet",
+]
+STATEFUL = {"svgf", "taa"}
 
 
 def _frame(h=12, w=10, seed=0, **drop):
@@ -18,6 +30,8 @@ def _frame(h=12, w=10, seed=0, **drop):
         albedo=torch.rand(3, h, w, generator=g),
         normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
         depth=torch.rand(1, h, w, generator=g) + 1.0,
+        motion=torch.rand(2, h, w, generator=g) - 0.5,
+        object_id=torch.zeros(1, h, w),
     )
     for name in drop:
         buffers.pop(name)
@@ -29,6 +43,23 @@ def test_registry_names_sorted_and_complete():
     assert denoisers.__all__ == sorted(denoisers.__all__)
     for name, cls in DENOISERS.items():
         assert cls.name == name and issubclass(cls, Denoiser)
+        assert cls.stateful == (name in STATEFUL)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_every_denoiser_takes_reset_and_a_frame_index(name):
+    """Callers treat all denoisers alike: reset, then frames in order with their index t."""
+    frames = [_frame(seed=s) for s in range(3)]
+    denoiser = get_denoiser(name)
+    first = [denoiser(f, t=t) for t, f in enumerate(frames)]
+    denoiser.reset()
+    again = [denoiser(f, t=t) for t, f in enumerate(frames)]
+    assert all(torch.equal(a, b) for a, b in zip(first, again, strict=True))
+    if not denoiser.stateful:  # stateless: the index and the order change nothing
+        assert torch.equal(denoiser(frames[1]), first[1])
+        assert torch.equal(denoiser(frames[2], t=7), first[2])
+    with pytest.raises(DtypeError, match=f"denoiser '{name}': t: expected an int frame index"):
+        denoiser(frames[0], t=1.0)
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -56,6 +87,8 @@ def test_unknown_name_and_parameter_raise():
         ("atrous", "depth"),
         ("unet", "albedo"),
         ("oidn", "normal"),
+        ("taa", "motion"),
+        ("svgf", "object_id"),
     ],
 )
 def test_missing_buffer_is_named(name, missing):

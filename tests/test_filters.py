@@ -195,3 +195,54 @@ def test_absurd_windows_are_refused_before_allocating(name, params, match):
 
     with pytest.raises(MemoryLimitError, match=match + r" that fits in memory .* got an estimate"):
         get_denoiser(name, **params)(_guided_frame())
+
+
+# -- an initial luminance variance (SVGF's temporal estimate) -------------------------------------
+
+
+def test_atrous_variance_nan_is_the_spatial_estimate_and_none_the_default():
+    from denoisers.filters import _spatial_variance
+
+    frame = _guided_frame()
+    args = (frame.color, frame.normal, frame.depth)
+    plain = atrous_filter(*args)
+    h, w = frame.color.shape[1:]
+    assert torch.equal(atrous_filter(*args, variance=torch.full((h, w), float("nan"))), plain)
+    spatial = _spatial_variance(luminance(frame.color))[0]
+    given = torch.rand(h, w, generator=torch.Generator().manual_seed(5))
+    mixed = torch.where(torch.arange(w) < w // 2, given, float("nan"))
+    want = atrous_filter(*args, variance=torch.where(mixed.isnan(), spatial, mixed))
+    assert torch.equal(atrous_filter(*args, variance=mixed), want)
+
+
+def test_atrous_variance_sets_how_much_luminance_difference_is_noise():
+    frame = _guided_frame()
+    args = (frame.color, frame.normal, frame.depth)
+    h, w = frame.color.shape[1:]
+    # Zero variance: every neighbour of another luminance is an edge, the image stays as it is.
+    kept = atrous_filter(*args, variance=torch.zeros(h, w))
+    torch.testing.assert_close(kept, frame.color, rtol=0, atol=1e-6)
+    # A larger variance lets more neighbours in: the output is smoother.
+    rough = [
+        float(atrous_filter(*args, variance=torch.full((h, w), v)).diff(dim=2).abs().mean())
+        for v in (1e-4, 1e-2, 1.0)
+    ]
+    assert rough[0] > rough[1] > rough[2]
+
+
+def test_atrous_variance_is_checked():
+    from bnerr.errors import ShapeError
+
+    frame = _guided_frame()
+    args = (frame.color, frame.normal, frame.depth)
+    h, w = frame.color.shape[1:]
+    with pytest.raises(ShapeError, match="atrous_filter: variance"):
+        atrous_filter(*args, variance=torch.zeros(1, h, w))
+    bad = torch.zeros(h, w)
+    bad[3, 4], bad[5, 1] = -1.0, float("inf")
+    with pytest.raises(
+        ValueRangeError,
+        match=r"variance: expected values >= 0 and finite .* got 2 others, first "
+        r"-1.0 at pixel \(y, x\) = \(3, 4\)",
+    ):
+        atrous_filter(*args, variance=bad)

@@ -162,3 +162,17 @@ def test_accumulation_lowers_mse_on_every_scene(name: str, denoiser: str) -> Non
     noisy = sum(float(((f.color - r) ** 2).mean()) for f, r in zip(frames[2:], refs[2:]))
     after = sum(float(((o - r) ** 2).mean()) for o, r in zip(outs[2:], refs[2:]))
     assert after < noisy
+
+
+def test_svgf_uses_the_temporal_variance_once_four_frames_are_accumulated() -> None:
+    # The same noisy image every frame: its spatial variance is large, its variance over time 0.
+    color = _noisy(7)
+    svgf = SVGF(alpha=0.2)
+    outs = [svgf(_frame(color), t=t) for t in range(5)]
+    change = [float((o - color).abs().mean()) for o in outs]
+    # Frames 0-2 (history shorter than 4): the spatial estimate, the noise is filtered out.
+    assert min(change[:3]) > 0.05
+    # From the 4th frame on the moments say the pixel never varies: nothing is noise, almost no
+    # blur (float32 leaves a variance of ~1e-8, about 1e-4 of luminance: neighbours that close
+    # still mix).
+    assert max(change[3:]) < 0.01 * min(change[:3])

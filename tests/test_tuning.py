@@ -7,11 +7,28 @@ import pytest
 import torch
 from _scene_renders import SCENES, mse, scene_renders
 
-from bnerr.errors import FileFormatError, ShapeError, UnknownNameError, ValueRangeError
+from bnerr.errors import (
+    DtypeError,
+    FileFormatError,
+    ShapeError,
+    UnknownNameError,
+    ValueRangeError,
+)
 from bnerr.frame import Frame
-from denoisers import get_denoiser
+from denoisers import DENOISERS, get_denoiser, tuning
 from denoisers.filters import Gaussian, Median
-from denoisers.tuning import GRIDS, PARAMS_FORMAT, ParamStore, grid_points, tune, tuned_denoiser
+from denoisers.temporal import TAA, SequenceError
+from denoisers.tuning import (
+    GRIDS,
+    PARAMS_FORMAT,
+    STATEFUL_SKIP,
+    ParamStore,
+    grid_points,
+    tune,
+    tuned_denoiser,
+)
+
+SPATIAL = sorted(name for name in GRIDS if not DENOISERS[name].stateful)
 
 
 def _noisy_frames(count, noise, seed=0, size=32):
@@ -120,7 +137,7 @@ def _tuned(scene, name):
     return tune(name, [tune_frame], [reference])
 
 
-@pytest.mark.parametrize("name", sorted(GRIDS))
+@pytest.mark.parametrize("name", SPATIAL)
 @pytest.mark.parametrize("scene", SCENES)
 def test_tuned_filters_lower_mse_on_every_scene_at_4spp(scene, name, request):
     """Tuned on one white-noise frame, measured on an independent one (64 x 64, 4 spp)."""
@@ -154,3 +171,89 @@ def test_resolve_accepts_the_scene_name_alone_when_one_key_matches():
         store.resolve("gaussian", "cornell")
     with pytest.raises(UnknownNameError, match="got 0: cornell/a, cornell/b, direct/m1"):
         store.resolve("gaussian", "teapot")
+
+
+# -- stateful denoisers: tuned on a sequence, reset per candidate, measured after a warm-up -------
+
+
+def _sequence(count, noise, drift=0.0, seed=0, size=16):
+    """Noisy frames of a smooth image that brightens by ``drift`` per frame (no motion)."""
+    g = torch.Generator().manual_seed(seed)
+    yy, xx = torch.meshgrid(torch.linspace(0, 1, size), torch.linspace(0, 1, size), indexing="ij")
+    clean = torch.stack([0.5 + 0.3 * xx, 0.4 + 0.2 * yy, 0.3 + 0.1 * xx * yy])
+    normal = torch.zeros(3, size, size)
+    normal[2] = 1.0
+    frames, refs = [], []
+    for t in range(count):
+        ref = clean + drift * t
+        frames.append(
+            Frame(
+                color=ref + noise * torch.randn(3, size, size, generator=g),
+                normal=normal,
+                depth=torch.ones(1, size, size),
+                motion=torch.zeros(2, size, size),
+                object_id=torch.zeros(1, size, size),
+            )
+        )
+        refs.append(ref)
+    return frames, refs
+
+
+def test_stateful_tune_feeds_the_sequence_and_measures_after_the_warm_up():
+    frames, refs = _sequence(5, noise=0.2)
+    result = tune("taa", frames, refs)
+    assert result.skipped == STATEFUL_SKIP and result.frames == 5 - STATEFUL_SKIP
+    noisy = sum(mse(f.color, r) for f, r in zip(frames[2:], refs[2:])) / 3
+    assert result.noisy_mse == pytest.approx(noisy, rel=1e-12)
+    # Each table row is a fresh denoiser fed the whole sequence in order, measured on frames 2-4.
+    for params, value in result.table:
+        taa = TAA(**params)
+        outs = [taa(f, t=t) for t, f in enumerate(frames)]
+        again = sum(mse(o, r) for o, r in zip(outs[2:], refs[2:])) / 3
+        assert value == pytest.approx(again, rel=1e-12)
+    assert result.mse < result.noisy_mse
+
+
+def test_stateful_tune_resets_before_each_candidate(monkeypatch):
+    frames, refs = _sequence(4, noise=0.2)
+    shared = TAA(alpha=0.3)  # one instance for every candidate: only reset() separates them
+    monkeypatch.setattr(tuning, "get_denoiser", lambda name, **params: shared)
+    result = tune("taa", frames, refs, grid={"alpha": (0.3, 0.3, 0.3)})
+    assert len({value for _, value in result.table}) == 1
+
+
+def test_static_noise_picks_a_slow_blend_and_changing_content_a_fast_one():
+    # A property of the MSE trade-off: history helps while the image stands still, lags when
+    # it changes faster than the noise hides.
+    still = tune("taa", *_sequence(30, noise=0.2))
+    moving = tune("taa", *_sequence(12, noise=0.01, drift=0.2))
+    assert still.params["alpha"] == min(GRIDS["taa"]["alpha"])
+    assert moving.params["alpha"] == max(GRIDS["taa"]["alpha"])
+    still_mse, moving_mse = [v for _, v in still.table], [v for _, v in moving.table]
+    assert still_mse == sorted(still_mse) and moving_mse == sorted(moving_mse, reverse=True)
+
+
+def test_svgf_tunes_on_a_sequence():
+    frames, refs = _sequence(5, noise=0.2, size=12)
+    result = tune("svgf", frames, refs)
+    assert len(result.table) == len(grid_points(GRIDS["svgf"]))
+    assert result.mse < result.noisy_mse
+
+
+def test_skip_is_checked_and_stateless_filters_skip_frames_unseen():
+    frames, refs = _sequence(3, noise=0.2)
+    with pytest.raises(ValueRangeError, match=r"tune: skip: expected a value in \[0, 2\], got 3"):
+        tune("taa", frames, refs, skip=3)
+    with pytest.raises(DtypeError, match="tune: skip: expected an int"):
+        tune("gaussian", frames, refs, skip=1.0)
+    skipped = tune("gaussian", frames, refs, skip=1)
+    plain = tune("gaussian", frames[1:], refs[1:])
+    assert skipped.table == plain.table and (skipped.frames, skipped.skipped) == (2, 1)
+    assert tune("taa", frames[:1], refs[:1]).skipped == 0  # one frame: nothing left to skip
+
+
+def test_stateful_tune_refuses_frames_of_two_sizes():
+    frames, refs = _sequence(2, noise=0.2)
+    other, other_refs = _sequence(1, noise=0.2, size=8)
+    with pytest.raises(SequenceError, match="call reset"):
+        tune("taa", frames + other, refs + other_refs)

@@ -9,7 +9,7 @@ from _scene_renders import SCENES, measured_frames, mse, scene_renders
 from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.metrics import paired_ratio
-from denoisers import get_denoiser
+from denoisers import DENOISERS, get_denoiser
 from denoisers import unet as unet_module
 from denoisers.tuning import GRIDS, tune
 from denoisers.unet import (
@@ -184,7 +184,9 @@ def _held_out_comparison(scene, sampler):
     tune_frame, _, reference = scene_renders(scene, sampler)
     frames = measured_frames(scene, sampler)
     filters = {
-        name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params) for name in GRIDS
+        name: get_denoiser(name, **tune(name, [tune_frame], [reference]).params)
+        for name in GRIDS
+        if not DENOISERS[name].stateful  # one frame each: the U-Net against the spatial filters
     }
     per_frame = {name: [mse(d(f), reference) for f in frames] for name, d in filters.items()}
     best = min(per_frame, key=lambda name: sum(per_frame[name]))
