@@ -15,6 +15,10 @@ pixel region. One run yields one :class:`benchmarks.records.Record` per cell (de
   (``strategy.sampler_name``): the run's per-pixel ``sampler`` condition, or the strategy's own
   (bnds, bnds_st, zsobol, cycles_blue, zsobol_t, temporal_zsobol ignore the condition). The
   cell's ``sampler`` stays the condition, so every record pairs with white's under it.
+- **Stateful denoisers** (``denoiser.stateful``: ``taa``, ``svgf``): reset at the start of each
+  seed set (a sequence) and fed every frame in order, warmup frames included, as
+  ``denoiser(frame, t=t)``; a run with one renders the warmup frames of a stateless strategy
+  too. Only the measured frames' outputs are measured and timed.
 - **Fair denoisers** (:func:`tune_denoisers`): each filter's parameters are tuned once per scene,
   condition and spp on white-noise frames (:mod:`denoisers.tuning`) and used unchanged for every
   strategy.
@@ -173,6 +177,16 @@ class SeedSetResult:
     crop: dict[str, np.ndarray] = field(default_factory=dict)
 
 
+def _stateful(denoiser: Denoiser) -> bool:
+    return bool(getattr(denoiser, "stateful", False))
+
+
+def _denoise(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
+    """A stateful denoiser is told the frame's index (it checks the order); a stateless one
+    is called with the frame alone."""
+    return denoiser(frame, t=t) if _stateful(denoiser) else denoiser(frame)
+
+
 class _SeedSetMeasurement:
     """Everything measured in one seed set: metrics, timings, spectra and crops, per cell."""
 
@@ -199,6 +213,18 @@ class _SeedSetMeasurement:
         self.freq = freq.tolist()
         self.power[kind].append(power.cpu())
 
+    def reset(self) -> None:
+        """Start a sequence: every stateful denoiser forgets the frames it saw."""
+        for denoiser in self.denoisers.values():
+            if _stateful(denoiser):
+                denoiser.reset()
+
+    def feed_warmup(self, t: int, frame: Frame) -> None:
+        """Feed warmup frame ``t`` to the stateful denoisers (their output is not measured)."""
+        for denoiser in self.denoisers.values():
+            if _stateful(denoiser):
+                denoiser(frame, t=t)
+
     def add(self, t: int, frame: Frame, ref: Frame) -> None:
         """Measure frame ``t`` (with its timings) against its reference."""
         self.measured_t.append(t)
@@ -213,7 +239,7 @@ class _SeedSetMeasurement:
         outputs = {}
         for name, denoiser in self.denoisers.items():
             watch = Stopwatch()
-            out = denoiser(frame)
+            out = _denoise(denoiser, frame, t)
             self.timings[f"denoise_ms/{name}"].append(watch.ms(out))
             outputs[name] = out
             self._spectrum(name, out - ref.color)
@@ -343,15 +369,20 @@ def measure_seed_set(
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
-    first = 0 if parts.stateful(strategy) else run.warmup
+    # a stateful strategy, or a stateful denoiser, needs the warmup frames in order
+    in_order = parts.stateful(strategy) or any(_stateful(d) for d in chosen.values())
+    first = 0 if in_order else run.warmup
     for _ in range(first):  # the skipped warmup frames count as done
         tick()
+    measurement.reset()
     for t in range(first, run.warmup + run.frames):
         render.t_render = _t_render(run, t)
         frame = strategy.frame(t, render)
         tick()
         if t >= run.warmup:
             measurement.add(t, frame, references.get(run, scene, _t_reference(run, t)))
+        else:
+            measurement.feed_warmup(t, frame)
     sampler = getattr(strategy, "sampler_name", "") or run.sampler
     return measurement.result(int(getattr(scene, "dimensions", 0)), sampler)
 

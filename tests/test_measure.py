@@ -160,3 +160,39 @@ def test_records_keep_the_sampler_the_strategy_rendered_with(tmp_path, strategy,
     records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
     assert {r.render_sampler for r in records} == {want}
     assert {r.cell.sampler for r in records} == {"owen_sobol"}  # the condition, paired with white
+
+
+class _Accumulating:
+    """A stand-in stateful denoiser: the running mean of the colours it was fed since reset;
+    logs resets and frame indices."""
+
+    stateful = True
+
+    def __init__(self):
+        self.log, self.total, self.count = [], None, 0
+
+    def reset(self):
+        self.log.append("reset")
+        self.total, self.count = None, 0
+
+    def __call__(self, frame, t=None):
+        self.log.append(t)
+        self.total = frame.color if self.total is None else self.total + frame.color
+        self.count += 1
+        return self.total / self.count
+
+
+@pytest.mark.parametrize("strategy", ["white", "temporal"])
+def test_stateful_denoisers_see_every_frame_in_order_and_reset_per_seed_set(tmp_path, strategy):
+    render = _Render()
+    parts = _parts(render)
+    run = dataclasses.replace(_run(strategy, crops=False), denoisers=("acc", "plain"))
+    acc = _Accumulating()
+    denoisers = {"acc": acc, "plain": lambda f: f.color}
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    assert acc.log == ["reset", 0, 1, 2, 3, 4] * 2  # warmup frames 0..2 included
+    assert [c for c in render.calls if c[1] == 2] == [(t, 2) for t in range(5)] * 2
+    by_name = {r.cell.denoiser: r for r in records}
+    assert by_name["acc"].den["mse"] != by_name["plain"].den["mse"]
+    assert by_name["acc"].raw == by_name["plain"].raw
+    assert len(by_name["acc"].timings.denoise_ms[0]) == 2  # measured frames only
