@@ -22,6 +22,18 @@ The four suites (issue 6):
   render per frame, at 1-3x white's render time for the Z-order samplers; the oracle's 32
   renders per frame still dominate).
 - ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
+- ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
+  option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
+  (:data:`GAP_BEST`), next to white, temporal and the oracle, so that
+  :func:`benchmarks.gap.gap_shares` gives each one's share of the white-to-oracle distance after
+  the sigma-1 and sigma-2 blurs and after each denoiser. Every scene at 1 and 4 spp with the
+  scene's animation (all pixels and object edges: one render serves both regions), at 16 spp the
+  same with the best combinations only (white, temporal, :data:`GAP_BEST`, oracle), then at 4 spp:
+  white per-pixel sequences (direct, snooker), a static camera (direct, snooker) and the
+  animation 8 times faster (indirect, snooker). Sized for at most 60 minutes on the 2-core
+  development machine on one thread: 2 seed sets x 2 frames after 4 warmup frames (the sort
+  converges within about 3), the two cheap denoisers (gaussian, atrous; ``--denoisers`` adds the
+  others), only the MSE measures, no crops. The oracle's 32 renders per frame are half of it.
 - ``stability``: the cases where the temporal method is expected to fail: textured against
   untextured snooker, object edges, static against fast camera motion, Owen-Sobol against white
   per-pixel sequences, 1 to 64 spp, 1 to 8 bounces; reported as each strategy's post-denoise MSE
@@ -42,6 +54,8 @@ from dataclasses import dataclass
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 
 __all__ = [
+    "GAP_BEST",
+    "GAP_SINGLE",
     "REGIONS",
     "RIVALS",
     "SAMPLERS",
@@ -186,6 +200,24 @@ _ALL_DENOISERS = (
     "oidn",
 )
 _CHEAP_DENOISERS = ("gaussian", "atrous")
+#: The gap suite's variants with one option each (bnerr.strategies.parse_variant).
+GAP_SINGLE: tuple[str, ...] = (
+    "temporal+residual",
+    "temporal+relative",
+    "temporal+demod",
+    "temporal+groups",
+    "temporal+shift",
+    "temporal+reproject",
+)
+#: The best combination, on hashed seeds and on ZSobol keys (chosen on the quick ablation
+#: recorded in tests/test_ordering.py).
+GAP_BEST: tuple[str, ...] = (
+    "temporal+residual+groups+shift+reproject",
+    "temporal_zsobol+residual+groups+shift+reproject",
+)
+_GAP_STRATEGIES = ("white", "temporal", *GAP_SINGLE, *GAP_BEST, "oracle")
+_GAP_SETS = dict(seed_sets=2, frames=2, warmup=4, res=(128, 128), reference_spp=256)
+_GAP_METRICS = ("mse", "mse_blur1", "mse_blur2")
 
 # Why 4 seed sets x 3 frames and not 1 x 12: a temporal run reuses one set of seeds for all its
 # frames, so its frames are correlated and only independent seed sets make an honest interval
@@ -229,6 +261,53 @@ SUITES: dict[str, Suite] = {
                 res=(128, 128),
                 reference_spp=1024,
                 **_SETS,
+            ),
+        ),
+    ),
+    "gap": Suite(
+        name="gap",
+        description=(
+            "ablation of the temporal variants: share of the white-to-oracle gap closed, every "
+            "scene at 1, 4, 16 spp, sequences, static/x8 motion, edges (<= 60 minutes)"
+        ),
+        crops=False,
+        sweeps=(
+            Sweep(
+                scenes=_ALL_SCENES,
+                strategies=_GAP_STRATEGIES,
+                spp=(1, 4),
+                denoisers=_CHEAP_DENOISERS,
+                conditions=(Condition(region="all"), Condition(region="edges")),
+                metrics=_GAP_METRICS,
+                **_GAP_SETS,
+            ),
+            # 16 spp: the best combinations only (single options there would add ~10 minutes).
+            Sweep(
+                scenes=_ALL_SCENES,
+                strategies=("white", "temporal", *GAP_BEST, "oracle"),
+                spp=(16,),
+                denoisers=_CHEAP_DENOISERS,
+                conditions=(Condition(region="all"), Condition(region="edges")),
+                metrics=_GAP_METRICS,
+                **_GAP_SETS,
+            ),
+            Sweep(
+                scenes=("direct", "snooker"),
+                strategies=_GAP_STRATEGIES,
+                spp=(4,),
+                denoisers=_CHEAP_DENOISERS,
+                conditions=(Condition(sampler="white"), Condition(motion=0)),
+                metrics=_GAP_METRICS,
+                **_GAP_SETS,
+            ),
+            Sweep(
+                scenes=("indirect", "snooker"),
+                strategies=_GAP_STRATEGIES,
+                spp=(4,),
+                denoisers=_CHEAP_DENOISERS,
+                conditions=(Condition(motion=8),),
+                metrics=_GAP_METRICS,
+                **_GAP_SETS,
             ),
         ),
     ),
@@ -318,7 +397,7 @@ SUITES: dict[str, Suite] = {
 
 
 def get_suite(name: str) -> Suite:
-    """The suite called ``name`` (``quick``, ``quality``, ``speed``, ``stability``)."""
+    """The suite called ``name`` (``quick``, ``quality``, ``gap``, ``speed``, ``stability``)."""
     return SUITES[check_name(name, tuple(SUITES), "suite")]
 
 
@@ -328,6 +407,21 @@ def _known(
     if values is None:
         return None
     return tuple(v if known is None else check_name(v, known, what) for v in values)
+
+
+def _known_strategies(
+    values: Sequence[str] | None, known: Sequence[str] | None
+) -> tuple[str, ...] | None:
+    """As :func:`_known`, and a temporal variant ``base+option+...`` passes when well formed
+    (:func:`bnerr.strategies.check_strategy_name`), registered or not."""
+    if values is None or known is None:
+        return _known(values, known, "strategy")
+    from bnerr.strategies import check_strategy_name
+
+    return tuple(
+        check_strategy_name(v) if "+" in v and v not in known else check_name(v, known, "strategy")
+        for v in values
+    )
 
 
 def resolve(
@@ -350,11 +444,13 @@ def resolve(
 
     An override replaces the axis in every sweep (``--scenes direct`` makes every sweep render
     only ``direct``); None keeps the suite's value. Names are checked against ``known_*`` when
-    given (the registries of the installed parts), raising :class:`UnknownNameError`.
+    given (the registries of the installed parts), raising :class:`UnknownNameError`; a
+    strategy named as a temporal variant (``temporal+residual+groups``) needs only be well
+    formed (:func:`bnerr.strategies.parse_variant`).
     """
     changes = {
         "scenes": _known(scenes, known_scenes, "scene"),
-        "strategies": _known(strategies, known_strategies, "strategy"),
+        "strategies": _known_strategies(strategies, known_strategies),
         "spp": tuple(spp) if spp is not None else None,
         "denoisers": _known(denoisers, known_denoisers, "denoiser"),
         "frames": frames,

@@ -5,6 +5,8 @@ import dataclasses
 import pytest
 
 from benchmarks.suites import (
+    GAP_BEST,
+    GAP_SINGLE,
     REGIONS,
     RIVALS,
     SAMPLERS,
@@ -28,7 +30,7 @@ def _cells(suite):
 
 
 def test_every_suite_is_named_as_its_key_and_has_work():
-    assert sorted(SUITES) == ["quality", "quick", "speed", "stability"]
+    assert sorted(SUITES) == ["gap", "quality", "quick", "speed", "stability"]
     for name, suite in SUITES.items():
         assert suite.name == name and suite.description
         assert bool(suite.sweeps) != bool(suite.scripts), name  # cells or scripts, not both
@@ -137,7 +139,7 @@ def test_the_rivals_are_in_every_stability_sweep_but_the_per_pixel_sequences_one
         assert set(RIVALS).isdisjoint(sweep.strategies) == varies_sampler, sweep.scenes
 
 
-@pytest.mark.parametrize("name", ["quality", "stability"])
+@pytest.mark.parametrize("name", ["quality", "stability", "gap"])
 def test_every_planned_run_builds_its_strategy(name):
     # The suites' plans still work with the rivals: every run's strategy can be built for its
     # scene, depth and spp (the Z-order ones need spp a power of two), and no run is planned twice.
@@ -162,3 +164,71 @@ def test_every_planned_run_builds_its_strategy(name):
             scene = parts.with_depth(scene, run.depth)
         strategy = parts.make_strategy(run.strategy, scene, 8, 8, 0, run.sampler, run.spp)
         assert strategy.name == run.strategy
+
+
+def test_gap_is_an_ablation_bracketed_by_white_and_the_oracle_on_every_condition():
+    import renderers
+    from bnerr.strategies import parse_variant
+
+    suite = get_suite("gap")
+    cells = list(_cells(suite))
+    assert {c[0] for c in cells} == set(renderers.SCENES)
+    assert {c[2] for c in cells} == {1, 4, 16}
+    conds = {c[4] for c in cells}
+    assert {c.region for c in conds} == set(REGIONS)
+    assert {c.sampler for c in conds} == set(SAMPLERS)
+    assert {c.motion for c in conds} == {0, 1, 8}
+    for sweep in suite.sweeps:  # every share has its two bounds and its baseline
+        assert {"white", "temporal", "oracle", *GAP_BEST} <= set(sweep.strategies)
+        assert {"mse", "mse_blur1", "mse_blur2"} <= set(sweep.metrics)
+        if sweep.spp != (16,):  # the single options everywhere but at 16 spp
+            assert set(GAP_SINGLE) <= set(sweep.strategies)
+    # one option each, and every option group is covered alone
+    options = [parse_variant(name)[1] for name in GAP_SINGLE]
+    assert all(len(o.suffix.split("+")) == 2 for o in options)
+    assert {o.key for o in options} >= {"residual", "relative"}
+    assert any(o.demodulate for o in options) and any(o.reproject for o in options)
+    assert any(o.groups for o in options) and any(o.shift for o in options)
+    assert {parse_variant(name)[0] for name in GAP_BEST} == {"temporal", "temporal_zsobol"}
+
+
+# Render cost of one 128x128 frame at 4 spp per scene, seconds on one thread of the 2-core
+# development machine (unloaded; render time grows about linearly with spp, ~0.3x at 1 spp).
+_RENDER_S = {
+    "direct": 0.07,
+    "indirect": 0.08,
+    "cornell": 0.7,
+    "medium": 0.55,
+    "snooker": 0.3,
+    "snooker_plain": 0.25,
+}
+
+
+def test_gap_renders_fit_in_an_hour():
+    # Renders dominate (the oracle's 32 per frame among them); references at 256 spp count once
+    # per scene, condition and frame. The budget leaves a quarter of the hour for the denoisers'
+    # tuning and the metrics.
+    from benchmarks.plan import plan
+
+    seconds = 0.0
+    for run in plan(get_suite("gap")):
+        per_frame = 32 if run.strategy == "oracle" else 1
+        stateful = run.strategy not in ("white", "oracle")
+        frames = run.frames + (run.warmup if stateful else 0)
+        scale = max(0.3, run.spp / 4)
+        seconds += run.seed_sets * frames * per_frame * scale * _RENDER_S[run.scene]
+    references = {(r.scene, r.motion, r.sampler) for r in plan(get_suite("gap"))}
+    seconds += sum(2 * (256 / 4) * _RENDER_S[s] for s, _, _ in references)
+    assert seconds < 45 * 60, seconds / 60
+
+
+def test_resolve_accepts_well_formed_temporal_variants():
+    known = ["white", "temporal"]
+    suite = resolve(
+        get_suite("quick"), strategies=["white", "temporal+groups+shift"], known_strategies=known
+    )
+    assert suite.sweeps[0].strategies == ("white", "temporal+groups+shift")
+    with pytest.raises(ValueRangeError, match="expected options in the order"):
+        resolve(get_suite("quick"), strategies=["temporal+shift+groups"], known_strategies=known)
+    with pytest.raises(UnknownNameError, match="unknown strategy 'oracle'"):
+        resolve(get_suite("quick"), strategies=["oracle"], known_strategies=known)
