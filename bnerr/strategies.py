@@ -63,6 +63,24 @@ are ``spp`` long):
   with one scramble seed per seed set (a key must keep its sequence from frame to frame for the
   sort to mean anything), and S_t stays a permutation of the keys.
 
+**Temporal variants** (docs/METHODS.md, section 8): ``base+option+option...``, base ``temporal``
+or ``temporal_zsobol``, options in this order, at most one of each group:
+
+- sort key: ``residual`` or ``relative`` (:func:`bnerr.sortkeys.sort_key`; default luminance),
+  and ``demod`` (radiance divided by albedo first; alone, it demodulates the luminance key);
+- groups: ``groups`` (object id), ``groups_normal`` (and the normal's dominant axis) or
+  ``groups_depth`` (and a depth bin): each block sorts each group on its own;
+- grid shift: ``shift`` ((B/2, B/2) on odd frames) or ``shift_r2`` (an R2 point in [0, B)^2,
+  period B^2): the block grid moves between frames so that seeds cross block boundaries;
+- ``reproject``: after sorting and retargeting, each seed moves along the frame's motion buffer
+  (forward prediction: the renderer is bound to frame t by the caller, so the next frame's motion
+  is not reachable; a constant-velocity guess from frame t's own t-1 -> t motion).
+
+e.g. ``temporal+relative+demod+groups``. :func:`make_strategy` builds any well-formed one
+(:func:`parse_variant`, :class:`TemporalOptions`); :data:`VARIANTS` lists those registered in
+:data:`STRATEGIES` for the benchmark's command line. ``temporal_zsobol+...`` renders with the
+``zsobol`` sampler, whose raw MSE differs from the per-pixel samplers'.
+
 **Which sampler renders.** Every strategy has ``sampler_name``, the sampler its renders use.
 ``white``, ``temporal``, ``temporal_sort`` and ``oracle`` take the per-pixel sampler they are
 given (the benchmark's ``sampler`` condition); the others dictate their own
@@ -84,9 +102,9 @@ their seed image from one call to the next whatever t is.
 **Device.** Seeds are made on ``device``; after each render the strategy's state follows the
 device of the returned frame.
 
-Not for: strategies that need more than the color of the previous frame (reprojection along
-motion vectors, feature-aware grouping: future work in docs/METHODS.md), or choosing seeds for a
-renderer that draws its own random numbers.
+Not for: strategies that need the next frame's buffers before rendering it (backward
+reprojection with frame t + 1's motion: the render callback is bound to t), or choosing seeds for
+a renderer that draws its own random numbers.
 """
 
 from __future__ import annotations
