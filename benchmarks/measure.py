@@ -21,7 +21,11 @@ pixel region. One run yields one :class:`benchmarks.records.Record` per cell (de
   too. Only the measured frames' outputs are measured and timed.
 - **Fair denoisers** (:func:`tune_denoisers`): each filter's parameters are tuned once per scene,
   condition and spp on white-noise frames (:mod:`denoisers.tuning`) and used unchanged for every
-  strategy.
+  strategy: the conservative column.
+- **Own tuning** (``NAME:own``, e.g. ``gaussian:own``): the same filter and grid tuned on the
+  run's strategy's own frames, as a team that adopts the strategy would re-tune; the tuning seed
+  set is held out of the measured ones, so tuning cannot fit the measured noise. Both columns sit
+  in one table under their names.
 - **Crops**: a centre crop of the reference, the raw frame and every denoised frame of the first
   measured frame, as 8-bit sRGB previews (:func:`bnerr.color.preview_u8`), saved per run.
 
@@ -30,6 +34,7 @@ Not for: timing the parts in isolation at 1080p (the ``speed`` suite, :mod:`benc
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +55,7 @@ from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
 __all__ = [
+    "OWN_SUFFIX",
     "TUNING_SEED_SET",
     "ParamStore",
     "References",
@@ -62,10 +68,12 @@ __all__ = [
     "missing_tuning",
     "store_tuned",
     "scene_for",
+    "split_own",
     "tune_denoisers",
     "tune_missing",
     "tuned_params",
     "tuning_key",
+    "tuning_source",
 ]
 
 #: The seed set of the white frames the denoisers are tuned on: no measured run uses it.
@@ -434,7 +442,17 @@ def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
 
 
 # --------------------------------------------------------------------------------------------------
-# Fair denoiser parameters
+# Tuned denoiser parameters: fair (on white noise) and own (on the strategy's noise)
+
+#: A denoiser name ending in this (``gaussian:own``) is tuned on the run's strategy's own frames.
+OWN_SUFFIX = ":own"
+
+
+def split_own(name: str) -> tuple[str, bool]:
+    """``"gaussian:own"`` -> ``("gaussian", True)``; ``"gaussian"`` -> ``("gaussian", False)``."""
+    if name.endswith(OWN_SUFFIX):
+        return name[: -len(OWN_SUFFIX)], True
+    return name, False
 
 
 def tuning_key(run: Run) -> str:
@@ -447,6 +465,19 @@ _tuning_key = tuning_key  # the name benchmarks.animate imports
 _scene_for = scene_for  # the name benchmarks.animate imports
 
 
+def tuning_source(run: Run, name: str) -> str:
+    """The strategy whose frames ``name`` is tuned on: ``white``, or the run's own for
+    ``NAME:own``."""
+    return run.strategy if split_own(name)[1] else "white"
+
+
+def _store_key(run: Run, name: str) -> str:
+    """The store's key of ``name``'s parameters for ``run``: :func:`tuning_key`, plus the
+    strategy for ``NAME:own`` (stored under its own name, ``gaussian:own``)."""
+    key = tuning_key(run)
+    return f"{key}/{run.strategy}" if split_own(name)[1] else key
+
+
 def _stored(store: ParamStore, name: str, key: str, spp: int) -> dict | None:
     """The stored parameters, or None for a denoiser without any (nothing to tune)."""
     if str(spp) in store.entries.get(name, {}).get(key, {}):
@@ -454,65 +485,82 @@ def _stored(store: ParamStore, name: str, key: str, spp: int) -> dict | None:
     return None
 
 
-def missing_tuning(run: Run, store: ParamStore) -> list[str]:
-    """The run's denoisers with no parameters in ``store`` for its :func:`tuning_key` and spp
-    (those without a grid among them: they are never stored)."""
-    key = tuning_key(run)
-    return [d for d in run.denoisers if _stored(store, d, key, run.spp) is None]
+def missing_tuning(run: Run, store: ParamStore) -> dict[str, list[str]]:
+    """The run's denoisers with no parameters in ``store`` for its scene, condition and spp, by
+    :func:`tuning_source` (those without a grid among them: they are never stored)."""
+    missing: dict[str, list[str]] = {}
+    for name in run.denoisers:
+        if _stored(store, name, _store_key(run, name), run.spp) is None:
+            missing.setdefault(tuning_source(run, name), []).append(name)
+    return missing
 
 
 def tune_missing(
-    run: Run, parts: Parts, references: References, names: list[str]
+    run: Run, parts: Parts, references: References, names: list[str], source: str = "white"
 ) -> dict[str, Any]:
-    """Tune ``names`` for ``run``'s scene, condition and spp on white noise: name -> TuneResult,
-    or None for a denoiser with nothing to tune.
+    """Tune ``names`` for ``run``'s scene, condition and spp on the frames of strategy
+    ``source``: name -> TuneResult, or None for a denoiser with nothing to tune.
 
-    The frames are ``min(frames, 4)`` measured frames rendered with the ``white`` strategy from
-    a seed set no measured run uses (:data:`TUNING_SEED_SET`), against the same references.
-    Nothing is rendered when ``names`` is empty.
+    The frames are ``min(frames, 4)`` measured frames (a stateful ``source`` renders its warmup
+    frames first) from a seed set no measured run uses (:data:`TUNING_SEED_SET`: held out, so
+    that tuning cannot fit the measured noise), against the same references. Nothing is rendered
+    when ``names`` is empty.
     """
     if not names:
         return {}
     scene = scene_for(run, parts)
     render = _BoundRender(parts, scene, run.spp)
     strategy = parts.make_strategy(
-        "white", scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
+        source, scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
     )
+    first = 0 if parts.stateful(strategy) else run.warmup
     frames, refs = [], []
-    for t in range(run.warmup, run.warmup + min(run.frames, 4)):
+    for t in range(first, run.warmup + min(run.frames, 4)):
         render.t_render = _t_render(run, t)
-        frames.append(strategy.frame(t, render))
-        refs.append(references.get(run, scene, _t_reference(run, t)).color)
-    return {name: parts.tune_denoiser(name, frames, refs) for name in names}
+        frame = strategy.frame(t, render)
+        if t >= run.warmup:
+            frames.append(frame)
+            refs.append(references.get(run, scene, _t_reference(run, t)).color)
+    return {name: parts.tune_denoiser(split_own(name)[0], frames, refs) for name in names}
 
 
-def store_tuned(run: Run, store: ParamStore, results: dict[str, Any]) -> None:
-    """Put the results of :func:`tune_missing` (those not None) in ``store`` under ``run``'s
-    :func:`tuning_key` and spp."""
-    key = tuning_key(run)
-    for result in results.values():
-        if result is not None:
-            store.put(result, key, run.spp)
+def store_tuned(
+    run: Run, store: ParamStore, results: dict[str, Any], source: str = "white"
+) -> None:
+    """Put the results of :func:`tune_missing` on ``source``'s frames (those not None) in
+    ``store`` under ``run``'s key and spp; ``NAME:own`` under its own name, its key naming
+    ``source`` (the strategy it was tuned on, whichever run asked)."""
+    for name, result in results.items():
+        if result is None:
+            continue
+        key = tuning_key(run)
+        if split_own(name)[1]:
+            key = f"{key}/{source}"
+            if dataclasses.is_dataclass(result):
+                result = dataclasses.replace(result, denoiser=name)
+        store.put(result, key, run.spp)
 
 
 def tuned_params(run: Run, store: ParamStore) -> dict[str, dict | None]:
     """Name -> the stored parameters of each of the run's denoisers (None: nothing to tune)."""
-    key = tuning_key(run)
-    return {name: _stored(store, name, key, run.spp) for name in run.denoisers}
+    return {name: _stored(store, name, _store_key(run, name), run.spp) for name in run.denoisers}
 
 
 def make_denoisers(parts: Parts, params: dict[str, dict | None]) -> dict[str, Denoiser]:
-    """Name -> denoiser built with its parameters (:func:`tuned_params`)."""
-    return {name: parts.make_denoiser(name, p) for name, p in params.items()}
+    """Name -> denoiser built with its parameters (:func:`tuned_params`); ``NAME:own`` is
+    ``NAME`` with its own parameters."""
+    return {name: parts.make_denoiser(split_own(name)[0], p) for name, p in params.items()}
 
 
 def tune_denoisers(
     run: Run, parts: Parts, references: References, store: ParamStore
 ) -> dict[str, Denoiser]:
-    """The run's denoisers with parameters tuned on white noise for its scene, condition and spp.
+    """The run's denoisers with their tuned parameters for its scene, condition and spp.
 
-    Parameters missing from ``store`` are tuned now (:func:`tune_missing`) and put in the store;
-    then every strategy's run uses them unchanged.
+    Parameters missing from ``store`` are tuned now (:func:`tune_missing`, per
+    :func:`tuning_source`) and put in the store; the fair ones (tuned on white noise) are then
+    used unchanged for every strategy, the ``NAME:own`` ones for the strategy they were tuned on.
     """
-    store_tuned(run, store, tune_missing(run, parts, references, missing_tuning(run, store)))
+    for source, names in missing_tuning(run, store).items():
+        store_tuned(run, store, tune_missing(run, parts, references, names, source), source)
     return make_denoisers(parts, tuned_params(run, store))

@@ -164,13 +164,19 @@ def real_parts() -> Parts:
 
 
 def known_names() -> dict[str, tuple[str, ...]]:
-    """The installed registries, for checking ``--scenes``, ``--strategies``, ``--denoisers``."""
+    """The installed registries, for checking ``--scenes``, ``--strategies``, ``--denoisers``.
+
+    The denoisers include ``NAME:own`` for every one with a tuning grid (tuned on the strategy's
+    own frames, :mod:`benchmarks.measure`).
+    """
     import denoisers
     import renderers
     from bnerr import strategies
+    from denoisers import tuning
 
+    own = tuple(f"{name}:own" for name in denoisers.DENOISERS if name in tuning.GRIDS)
     return {
         "known_scenes": tuple(renderers.SCENES),
         "known_strategies": tuple(strategies.STRATEGIES),
-        "known_denoisers": tuple(denoisers.DENOISERS),
+        "known_denoisers": tuple(denoisers.DENOISERS) + own,
     }

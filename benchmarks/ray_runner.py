@@ -11,9 +11,10 @@ the records are the serial runner's bit for bit (timings aside). Three kinds of 
   same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
   storage) and writes it otherwise (atomically); the frame itself travels to the tasks that need
   it through the object store, so nodes need not share the cache folder.
-- **tuning**: one task per (scene, condition, resolution, spp) whose denoisers are not in
-  ``tuned_params.json`` yet (:func:`benchmarks.measure.tune_missing`, white noise, the tuning
-  seed set). The driver stores the parameters and saves the file when it returns, and only then
+- **tuning**: one task per (scene, condition, resolution, spp, frames' strategy) whose
+  denoisers are not in ``tuned_params.json`` yet (:func:`benchmarks.measure.tune_missing`, the
+  tuning seed set; white noise for the fair column, the run's strategy for ``NAME:own``). The
+  driver stores the parameters and saves the file when it returns, and only then
   submits the measuring tasks that need them.
 - **measuring**: one task per seed set of each pending run.
 
@@ -113,11 +114,11 @@ def _reference_task(run: Run, parts: Parts, cache_root: str, t_ref: int) -> Fram
 
 
 def _tune_task(
-    run: Run, parts: Parts, names: list[str], t_refs: list[int], *frames: Frame
+    run: Run, parts: Parts, names: list[str], source: str, t_refs: list[int], *frames: Frame
 ) -> dict[str, Any]:
     """:func:`benchmarks.measure.tune_missing` against the references handed in."""
     _use_task_cpus()
-    return tune_missing(run, parts, _GivenReferences(t_refs, frames), names)
+    return tune_missing(run, parts, _GivenReferences(t_refs, frames), names, source)
 
 
 def _measure_task(
@@ -145,13 +146,17 @@ def _measured_refs(run: Run, count: int | None = None) -> list[int]:
     return list(dict.fromkeys(_t_reference(run, t) for t in frames))
 
 
+#: A tuning task: (tuning key, spp, the strategy whose frames it tunes on).
+_TuneKey = tuple[str, int, str]
+
+
 @dataclass
 class _Job:
     """A task in flight: its kind and what the driver does when it returns."""
 
     kind: str  # "reference", "tune" or "measure"
     run: Run | None = None
-    tkey: tuple[str, int] | None = None
+    tkey: _TuneKey | None = None
 
 
 class _Scheduler:
@@ -167,7 +172,8 @@ class _Scheduler:
         self.naming = ReferenceCache(cache_root, sweep.parts)
         self.references: dict[str, Any] = {}
         self.inflight: dict[Any, _Job] = {}
-        self.waiting: dict[tuple[str, int], list[Run]] = defaultdict(list)
+        self.waiting: dict[_TuneKey, list[Run]] = defaultdict(list)
+        self.blocked: dict[Run, int] = {}  # run -> tunings it still waits for
         self.results: dict[Run, list[SeedSetResult]] = defaultdict(list)
 
     def _references(self, run: Run, t_refs: list[int]) -> list[Any]:
@@ -183,33 +189,35 @@ class _Scheduler:
         return refs
 
     def submit_all(self) -> None:
-        """Tuning tasks for the parameters not stored yet; measuring tasks for the other runs."""
-        missing: dict[tuple[str, int], list[str]] = {}
-        first: dict[tuple[str, int], Run] = {}
+        """Tuning tasks for the parameters not stored yet (one per scene, condition, spp and
+        frames' strategy); measuring tasks for the runs that need none."""
+        names: dict[_TuneKey, list[str]] = {}
+        first: dict[_TuneKey, Run] = {}
         for run in self.sweep.todo:
-            tkey = (tuning_key(run), run.spp)
-            names = missing.setdefault(tkey, [])
-            names.extend(n for n in missing_tuning(run, self.sweep.store) if n not in names)
-            first.setdefault(tkey, run)
-            self.waiting[tkey].append(run)
-        for tkey, names in missing.items():
-            if names:
-                run = first[tkey]
-                t_refs = _measured_refs(run, min(run.frames, 4))
-                frames = self._references(run, t_refs)
-                ref = self.tune_fn.remote(run, self.parts_ref, names, t_refs, *frames)
-                self.inflight[ref] = _Job("tune", run=run, tkey=tkey)
-            else:
-                self._submit_measures(tkey)
-
-    def _submit_measures(self, tkey: tuple[str, int]) -> None:
-        for run in self.waiting.pop(tkey, []):
-            params = tuned_params(run, self.sweep.store)
-            t_refs = _measured_refs(run)
+            missing = missing_tuning(run, self.sweep.store)
+            self.blocked[run] = len(missing)
+            for source, missing_names in missing.items():
+                tkey = (tuning_key(run), run.spp, source)
+                have = names.setdefault(tkey, [])
+                have.extend(n for n in missing_names if n not in have)
+                first.setdefault(tkey, run)
+                self.waiting[tkey].append(run)
+            if not missing:
+                self._submit_measures(run)
+        for tkey, tune_names in names.items():
+            run = first[tkey]
+            t_refs = _measured_refs(run, min(run.frames, 4))
             frames = self._references(run, t_refs)
-            for group in range(run.seed_sets):
-                ref = self.measure_fn.remote(run, group, self.parts_ref, params, t_refs, *frames)
-                self.inflight[ref] = _Job("measure", run=run)
+            ref = self.tune_fn.remote(run, self.parts_ref, tune_names, tkey[2], t_refs, *frames)
+            self.inflight[ref] = _Job("tune", run=run, tkey=tkey)
+
+    def _submit_measures(self, run: Run) -> None:
+        params = tuned_params(run, self.sweep.store)
+        t_refs = _measured_refs(run)
+        frames = self._references(run, t_refs)
+        for group in range(run.seed_sets):
+            ref = self.measure_fn.remote(run, group, self.parts_ref, params, t_refs, *frames)
+            self.inflight[ref] = _Job("measure", run=run)
 
     def handle(self, ref: Any) -> None:
         """Act on a finished task (raises its error if it failed)."""
@@ -218,9 +226,12 @@ class _Scheduler:
             return  # a failed reference fails the tasks that need it
         value = self.ray.get(ref)
         if job.kind == "tune":
-            store_tuned(job.run, self.sweep.store, value)
+            store_tuned(job.run, self.sweep.store, value, job.tkey[2])
             self.sweep.save_params()
-            self._submit_measures(job.tkey)
+            for run in self.waiting.pop(job.tkey):
+                self.blocked[run] -= 1
+                if not self.blocked[run]:
+                    self._submit_measures(run)
             return
         done = self.results[job.run]
         done.append(value)
@@ -244,8 +255,8 @@ def _task_count(sweep: SweepState) -> int:
     refs, tunings = set(), set()
     for run in sweep.todo:
         refs.update(naming.path(run, t) for t in _measured_refs(run))
-        if missing_tuning(run, sweep.store):
-            tunings.add((tuning_key(run), run.spp))
+        for source in missing_tuning(run, sweep.store):
+            tunings.add((tuning_key(run), run.spp, source))
     return len(refs) + len(tunings) + sum(r.seed_sets for r in sweep.todo)
 
 

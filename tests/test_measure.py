@@ -196,3 +196,46 @@ def test_stateful_denoisers_see_every_frame_in_order_and_reset_per_seed_set(tmp_
     assert by_name["acc"].den["mse"] != by_name["plain"].den["mse"]
     assert by_name["acc"].raw == by_name["plain"].raw
     assert len(by_name["acc"].timings.denoise_ms[0]) == 2  # measured frames only
+
+
+def test_own_tuning_tunes_on_the_strategys_held_out_frames_and_stores_its_own_name(tmp_path):
+    from denoisers.tuning import ParamStore, TuneResult
+
+    render = _Render()
+    made, tuned = [], []
+
+    def tune_denoiser(name, frames, refs):
+        tuned.append((name, len(frames)))
+        scale = 0.5 if len(made) == 1 else 0.25  # white's frames first, then temporal's
+        return TuneResult(denoiser=name, params={"scale": scale}, mse=1.0, noisy_mse=2.0, frames=2)
+
+    base = _parts(render)
+    parts = dataclasses.replace(
+        base,
+        make_strategy=lambda *a: made.append((a[0], a[4])) or base.make_strategy(*a),
+        tune_denoiser=tune_denoiser,
+    )
+    run = dataclasses.replace(_run("temporal", crops=False), denoisers=("half", "half:own"))
+    store = ParamStore()
+    denoisers = tune_denoisers(run, parts, ReferenceCache(tmp_path, parts), store)
+    assert made == [("white", TUNING_SEED_SET), ("temporal", TUNING_SEED_SET)]
+    assert tuned == [("half", 2), ("half", 2)]  # the base name, min(frames, 4) frames each
+    # temporal rendered its warmup (frames 0..2) before the 2 tuning frames
+    assert [c[0] for c in render.calls if c[1] == 2][-5:] == [0, 1, 2, 3, 4]
+    assert store.params("half", "direct/m1/owen_sobol/10x8", 2) == {"scale": 0.5}
+    assert store.params("half:own", "direct/m1/owen_sobol/10x8/temporal", 2) == {"scale": 0.25}
+    frame = Frame(color=torch.ones(3, 8, 10))
+    assert float(denoisers["half"](frame).mean()) == 0.5
+    assert float(denoisers["half:own"](frame).mean()) == 0.25
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    assert [r.cell.denoiser for r in records] == ["half", "half:own"]
+
+
+def test_split_own_names():
+    from benchmarks.measure import split_own, tuning_source
+
+    assert split_own("gaussian:own") == ("gaussian", True)
+    assert split_own("gaussian") == ("gaussian", False)
+    run = _run("temporal")
+    assert tuning_source(run, "gaussian:own") == "temporal"
+    assert tuning_source(run, "gaussian") == "white"

@@ -1,6 +1,7 @@
-"""Tests of benchmarks.ray_runner on a local 2-CPU Ray instance: a tiny suite gives the serial
-runner's records bit for bit (timings aside), a failed task stops the sweep with its own error and
-``resume`` completes it, and tasks set torch's threads from the CPUs Ray gave them.
+"""Tests of benchmarks.ray_runner on a local 2-CPU Ray instance: a tiny suite (a fair and an
+own-tuned denoiser column) gives the serial runner's records bit for bit (timings aside), a failed
+task stops the sweep with its own error and ``resume`` completes it, and tasks set torch's threads
+from the CPUs Ray gave them.
 
 Everything renders with the real path tracer at 16x12; Ray's start-up dominates the time.
 """
@@ -29,7 +30,7 @@ def _suite():
         scenes=("direct",),
         strategies=("white", "temporal"),
         spp=(1,),
-        denoisers=("gaussian", "median"),
+        denoisers=("gaussian", "gaussian:own", "median"),
         frames=2,
         warmup=1,
         res=(16, 12),
@@ -79,7 +80,7 @@ def test_ray_gives_the_serial_records_bit_for_bit(local_ray, serial, tmp_path):
     # the serial run's cache: every reference is read back from its EXR file
     records = ray_runner.run_suite_ray(_suite(), tmp_path, cache_dir=cache, progress=False)
     _same_as_serial(serial_out, serial_records, tmp_path, records)
-    assert sum(1 for r in records if r.crop) == 4
+    assert sum(1 for r in records if r.crop) == 6
 
 
 class _FailingStrategy:
@@ -126,7 +127,7 @@ def test_resume_with_nothing_pending_writes_the_same_file(local_ray, serial, tmp
         _suite(), tmp_path, cache_dir=cache, resume=True, progress=False
     )
     assert (tmp_path / RESULTS_FILE).read_bytes() == (serial_out / RESULTS_FILE).read_bytes()
-    assert len(records) == 4
+    assert len(records) == 6
 
 
 def _threads_in_task():

@@ -215,3 +215,18 @@ def test_stateful_denoisers_run_end_to_end_and_resume_to_the_same_output(tmp_pat
     assert sorted((r.key, r.raw, r.den) for r in again) == sorted(
         (r.key, r.raw, r.den) for r in records
     )
+
+
+def test_own_tuning_column_beside_the_fair_one(tmp_path):
+    suite = _suite(denoisers=("gaussian", "gaussian:own"))
+    out = tmp_path / "out"
+    records = run_suite(suite, out, parts=_parts(), cache_dir=tmp_path / "c", progress=False)
+    by = {(r.cell.strategy, r.cell.denoiser): r for r in records}
+    assert len(by) == 4
+    # white's own frames are the fair tuning's frames: same parameters, same output
+    assert by["white", "gaussian:own"].denoiser_params == by["white", "gaussian"].denoiser_params
+    assert by["white", "gaussian:own"].den == by["white", "gaussian"].den
+    stored = json.loads((out / runner.TUNED_PARAMS_FILE).read_text())["entries"]
+    own = stored["gaussian:own"]["direct/m1/owen_sobol/16x12/temporal"]["1"]["params"]
+    assert by["temporal", "gaussian:own"].denoiser_params == own
+    assert set(stored["gaussian"]) == {"direct/m1/owen_sobol/16x12"}
