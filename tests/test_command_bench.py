@@ -141,3 +141,12 @@ def test_bench_ray_cpus_must_be_positive(tmp_path, capsys):
     pytest.importorskip("ray", reason="ray is not installed (pip install '.[cluster]')")
     assert main(_args(tmp_path / "out", tmp_path / "cache", "--ray", "--ray-cpus", "0")) == 2
     assert "--ray-cpus" in capsys.readouterr().err
+
+
+def test_bench_own_tuning_column_sits_in_table_csv(tmp_path):
+    args = _two_strategies(tmp_path)
+    args[args.index("--denoisers") + 1] = "gaussian,gaussian:own"
+    assert main(args) == 0
+    table = (tmp_path / "out" / "table.csv").read_text()
+    assert ",gaussian:own," in table and ",gaussian," in table
+    assert "gaussian:own" in (tmp_path / "out" / "table.md").read_text()
