@@ -21,7 +21,9 @@ the records are the serial runner's bit for bit (timings aside). Three kinds of 
 As in the serial runner, ``cells.jsonl`` is rewritten atomically each time a run's last seed set
 comes back, in plan order whatever the order runs finish in; an interrupted sweep (Ctrl-C, a
 failed task, a lost node) loses the runs in progress, and ``--resume`` measures only the missing
-cells. A failed task cancels the others and its error is raised on the driver. Each task sets
+cells. A failed task cancels the others and its error is raised on the driver. Every task
+checks that its node runs the driver's renderer and sampler code
+(:func:`benchmarks.references.code_version`) and refuses otherwise. Each task sets
 torch's threads to the CPUs Ray gave it (``cpus_per_task``). The progress bar counts finished
 tasks.
 
@@ -30,6 +32,7 @@ Not for: choosing what to measure (:mod:`benchmarks.plan`), or the speed suite.
 
 from __future__ import annotations
 
+import functools
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -52,13 +55,19 @@ from benchmarks.measure import (
 from benchmarks.parts import Parts
 from benchmarks.plan import Run
 from benchmarks.records import Record
-from benchmarks.references import ReferenceCache
+from benchmarks.references import ReferenceCache, code_version
 from benchmarks.runner import SweepState, start_sweep
 from benchmarks.suites import Suite
 from bnerr.errors import BnerrError, check_positive_int
 from bnerr.frame import Frame
 
-__all__ = ["INSTALL_HINT", "RayUnavailableError", "require_ray", "run_suite_ray"]
+__all__ = [
+    "INSTALL_HINT",
+    "CodeVersionError",
+    "RayUnavailableError",
+    "require_ray",
+    "run_suite_ray",
+]
 
 #: How to install Ray (the ``cluster`` extra).
 INSTALL_HINT = "pip install '.[cluster]'"
@@ -93,6 +102,29 @@ def _use_task_cpus() -> None:
     torch.set_num_threads(max(1, int(cpus)))
 
 
+@functools.lru_cache(maxsize=1)
+def _node_code_version() -> str:
+    return code_version()
+
+
+class CodeVersionError(BnerrError, ValueError):
+    """A node runs other renderer or sampler code than the driver."""
+
+
+def _task_setup(expected_version: str) -> None:
+    """Torch threads from the task's CPUs; refuse a node whose renderer or sampler code differs
+    from the driver's (its references and frames would not be the driver's)."""
+    _use_task_cpus()
+    here = _node_code_version()
+    if here != expected_version:
+        import socket
+
+        raise CodeVersionError(
+            f"node {socket.gethostname()}: expected the driver's code version "
+            f"{expected_version}, got {here}; install the same bnerr commit on every node"
+        )
+
+
 class _GivenReferences:
     """The references a task was handed, by renderer frame (``get`` as ReferenceCache's)."""
 
@@ -103,21 +135,29 @@ class _GivenReferences:
         return self.frames[t_render]
 
 
-def _reference_task(run: Run, parts: Parts, cache_root: str, t_ref: int) -> Frame:
+def _reference_task(run: Run, parts: Parts, cache_root: str, t_ref: int, version: str) -> Frame:
     """Read or render (and cache) ``run``'s reference at renderer frame ``t_ref``."""
-    _use_task_cpus()
+    _task_setup(version)
     scene = scene_for(run, parts)
     try:
         return ReferenceCache(cache_root, parts).get(run, scene, t_ref)
-    except PermissionError:  # a node that cannot write the cache: the object store carries it
+    except OSError as err:  # a node that cannot write the cache: the object store carries it
+        if isinstance(err, BnerrError):
+            raise
         return ReferenceCache(None, parts).get(run, scene, t_ref)
 
 
 def _tune_task(
-    run: Run, parts: Parts, names: list[str], source: str, t_refs: list[int], *frames: Frame
+    run: Run,
+    parts: Parts,
+    version: str,
+    names: list[str],
+    source: str,
+    t_refs: list[int],
+    *frames: Frame,
 ) -> dict[str, Any]:
     """:func:`benchmarks.measure.tune_missing` against the references handed in."""
-    _use_task_cpus()
+    _task_setup(version)
     return tune_missing(run, parts, _GivenReferences(t_refs, frames), names, source)
 
 
@@ -125,12 +165,13 @@ def _measure_task(
     run: Run,
     group: int,
     parts: Parts,
+    version: str,
     params: dict[str, dict | None],
     t_refs: list[int],
     *frames: Frame,
 ) -> SeedSetResult:
     """:func:`benchmarks.measure.measure_seed_set` with denoisers built from ``params``."""
-    _use_task_cpus()
+    _task_setup(version)
     denoisers = make_denoisers(parts, params)
     return measure_seed_set(run, parts, _GivenReferences(t_refs, frames), denoisers, group)
 
@@ -169,6 +210,7 @@ class _Scheduler:
         self.tune_fn = ray.remote(**options)(_tune_task)
         self.measure_fn = ray.remote(**options)(_measure_task)
         self.parts_ref = ray.put(sweep.parts)
+        self.version = _node_code_version()  # the driver's; every task checks its node's
         self.naming = ReferenceCache(cache_root, sweep.parts)
         self.references: dict[str, Any] = {}
         self.inflight: dict[Any, _Job] = {}
@@ -182,7 +224,9 @@ class _Scheduler:
         for t_ref in t_refs:
             name = str(self.naming.path(run, t_ref))
             if name not in self.references:
-                ref = self.reference_fn.remote(run, self.parts_ref, self.cache_root, t_ref)
+                ref = self.reference_fn.remote(
+                    run, self.parts_ref, self.cache_root, t_ref, self.version
+                )
                 self.references[name] = ref
                 self.inflight[ref] = _Job("reference")
             refs.append(self.references[name])
@@ -208,7 +252,9 @@ class _Scheduler:
             run = first[tkey]
             t_refs = _measured_refs(run, min(run.frames, 4))
             frames = self._references(run, t_refs)
-            ref = self.tune_fn.remote(run, self.parts_ref, tune_names, tkey[2], t_refs, *frames)
+            ref = self.tune_fn.remote(
+                run, self.parts_ref, self.version, tune_names, tkey[2], t_refs, *frames
+            )
             self.inflight[ref] = _Job("tune", run=run, tkey=tkey)
 
     def _submit_measures(self, run: Run) -> None:
@@ -216,7 +262,9 @@ class _Scheduler:
         t_refs = _measured_refs(run)
         frames = self._references(run, t_refs)
         for group in range(run.seed_sets):
-            ref = self.measure_fn.remote(run, group, self.parts_ref, params, t_refs, *frames)
+            ref = self.measure_fn.remote(
+                run, group, self.parts_ref, self.version, params, t_refs, *frames
+            )
             self.inflight[ref] = _Job("measure", run=run)
 
     def handle(self, ref: Any) -> None:

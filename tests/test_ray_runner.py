@@ -159,3 +159,15 @@ def test_bench_ray_on_the_command_line_matches_the_serial_command(local_ray, tmp
     serial, records = load_records(tmp_path / "serial"), load_records(tmp_path / "ray")
     assert [_measured(r) for r in records] == [_measured(r) for r in serial]
     assert (tmp_path / "ray" / "table.csv").exists()  # its timing columns differ, as they may
+
+
+def _setup_with(version):
+    ray_runner._task_setup(version)
+    return True
+
+
+def test_a_node_with_other_code_is_refused(local_ray):
+    task = local_ray.remote(num_cpus=1)(_setup_with)
+    with pytest.raises(ray_runner.CodeVersionError, match="install the same bnerr commit"):
+        local_ray.get(task.remote("0-000000000000"))
+    assert local_ray.get(task.remote(ray_runner._node_code_version()))
