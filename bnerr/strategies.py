@@ -1002,8 +1002,9 @@ VARIANTS: tuple[str, ...] = (
     "temporal+shift",
     "temporal+shift_r2",
     "temporal+reproject",
-    "temporal+residual+groups+shift+reproject",
-    "temporal_zsobol+residual+groups+shift+reproject",
+    "temporal+relative+demod+groups",
+    "temporal+relative+demod+groups+reproject",
+    "temporal_zsobol+relative+demod+groups",
 )
 
 #: The strategy names, as the benchmark tables name them.
