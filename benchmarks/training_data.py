@@ -9,9 +9,10 @@ sometimes a homogeneous medium. The benchmark's named scenes (``renderers.SCENES
 drawn or used: :func:`check_held_out` verifies it, by name and by content.
 
 Each training pair is a noisy render at a random low spp with white-noise seeds (or, for the
-``white+blue`` mix, half of them with the blue-noise dithered sampler of Georgiev & Fajardo 2016,
-the ``bnds`` sampler) and a reference of the same scene at ``reference_spp`` (64 by default here,
-256 for ``bnerr train``, which the shipped weights use) with other seeds.
+``white+blue`` mix, every odd-numbered pair's input made by one of the benchmark's blue-noise
+strategies, :data:`BLUE_STRATEGIES`, as the benchmark makes it: see :func:`blue_input`) and a
+reference of the same scene at ``reference_spp`` (64 by default here, 256 for ``bnerr train``,
+which the shipped weights use) with other seeds.
 The reference is itself a Monte Carlo estimate, but its noise is independent of the input's: under
 an L2 loss it only adds a constant and the optimum is unchanged (Lehtinen et al. 2018,
 "Noise2Noise"); under L1 the optimum is the median of the reference's noise instead of its mean,
@@ -49,9 +50,13 @@ from renderers.scene import (
 )
 
 __all__ = [
+    "BLUE_STRATEGIES",
+    "BLUE_WARMUP",
     "MIXES",
     "TrainingSpec",
+    "blue_input",
     "check_held_out",
+    "input_spp",
     "make_pairs",
     "pixel_seeds",
     "random_scene",
@@ -67,6 +72,15 @@ SAMPLERS = ("white", "owen_sobol")
 #: Input spp of the training renders and how often each is drawn (4 spp, the benchmark's headline
 #: setting, most often).
 SPP_CHOICES = (1, 2, 4, 4, 8, 16)
+#: The strategies that make the blue inputs of the ``white+blue`` mix, in turn: blue pair ``j``
+#: (pair ``i = 2 j + 1``) uses ``BLUE_STRATEGIES[j % 4]``. The benchmark's headline method,
+#: ``temporal`` (permuted seeds, Heitz & Belcour 2019), makes half of them; the a-priori rivals
+#: ``zsobol`` (Ahmed & Wonka 2020) and ``cycles_blue`` (Cycles' blue-noise sequence) a quarter
+#: each. Every power-of-two spp of :data:`SPP_CHOICES` suits all three.
+BLUE_STRATEGIES = ("temporal", "zsobol", "temporal", "cycles_blue")
+#: Frames a stateful strategy (``temporal``) renders before the one kept as the input, as the
+#: benchmark's quality suite warms up before it measures (its sort converges in about 3 frames).
+BLUE_WARMUP = 6
 
 _NAME_PREFIX = "train-"
 
@@ -79,7 +93,8 @@ class TrainingSpec:
         scenes: number of random scenes (one pair each).
         size: image side in pixels (square images).
         reference_spp: spp of each reference.
-        mix: ``"white"`` or ``"white+blue"`` (every other pair rendered with the bnds sampler).
+        mix: ``"white"`` or ``"white+blue"`` (every odd-numbered pair's input made by one of
+            :data:`BLUE_STRATEGIES`, :func:`make_pairs`).
         sampler: per-pixel sampler of the non-blue inputs, one of :data:`SAMPLERS`. A denoiser
             learns the noise it is shown: Owen-Sobol error is smaller and differently distributed
             than independent samples' at the same spp (denoisers/weights/README.md measures it).
@@ -344,47 +359,81 @@ def pixel_seeds(height: int, width: int, key: int) -> torch.Tensor:
     return (index + key * height * width) & 0x7FFFFFFF
 
 
+def blue_input(scene: Scene, size: int, spp: int, key: int, strategy: str, sampler: str) -> Frame:
+    """The blue-noise input of a ``white+blue`` pair: a ``size x size`` frame of ``scene`` at
+    ``spp`` made by ``strategy`` (one of :data:`BLUE_STRATEGIES`) as the benchmark makes it.
+
+    ``bnerr.strategies.make_strategy(strategy, size, size, seed=key, sampler=sampler, spp=spp,
+    dimensions=scene.dimensions)``; a stateful strategy (``temporal``) renders frames
+    ``t = 0 .. BLUE_WARMUP`` in order and its last frame is returned (the seeds then sorted
+    against the blue-noise mask for :data:`BLUE_WARMUP` frames); a stateless one (``zsobol``,
+    ``cycles_blue``, which dictate their own sampler) returns its frame ``t = 0``. The scene is
+    static, so every frame renders the same image with other samples.
+    """
+    import renderers
+    from bnerr.strategies import make_strategy
+
+    name = check_name(strategy, BLUE_STRATEGIES, "blue training strategy")
+    made = make_strategy(
+        name, size, size, seed=key, sampler=sampler, spp=spp, dimensions=scene.dimensions
+    )
+    last = BLUE_WARMUP if made.stateful else 0
+    frame = None
+    for t in range(last + 1):
+
+        def render(seeds: torch.Tensor, per_pixel, t: int = t) -> Frame:
+            return renderers.render(scene, t, seeds, per_pixel, spp)
+
+        frame = made.frame(t, render)
+    assert frame is not None
+    return frame
+
+
 def render_pair(
     scene: Scene,
     size: int,
     spp: int,
     reference_spp: int,
     key: int,
-    blue: bool = False,
+    blue: str | None = None,
     sampler: str = "white",
 ) -> tuple[Frame, torch.Tensor]:
     """A noisy render of ``scene`` at ``spp`` and its reference color ``[3, size, size]``.
 
     The noisy render uses white-noise seeds ``pixel_seeds(.., 2 key)`` with ``sampler`` (``white``
-    or ``owen_sobol``), or
-    with ``blue`` the bnds sampler (vector mask of the scene's dimensions, offset and ``seed0``
-    from ``key``); the reference uses ``pixel_seeds(.., 2 key + 1)`` and the white sampler.
+    or ``owen_sobol``), or with ``blue`` (a name of :data:`BLUE_STRATEGIES`)
+    ``blue_input(scene, size, spp, key, blue, sampler)``; the reference uses
+    ``pixel_seeds(.., 2 key + 1)`` and the white sampler, whatever the input.
     """
     import renderers
     from bnerr.sequences import make_sampler
 
-    if blue:
-        from bnerr.masks import load_mask
-
-        # The shipped vector masks have 2, 4 or 8 dimensions; use the largest the scene fills.
-        dims = max(d for d in (2, 4, 8) if d <= scene.dimensions)
-        mask = load_mask("vector", 64, dims)
-        noise = make_sampler("bnds", mask=mask, offset=(key % 64, (7 * key) % 64), seed0=key)
+    sampler = check_name(sampler, SAMPLERS, "training sampler")
+    if blue is None:
+        frame = renderers.render(
+            scene, 0, pixel_seeds(size, size, 2 * key), make_sampler(sampler), spp
+        )
     else:
-        noise = make_sampler(check_name(sampler, SAMPLERS, "training sampler"))
-    frame = renderers.render(scene, 0, pixel_seeds(size, size, 2 * key), noise, spp)
+        frame = blue_input(scene, size, spp, key, blue, sampler)
     reference = renderers.render(
         scene, 0, pixel_seeds(size, size, 2 * key + 1), make_sampler("white"), reference_spp
     )
     return frame, reference.color
 
 
+def input_spp(seed: int) -> int:
+    """The input spp of the pair of scene ``seed``: drawn from :data:`SPP_CHOICES` by the seed."""
+    return int(SPP_CHOICES[np.random.default_rng([seed, 0x5BB]).integers(len(SPP_CHOICES))])
+
+
 def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, torch.Tensor]]:
     """Render the training set described by ``spec``: one (noisy frame, reference) per scene.
 
     Pair ``i``: scene ``random_scene(spec.seed + i)``, input spp drawn from :data:`SPP_CHOICES`
-    by the scene seed, blue noise for odd ``i`` when ``spec.mix == "white+blue"``, otherwise
-    ``spec.sampler``.
+    by the scene seed, key ``spec.seed + i + 1``; the input rendered with ``spec.sampler`` and
+    white-noise seeds, except, when ``spec.mix == "white+blue"``, for odd ``i``: made by
+    ``BLUE_STRATEGIES[(i // 2) % 4]`` (:func:`blue_input`). The even pairs of a ``white+blue``
+    set, and every reference, equal the ``white`` set's bit for bit.
     """
     from tqdm.auto import tqdm
 
@@ -395,8 +444,10 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
     check_held_out(scenes, [renderers.get_scene(name, animated=False) for name in renderers.SCENES])
     for i, scene in enumerate(tqdm(scenes, desc="render training set", disable=not progress)):
         seed = spec.seed + i
-        spp = SPP_CHOICES[np.random.default_rng([seed, 0x5BB]).integers(len(SPP_CHOICES))]
-        blue = spec.mix == "white+blue" and i % 2 == 1
+        spp = input_spp(seed)
+        blue = None
+        if spec.mix == "white+blue" and i % 2 == 1:
+            blue = BLUE_STRATEGIES[(i // 2) % len(BLUE_STRATEGIES)]
         pairs.append(
             render_pair(
                 scene,

@@ -59,6 +59,27 @@ def test_sampler_choice_reaches_the_training_set_and_the_command(tmp_path):
     assert data["spec"]["sampler"] == "white"
 
 
+def test_white_blue_mix_reaches_the_training_set_and_a_v1_cache_is_rendered_again(tmp_path):
+    from benchmarks.commands.train import DATA_FORMAT, load_or_render
+    from benchmarks.training_data import TrainingSpec, make_pairs
+    from denoisers.train import make_training_set
+
+    out = tmp_path / "w.pt"
+    assert main(["train", "--out", str(out), *TINY, "--mix", "white+blue"]) == 0
+    meta = torch.load(out, weights_only=True)["meta"]
+    assert meta["spec"]["mix"] == "white+blue" and " --mix white+blue " in meta["command"]
+    data = torch.load(tmp_path / "w.pt.data", weights_only=True)
+    assert data["format"] == DATA_FORMAT == "bnerr-training-set-v2"
+    spec = TrainingSpec(**data["spec"])
+    expected = make_training_set(make_pairs(spec, progress=False))
+    assert torch.equal(data["inputs"], expected.inputs)
+    # A cache of the same spec written before the blue inputs came from the strategies (v1:
+    # bnds) is not trusted: the set is rendered again.
+    stale = tmp_path / "stale.data"
+    torch.save({**data, "format": "bnerr-training-set-v1", "inputs": data["inputs"] * 0}, stale)
+    assert torch.equal(load_or_render(spec, stale, progress=False).inputs, expected.inputs)
+
+
 def test_cli_choices_are_the_libraries_names():
     # The command spells its choices out so that ``bnerr`` starts without importing torch-heavy
     # modules; this keeps them equal to the names the libraries accept.

@@ -6,14 +6,20 @@ import torch
 
 import renderers
 from benchmarks.training_data import (
+    BLUE_STRATEGIES,
+    BLUE_WARMUP,
     TrainingSpec,
+    blue_input,
     check_held_out,
+    input_spp,
     make_pairs,
     pixel_seeds,
     random_scene,
     render_pair,
 )
 from bnerr.errors import UnknownNameError, ValueRangeError
+from bnerr.metrics import lowfreq
+from bnerr.strategies import make_strategy
 from renderers.scene import Box, Rectangle, Sphere
 
 
@@ -99,18 +105,67 @@ def test_make_pairs_and_bad_specs():
         TrainingSpec(size=4)
 
 
-def test_blue_noise_pairs_use_the_bnds_sampler():
+def _blue_twin(scene, size, spp, key, strategy, sampler):
+    """blue_input spelled out: the strategy run frame by frame as the benchmark runs it."""
+    made = make_strategy(
+        strategy, size, size, seed=key, sampler=sampler, spp=spp, dimensions=scene.dimensions
+    )
+    frames = [
+        made.frame(t, lambda seeds, smp, t=t: renderers.render(scene, t, seeds, smp, spp))
+        for t in range(BLUE_WARMUP + 1 if strategy == "temporal" else 1)
+    ]
+    return frames[-1]
+
+
+@pytest.mark.parametrize("strategy", sorted(set(BLUE_STRATEGIES)))
+def test_blue_inputs_are_the_strategies_frames_and_keep_the_reference(strategy):
     scene = random_scene(1)
-    white, ref = render_pair(scene, size=8, spp=2, reference_spp=4, key=5)
-    blue, ref_blue = render_pair(scene, size=8, spp=2, reference_spp=4, key=5, blue=True)
+    white, ref = render_pair(scene, size=8, spp=2, reference_spp=4, key=5, sampler="owen_sobol")
+    blue, ref_blue = render_pair(
+        scene, size=8, spp=2, reference_spp=4, key=5, blue=strategy, sampler="owen_sobol"
+    )
+    again = blue_input(scene, 8, 2, 5, strategy, "owen_sobol")
+    twin = _blue_twin(scene, 8, 2, 5, strategy, "owen_sobol")
     assert torch.equal(ref, ref_blue) and not torch.equal(white.color, blue.color)
-    pairs = make_pairs(
-        TrainingSpec(scenes=2, size=8, reference_spp=2, mix="white+blue", seed=0), progress=False
-    )
-    assert torch.equal(
-        pairs[0][0].color,
-        make_pairs(TrainingSpec(scenes=1, size=8, reference_spp=2), progress=False)[0][0].color,
-    )
+    assert torch.equal(blue.color, again.color) and torch.equal(blue.color, twin.color)
+    assert blue.albedo is not None and blue.normal is not None
+
+
+def test_white_blue_mix_alternates_and_keeps_the_white_pairs():
+    spec = dict(scenes=4, size=8, reference_spp=2, seed=0, sampler="owen_sobol")
+    mixed = make_pairs(TrainingSpec(mix="white+blue", **spec), progress=False)
+    white = make_pairs(TrainingSpec(**spec), progress=False)
+    assert BLUE_STRATEGIES == ("temporal", "zsobol", "temporal", "cycles_blue")
+    for i in (0, 2):
+        assert torch.equal(mixed[i][0].color, white[i][0].color)
+    for i in range(4):
+        assert torch.equal(mixed[i][1], white[i][1])
+    for i, strategy in ((1, "temporal"), (3, "zsobol")):
+        assert not torch.equal(mixed[i][0].color, white[i][0].color)
+        made = blue_input(random_scene(i), 8, input_spp(i), i + 1, strategy, "owen_sobol")
+        assert torch.equal(mixed[i][0].color, made.color)
+    again = make_pairs(TrainingSpec(mix="white+blue", **spec), progress=False)
+    assert all(torch.equal(a[0].color, b[0].color) for a, b in zip(mixed, again, strict=True))
+    with pytest.raises(UnknownNameError, match="unknown blue training strategy 'bnds'"):
+        blue_input(random_scene(1), 8, 2, 5, "bnds", "owen_sobol")
+
+
+def test_blue_inputs_have_less_low_frequency_error_than_white():
+    """On the flat felt of ``snooker_plain`` (32 x 32, 4 spp, four keys), the error of every
+    blue strategy's input has a lower low-frequency fraction than the white input's."""
+    scene = renderers.get_scene("snooker_plain", animated=False)
+    _, ref = render_pair(scene, 32, 4, 256, key=99, sampler="owen_sobol")
+    keys = (5, 6, 7, 8)
+
+    def fraction(blue):
+        inputs = [
+            render_pair(scene, 32, 4, 1, key=k, blue=blue, sampler="owen_sobol") for k in keys
+        ]
+        return sum(lowfreq(f.color, ref, tile=32) for f, _ in inputs) / len(keys)
+
+    white = fraction(None)
+    fractions = {name: fraction(name) for name in sorted(set(BLUE_STRATEGIES))}
+    assert all(f < white for f in fractions.values()), (white, fractions)
 
 
 def test_owen_sobol_inputs_keep_the_reference_and_are_checked():

@@ -26,7 +26,9 @@ from pathlib import Path
 
 __all__ = ["canonical_command", "load_or_render", "register", "run"]
 
-DATA_FORMAT = "bnerr-training-set-v1"
+#: v2: the ``white+blue`` mix makes its blue inputs with the benchmark's strategies
+#: (``benchmarks.training_data.BLUE_STRATEGIES``); v1 rendered them with the bnds sampler.
+DATA_FORMAT = "bnerr-training-set-v2"
 
 
 def load_or_render(spec, path: Path, progress: bool):
@@ -202,7 +204,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--mix",
         default="white",
         choices=("white", "white+blue"),
-        help="noise of the training inputs",
+        help="noise of the training inputs: white (every input rendered with --sampler and "
+        "random seeds), or white+blue (every second input made by the benchmark's temporal, "
+        "zsobol or cycles_blue strategy instead; benchmarks.training_data.BLUE_STRATEGIES)",
     )
     p.add_argument(
         "--sampler",
