@@ -38,8 +38,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from benchmarks.measure import _BoundRender, _scene_for, _stored, _t_reference, _t_render
-from benchmarks.measure import _tuning_key as tuning_key
+from benchmarks.measure import _BoundRender, _stored, _t_reference, _t_render, scene_for, tuning_key
 from benchmarks.parts import Denoiser, Parts
 from benchmarks.plan import Run
 from benchmarks.references import ReferenceCache
@@ -187,7 +186,7 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
     from bnerr import strategies
 
     run = spec.run()
-    scene = _scene_for(run, parts)
+    scene = scene_for(run, parts)
     strategy = strategies.make_strategy(
         name,
         spec.height,
@@ -211,7 +210,7 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
 def render_references(parts: Parts, references: ReferenceCache, spec: Animation) -> list[Frame]:
     """The reference frames at ``spec.times`` (from the benchmark's cache, rendered if missing)."""
     run = spec.run()
-    scene = _scene_for(run, parts)
+    scene = scene_for(run, parts)
     return [references.get(run, scene, _t_reference(run, t)) for t in spec.times]
 
 

@@ -461,10 +461,6 @@ def tuning_key(run: Run) -> str:
     return f"{run.scene}/m{run.motion}{depth}/{run.sampler}/{run.width}x{run.height}"
 
 
-_tuning_key = tuning_key  # the name benchmarks.animate imports
-_scene_for = scene_for  # the name benchmarks.animate imports
-
-
 def tuning_source(run: Run, name: str) -> str:
     """The strategy whose frames ``name`` is tuned on: ``white``, or the run's own for
     ``NAME:own``."""
