@@ -1,37 +1,136 @@
-"""Tests of benchmarks.speed: every script's figures land in speed.json and speed.md."""
+"""Tests of benchmarks.speed: every script's figures land in speed.json, and speed.md shows one
+table per part with units and the ratio to its anchor."""
 
 import json
+from pathlib import Path
 
 import pytest
 import torch
 
-from benchmarks.speed import run_speed, speed_markdown
-from benchmarks.suites import Suite
+from benchmarks.speed import WHITE_LOW_FREQUENCY, _fmt, _ratio, run_speed, speed_markdown
+from benchmarks.speed_copy import JOB_BYTES, PASS_JOBS
+from benchmarks.speed_copy import measure as measure_copy
+from benchmarks.suites import Suite, get_suite
+
+SHIPPED = Path(__file__).resolve().parents[1] / "results" / "speed" / "speed.json"
 
 
 def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):
     # The speed scripts time 1080p work for minutes; their own tests cover them. Here only the
-    # plumbing: every script's measure() is called and its nested figures land in JSON and Markdown.
+    # plumbing: every script's measure() is called and its figures land in JSON and Markdown.
     import benchmarks.speed_masks as speed_masks
 
     def measure():
-        """Seconds per
-        mask.
-
-        Not in the report."""
-        return {"scalar_64": {"seconds": 0.5, "low": torch.tensor(0.01)}}
+        """Seconds per mask."""
+        return {"scalar_64": {"seconds": 0.5, "low_frequency_fraction": torch.tensor(0.01)}}
 
     monkeypatch.setattr(speed_masks, "measure", measure)
     suite = Suite("speed", "timings", scripts=("speed_masks",))
     text = run_speed(suite, tmp_path, progress=False)
-    assert "## speed_masks\n\nSeconds per mask.\n\n| figure | value |" in text  # one line
     stored = json.loads((tmp_path / "speed.json").read_text())
-    assert stored == {"speed_masks": {"scalar_64": {"seconds": 0.5, "low": pytest.approx(0.01)}}}
-    assert "| scalar_64/seconds | 0.5 |" in text and (tmp_path / "speed.md").read_text() == text
+    assert stored == {
+        "speed_masks": {
+            "scalar_64": {"seconds": 0.5, "low_frequency_fraction": pytest.approx(0.01)}
+        }
+    }
+    assert "| scalar, 64 x 64 | 0.500 | 0.0100 | 0.204x |" in text
+    assert (tmp_path / "speed.md").read_text() == text
 
 
-def test_markdown_lists_every_leaf_under_its_path():
-    suite = Suite("speed", "what it times", scripts=("a",))
-    text = speed_markdown(suite, {"a": {"x": {"y": 1.23456789, "z": None}, "n": 3}}, {})
-    assert text.startswith("# bnerr bench --suite speed\n\nwhat it times\n\n## a\n\n| figure |")
-    assert "| x/y | 1.23457 |" in text and "| x/z | None |" in text and "| n | 3 |" in text
+def test_the_permutation_anchor_is_measured_right_after_it(tmp_path, monkeypatch):
+    import benchmarks.speed_copy as speed_copy
+    import benchmarks.speed_permute as speed_permute
+
+    calls = []
+
+    def permute():
+        calls.append("permute")
+        return {"sort_pass_lum_ms": 4.0, "retarget_ms": 3.0, "size": "40x10, block 4"}
+
+    def copy():
+        calls.append("copy")
+        return {"sort_lum": {"bytes": 8400, "copy_ms": 2.0}, "retarget": {"bytes": 6400}}
+
+    monkeypatch.setattr(speed_permute, "measure", permute)
+    monkeypatch.setattr(speed_copy, "measure", copy)
+    text = run_speed(Suite("speed", "t", scripts=("speed_permute",)), tmp_path, progress=False)
+    assert calls == ["permute", "copy"]
+    assert set(json.loads((tmp_path / "speed.json").read_text())) == {"speed_permute", "speed_copy"}
+    # 8400 bytes in 4 ms: 0.0021 GB/s; twice the copy's 2 ms.
+    assert "| sort pass, luminance key | 4.00 | 0.00840 | 0.00210 | 2.00 | 2.00x |" in text
+    assert "| retargeting pass | 3.00 | 0.00640 | 0.00213 | - | - |" in text
+    assert "## speed_copy" not in text and "No memory-copy anchor" not in text
+
+
+def test_the_shipped_figures_give_one_table_per_part():
+    figures = json.loads(SHIPPED.read_text())
+    text = speed_markdown(get_suite("speed"), figures, {})
+    assert "| figure | value |" not in text
+    headings = [line for line in text.splitlines() if line.startswith("## ")]
+    assert [h.split(" (")[0] for h in headings] == [
+        "## Tracer against Mitsuba 3",
+        "## Permutation passes against a memory copy",
+        "## Closing-the-gap options against the sort pass",
+        "## Samplers against independent values",
+        "## Masks",
+        "## Denoisers against OIDN",
+    ]
+    t = figures["throughput"]["direct"]
+    assert f"| 18.1 | {_fmt(1 / t['ratio_llvm_ad_rgb'])}x |" in text
+    assert "| direct | Mitsuba llvm_ad_rgb | 0.116 | 0.116 | 0.137 | 18.1 | 2.87x |" in text
+    # 21 bytes per pixel at 1080p in 3.32 ms; no copy in these figures, and it says so.
+    assert "| sort pass, luminance key | 3.32 | 43.5 | 13.1 | - | - |" in text
+    assert "No memory-copy anchor in these figures" in text
+    assert "| owen_sobol | 32.7 | 64.2 | 2.60x | 114 | 73.3 | 3.55x |" in text
+    assert "| white | 12.6 | 167 | 1.00x |" in text
+    assert (
+        "| oidn | 1.88 | 0.533 | 1 (anchor) |" in text and "| unet | 5.86 | 0.171 | 3.13x |" in text
+    )
+    assert "| vector, 64 x 64, 8 dims | 5.05 | 0.00835 | 0.170x |" in text
+
+
+def test_failures_gaps_and_unknown_scripts():
+    figures = {
+        "throughput": {
+            "settings": {"width": 8},
+            "direct": {
+                "bnerr": {"best_s": 1.0, "median_s": 1.0, "warmup_s": 2.0, "samples_per_s": 5e6},
+                "mitsuba_scalar_rgb": "no module named mitsuba",
+                "mitsuba_llvm_ad_rgb": None,
+                "ratio_scalar_rgb": None,
+            },
+        },
+        "speed_permute": {"sort_pass_lum_ms": 2.0, "gap": {"groups_ms": 3.0}, "size": "?"},
+        "speed_denoise": {"oidn": None, "gaussian": 0.5},
+        "other": {"x": {"y": 1.23456789}},
+    }
+    text = speed_markdown(Suite("speed", "d", scripts=()), figures, {"other": "What x is."})
+    assert "| direct | Mitsuba scalar_rgb | failed: no module named mitsuba | - |" in text
+    assert "| direct | Mitsuba llvm_ad_rgb | - | - |" in text
+    assert "| groups | 3.00 | 1.50x |" in text
+    assert "| gaussian | 0.500 | 2.00 | - |" in text and "| oidn | - | - | 1 (anchor) |" in text
+    assert text.endswith(
+        "## other\n\nWhat x is.\n\n| figure | value |\n|---|---|\n| x/y | 1.23457 |\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("value", "shown"),
+    [(3.31964, "3.32"), (43.5, "43.5"), (1234.5, "1234"), (0.0255, "0.0255"), (1.6e-5, "1.60e-05")]
+    + [(0, "0"), (None, "-"), ("error", "-"), (float("nan"), "-"), (True, "-")],
+)
+def test_numbers_keep_three_significant_digits(value, shown):
+    assert _fmt(value) == shown
+
+
+def test_ratios_and_the_white_noise_fraction():
+    assert _ratio(3.0, 1.5) == "2.00x" and _ratio(1.0, 0) == "-" and _ratio(None, 1.0) == "-"
+    assert WHITE_LOW_FREQUENCY == pytest.approx(0.0490874)
+
+
+def test_copy_anchor_moves_each_jobs_bytes():
+    figures = measure_copy(width=16, height=8, repeats=2, threads=1)
+    for job, per_pixel in JOB_BYTES.items():
+        assert figures[job]["bytes"] == 16 * 8 * per_pixel and figures[job]["copy_ms"] > 0
+    assert set(PASS_JOBS.values()) == set(JOB_BYTES)
+    assert figures["size"] == "16x8" and figures["threads"] == 1
