@@ -230,57 +230,107 @@ def _spatial_variance(lum: torch.Tensor) -> torch.Tensor:
     return (mean_sq - mean.square()).clamp_min(0.0)[0]
 
 
+# Edge-stopping weights below exp(-80) are set to exp(-80) (1.8e-35, a normal float32): exp and log
+# of values that would give subnormals or -inf run 10-30 times slower on x86, and a weight that
+# small changes no output value (the centre tap's weight is at least 9/64).
+_ATROUS_MIN_LOG_WEIGHT = -80.0
+# Rows per strip of one a-trous pass: the per-tap buffers of a strip stay in the CPU's caches.
+_ATROUS_ROWS = 128
+
+
+def _atrous_taps(step: int) -> list[tuple[int, int, float]]:
+    """``(dy, dx, kernel weight)`` of the 25 taps of a pass with hole spacing ``step``."""
+    return [
+        ((iy - 2) * step, (ix - 2) * step, hy * hx)
+        for iy, hy in enumerate(_ATROUS_TAPS)
+        for ix, hx in enumerate(_ATROUS_TAPS)
+    ]
+
+
 def _atrous_step(
     color: torch.Tensor,
     variance: torch.Tensor,
-    normal: torch.Tensor,
-    hit: torch.Tensor,
+    normal4: torch.Tensor,
     depth: torch.Tensor,
     depth_width: torch.Tensor,
     step: int,
-    sigma_color: float,
-    sigma_normal: float,
-    sigma_depth: float,
+    sigmas: tuple[float, float, float],
 ) -> tuple[torch.Tensor, torch.Tensor]:
     """One edge-avoiding a-trous pass with hole spacing ``step``; returns (color, variance).
 
-    ``hit [1, H, W]`` is 1.0 where the pixel saw a surface and 0.0 where the ray escaped.
+    ``normal4 [4, H, W]``: the unit normal and a 4th channel, 1.0 where the ray escaped (normal
+    0) and 0.0 on a surface, so that ``normal4_p . normal4_q`` is the cosine between two surfaces,
+    1 between two escaped pixels and 0 between one of each: one dot product gives SVGF's normal
+    weight and keeps the background apart. ``sigmas``: (color, normal, depth).
     """
     _, h, w = color.shape
+    sigma_color, sigma_normal, sigma_depth = sigmas
     kernel = torch.tensor(_VARIANCE_BLUR, device=color.device, dtype=color.dtype)
     var_blur = F.conv2d(F.pad(variance[None], (1, 1, 1, 1), mode=_BORDER), kernel[None, None])[0]
     lum = luminance(color)
-    phi_lum = sigma_color * var_blur.sqrt() + 1e-6
+    inv_lum = (sigma_color * var_blur.sqrt() + 1e-6).reciprocal_()
     phi_depth = sigma_depth * depth_width
     # One padded copy of everything the taps read; each tap is then a view (a slice), not a copy.
     r = 2 * step
-    stacked = torch.cat([color, lum, variance, normal, hit, depth])[None]
+    stacked = torch.cat([color, lum, variance, normal4, depth])[None]
     padded = F.pad(stacked, (r, r, r, r), mode=_BORDER)[0]
+    out_color, out_var = torch.empty_like(color), torch.empty_like(variance)
+    for y0 in range(0, h, _ATROUS_ROWS):
+        rows = slice(y0, min(h, y0 + _ATROUS_ROWS))
+        inputs = (lum[:, rows], depth[:, rows], normal4[:, rows], inv_lum[:, rows])
+        views = padded[:, y0 : rows.stop + 2 * r]
+        out_color[:, rows], out_var[:, rows] = _atrous_strip(
+            views, inputs, phi_depth[:, rows], step, w, sigma_normal
+        )
+    return out_color, out_var
 
-    sum_c = torch.zeros_like(color)
-    sum_v = torch.zeros_like(variance)
-    sum_w = torch.zeros_like(variance)
-    for iy, hy in enumerate(_ATROUS_TAPS):
-        for ix, hx in enumerate(_ATROUS_TAPS):
-            dy, dx = (iy - 2) * step, (ix - 2) * step
-            q = padded[:, r + dy : r + dy + h, r + dx : r + dx + w]
-            q_color, q_lum, q_var, q_normal, q_hit, q_depth = q.split((3, 1, 1, 3, 1, 1))
-            cos = (normal * q_normal).sum(0, keepdim=True).clamp_min(0.0)
-            # Escaped pixels (no normal) average only among themselves, with weight 1.
-            w_normal = torch.where(
-                (hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype)
-            )
-            # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
-            # spacing and by the step, i.e. by the distance in pixels.
-            dist = math.hypot(dy, dx)
-            w_depth = (q_depth - depth).abs() / (phi_depth * dist + 1e-6)
-            w_lum = (q_lum - lum).abs() / phi_lum
-            weight = (hy * hx) * torch.exp(-w_lum - w_depth) * w_normal
-            sum_c += weight * q_color
-            sum_v += weight.square() * q_var
-            sum_w += weight
+
+def _atrous_strip(
+    padded: torch.Tensor,
+    inputs: tuple[torch.Tensor, ...],
+    phi_depth: torch.Tensor,
+    step: int,
+    w: int,
+    sigma_normal: float,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """The 25 taps of one pass over one strip of rows, accumulated in place.
+
+    ``padded [10, rows + 4 step, W + 4 step]``: color, luminance, variance, normal4, depth of the
+    strip and its border; ``inputs``: the strip's own luminance, depth, normal4 and
+    ``1 / phi_luminance``. Per tap the weight is one exp:
+    ``h * exp(sigma_normal * log(n_p . n_q) - |l_p - l_q| / phi_l - |z_p - z_q| / phi_z)``.
+    """
+    lum, depth, normal4, inv_lum = inputs
+    r = 2 * step
+    sum_c = torch.zeros((3, *lum.shape[1:]), device=lum.device, dtype=lum.dtype)
+    sum_v, sum_w = torch.zeros_like(lum), torch.zeros_like(lum)
+    e, t, wt = torch.empty_like(lum), torch.empty_like(lum), torch.empty_like(lum)
+    # cos^sigma_normal below exp(-80) is clamped there anyway: the same floor on cos keeps log
+    # away from 0 (sigma_normal 0: SVGF's 0^0 = 1 between surfaces, 0 between surface and sky).
+    floor = max(math.exp(_ATROUS_MIN_LOG_WEIGHT / sigma_normal), 1e-37) if sigma_normal else 0.0
+    inv_depth: dict[float, torch.Tensor] = {}
+    for dy, dx, hw in _atrous_taps(step):
+        q = padded[:, r + dy : r + dy + lum.shape[1], r + dx : r + dx + w]
+        # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
+        # spacing and by the step, i.e. by the distance in pixels.
+        dist = math.hypot(dy, dx)
+        if dist not in inv_depth:
+            inv_depth[dist] = (phi_depth * dist + 1e-6).reciprocal_()
+        torch.sub(q[3:4], lum, out=e).abs_().mul_(inv_lum)
+        e.addcmul_(torch.sub(q[9:10], depth, out=t).abs_(), inv_depth[dist])
+        if sigma_normal:
+            torch.mul(q[5:6], normal4[0:1], out=wt)
+            for k in (1, 2, 3):
+                wt.addcmul_(q[5 + k : 6 + k], normal4[k : k + 1])
+            wt.clamp_min_(floor).log_().mul_(sigma_normal).sub_(e)
+        else:
+            torch.sub(q[8:9], normal4[3:4], out=wt).abs_().mul_(_ATROUS_MIN_LOG_WEIGHT).sub_(e)
+        wt.clamp_min_(_ATROUS_MIN_LOG_WEIGHT).exp_().mul_(hw)
+        sum_w += wt
+        sum_c.addcmul_(wt, q[0:3])
+        sum_v.addcmul_(wt.square_(), q[4:5])
     # The center tap has weight 3/8 * 3/8 * 1 * 1 (or more), so sum_w is never 0.
-    return sum_c / sum_w, sum_v / sum_w.square()
+    return sum_c.div_(sum_w), sum_v.div_(sum_w.square_())
 
 
 def atrous_filter(
@@ -367,6 +417,7 @@ def _atrous(
 ) -> torch.Tensor:
     """:func:`atrous_filter` on finite inputs whose squares fit their dtype."""
     unit, hit = _unit_normals(normal)
+    normal4 = torch.cat([unit, (~hit).to(color.dtype)])
     padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
     gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
     gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
@@ -374,19 +425,9 @@ def _atrous(
     variance = _spatial_variance(luminance(color))
     if initial is not None:
         variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
+    sigmas = (sigma_color, sigma_normal, sigma_depth)
     for i in range(iterations):
-        color, variance = _atrous_step(
-            color,
-            variance,
-            unit,
-            hit.to(color.dtype),
-            depth,
-            depth_width,
-            2**i,
-            sigma_color,
-            sigma_normal,
-            sigma_depth,
-        )
+        color, variance = _atrous_step(color, variance, normal4, depth, depth_width, 2**i, sigmas)
     return color
 
 

@@ -4,17 +4,23 @@ import math
 
 import pytest
 import torch
+import torch.nn.functional as F
 
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.filters import (
+    _ATROUS_TAPS,
+    _VARIANCE_BLUR,
     ATrous,
     Bilateral,
     Gaussian,
     Guided,
     JointBilateral,
     Median,
+    _atrous,
+    _spatial_variance,
+    _unit_normals,
     atrous_filter,
     gaussian_filter,
     joint_bilateral_filter,
@@ -246,3 +252,144 @@ def test_atrous_variance_is_checked():
         r"-1.0 at pixel \(y, x\) = \(3, 4\)",
     ):
         atrous_filter(*args, variance=bad)
+
+
+# -- the fast a-trous pass against its slow twin (issue 16) ---------------------------------------
+#
+# Tolerance: relative 1e-4 of each output value (absolute 1e-6 near 0) for sigma_normal up to 128,
+# the value every tuned and default filter uses. The fast pass computes each weight as one
+# exp(sigma_normal * log(cos) - ...) instead of exp(...) * cos ** sigma_normal, and the cosine with
+# fused multiply-adds: a one-ulp change of the cosine (6e-8) moves cos ** 128 by 128 times that,
+# about 8e-6 per pass, measured up to 1.9e-5 after 5 passes. Weights below exp(-80) become exp(-80)
+# (see _ATROUS_MIN_LOG_WEIGHT): 1e-35 of a value, far below a float32 ulp.
+
+
+def _reference_atrous_step(
+    color: torch.Tensor,
+    variance: torch.Tensor,
+    normal: torch.Tensor,
+    hit: torch.Tensor,
+    depth: torch.Tensor,
+    depth_width: torch.Tensor,
+    step: int,
+    sigma_color: float,
+    sigma_normal: float,
+    sigma_depth: float,
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """One edge-avoiding a-trous pass with hole spacing ``step``; returns (color, variance).
+
+    ``hit [1, H, W]`` is 1.0 where the pixel saw a surface and 0.0 where the ray escaped.
+    """
+    _, h, w = color.shape
+    kernel = torch.tensor(_VARIANCE_BLUR, device=color.device, dtype=color.dtype)
+    var_blur = F.conv2d(F.pad(variance[None], (1, 1, 1, 1), mode="replicate"), kernel[None, None])[
+        0
+    ]
+    lum = luminance(color)
+    phi_lum = sigma_color * var_blur.sqrt() + 1e-6
+    phi_depth = sigma_depth * depth_width
+    # One padded copy of everything the taps read; each tap is then a view (a slice), not a copy.
+    r = 2 * step
+    stacked = torch.cat([color, lum, variance, normal, hit, depth])[None]
+    padded = F.pad(stacked, (r, r, r, r), mode="replicate")[0]
+
+    sum_c = torch.zeros_like(color)
+    sum_v = torch.zeros_like(variance)
+    sum_w = torch.zeros_like(variance)
+    for iy, hy in enumerate(_ATROUS_TAPS):
+        for ix, hx in enumerate(_ATROUS_TAPS):
+            dy, dx = (iy - 2) * step, (ix - 2) * step
+            q = padded[:, r + dy : r + dy + h, r + dx : r + dx + w]
+            q_color, q_lum, q_var, q_normal, q_hit, q_depth = q.split((3, 1, 1, 3, 1, 1))
+            cos = (normal * q_normal).sum(0, keepdim=True).clamp_min(0.0)
+            # Escaped pixels (no normal) average only among themselves, with weight 1.
+            w_normal = torch.where(
+                (hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype)
+            )
+            # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
+            # spacing and by the step, i.e. by the distance in pixels.
+            dist = math.hypot(dy, dx)
+            w_depth = (q_depth - depth).abs() / (phi_depth * dist + 1e-6)
+            w_lum = (q_lum - lum).abs() / phi_lum
+            weight = (hy * hx) * torch.exp(-w_lum - w_depth) * w_normal
+            sum_c += weight * q_color
+            sum_v += weight.square() * q_var
+            sum_w += weight
+    # The center tap has weight 3/8 * 3/8 * 1 * 1 (or more), so sum_w is never 0.
+    return sum_c / sum_w, sum_v / sum_w.square()
+
+
+def _reference_atrous(
+    color: torch.Tensor,
+    normal: torch.Tensor,
+    depth: torch.Tensor,
+    iterations: int,
+    sigma_color: float,
+    sigma_normal: float,
+    sigma_depth: float,
+    initial: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """The a-trous filter as first written (commit 2101139): one tensor op per quantity and tap.
+
+    The slow twin of :func:`denoisers.filters._atrous` (same arguments): 25 taps of ``pow``,
+    ``where`` and ``exp`` per pass, outputs that results/quality was produced with."""
+    unit, hit = _unit_normals(normal)
+    padded = F.pad(depth[None], (1, 1, 1, 1), mode="replicate")[0]
+    gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
+    gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
+    depth_width = torch.maximum(gx, gy)
+    variance = _spatial_variance(luminance(color))
+    if initial is not None:
+        variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
+    for i in range(iterations):
+        color, variance = _reference_atrous_step(
+            color,
+            variance,
+            unit,
+            hit.to(color.dtype),
+            depth,
+            depth_width,
+            2**i,
+            sigma_color,
+            sigma_normal,
+            sigma_depth,
+        )
+    return color
+
+
+def _atrous_case(h=70, w=53, seed=1):
+    g = torch.Generator().manual_seed(seed)
+    color = torch.rand(3, h, w, generator=g).square() * 4.0
+    color[1, 10, 12] = 40.0  # a firefly
+    tilt = torch.randn(3, h, w, generator=g) * 0.2 + torch.tensor([0.0, 0.0, 1.0])[:, None, None]
+    normal = F.normalize(tilt, dim=0)
+    normal[:, :20, :15] = 0.0  # escaped rays
+    depth = torch.rand(1, h, w, generator=g) + 1.0
+    depth[:, :20, :15] = 0.0
+    return color, normal, depth
+
+
+@pytest.mark.parametrize(
+    ("iterations", "sigma_color", "sigma_normal", "sigma_depth"),
+    [(5, 4.0, 128.0, 1.0), (1, 1.0, 128.0, 1.0), (3, 16.0, 0.5, 0.1), (2, 64.0, 0.0, 10.0)],
+)
+def test_fast_atrous_matches_its_slow_twin(iterations, sigma_color, sigma_normal, sigma_depth):
+    color, normal, depth = _atrous_case()
+    sigmas = (sigma_color, sigma_normal, sigma_depth)
+    want = _reference_atrous(color, normal, depth, iterations, *sigmas)
+    got = _atrous(color, normal, depth, iterations, *sigmas)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+    variance = torch.rand(70, 53, generator=torch.Generator().manual_seed(2))
+    variance[::3] = float("nan")
+    want = _reference_atrous(color, normal, depth, iterations, *sigmas, variance)
+    got = atrous_filter(color, normal, depth, iterations, *sigmas, variance=variance)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+
+
+def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
+    import denoisers.filters as filters
+
+    color, normal, depth = _atrous_case(h=45)
+    whole = _atrous(color, normal, depth, 3, 4.0, 128.0, 1.0)
+    monkeypatch.setattr(filters, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
+    assert torch.equal(_atrous(color, normal, depth, 3, 4.0, 128.0, 1.0), whole)
