@@ -88,7 +88,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--denoiser",
         required=True,
-        help="gaussian, bilateral, joint_bilateral, guided, median, atrous, unet or oidn",
+        help="a registered denoiser (denoisers.DENOISERS: gaussian, atrous, unet, oidn, ...); "
+        "a temporal one (taa, svgf) sees the frame as the first of its sequence",
     )
     p.add_argument(
         "--in", dest="input", required=True, metavar="FRAME.exr", help="frame from bnerr render"
