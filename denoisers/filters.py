@@ -186,6 +186,11 @@ def guided_filter(
     features do not show (lights seen directly, shadow edges); where it varies only by noise, its
     variance is below ``eps`` and the ridge term keeps its coefficient small.
 
+    Computed as kornia's ``guided_blur`` (replicate border) computes it, but with separable box
+    sums over shifted views, the 28 distinct guide covariances (not 49) and a Cholesky solve of
+    the 7 x 7 system per pixel written as tensor ops over all pixels at once (a batched
+    ``linalg.solve`` spends microseconds per pixel). Outputs agree within float32 rounding.
+
     Fireflies: the window statistics multiply color by the guide, which overflows float32 for
     a pixel above about 1e18 (the output was NaN); such a frame is filtered in float64 and
     returned in the input's dtype.
@@ -193,9 +198,77 @@ def guided_filter(
     if _needs_float64(color, albedo, normal):
         wide = guided_filter(color.double(), albedo.double(), normal.double(), radius, eps)
         return wide.to(color.dtype)
-    guide = torch.cat([albedo, normal, luminance(_relative(color))])[None]
+    _, h, w = color.shape
+    guide = torch.cat([albedo, normal, luminance(_relative(color))])
+    n = guide.shape[0]
+    iu = torch.triu_indices(n, n, device=color.device)
+    products = torch.cat([guide[iu[0]] * guide[iu[1]], (guide[:, None] * color).flatten(0, 1)])
+    mean_i, mean_p = _box_mean(guide, radius), _box_mean(color, radius)
+    corr_ii, corr_ip = _box_mean(products, radius).split((iu.shape[1], 3 * n))
+    var = corr_ii.addcmul_(mean_i[iu[0]], mean_i[iu[1]], value=-1)
+    var[iu[0] == iu[1]] += eps
+    cov = corr_ip.unflatten(0, (n, 3)).addcmul_(mean_i[:, None], mean_p, value=-1)
+    # var + eps I is at least eps I in exact arithmetic: every Cholesky pivot is >= eps.
+    a = _solve_spd(var, cov, n, 0.5 * eps)
+    b = mean_p - (a * mean_i[:, None]).sum(0)
+    mean_a, mean_b = _box_mean(torch.cat([a.flatten(0, 1), b]), radius).split((3 * n, 3))
+    return (mean_a.unflatten(0, (n, 3)) * guide[:, None]).sum(0) + mean_b
+
+
+# Channels box-filtered at once by _box_mean: bounds its temporaries to a few planes.
+_BOX_CHANNELS = 8
+
+
+def _box_mean(x: torch.Tensor, radius: int) -> torch.Tensor:
+    """Mean of ``x [C, H, W]`` over a ``(2 radius + 1)^2`` window, replicate border (separable)."""
     k = 2 * radius + 1
-    return KF.guided_blur(guide, color[None], (k, k), eps, border_type=_BORDER)[0]
+    h, w = x.shape[1:]
+    out = torch.empty_like(x)
+    for c0 in range(0, x.shape[0], _BOX_CHANNELS):
+        chunk = x[c0 : c0 + _BOX_CHANNELS]
+        padded = F.pad(chunk[None], (radius, radius, radius, radius), mode=_BORDER)[0]
+        rows = padded[:, :h].clone()
+        for d in range(1, k):
+            rows += padded[:, d : d + h]
+        cols = out[c0 : c0 + _BOX_CHANNELS]
+        cols.copy_(rows[:, :, :w])
+        for d in range(1, k):
+            cols += rows[:, :, d : d + w]
+    return out.mul_(1.0 / (k * k))
+
+
+def _solve_spd(packed: torch.Tensor, rhs: torch.Tensor, n: int, floor: float) -> torch.Tensor:
+    """Solve ``A x = rhs`` per pixel by Cholesky, ``A`` symmetric positive definite ``n x n``.
+
+    ``packed [n (n + 1) / 2, H, W]``: the upper triangle of ``A`` row by row (the order of
+    ``torch.triu_indices``); ``rhs [n, m, H, W]`` -> ``x [n, m, H, W]``. Pivots below ``floor``
+    (rounding of a matrix whose exact pivots are larger) are raised to it.
+    """
+    index = {}
+    for slot, (i, j) in enumerate(zip(*torch.triu_indices(n, n).tolist())):
+        index[i, j] = index[j, i] = slot
+    low: dict[tuple[int, int], torch.Tensor] = {}
+    inv_diag = []
+    for j in range(n):
+        pivot = packed[index[j, j]].clone()
+        for k in range(j):
+            pivot.addcmul_(low[j, k], low[j, k], value=-1)
+        inv_diag.append(pivot.clamp_min_(floor).rsqrt_())
+        for i in range(j + 1, n):
+            entry = packed[index[i, j]].clone()
+            for k in range(j):
+                entry.addcmul_(low[i, k], low[j, k], value=-1)
+            low[i, j] = entry.mul_(inv_diag[j])
+    x = rhs.clone()
+    for i in range(n):  # L y = rhs
+        for k in range(i):
+            x[i].addcmul_(low[i, k], x[k], value=-1)
+        x[i].mul_(inv_diag[i])
+    for i in reversed(range(n)):  # L^T x = y
+        for k in range(i + 1, n):
+            x[i].addcmul_(low[k, i], x[k], value=-1)
+        x[i].mul_(inv_diag[i])
+    return x
 
 
 def median_filter(color: torch.Tensor, kernel_size: int) -> torch.Tensor:
@@ -438,11 +511,10 @@ def median_bytes(height: int, width: int, kernel_size: int) -> int:
 
 
 def guided_bytes(height: int, width: int, radius: int) -> int:
-    """Rough peak memory of :func:`guided_filter` (float32): kornia's 2-D box kernel of
-    ``(2r + 1)^2`` taps, and about 100 window statistics per pixel of the image padded by ``r``
-    (7 guide channels: 28 guide covariances, 21 guide-color products, means, the solve)."""
-    k = 2 * radius + 1
-    return 4 * (k * k + 100 * (height + 2 * radius) * (width + 2 * radius))
+    """Rough peak memory of :func:`guided_filter` (float32): about 130 values per pixel of the
+    image padded by ``r`` (7 guide channels: 28 guide covariances and 21 guide-color products
+    and their window means, the means, the Cholesky factor and solution, box temporaries)."""
+    return 4 * 130 * (height + 2 * radius) * (width + 2 * radius)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -2,6 +2,7 @@
 
 import math
 
+import kornia.filters as KF
 import pytest
 import torch
 import torch.nn.functional as F
@@ -19,10 +20,12 @@ from denoisers.filters import (
     JointBilateral,
     Median,
     _atrous,
+    _relative,
     _spatial_variance,
     _unit_normals,
     atrous_filter,
     gaussian_filter,
+    guided_filter,
     joint_bilateral_filter,
     luminance,
     median_filter,
@@ -393,3 +396,33 @@ def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
     whole = _atrous(color, normal, depth, 3, 4.0, 128.0, 1.0)
     monkeypatch.setattr(filters, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
     assert torch.equal(_atrous(color, normal, depth, 3, 4.0, 128.0, 1.0), whole)
+
+
+# -- the fast guided filter against kornia's guided_blur (its slow twin) --------------------------
+#
+# Tolerance: 1e-5 of the image's largest value, relative and absolute. Both compute the same
+# window statistics in float32, in another order (separable sums against a 2-D convolution), and
+# solve the same 7 x 7 system per pixel (Cholesky against LU): at eps >= 1e-2 (the grid's
+# smallest) the system's condition number is below 1e3, so a rounding of 6e-8 in the statistics
+# moves the output by at most about 6e-5 relative; measured below 2e-6 of the largest value.
+
+
+def _reference_guided(color, albedo, normal, radius, eps):
+    """The guided filter as first written: kornia's guided_blur, batched linalg.solve."""
+    guide = torch.cat([albedo, normal, luminance(_relative(color))])[None]
+    k = 2 * radius + 1
+    return KF.guided_blur(guide, color[None], (k, k), eps, border_type="replicate")[0]
+
+
+@pytest.mark.parametrize(("radius", "eps"), [(1, 1e-2), (2, 1.0), (3, 0.1), (5, 10.0)])
+def test_fast_guided_matches_kornia(radius, eps):
+    g = torch.Generator().manual_seed(radius)
+    color = torch.rand(3, 41, 37, generator=g).square() * 4.0
+    color[0, 7, 9] = 60.0
+    albedo = torch.rand(3, 41, 37, generator=g)
+    albedo[:, :, :10] = 0.5  # a flat region: a singular covariance but for eps
+    normal = F.normalize(torch.randn(3, 41, 37, generator=g), dim=0)
+    want = _reference_guided(color, albedo, normal, radius, eps)
+    got = guided_filter(color, albedo, normal, radius, eps)
+    scale = float(want.abs().amax())
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5 * scale)
