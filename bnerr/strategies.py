@@ -1117,8 +1117,6 @@ def make_strategy(
     _check_fits(name, height, width, need // (height * width), torch.device(device))
     base, options = parse_variant(name)
     common = {"seed": seed, "device": device}
-    if not options.plain:
-        return _temporal(base, height, width, sampler, spp, options, mask_size, block, common)
     if name == "white":
         return WhiteStrategy(height, width, sampler=sampler, **common)
     if name == "bnds":
@@ -1131,7 +1129,7 @@ def make_strategy(
     if name == "oracle":
         scalar = load_mask("scalar", mask_size)
         return OracleStrategy(height, width, sampler=sampler, mask=scalar, K=K, **common)
-    return _temporal(name, height, width, sampler, spp, options, mask_size, block, common)
+    return _temporal(base, height, width, sampler, spp, options, mask_size, block, common)
 
 
 def _temporal(
