@@ -1113,8 +1113,7 @@ def make_strategy(
             what ``device`` has free, refused before anything is allocated; spp missing or not a
             power of two for a strategy that needs one.
     """
-    need = estimate_bytes(name, height, width, K)
-    _check_fits(name, height, width, need // (height * width), torch.device(device))
+    _check_fits(name, height, width, estimate_bytes(name, 1, 1, K), torch.device(device))
     base, options = parse_variant(name)
     common = {"seed": seed, "device": device}
     if name == "white":
