@@ -301,7 +301,7 @@ def outside_references(text: str) -> list[str]:
     found = [f"'{_OUTSIDE}'"] * text.count(_OUTSIDE)
     for match in _DOC.finditer(text):
         prefix, name = match.group(1), match.group(2)
-        in_docs = prefix.endswith("docs/") and prefix.lstrip("`'\"([") == "docs/"
+        in_docs = prefix.endswith("docs/") and prefix.lstrip("`'\"([]") == "docs/"
         if not (in_docs and (ROOT / "docs" / f"{name}.md").is_file()):
             found.append(match.group(0))
     return found
@@ -315,6 +315,7 @@ def test_reference_finder():
     assert outside_references(f"../docs/{methods}") == [f"../docs/{methods}"]
     assert outside_references(f"docs/{style}") == [f"docs/{style}"]  # not in the repository
     assert outside_references(f"[docs/{methods}]({methods})") == [f"]({methods}"]
+    assert outside_references(f"[`docs/{methods}`](docs/{methods})") == []  # a link from the root
     assert len(outside_references("/work/" + _OUTSIDE + "docs")) == 1
 
 
