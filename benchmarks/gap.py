@@ -114,8 +114,14 @@ def _measures(records: Iterable[Record]) -> dict[tuple, dict[str, dict[str, torc
 def _share(
     w: torch.Tensor, v: torch.Tensor, o: torch.Tensor, level: float, resamples: int
 ) -> tuple[float, float, float, float]:
-    """``(share, lo, hi, gap)`` of stats ``[S, F, 2]`` of white, the strategy and the oracle."""
+    """``(share, lo, hi, gap)`` of stats ``[S, F, 2]`` of white, the strategy and the oracle.
+
+    Where the oracle is no better than white's mean (no distance to close) every figure is NaN.
+    """
     mean = [float(x[..., 0].sum() / x[..., 1].sum()) for x in (w, v, o)]
+    if not mean[0] > mean[2]:
+        nan = float("nan")
+        return nan, nan, nan, (mean[0] - mean[2]) / mean[0] if mean[0] else nan
     weights = _resample(tuple(w.shape[:2]), resamples, 0)
     rw, rv, ro = (_resampled_values(x, weights) for x in (w, v, o))
     lo, hi = _interval((rw - rv) / (rw - ro), level)

@@ -102,14 +102,25 @@ class References(Protocol):
 
 class _BoundRender:
     """The ``render(seeds, sampler)`` a strategy calls, with scene, t and spp bound (no clock:
-    the frame carries the renderer's own time)."""
+    the frame carries the renderer's own time).
 
-    def __init__(self, parts: Parts, scene: Scene, spp: int) -> None:
+    ``motion_scale``: a run whose animation is ``k`` times faster shows the strategy the
+    renderer's frames ``k t``, whose motion buffers say how far a pixel moved since frame
+    ``k t - 1``; the strategy's previous frame is ``k (t - 1)``, so the motion it sees is scaled
+    by ``k`` (exact for linear motion, a first-order estimate for orbits). Strategies that
+    reproject seeds and temporal denoisers read it.
+    """
+
+    def __init__(self, parts: Parts, scene: Scene, spp: int, motion_scale: int = 1) -> None:
         self.parts, self.scene, self.spp = parts, scene, spp
+        self.motion_scale = motion_scale
         self.t_render = 0
 
     def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
-        return self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp)
+        frame = self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp)
+        if self.motion_scale != 1 and frame.motion is not None:
+            frame.motion = frame.motion * self.motion_scale
+        return frame
 
 
 def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
@@ -372,7 +383,7 @@ def measure_seed_set(
     scene = scene_for(run, parts)
     chosen = {name: denoisers[name] for name in run.denoisers}
     measurement = _SeedSetMeasurement(run, group, chosen)
-    render = _BoundRender(parts, scene, run.spp)
+    render = _BoundRender(parts, scene, run.spp, max(run.motion, 1))
     tick = on_frame if on_frame is not None else (lambda: None)
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
@@ -505,7 +516,7 @@ def tune_missing(
     if not names:
         return {}
     scene = scene_for(run, parts)
-    render = _BoundRender(parts, scene, run.spp)
+    render = _BoundRender(parts, scene, run.spp, max(run.motion, 1))
     strategy = parts.make_strategy(
         source, scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
     )

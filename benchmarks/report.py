@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.gap import write_gap_tables
 from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
@@ -695,8 +696,9 @@ def write_report(
     title: str | None = None,
     charts: bool = True,
 ) -> str:
-    """Write ``table.csv``, ``table.md``, ``decision.md`` and the charts into ``out_dir``; return
-    the Markdown of ``table.md``.
+    """Write ``table.csv``, ``table.md``, ``decision.md``, ``gap.md`` / ``gap.csv`` (when the
+    records hold white and the oracle: :mod:`benchmarks.gap`) and the charts into ``out_dir``;
+    return the Markdown of ``table.md``.
 
     Args:
         out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
@@ -714,6 +716,7 @@ def write_report(
         Path(tmp).write_text(text)
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
+    write_gap_tables(out, records)
     if charts:
         write_charts(rows, records, out)
     return text

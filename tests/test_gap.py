@@ -1,6 +1,7 @@
 """Tests for benchmarks.gap: the share of the white-to-oracle distance, on synthetic records."""
 
 import csv
+import math
 import io
 
 import pytest
@@ -125,3 +126,11 @@ def test_tables_carry_every_row(tmp_path):
 def test_bad_level_is_refused():
     with pytest.raises(ValueRangeError, match="level"):
         gap_shares(_records(), level=0.2)
+
+
+def test_no_distance_to_close_gives_nan_not_a_division_error():
+    # The oracle no better than white (as on a scene where moving seeds cannot help): every
+    # share is undefined, and the report must still be written.
+    rows = gap_shares([_record("white", 4.0), _record("temporal", 5.0), _record("oracle", 4.0)])
+    assert rows and all(math.isnan(r.share) and math.isnan(r.lo) for r in rows)
+    assert all(r.gap == 0.0 for r in rows)
