@@ -1,8 +1,8 @@
 """Tests for benchmarks.gap: the share of the white-to-oracle distance, on synthetic records."""
 
 import csv
-import math
 import io
+import math
 
 import pytest
 
