@@ -199,7 +199,12 @@ _ALL_DENOISERS = (
     "atrous",
     "unet",
     "oidn",
+    "taa",
+    "svgf",
 )
+#: Filters also tuned on each strategy's own frames (``NAME:own``; the fair columns stay tuned on
+#: white noise): the cheap ones whose tuned width decides most of their error.
+_OWN_TUNED = ("gaussian:own", "atrous:own", "guided:own")
 _CHEAP_DENOISERS = ("gaussian", "atrous")
 #: The gap suite's variants with one option each (bnerr.strategies.parse_variant).
 GAP_SINGLE: tuple[str, ...] = (
@@ -262,7 +267,7 @@ SUITES: dict[str, Suite] = {
                 scenes=_ALL_SCENES,
                 strategies=_ALL_STRATEGIES,
                 spp=(1, 4, 16),
-                denoisers=_ALL_DENOISERS,
+                denoisers=_ALL_DENOISERS + _OWN_TUNED,
                 res=(128, 128),
                 reference_spp=1024,
                 **_SETS,
