@@ -17,10 +17,12 @@ The four suites (issue 6):
   two cheap denoisers at 128x128; at most 5 minutes on the 2-core development machine (on one
   thread when the machine is shared: ``--threads 1``); ``make run``.
 - ``quality``: every scene, strategy (the rivals zsobol, cycles_blue, zsobol_t, bnds_st and
-  temporal_zsobol among them) and kornia/learned denoiser at 1, 4 and 16 spp, 128x128: 51
-  minutes on the same machine before the rivals, estimated 65-80 with them (each adds about one
-  render per frame, at 1-3x white's render time for the Z-order samplers; the oracle's 32
-  renders per frame still dominate).
+  temporal_zsobol among them) and denoiser (kornia filters, U-Net, OIDN, the temporal taa and
+  svgf, and gaussian, atrous and guided also tuned on each strategy's own frames) at 1, 4 and
+  16 spp, 128x128: 51 minutes on the same machine before the rivals, estimated 65-80 with them
+  (each adds about one render per frame, at 1-3x white's render time for the Z-order samplers;
+  the oracle's 32 renders per frame still dominate); the own tuning and the temporal denoisers
+  (which see the warm-up frames of every strategy) add to that, not yet measured.
 - ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
