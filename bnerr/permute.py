@@ -58,7 +58,6 @@ is :mod:`bnerr.retarget`, and :mod:`bnerr.reproject` along motion).
 from __future__ import annotations
 
 import threading
-import warnings
 import weakref
 from dataclasses import dataclass, replace
 
@@ -413,29 +412,8 @@ def _self_check(kernels: native.Kernels) -> bool:
     return True
 
 
-_checked: tuple[native.Kernels | None, bool] = (None, False)
-_check_lock = threading.Lock()
-
-
-def _native_kernels() -> native.Kernels | None:
-    """The native kernels if they load and pass :func:`_self_check` (run once per library)."""
-    global _checked
-    kernels = native.load()
-    if kernels is None:
-        return None
-    if _checked[0] is not kernels:
-        with _check_lock:
-            if _checked[0] is not kernels:
-                ok = _self_check(kernels)
-                if not ok:
-                    warnings.warn(
-                        "bnerr.permute: the native sort kernel disagrees with the torch path on "
-                        "the self-check; the torch path is used",
-                        RuntimeWarning,
-                        stacklevel=3,
-                    )
-                _checked = (kernels, ok)
-    return kernels if _checked[1] else None
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = native.SelfCheckedKernels(_self_check, "bnerr.permute: the native sort kernel")
 
 
 # The op, registered with the low-level torch.library API: its dispatch costs a few microseconds

@@ -51,8 +51,6 @@ yours), or a step that changes between frames.
 
 from __future__ import annotations
 
-import threading
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -510,29 +508,10 @@ def _self_check(kernels: native.Kernels) -> bool:
     return True
 
 
-_checked: tuple[native.Kernels | None, bool] = (None, False)
-_check_lock = threading.Lock()
-
-
-def _native_kernels() -> native.Kernels | None:
-    """The native kernels if they load and pass :func:`_self_check` (run once per library)."""
-    global _checked
-    kernels = native.load()
-    if kernels is None:
-        return None
-    if _checked[0] is not kernels:
-        with _check_lock:
-            if _checked[0] is not kernels:
-                ok = _self_check(kernels)
-                if not ok:
-                    warnings.warn(
-                        "bnerr.retarget: the native retargeting kernel disagrees with the torch "
-                        "path on the self-check; the torch path is used",
-                        RuntimeWarning,
-                        stacklevel=3,
-                    )
-                _checked = (kernels, ok)
-    return kernels if _checked[1] else None
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = native.SelfCheckedKernels(
+    _self_check, "bnerr.retarget: the native retargeting kernel"
+)
 
 
 # The op, registered with the low-level torch.library API (a few microseconds of dispatch per

@@ -38,6 +38,7 @@ import functools
 import os
 import threading
 import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -47,6 +48,7 @@ from bnerr.native import build
 
 __all__ = [
     "Kernels",
+    "SelfCheckedKernels",
     "available",
     "compiler_output",
     "load",
@@ -123,6 +125,39 @@ def load() -> Kernels | None:
             if warning:
                 warnings.warn(warning, RuntimeWarning, stacklevel=2)
     return _state["kernels"]
+
+
+class SelfCheckedKernels:
+    """The loaded kernels, handed out only once they pass a caller's self-check.
+
+    Each op that has a native path (the sort pass, the retargeting pass) owns one of these with
+    its own check, a function ``Kernels -> bool`` that compares the kernel with the op's torch
+    path bit for bit. The check runs once per loaded library (again after :func:`reset`); a
+    failure is reported once, as a RuntimeWarning naming ``what``, and the op then gets None.
+    """
+
+    def __init__(self, check: Callable[[Kernels], bool], what: str) -> None:
+        self._check, self._what = check, what
+        self._checked: tuple[Kernels | None, bool] = (None, False)
+        self._lock = threading.Lock()
+
+    def __call__(self) -> Kernels | None:
+        kernels = load()
+        if kernels is None:
+            return None
+        if self._checked[0] is not kernels:
+            with self._lock:
+                if self._checked[0] is not kernels:
+                    ok = self._check(kernels)
+                    if not ok:
+                        warnings.warn(
+                            f"{self._what} disagrees with the torch path on the self-check; "
+                            "the torch path is used",
+                            RuntimeWarning,
+                            stacklevel=3,
+                        )
+                    self._checked = (kernels, ok)
+        return kernels if self._checked[1] else None
 
 
 def reset() -> None:
