@@ -166,3 +166,21 @@ def test_temporaries_a_killed_run_left_are_removed_at_the_next_start(tmp_path):
     assert not any(path.exists() for path in stale)
     left = sorted(p.name for p in tmp_path.iterdir())
     assert left == [".w.pt.bnerr.lock", "w.pt", "w.pt.ckpt", "w.pt.data"]
+
+
+def test_the_blue_trained_weights_record_unet_pts_command_with_the_white_blue_mix():
+    from denoisers.unet import DEFAULT_WEIGHTS, UNetDenoiser
+
+    blue = DEFAULT_WEIGHTS.with_name("unet_blue.pt")
+    meta = torch.load(blue, weights_only=True)["meta"]
+    white = torch.load(DEFAULT_WEIGHTS, weights_only=True)["meta"]
+    assert meta["finished"] and meta["step"] == 2500 and meta["spec"]["mix"] == "white+blue"
+    readme = (blue.parent / "README.md").read_text()
+    assert f"\n{meta['command']}\n" in readme
+    expected = (
+        white["command"]
+        .replace("unet.pt", "unet_blue.pt")
+        .replace("--mix white ", "--mix white+blue ")
+    )
+    assert meta["command"] == expected and meta["config"] == white["config"]
+    assert UNetDenoiser(blue).model.widths == UNetDenoiser().model.widths
