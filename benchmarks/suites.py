@@ -200,6 +200,7 @@ _ALL_DENOISERS = (
     "median",
     "atrous",
     "unet",
+    "unet_blue",
     "oidn",
     "taa",
     "svgf",

@@ -8,7 +8,8 @@ Names (the registry, :data:`DENOISERS`):
 - ``taa``, ``svgf``: temporal accumulation alone, and followed by the a-trous filter guided by the
   variance over time (:mod:`denoisers.temporal`); **stateful**: call ``reset()`` at the start of
   each sequence and feed its frames in order (motion, depth, normal, object_id);
-- ``unet``: a small OIDN-style U-Net trained here (:mod:`denoisers.train`);
+- ``unet``: a small OIDN-style U-Net trained here on white-noise inputs (:mod:`denoisers.train`);
+- ``unet_blue``: the same network trained on white and blue-noise inputs (``--mix white+blue``);
 - ``oidn``: Intel Open Image Denoise, the production reference (optional extra ``reference``).
 
 ``get_denoiser(name, **params)`` builds one; filter parameters come from :mod:`denoisers.tuning`
@@ -25,7 +26,7 @@ from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
 from denoisers.oidn import OIDN, MissingExtraError
 from denoisers.temporal import SVGF, TAA
-from denoisers.unet import UNetDenoiser
+from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
 
 __all__ = [
     "DENOISERS",
@@ -50,6 +51,7 @@ DENOISERS: dict[str, type[Denoiser]] = {
             OIDN,
             SVGF,
             TAA,
+            UNetBlueDenoiser,
             UNetDenoiser,
         ),
         key=lambda c: c.name,

@@ -36,9 +36,11 @@ from bnerr.io import atomic_write
 from denoisers.base import Denoiser
 
 __all__ = [
+    "BLUE_WEIGHTS",
     "DEFAULT_WEIGHTS",
     "MAX_PARAMETERS",
     "UNet",
+    "UNetBlueDenoiser",
     "UNetDenoiser",
     "WEIGHTS_FORMAT",
     "atomic_torch_save",
@@ -55,6 +57,9 @@ __all__ = [
 
 #: The shipped weights, produced by the command in ``denoisers/weights/README.md``.
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "unet.pt"
+#: The U-Net trained on white and blue-noise inputs (``bnerr train --mix white+blue``; the exact
+#: command is in denoisers/weights/README.md).
+BLUE_WEIGHTS = Path(__file__).with_name("weights") / "unet_blue.pt"
 #: Format tag written into every weights file, checked on load.
 WEIGHTS_FORMAT = "bnerr-unet-weights-v1"
 #: The project's cap on the network's size (the issue: "at most about 0.5 M parameters").
@@ -320,3 +325,14 @@ def check_parameter_count(widths: Sequence[int], name: str) -> int:
             f"{list(widths)} with {count}"
         )
     return count
+
+
+class UNetBlueDenoiser(UNetDenoiser):
+    """``unet_blue``: the same network trained on a mix of white-noise inputs and inputs made by
+    the benchmark's blue-noise strategies (temporal, zsobol, cycles_blue), same targets; weights
+    :data:`BLUE_WEIGHTS` unless ``weights`` names another file."""
+
+    name = "unet_blue"
+
+    def __init__(self, weights: str | Path | None = None) -> None:
+        super().__init__(BLUE_WEIGHTS if weights is None else weights)

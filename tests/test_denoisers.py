@@ -19,6 +19,7 @@ NAMES = [
     "svgf",
     "taa",
     "unet",
+    "unet_blue",
 ]
 STATEFUL = {"svgf", "taa"}
 

@@ -258,3 +258,18 @@ def test_channels_last_copy_gives_the_plain_networks_output():
     want = unet_denoise(denoiser.model, frame.color, frame.albedo, frame.normal)
     torch.testing.assert_close(denoiser(frame), want, rtol=1e-4, atol=1e-5)
     assert denoiser.model.enc1.weight.is_contiguous()  # the loaded network stays as it was
+
+
+def test_unet_blue_is_registered_with_its_own_shipped_weights():
+    from denoisers import get_denoiser
+    from denoisers.unet import BLUE_WEIGHTS, DEFAULT_WEIGHTS
+
+    blue, white = get_denoiser("unet_blue"), get_denoiser("unet")
+    assert blue.weights == BLUE_WEIGHTS and white.weights == DEFAULT_WEIGHTS
+    assert BLUE_WEIGHTS.exists()
+    # Same architecture, other weights.
+    assert blue.model.widths == white.model.widths
+    assert any(
+        not torch.equal(a, b)
+        for a, b in zip(blue.model.state_dict().values(), white.model.state_dict().values())
+    )
