@@ -150,3 +150,29 @@ def test_bench_own_tuning_column_sits_in_table_csv(tmp_path):
     table = (tmp_path / "out" / "table.csv").read_text()
     assert ",gaussian:own," in table and ",gaussian," in table
     assert "gaussian:own" in (tmp_path / "out" / "table.md").read_text()
+
+
+def test_report_only_rewrites_the_tables_without_measuring(tmp_path, capsys):
+    assert main(_two_strategies(tmp_path, "--no-charts")) == 0
+    out = tmp_path / "out"
+    cells, table = (out / RESULTS_FILE).read_text(), (out / "table.md").read_text()
+    (out / "table.md").unlink()
+    (out / "decision.md").unlink()
+    cache = tmp_path / "cache"
+    before = sorted(p.name for p in cache.rglob("*"))
+    args = ["bench", "--suite", "quick", "--out", str(out), "--cache", str(cache), "--quiet"]
+    assert main([*args, "--report-only", "--no-charts"]) == 0
+    # Nothing measured or rendered: the cells and the reference cache are as they were.
+    assert (out / RESULTS_FILE).read_text() == cells
+    assert sorted(p.name for p in cache.rglob("*")) == before
+    assert (out / "table.md").read_text() == table  # the same title and figures
+    assert (out / "decision.md").exists()
+
+
+def test_report_only_refuses_overrides_and_an_empty_folder(tmp_path, capsys):
+    out = tmp_path / "empty"
+    args = ["bench", "--suite", "quick", "--out", str(out), "--quiet", "--report-only"]
+    assert main(args) == 2
+    assert "expected finished cells" in capsys.readouterr().err
+    assert main([*args, "--spp", "4"]) == 2
+    assert "--report-only: expected no cell overrides" in capsys.readouterr().err

@@ -105,6 +105,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--resume", action="store_true", help="keep existing results, measure only missing cells"
     )
     resume.add_argument(
+        "--report-only",
+        action="store_true",
+        help="measure nothing: rewrite the tables and charts from the cells already in --out "
+        "(after a change to the report, or when the suite gained cells not measured yet)",
+    )
+    resume.add_argument(
         "--overwrite",
         action="store_true",
         help="discard the finished cells already in --out (without it a fresh run into a folder "
@@ -134,7 +140,11 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
     from benchmarks.speed import run_speed
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
-    given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
+    given += [
+        flag
+        for flag in ("--resume", "--overwrite", "--report-only")
+        if getattr(args, flag[2:].replace("-", "_"))
+    ]
     given += ["--ray"] if args.ray is not None else []
     if given:
         raise ValueRangeError(
@@ -144,9 +154,30 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
     return run_speed(suite, out, progress=not args.quiet)
 
 
+def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
+    from benchmarks import report
+    from benchmarks.records import load_records
+
+    given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
+    given += ["--ray"] if args.ray is not None else []
+    if given:
+        raise ValueRangeError(
+            f"--report-only: expected no cell overrides (it measures nothing), got "
+            f"{', '.join(given)}"
+        )
+    records = load_records(out)
+    if not records:
+        raise ValueRangeError(f"--report-only: expected finished cells in {out}, got none")
+    title = f"bnerr bench --suite {suite.name}"
+    return report.write_report(out, records, title=title, charts=not args.no_charts)
+
+
 def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
     from benchmarks import report, runner, suites
     from benchmarks.parts import known_names
+
+    if args.report_only:
+        return _report_only(args, suite, out)
 
     suite = suites.resolve(
         suite,
