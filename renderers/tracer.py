@@ -57,7 +57,6 @@ import concurrent.futures
 import contextlib
 import math
 import os
-import time
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -67,6 +66,7 @@ import torch
 from bnerr.errors import DtypeError, ShapeError, check_dtype, check_positive_int, check_shape
 from bnerr.frame import Frame
 from bnerr.sequences import Sampler
+from bnerr.timing import Stopwatch
 from renderers.camera import CameraFrame, camera_frame, generate_rays, project
 from renderers.geometry import (
     SceneTensors,
@@ -574,12 +574,12 @@ def render(
         ShapeError: seeds not ``[H, W]`` or empty.
         ValueRangeError: spp or chunk < 1.
     """
-    start = time.perf_counter()
+    watch = Stopwatch()
     _check_render_args(scene, t, seeds, sampler, spp, chunk)
     workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
     with _intra_op_threads(1):
         frame = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
-    frame.timings["render"] = (time.perf_counter() - start) * 1e3
+    frame.timings["render"] = watch.ms(frame.color)  # waits for the device's queued work
     return frame
 
 
