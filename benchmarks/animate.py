@@ -49,21 +49,29 @@ from bnerr.io import atomic_write
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 
 __all__ = [
+    "MANIFEST",
     "SHOWN_RIVALS",
     "Animation",
     "Tiles",
     "animate_scene",
     "compose_frame",
     "default_strategies",
+    "manifest",
     "render_tiles",
     "write_animations",
     "write_gif",
     "write_mp4",
 ]
 
-#: Rival strategies shown after white and temporal by default, when registered (in this order).
-SHOWN_RIVALS: tuple[str, ...] = ("bnds_st", "zsobol_t", "temporal_zsobol")
+#: Strategies shown after white and temporal by default, when registered (in this order): the
+#: rival with the lowest post-Gaussian error at 4 spp in the quick comparison of the rivals
+#: (zsobol; cycles_blue leads at 1 spp), and the temporal variant that closed most of the gap to
+#: the oracle in the ablation (docs/METHODS.md, section 8). Revisit both when results/quality
+#: holds the rivals and results/gap the variants.
+SHOWN_RIVALS: tuple[str, ...] = ("zsobol", "temporal+relative+demod+groups")
 _REFERENCE = "reference"
+#: The folder's description, written with the animations.
+MANIFEST = "README.md"
 _HEADER = 14  # pixels of the column-name strip
 _CAPTION = 13  # pixels per caption line
 _ROW_LABEL = 14  # pixels of the rotated row-name strip
@@ -71,7 +79,8 @@ _BLOCK = 16  # the MP4 frame is padded to a multiple of this (libx264's macro bl
 
 
 def default_strategies() -> tuple[str, ...]:
-    """``white``, ``temporal`` and the registered :data:`SHOWN_RIVALS`."""
+    """``white``, ``temporal`` and the registered :data:`SHOWN_RIVALS` (a variant name counts as
+    registered when :mod:`bnerr.strategies` builds it)."""
     from bnerr.strategies import STRATEGIES
 
     return ("white", "temporal") + tuple(s for s in SHOWN_RIVALS if s in STRATEGIES)
@@ -519,4 +528,43 @@ def animate(
             results.append(result)
             if on_scene is not None:
                 on_scene(spec, result)
+        with atomic_write(out / MANIFEST) as tmp:
+            Path(tmp).write_text(manifest(specs, results, out))
     return results
+
+
+def _command(specs: Sequence[Animation], out: Path) -> str:
+    """The ``bnerr animate`` command that makes ``specs`` (the first scene's settings)."""
+    s = specs[0]
+    return (
+        f"bnerr animate --scenes {' '.join(x.scene for x in specs)} --strategies "
+        f"{' '.join(s.strategies)} --denoiser {s.denoiser} --frames {s.frames} --warmup "
+        f"{s.warmup} --res {s.width}x{s.height} --spp {s.spp} --seed-set {s.seed_set} "
+        f"--reference-spp {s.reference_spp} --out {out}"
+    )
+
+
+def manifest(specs: Sequence[Animation], results: Sequence[dict], out: Path) -> str:
+    """``README.md`` of an animation folder: the command, what the grids show, files and times."""
+    s = specs[0]
+    lines = [
+        "# Animated comparisons",
+        "",
+        f"Written by `bnerr animate` (`benchmarks/animate.py`):\n\n    {_command(specs, out)}",
+        "",
+        f"Columns: reference | {' | '.join(s.strategies)}; rows: raw, and after {s.denoiser} "
+        "(the benchmark's tuned parameters where stored; each file's caption says which). Frames "
+        f"t = {s.warmup}..{s.warmup + s.frames - 1} of seed set {s.seed_set}, {s.sampler} "
+        f"per-pixel sequences unless a strategy dictates its own, {s.spp} spp; the reference "
+        f"column at {s.reference_spp} spp is there for the eye, not for measuring. Tiles are "
+        "tone-mapped with `bnerr.color.preview_u8`. `<scene>.mp4` holds every frame at full "
+        f"size, `<scene>.gif` the first {s.gif_frames} frames of a {s.gif_crop}-pixel centre crop.",
+        "",
+        "| scene | MP4 | GIF | seconds |",
+        "|---|---|---|---|",
+    ]
+    for spec, result in zip(specs, results, strict=True):
+        size = {k: Path(result[k]).stat().st_size // 1024 for k in ("mp4", "gif")}
+        seconds = ", ".join(f"{k} {v:.0f}" for k, v in result["seconds"].items())
+        lines.append(f"| {spec.scene} | {size['mp4']} KiB | {size['gif']} KiB | {seconds} |")
+    return "\n".join(lines) + "\n"

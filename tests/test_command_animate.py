@@ -44,7 +44,11 @@ def test_writes_mp4_and_gif_per_scene(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "direct: " in printed and "1 animation(s) written" in printed
     names = sorted(p.name for p in out.iterdir() if not p.name.startswith("."))
-    assert names == ["direct.gif", "direct.mp4"]
+    assert names == ["README.md", "direct.gif", "direct.mp4"]
+    readme = (out / "README.md").read_text()
+    # The folder says how it was made: a command that bnerr animate accepts, and each file.
+    assert "    bnerr animate --scenes direct --strategies " in readme
+    assert "| direct | " in readme and "KiB" in readme
     with imageio.get_reader(out / "direct.mp4", format="FFMPEG") as reader:
         frames = list(reader.iter_data())
     assert len(frames) == 3
