@@ -35,9 +35,10 @@ import numpy as np
 import torch
 
 from benchmarks.suites import Suite
+from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
 
-__all__ = ["ANCHOR_SCRIPTS", "run_speed", "speed_markdown"]
+__all__ = ["ANCHOR_SCRIPTS", "rewrite_speed_report", "run_speed", "speed_markdown"]
 
 #: Script -> the script that measures its anchor, run right after it by :func:`run_speed` (when
 #: the suite does not list it itself), so that both are measured in the same run.
@@ -402,7 +403,41 @@ def run_speed(suite: Suite, out_dir: str | Path, *, progress: bool = True) -> st
         summaries[script] = _summary(module.measure)
     with atomic_write(out / "speed.json") as tmp:
         Path(tmp).write_text(json.dumps(figures, indent=1, sort_keys=True) + "\n")
+    return _write_markdown(suite, out, figures, summaries)
+
+
+def _write_markdown(
+    suite: Suite, out: Path, figures: Mapping[str, Any], summaries: Mapping[str, str]
+) -> str:
     text = speed_markdown(suite, figures, summaries)
     with atomic_write(out / "speed.md") as tmp:
         Path(tmp).write_text(text)
     return text
+
+
+def rewrite_speed_report(suite: Suite, out_dir: str | Path) -> str:
+    """Rewrite ``speed.md`` from the figures in ``out_dir/speed.json`` without measuring (after a
+    change to the tables); the summaries come from the scripts' ``measure`` docstrings.
+
+    Raises:
+        FileFormatError: ``speed.json`` is missing or not the speed suite's JSON object.
+    """
+    out = Path(out_dir)
+    path = out / "speed.json"
+    try:
+        figures = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise FileFormatError(f"{path}: expected the speed suite's figures, got: {err}") from err
+    if not isinstance(figures, dict):
+        raise FileFormatError(f"{path}: expected a JSON object, got {type(figures).__name__}")
+    known = set(suite.scripts) | set(ANCHOR_SCRIPTS.values())
+    unknown = sorted(set(figures) - known)
+    if unknown:
+        raise FileFormatError(
+            f"{path}: expected figures of the scripts {sorted(known)}, got {', '.join(unknown)}"
+        )
+    summaries = {
+        script: _summary(importlib.import_module(f"benchmarks.{script}").measure)
+        for script in figures
+    }
+    return _write_markdown(suite, out, figures, summaries)

@@ -176,3 +176,25 @@ def test_report_only_refuses_overrides_and_an_empty_folder(tmp_path, capsys):
     assert "expected finished cells" in capsys.readouterr().err
     assert main([*args, "--spp", "4"]) == 2
     assert "--report-only: expected no cell overrides" in capsys.readouterr().err
+
+
+def test_speed_report_only_rewrites_speed_md_from_the_committed_figures(tmp_path):
+    import shutil
+    from pathlib import Path
+
+    out = tmp_path / "speed"
+    shutil.copytree(Path(__file__).parents[1] / "results" / "speed", out)
+    figures = (out / "speed.json").read_text()
+    (out / "speed.md").unlink()
+    assert main(["bench", "--suite", "speed", "--report-only", "--out", str(out), "--quiet"]) == 0
+    assert (out / "speed.json").read_text() == figures  # nothing measured
+    text = (out / "speed.md").read_text()
+    assert "|" in text and "OIDN" in text  # one table per part, denoisers against OIDN
+
+
+def test_speed_report_only_refuses_figures_of_unknown_scripts(tmp_path, capsys):
+    out = tmp_path / "speed"
+    out.mkdir()
+    (out / "speed.json").write_text('{"os": {}}')
+    assert main(["bench", "--suite", "speed", "--report-only", "--out", str(out), "--quiet"]) == 2
+    assert "expected figures of the scripts" in capsys.readouterr().err
