@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import pytest
 import torch
+from _twins import lowbias32 as _lowbias32
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -22,15 +23,6 @@ M32 = 0xFFFFFFFF
 
 # ------------------------------------------------------------------------------------------------
 # The slow twin, from Cycles' util/hash.h and kernel/sample/pattern.h
-
-
-def _lowbias32(x: int) -> int:
-    x &= M32
-    x ^= x >> 16
-    x = (x * 0x7FEB352D) & M32
-    x ^= x >> 15
-    x = (x * 0x846CA68B) & M32
-    return x ^ (x >> 16)
 
 
 def _rev(x: int) -> int:

@@ -8,6 +8,7 @@ import math
 
 import pytest
 import torch
+from _twins import lowbias32 as _lowbias32
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -30,15 +31,6 @@ ADVERSARIAL = [0, 1, 2**31 - 1, 2**31, 2**32 - 1, 2**32, -1, 2**63 - 1, -(2**63)
 
 # ------------------------------------------------------------------------------------------------
 # The slow, obviously-correct twin: Python ints, loops, Burley's listings.
-
-
-def _lowbias32(x: int) -> int:
-    x &= M32
-    x ^= x >> 16
-    x = (x * 0x7FEB352D) & M32
-    x ^= x >> 15
-    x = (x * 0x846CA68B) & M32
-    return x ^ (x >> 16)
 
 
 def _reverse(x: int) -> int:
