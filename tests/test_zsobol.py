@@ -10,6 +10,9 @@ import warnings
 import numpy as np
 import pytest
 import torch
+from _twins import M32
+from _twins import mix_bits as _mix
+from _twins import pbrt_hash as _hash
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -17,31 +20,8 @@ from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 from bnerr.sequences import SAMPLERS, ZSobolSampler, make_sampler, zsobol_1d, zsobol_2d, zsobol_keys
 from bnerr.sequences.zsobol import _Layout, _zsobol_words, morton2
 
-M32, M64 = (1 << 32) - 1, (1 << 64) - 1
-
 # ------------------------------------------------------------------------------------------------
 # The slow twin: Python ints, one loop per rule, written from pbrt-v4's samplers.h
-
-
-def _mix(v: int) -> int:
-    v ^= v >> 31
-    v = (v * 0x7FB5D329728EA185) & M64
-    v ^= v >> 27
-    v = (v * 0x81DADEF4BC2DD44D) & M64
-    return v ^ (v >> 33)
-
-
-def _hash(e: int, seed: int) -> int:
-    m = 0xC6A4A7935BD1E995
-    k = ((seed & M32) << 32) | (e & M32)
-    k = (k * m) & M64
-    k ^= k >> 47
-    k = (k * m) & M64
-    h = (0 ^ (8 * m)) & M64
-    h = ((h ^ k) * m) & M64
-    h ^= h >> 47
-    h = (h * m) & M64
-    return h ^ (h >> 47)
 
 
 def _morton(x: int, y: int) -> int:
