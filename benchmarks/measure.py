@@ -50,7 +50,7 @@ from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from bnerr.metrics import FrameMetrics, edge_mask
+from bnerr.metrics import FrameMetrics, edge_mask, temporal_correlation
 from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
@@ -178,7 +178,9 @@ class SeedSetResult:
     pairs (:meth:`bnerr.metrics.FrameMetrics.stats`); ``power[kind]`` the error's radial power
     spectrum per frame (``kind`` ``"raw"`` or a denoiser name; ``[F]`` tensors of ``[B]``
     float64 at ``freq``); ``timings[series]`` milliseconds ``[F]``; ``floors`` the reference's
-    mean variance per frame (frames without a variance buffer add none). ``crop``: the previews
+    mean variance per frame (frames without a variance buffer add none); ``tcorr`` the raw
+    error's correlation with the previous measured frame's along the motion
+    (:func:`bnerr.metrics.temporal_correlation`), ``[F - 1]``. ``crop``: the previews
     of the first measured frame (seed set 0 of a run with crops only), else empty.
     """
 
@@ -194,6 +196,7 @@ class SeedSetResult:
     floors: list[float]
     denoiser_params: dict[str, dict] = field(default_factory=dict)
     crop: dict[str, np.ndarray] = field(default_factory=dict)
+    tcorr: list[float] = field(default_factory=list)
 
 
 def _stateful(denoiser: Denoiser) -> bool:
@@ -226,6 +229,8 @@ class _SeedSetMeasurement:
         self.measured_t: list[int] = []
         self.floors: list[float] = []
         self.crop: dict[str, np.ndarray] = {}
+        self.tcorr: list[float] = []
+        self._prev_err: torch.Tensor | None = None
 
     def _spectrum(self, kind: str, err: torch.Tensor) -> None:
         freq, power = radial_power_spectrum(err.to(torch.float64), tile=_SPECTRUM_TILE)
@@ -254,7 +259,11 @@ class _SeedSetMeasurement:
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         for region, mask in masks.items():
             self.raw[region].update(frame.color, ref.color, mask)
-        self._spectrum("raw", frame.color - ref.color)
+        err = frame.color - ref.color
+        self._spectrum("raw", err)
+        if self._prev_err is not None:
+            self.tcorr.append(temporal_correlation(err, self._prev_err, frame.motion))
+        self._prev_err = err
         outputs = {}
         for name, denoiser in self.denoisers.items():
             watch = Stopwatch()
@@ -288,6 +297,7 @@ class _SeedSetMeasurement:
             floors=self.floors,
             denoiser_params={name: _params(d) for name, d in self.denoisers.items()},
             crop=self.crop,
+            tcorr=list(self.tcorr),
         )
 
 
@@ -349,6 +359,7 @@ def merge_seed_sets(
             spectrum={"raw": spectrum("raw"), "den": spectrum(cell.denoiser)},
             crop=crop_file,
             render_sampler=last.render_sampler,
+            tcorr=[list(r.tcorr) for r in ordered],
         )
         for cell in run.cells()
     ]

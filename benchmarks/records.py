@@ -16,7 +16,9 @@ seed set x measured frame:
   ``crop`` (the crops file relative to the output folder, or None) and ``render_sampler`` (the
   sampler the strategy's renders used, ``strategy.sampler_name``: the cell's per-pixel
   ``sampler`` condition or the strategy's own; None, and absent on disk, in files written
-  before it was recorded).
+  before it was recorded) and ``tcorr`` (``[S][F - 1]``: the raw error's correlation with the
+  previous measured frame's along the motion, :func:`bnerr.metrics.temporal_correlation`, what
+  temporal accumulation depends on; None, and absent on disk, in files written before it was).
   On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
@@ -102,6 +104,7 @@ class Record:
     spectrum: dict[str, Spectrum]
     crop: str | None
     render_sampler: str | None = None
+    tcorr: list[list[float]] | None = None
 
     @property
     def key(self) -> str:
@@ -111,8 +114,9 @@ class Record:
     def to_json(self) -> dict[str, Any]:
         """The JSON object of one ``cells.jsonl`` line."""
         out = dataclasses.asdict(self)
-        if out["render_sampler"] is None:  # files from before it was recorded stay byte-identical
-            del out["render_sampler"]
+        for late in ("render_sampler", "tcorr"):  # files from before they were recorded stay
+            if out[late] is None:  # byte-identical
+                del out[late]
         out["key"] = self.key
         return out
 
@@ -138,6 +142,7 @@ class Record:
                 spectrum={kind: Spectrum(**data["spectrum"][kind]) for kind in ("raw", "den")},
                 crop=data["crop"],
                 render_sampler=data.get("render_sampler"),
+                tcorr=data.get("tcorr"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)

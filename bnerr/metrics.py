@@ -89,6 +89,7 @@ __all__ = [
     "psnr",
     "relmse",
     "ssim",
+    "temporal_correlation",
 ]
 
 #: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
@@ -393,6 +394,49 @@ def edge_mask(object_id: torch.Tensor, radius: int = 1) -> torch.Tensor:
         )
         edge = edge[0, 0] > 0
     return edge
+
+
+def temporal_correlation(
+    err: torch.Tensor, prev: torch.Tensor, motion: torch.Tensor | None = None
+) -> float:
+    """Pearson correlation of a frame's error with the previous frame's error at the same surface.
+
+    What temporal accumulation (TAA, SVGF) depends on: it averages a pixel's error with the
+    history fetched at ``p - motion(p)``, and errors that repeat from frame to frame average out
+    less than independent ones (docs/METHODS.md, section 9). The previous error is fetched at the
+    nearest pixel to ``p - motion(p)`` (no bilinear mixing, which would itself lower the
+    correlation); pixels whose source lies off screen are left out. All channels pool into one
+    coefficient, computed in float64: about 0 for fresh white noise every frame, 1 for an error
+    that does not change.
+
+    Args:
+        err: ``[C, H, W]`` error of frame t (``pred - ref``).
+        prev: ``[C, H, W]`` error of frame t-1, same shape, dtype and device.
+        motion: ``[2, H, W]`` screen-space motion in pixels from t-1 to t (a Frame's ``motion``),
+            or None for a static camera.
+
+    Returns:
+        The coefficient in [-1, 1]; 0.0 when either error is constant over the pixels compared.
+    """
+    _check_pair(err, prev)
+    _, h, w = err.shape
+    if motion is None:
+        now, then = err.to(torch.float64), prev.to(torch.float64)
+    else:
+        check_shape(motion, f"2 {h} {w}", "motion")
+        dev = err.device
+        sy = torch.arange(h, device=dev, dtype=torch.float64)[:, None] - motion[1].double()
+        sx = torch.arange(w, device=dev, dtype=torch.float64)[None, :] - motion[0].double()
+        iy, ix = torch.round(sy).long(), torch.round(sx).long()
+        inside = (iy >= 0) & (iy < h) & (ix >= 0) & (ix < w)
+        then = prev.to(torch.float64)[:, iy.clamp(0, h - 1), ix.clamp(0, w - 1)][:, inside]
+        now = err.to(torch.float64)[:, inside]
+    a, b = now.reshape(-1), then.reshape(-1)
+    if a.numel() < 2:
+        return 0.0
+    a, b = a - fixed_sum(a) / a.numel(), b - fixed_sum(b) / b.numel()
+    denom = math.sqrt(float(fixed_sum(a * a)) * float(fixed_sum(b * b)))
+    return float(fixed_sum(a * b)) / denom if denom > 0 else 0.0
 
 
 # --------------------------------------------------------------------------------------------------

@@ -101,6 +101,18 @@ def test_timings_are_the_frames_own_and_stateless_strategies_skip_the_warmup(tmp
         assert rec.reference.floor > 0 and rec.crop is None  # no crops folder given
 
 
+def test_records_hold_the_error_correlation_between_consecutive_measured_frames(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    run = _run("white")
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    for rec in records:  # 2 seed sets x (2 measured frames - 1) pairs, each a correlation
+        assert len(rec.tcorr) == 2 and all(len(row) == 1 for row in rec.tcorr)
+        assert all(-1.0 <= v <= 1.0 for row in rec.tcorr for v in row)
+    assert records[0].tcorr == records[1].tcorr  # a property of the raw frames, not the denoiser
+
+
 def test_temporal_renders_its_warmup_and_crops_are_srgb_previews(tmp_path):
     render = _Render()
     parts = _parts(render)

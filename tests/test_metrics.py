@@ -23,6 +23,7 @@ from bnerr.metrics import (
     psnr,
     relmse,
     ssim,
+    temporal_correlation,
 )
 from bnerr.spectrum import low_frequency_fraction
 
@@ -364,3 +365,34 @@ def test_fixed_order_sums_stay_within_1e_12_of_torch_sum():
     assert lowfreq(pred, ref) == pytest.approx(
         low_frequency_fraction(pred.double() - ref.double()), rel=1e-12
     )
+
+
+def test_temporal_correlation_is_one_for_a_repeated_error_and_near_zero_for_fresh_noise():
+    g = torch.Generator().manual_seed(7)
+    prev = torch.randn(3, 64, 64, generator=g)
+    fresh = torch.randn(3, 64, 64, generator=g)
+    assert temporal_correlation(prev, prev) == pytest.approx(1.0, abs=1e-12)
+    assert temporal_correlation(-prev, prev) == pytest.approx(-1.0, abs=1e-12)
+    # independent normals: the coefficient's standard deviation is 1/sqrt(n); 4 of them
+    assert abs(temporal_correlation(fresh, prev)) < 4 / math.sqrt(prev.numel())
+    assert temporal_correlation(torch.zeros(3, 8, 8), torch.ones(3, 8, 8)) == 0.0
+
+
+def test_temporal_correlation_follows_the_motion_to_the_same_surface():
+    g = torch.Generator().manual_seed(8)
+    prev = torch.randn(3, 32, 40, generator=g)
+    err = torch.roll(prev, shifts=(1, 2), dims=(1, 2))  # moved by (dx, dy) = (2, 1) pixels
+    motion = torch.stack([torch.full((32, 40), 2.2), torch.full((32, 40), 0.9)])
+    assert temporal_correlation(err, prev, motion) == pytest.approx(1.0, abs=1e-12)
+    assert abs(temporal_correlation(err, prev)) < 4 / math.sqrt(prev.numel())
+    # the numpy twin: pixels whose source (nearest to p - motion) is on screen, all channels pooled
+    now, then = err.numpy()[:, 1:, 2:], prev.numpy()[:, :-1, :-2]
+    want = np.corrcoef(now.ravel(), then.ravel())[0, 1]
+    assert temporal_correlation(err, prev, motion) == pytest.approx(want, abs=1e-12)
+
+
+def test_temporal_correlation_refuses_mismatched_shapes():
+    with pytest.raises(ShapeError, match="motion"):
+        temporal_correlation(torch.zeros(3, 8, 8), torch.zeros(3, 8, 8), torch.zeros(2, 8, 9))
+    with pytest.raises(ShapeError):
+        temporal_correlation(torch.zeros(3, 8, 8), torch.zeros(3, 8, 9))

@@ -51,6 +51,15 @@ def test_a_record_round_trips_through_json_with_its_key():
     assert Record.from_json(data) == rec
 
 
+def test_the_frame_to_frame_correlation_round_trips_and_is_absent_when_not_recorded():
+    import dataclasses
+
+    rec = dataclasses.replace(_record(), tcorr=[[0.25]])
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["tcorr"] == [[0.25]] and Record.from_json(data) == rec
+    assert "tcorr" not in _record().to_json() and Record.from_json(_record().to_json()).tcorr is None
+
+
 def test_write_and_load_keep_order_and_values(tmp_path):
     records = [_record("white"), _record("temporal")]
     write_records(tmp_path, records)
