@@ -15,6 +15,8 @@ a report can be rebuilt without rendering anything (``python -m benchmarks.repor
 - ``decision.md`` (:func:`decision_table`): for each scene, condition, spp and denoiser, the
   strategy with the lowest post-denoise MSE, its ratio to white with the interval, and its cost
   per frame (render + permutation ms): the table a renderer team choosing a strategy reads.
+- ``denoisers.md`` (:mod:`benchmarks.denoise_response`, when the records hold taa/svgf, oidn, a
+  ``NAME:own`` filter or unet_blue): how each denoiser responds to each strategy's noise.
 - Charts (matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state):
   ``error_vs_time_<group>.png`` (post-denoise MSE against render + permutation + denoise time per
   frame, one line per strategy through its spp values, one panel per denoiser),
@@ -37,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.denoise_response import write_denoise_tables
 from benchmarks.gap import write_gap_tables
 from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
@@ -717,6 +720,7 @@ def write_report(
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
     write_gap_tables(out, records)
+    write_denoise_tables(out, records, rows)
     if charts:
         write_charts(rows, records, out)
     return text
