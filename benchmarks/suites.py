@@ -219,6 +219,7 @@ GAP_SINGLE: tuple[str, ...] = (
     "temporal+groups",
     "temporal+shift",
     "temporal+reproject",
+    "temporal+fast",
 )
 #: The best combination (relative key on demodulated radiance, groups by object id), on hashed
 #: seeds, with forward reprojection (for the moving conditions) and on ZSobol keys. Chosen on the

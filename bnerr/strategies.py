@@ -74,7 +74,10 @@ or ``temporal_zsobol``, options in this order, at most one of each group:
   period B^2): the block grid moves between frames so that seeds cross block boundaries;
 - ``reproject``: after sorting and retargeting, each seed moves along the frame's motion buffer
   (forward prediction: the renderer is bound to frame t by the caller, so the next frame's motion
-  is not reachable; a constant-velocity guess from frame t's own t-1 -> t motion).
+  is not reachable; a constant-velocity guess from frame t's own t-1 -> t motion);
+- ``fast``: sort against the shipped FAST mask (:func:`bnerr.fast.load_fast_mask`, optimized for
+  the Gaussian denoiser's tuned sigma) instead of the void-and-cluster mask, and retarget with the
+  field optimized for it (:func:`bnerr.fast.load_fast_retarget`).
 
 e.g. ``temporal+relative+demod+groups``. :func:`make_strategy` builds any well-formed one
 (:func:`parse_variant`, :class:`TemporalOptions`); :data:`VARIANTS` lists those registered in
@@ -126,6 +129,7 @@ from bnerr.errors import (
     check_positive_int,
     check_tensor,
 )
+from bnerr.fast import load_fast_mask, load_fast_retarget
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, lowbias32_, lowbias32_host, signed32
 from bnerr.masks import frame_offset, load_mask, r2_step, shipped_masks, tile_mask
@@ -345,6 +349,7 @@ VARIANT_OPTIONS: tuple[str, ...] = (
     "shift",
     "shift_r2",
     "reproject",
+    "fast",
 )
 # Options that exclude each other: one sort key, one kind of group, one grid shift.
 _EXCLUSIVE: tuple[tuple[str, ...], ...] = (
@@ -374,6 +379,8 @@ class TemporalOptions:
         reproject: after the sort and retarget passes, move each seed along the frame's motion
             (forward prediction: frame t's motion t-1 -> t stands for t -> t + 1;
             :func:`bnerr.reproject.reproject_seeds`, collisions resolved by depth).
+        fast: sort against the FAST mask (:mod:`bnerr.fast`) and retarget with its field
+            instead of the void-and-cluster mask's; :func:`make_strategy` loads both.
     """
 
     key: str = "luminance"
@@ -381,15 +388,18 @@ class TemporalOptions:
     groups: str | None = None
     shift: str | None = None
     reproject: bool = False
+    fast: bool = False
 
     @property
     def suffix(self) -> str:
-        """The options as a name suffix, ``"+residual+groups+shift+reproject"`` ('' for none)."""
+        """The options as a name suffix, ``"+residual+groups+shift+reproject+fast"`` ('' for
+        none)."""
         parts = [] if self.key == "luminance" else [self.key]
         parts += ["demod"] if self.demodulate else []
         parts += [] if self.groups is None else [_GROUP_OPTION[self.groups]]
         parts += [] if self.shift is None else [_SHIFT_OPTION[self.shift]]
         parts += ["reproject"] if self.reproject else []
+        parts += ["fast"] if self.fast else []
         return "".join("+" + p for p in parts)
 
     @property
@@ -449,6 +459,7 @@ def parse_variant(name: object) -> tuple[str, TemporalOptions]:
         groups=next((groups[o] for o in opts if o in groups), None),
         shift=next((shifts[o] for o in opts if o in shifts), None),
         reproject="reproject" in opts,
+        fast="fast" in opts,
     )
 
 
@@ -766,6 +777,8 @@ class TemporalStrategy(Strategy):
     by the caller, so frame t + 1's motion is not reachable from here). Each pass is a bijection,
     so S_t stays a permutation of S_0. Options the frame lacks a buffer for (object id, albedo,
     motion, depth) raise :class:`ValueRangeError`. No options: the paper's passes, bit for bit.
+    ``fast`` changes no pass, only the ``mask`` and ``retarget`` field the caller gives (the FAST
+    mask and its field, as :func:`make_strategy` loads them); it names the variant.
     """
 
     stateful = True
@@ -1002,6 +1015,7 @@ VARIANTS: tuple[str, ...] = (
     "temporal+shift",
     "temporal+shift_r2",
     "temporal+reproject",
+    "temporal+fast",
     "temporal+relative+demod+groups",
     "temporal+relative+demod+groups+reproject",
     "temporal_zsobol+relative+demod+groups",
@@ -1097,8 +1111,8 @@ def make_strategy(
             ignore it (their ``sampler_name`` says what they render with).
         spp: samples per pixel the renders will take: required by zsobol, zsobol_t and
             temporal_zsobol (a power of two) and cycles_blue; ignored by the others.
-        mask_size: T of the shipped masks (scalar for temporal, temporal_sort, temporal_zsobol and
-            oracle; vector for bnds) and of the shipped retargeting field.
+        mask_size: T of the shipped masks (scalar for temporal and its kin and oracle, FAST with
+            ``fast``, vector for bnds) and of the shipped retargeting fields.
         block: the sorting pass's block size (2..8).
         K: the oracle's number of candidates.
         dimensions: the integrand's dimensionality D (``scene.dimensions``); bnds takes the shipped
@@ -1143,10 +1157,14 @@ def _temporal(
     common: dict,
 ) -> TemporalStrategy:
     """temporal, temporal_sort and temporal_zsobol (``name``, the base) with ``options``, the
-    shipped scalar mask and retargeting field of size T."""
-    scalar = load_mask("scalar", mask_size)
-    field = load_retarget(mask_size) if name != "temporal_sort" else None
-    passes = {"mask": scalar, "block": block, "retarget": field, "options": options}
+    shipped scalar mask and retargeting field of size T (with ``fast``, the shipped FAST mask of
+    size T and its field)."""
+    if options.fast:
+        mask, field = load_fast_mask(mask_size), load_fast_retarget(mask_size)
+    else:
+        mask = load_mask("scalar", mask_size)
+        field = load_retarget(mask_size) if name != "temporal_sort" else None
+    passes = {"mask": mask, "block": block, "retarget": field, "options": options}
     if name == "temporal_zsobol":
         return TemporalZSobolStrategy(height, width, spp=spp, **passes, **common)
     return TemporalStrategy(height, width, sampler=sampler, **passes, **common)

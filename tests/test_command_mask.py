@@ -51,6 +51,19 @@ def test_bad_arguments_exit_2_with_a_message(tmp_path, capsys, argv, message):
     assert message in capsys.readouterr().err
 
 
+def test_fast_anneals_the_void_and_cluster_mask_and_reports_both_energies(tmp_path, capsys):
+    from bnerr.fast import fast_mask
+
+    out = tmp_path / "f.npy"
+    argv = ["mask", "--size", "16", "--seed", "2", "--fast", "0.5", "--iterations", "4"]
+    assert main([*argv, "--out", str(out)]) == 0
+    want = fast_mask(16, 0.5, seed=2, iterations=4, start=void_and_cluster(16, seed=2))
+    assert np.array_equal(np.load(out), want.numpy())
+    printed = capsys.readouterr().out
+    assert "FAST energy" in printed and "void-and-cluster start" in printed
+    assert "low-frequency fraction" in printed
+
+
 # ---- spatiotemporal masks (--frames) ------------------------------------------------------------
 
 
@@ -87,6 +100,9 @@ def test_frames_with_dims_writes_the_vector_stbn(tmp_path):
         (["--frames", "2", "--out", "file.txt/m.npy"], "file.txt"),
         (["--out", "file.txt/m.npy"], "file.txt"),
         (["--frames", "2", "--threads", "0", "--out", "m.npy"], "--threads"),
+        (["--fast", "0.5", "--dims", "2", "--out", "m.npy"], "--fast: expected a scalar 2D mask"),
+        (["--fast", "0.5", "--frames", "2", "--out", "m.npy"], "--fast: expected a scalar"),
+        (["--fast", "0.5", "--out", "file.txt/m.npy"], "file.txt"),
     ],
 )
 def test_frames_output_and_arguments_are_checked_before_generating(
@@ -97,7 +113,7 @@ def test_frames_output_and_arguments_are_checked_before_generating(
     def never(*args, **kwargs):
         raise AssertionError("generated before the arguments were checked")
 
-    for name in ("stbn_scalar", "stbn_vector", "void_and_cluster", "vector_mask"):
+    for name in ("stbn_scalar", "stbn_vector", "void_and_cluster", "vector_mask", "fast_mask"):
         monkeypatch.setattr(command, name, never)
     (tmp_path / "file.txt").write_text("not a folder")
     argv = [str(tmp_path / a) if a.startswith(("m.", "file.txt")) else a for a in argv]

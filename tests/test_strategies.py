@@ -710,6 +710,7 @@ _COMBOS = (
     *VARIANTS,
     "temporal+relative+demod+groups_depth+shift_r2+reproject",
     "temporal+demod+groups_normal+shift+reproject",
+    "temporal_zsobol+relative+demod+groups+shift_r2+reproject+fast",
 )
 
 
@@ -774,6 +775,33 @@ def test_variant_frame_equals_the_slow_twins_composition():
     sorted_ = sort_pass_reference(before, key, mask, 4, groups=labels, grid_offset=(2, 2))
     moved = retarget(sorted_, load_retarget(64), offset)
     want = reproject_seeds_reference(moved, out.motion, collision_depth(out.depth, out.object_id))
+    assert torch.equal(strategy.seeds, want)
+
+
+def test_fast_sorts_against_the_fast_mask_and_retargets_with_its_field():
+    # One frame of temporal+relative+demod+groups+fast, rebuilt from the slow twins with the FAST
+    # mask and its retargeting field in place of the void-and-cluster mask's.
+    from bnerr.fast import load_fast_mask, load_fast_retarget
+    from bnerr.retarget import retarget
+    from bnerr.sortkeys import group_labels, sort_key
+
+    name = "temporal+relative+demod+groups+fast"
+    assert parse_variant(name)[1] == TemporalOptions("relative", True, "object", fast=True)
+    with pytest.raises(ValueRangeError, match=r"expected options in the order"):
+        parse_variant("temporal+fast+groups")
+    h, w, t = 19, 26, 2
+    strategy = make_strategy(name, h, w, seed=5)
+    assert strategy.name == name and torch.equal(strategy.mask, load_fast_mask(64))
+    strategy.seeds = pixel_seeds(h, w, 77)
+    before = strategy.seeds.clone()
+    out = strategy.frame(t, _hash_render())
+    labels = group_labels(out.object_id)
+    key = sort_key(out.color, "relative", demodulate=True, albedo=out.albedo, labels=labels)
+    offset = frame_offset(t, 64)
+    mask = tile_mask(load_fast_mask(64), h, w, offset)
+    want = retarget(
+        sort_pass_reference(before, key, mask, 4, groups=labels), load_fast_retarget(64), offset
+    )
     assert torch.equal(strategy.seeds, want)
 
 

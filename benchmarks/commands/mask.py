@@ -6,8 +6,11 @@ spatiotemporal blue-noise mask instead (bnerr.stbn): scalar ``[F, T, T]`` or vec
 ``[F, D, T, T]``, written as ``.npy`` only. The command prints the mask's low-frequency energy
 fraction (bnerr.spectrum; white noise measures about 0.049; for a spatiotemporal mask the largest
 and the mean over slices, and the fraction of each pixel's series over t) and the time the
-generation took. The output path is checked before the generation starts. The shipped masks in
-``bnerr/data`` were made with it (see its README.md).
+generation took. With ``--fast SIGMA`` the scalar void-and-cluster mask it would make is then
+annealed into a FAST mask for a Gaussian filter of SIGMA pixels (bnerr.fast: same values,
+rearranged for that filter), and the FAST energy before and after is printed too. The output path
+is checked before the generation starts. The shipped masks in ``bnerr/data`` were made with it
+(see its README.md).
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from bnerr.errors import FileFormatError, check_positive_int
+from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
+from bnerr.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
 from bnerr.io import atomic_write, write_exr, write_png
 from bnerr.masks import vector_mask, void_and_cluster
 from bnerr.outputs import check_output
@@ -71,10 +75,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="torch intra-op threads (default: torch's own); 1 on a shared machine",
     )
     parser.add_argument(
+        "--fast",
+        type=float,
+        default=None,
+        metavar="SIGMA",
+        help="anneal the scalar mask into a FAST mask for a Gaussian filter of SIGMA pixels",
+    )
+    parser.add_argument(
         "--iterations",
         type=int,
-        default=64,
-        help="candidate swaps per pixel (vector masks, default 64)",
+        default=None,
+        help=f"candidate swaps per pixel (vector masks, default 64; --fast, default "
+        f"{DEFAULT_ITERATIONS})",
     )
     parser.add_argument(
         "--out", type=Path, required=True, help="output file: .npy (float32), .exr or .png"
@@ -88,6 +100,11 @@ def run(args: argparse.Namespace) -> int:
         raise FileFormatError(f"{args.out}: expected a {', '.join(_FORMATS)} file, got {suffix!r}")
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
+    if args.fast is not None and (args.frames is not None or args.dims != 1):
+        raise ValueRangeError(
+            f"--fast: expected a scalar 2D mask (--dims 1, no --frames), got --dims {args.dims}"
+            + ("" if args.frames is None else f" --frames {args.frames}")
+        )
     if args.frames is not None:
         return _run_spatiotemporal(args)
     check_output(args.out, "file")
@@ -95,8 +112,10 @@ def run(args: argparse.Namespace) -> int:
     if args.dims == 1:
         sigma = 1.5 if args.sigma is None else args.sigma
         mask = void_and_cluster(args.size, seed=args.seed, sigma=sigma)
+        if args.fast is not None:
+            return _run_fast(args, mask, start)
     else:
-        mask = vector_mask(args.size, args.dims, seed=args.seed, iterations=args.iterations)
+        mask = vector_mask(args.size, args.dims, seed=args.seed, iterations=_iterations(args))
     seconds = time.perf_counter() - start
     write_mask(args.out, mask)
     kind = "scalar" if mask.ndim == 2 else f"vector D={mask.shape[0]}"
@@ -137,7 +156,7 @@ def _run_spatiotemporal(args: argparse.Namespace) -> int:
             args.seed,
             sigma,
             args.sigma_t,
-            iterations=args.iterations,
+            iterations=_iterations(args),
             device=args.device,
         )
     seconds = time.perf_counter() - start
@@ -163,6 +182,38 @@ def _run_spatiotemporal(args: argparse.Namespace) -> int:
             f"{temporal_low_frequency_fraction(mask):.6f}  (white noise "
             f"{bins / (args.frames - 1):.3f})"
         )
+    return 0
+
+
+def _iterations(args: argparse.Namespace) -> int:
+    """``--iterations``, or the generator's default: 64 for vector masks, FAST's for --fast."""
+    if args.iterations is not None:
+        return args.iterations
+    return DEFAULT_ITERATIONS if args.fast is not None else 64
+
+
+def _run_fast(args: argparse.Namespace, start_mask: torch.Tensor, start: float) -> int:
+    """``--fast SIGMA``: anneal the void-and-cluster ``start_mask`` for a Gaussian of SIGMA,
+    write it and print its FAST energy before and after and its low-frequency fraction."""
+    mask = fast_mask(
+        args.size, args.fast, seed=args.seed, iterations=_iterations(args), start=start_mask
+    )
+    seconds = time.perf_counter() - start
+    write_mask(args.out, mask)
+    before, after = fast_energy(start_mask, args.fast), fast_energy(mask, args.fast)
+    print(
+        f"FAST mask {args.size}x{args.size} for a Gaussian of sigma {args.fast}, seed {args.seed}, "
+        f"{_iterations(args)} swaps per pixel: {seconds:.2f} s -> {args.out}"
+    )
+    print(
+        f"FAST energy: {after:.4f} (void-and-cluster start {before:.4f}, "
+        f"{(after - before) / abs(before):+.4%})"
+    )
+    fraction = low_frequency_fraction(mask, tile=args.size)
+    print(
+        f"low-frequency fraction (< 0.125 cycles/pixel): {fraction:.6f}"
+        "  (white noise ~0.049, blue noise ~0)"
+    )
     return 0
 
 
