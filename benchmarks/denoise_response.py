@@ -39,6 +39,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from benchmarks.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import paired_ratio
@@ -75,20 +76,6 @@ _GOAL_SPP = 4
 _OWN = ":own"
 _LEARNED = ("gaussian", "oidn", "unet", "unet_blue")
 _BOUNDS = ("oracle",)
-# The report's strategy order (benchmarks.report._STRATEGY_ORDER; copied, since the report imports
-# this module; tests/test_denoise_response.py holds the two equal).
-_STRATEGY_ORDER = (
-    "white",
-    "bnds",
-    "bnds_st",
-    "zsobol",
-    "cycles_blue",
-    "zsobol_t",
-    "temporal_sort",
-    "temporal",
-    "temporal_zsobol",
-    "oracle",
-)
 
 #: ``(value, lo, hi)`` of a ratio and its 95% paired bootstrap interval.
 Interval = tuple[float, float, float]
@@ -98,40 +85,12 @@ Interval = tuple[float, float, float]
 # Lookups shared by the sections
 
 
-def _group_key(row: dict) -> tuple:
-    return (row["scene"], row["motion"], row["depth"], row["region"], row["sampler"])
-
-
-def _group_order(key: tuple) -> tuple:
-    return (key[0], key[1], -1 if key[2] is None else key[2], key[3], key[4])
-
-
-def _group_title(key: tuple) -> str:
-    """The report's title of a scene and condition (``benchmarks.report._group_title``)."""
-    scene, motion, depth, region, sampler = key
-    extra = [
-        "static camera" if motion == 0 else (f"motion x{motion}" if motion != 1 else None),
-        f"max depth {depth}" if depth is not None else None,
-        "object edges only" if region == "edges" else None,
-        f"{sampler} sequences" if sampler != "owen_sobol" else None,
-    ]
-    extra = [e for e in extra if e]
-    return scene + (f" ({', '.join(extra)})" if extra else "")
-
-
-def _strategy_order(names: Iterable[str]) -> list[str]:
-    def rank(s: str) -> tuple:
-        return (_STRATEGY_ORDER.index(s) if s in _STRATEGY_ORDER else 99, s)
-
-    return sorted(set(names), key=rank)
-
-
 def _cells(rows: Iterable[dict]) -> dict[tuple, dict[tuple[str, str], dict]]:
     """(group key, spp) -> (strategy, denoiser) -> row, in the report's group and spp order."""
     out: dict[tuple, dict[tuple[str, str], dict]] = defaultdict(dict)
     for row in rows:
-        out[(_group_key(row), row["spp"])][(row["strategy"], row["denoiser"])] = row
-    return {k: out[k] for k in sorted(out, key=lambda k: (_group_order(k[0]), k[1]))}
+        out[(group_key(row), row["spp"])][(row["strategy"], row["denoiser"])] = row
+    return {k: out[k] for k in sorted(out, key=lambda k: (group_order(k[0]), k[1]))}
 
 
 def _record_index(records: Iterable[Record]) -> dict[tuple, Record]:
@@ -244,13 +203,13 @@ def accumulation(rows: Iterable[dict], records: Iterable[Record]) -> list[Accumu
         white_tcorr = _tcorr(index, key, spp, "white")
         white_factor = _taa_over_raw(by.get(("white", "taa")))
         names = ("gaussian", *ACCUMULATORS)
-        for s in _strategy_order(s for s, d in by if d in names):
+        for s in strategy_order(s for s, d in by if d in names):
             ratios = {d: _ratio(by.get((s, d))) for d in names}
             mine = _taa_over_raw(by.get((s, "taa")))
             factor = None if mine is None or not white_factor else mine / white_factor
             out.append(
                 Accumulation(
-                    group=_group_title(key),
+                    group=group_title(key),
                     spp=spp,
                     strategy=s,
                     ratios=ratios,
@@ -360,17 +319,17 @@ def oidn_response(
     """
     kept, left = [], []
     for (key, spp), by in _cells(rows).items():
-        for s in _strategy_order(s for s, d in by if d == "oidn" and s != "white"):
+        for s in strategy_order(s for s, d in by if d == "oidn" and s != "white"):
             row = by[(s, "oidn")]
             raw, oidn = _ratio(row, "raw_mse"), _ratio(row)
             if raw is None or oidn is None:
                 continue
             if raw[1] > 1.0 or raw[2] < 1.0:
-                left.append((_group_title(key), spp, s, raw))
+                left.append((group_title(key), spp, s, raw))
                 continue
             ratios = {d: _ratio(by.get((s, d))) for d in _LEARNED}
             blur2 = _ratio(row, "raw_mse_blur2")
-            title = _group_title(key)
+            title = group_title(key)
             kept.append(OidnResponse(title, spp, s, raw, blur2, ratios, oidn_verdict(oidn)))
     return kept, left
 
@@ -440,13 +399,13 @@ def best_denoisers(rows: Iterable[dict]) -> list[BestDenoisers]:
             mse = row.get("den_mse")
             if mse is not None and (s not in best or mse < best[s][1]):
                 best[s] = (d, mse)
-        best = {s: best[s] for s in _strategy_order(best)}
+        best = {s: best[s] for s in strategy_order(best)}
         rivals = [s for s in best if s != "white" and s not in _BOUNDS]
         challenger = min(rivals, key=lambda s: best[s][1]) if rivals else None
         ratio = None
         if challenger is not None and best.get("white", (None, 0.0))[1] > 0:
             ratio = best[challenger][1] / best["white"][1]
-        out.append(BestDenoisers(_group_title(key), key[0], spp, best, challenger, ratio))
+        out.append(BestDenoisers(group_title(key), key[0], spp, best, challenger, ratio))
     return out
 
 
@@ -472,7 +431,7 @@ def _goal_lines(items: Sequence[BestDenoisers]) -> list[str]:
 
 
 def _best_markdown(items: Sequence[BestDenoisers]) -> list[str]:
-    strategies = _strategy_order(s for b in items for s in b.best)
+    strategies = strategy_order(s for b in items for s in b.best)
     head = [f"{s} (bound)" if s in _BOUNDS else s for s in strategies]
     body = [
         [b.group, str(b.spp)]
@@ -547,12 +506,12 @@ def unet_gains(rows: Iterable[dict], records: Iterable[Record]) -> list[UnetGain
             continue
         white = _white_blue_over_white(index, key, spp)
         names = [s for s, d in by if d in ("unet", "unet_blue") and s != "white"]
-        for s in _strategy_order(names):
+        for s in strategy_order(names):
             plain, blue = _ratio(by.get((s, "unet"))), _ratio(by.get((s, "unet_blue")))
             g_plain = None if plain is None else 1.0 - plain[0]
             g_blue = None if blue is None else 1.0 - blue[0]
             g_ratio = g_blue / g_plain if g_blue is not None and g_plain and g_plain > 0 else None
-            title = _group_title(key)
+            title = group_title(key)
             out.append(
                 UnetGain(title, key[0], spp, s, plain, blue, g_plain, g_blue, g_ratio, white)
             )

@@ -41,6 +41,7 @@ import numpy as np
 
 from benchmarks.denoise_response import write_denoise_tables
 from benchmarks.gap import write_gap_tables
+from benchmarks.groups import group_key, group_order, group_slug, group_title, strategy_order
 from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
@@ -108,19 +109,6 @@ COLUMNS: tuple[str, ...] = (
     "worse_than_white",
     "raw_differs_from_white",
     "render_sampler",
-)
-
-_STRATEGY_ORDER = (
-    "white",
-    "bnds",
-    "bnds_st",
-    "zsobol",
-    "cycles_blue",
-    "zsobol_t",
-    "temporal_sort",
-    "temporal",
-    "temporal_zsobol",
-    "oracle",
 )
 
 
@@ -228,40 +216,6 @@ def _csv_text(rows: Sequence[dict]) -> str:
 # Markdown
 
 
-def _group_key(row: dict) -> tuple:
-    return (row["scene"], row["motion"], row["depth"], row["region"], row["sampler"])
-
-
-def _group_title(key: tuple) -> str:
-    scene, motion, depth, region, sampler = key
-    extra = [
-        "static camera" if motion == 0 else (f"motion x{motion}" if motion != 1 else None),
-        f"max depth {depth}" if depth is not None else None,
-        "object edges only" if region == "edges" else None,
-        f"{sampler} sequences" if sampler != "owen_sobol" else None,
-    ]
-    extra = [e for e in extra if e]
-    return scene + (f" ({', '.join(extra)})" if extra else "")
-
-
-def _group_slug(key: tuple) -> str:
-    scene, motion, depth, region, sampler = key
-    return (
-        scene
-        + ("" if motion == 1 else f"_m{motion}")
-        + ("" if depth is None else f"_d{depth}")
-        + ("" if region == "all" else f"_{region}")
-        + ("" if sampler == "owen_sobol" else f"_{sampler}")
-    )
-
-
-def _strategies(rows: Iterable[dict]) -> list[str]:
-    names = {r["strategy"] for r in rows}
-    return sorted(
-        names, key=lambda s: (_STRATEGY_ORDER.index(s) if s in _STRATEGY_ORDER else 99, s)
-    )
-
-
 def _ratio_text(row: dict | None, name: str) -> str:
     if row is None or row.get(f"{name}_ratio") is None:
         return "-"
@@ -309,13 +263,13 @@ def _time_cell(row: dict | None) -> str:
 
 
 def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
-    strategies = _strategies(rows)
+    strategies = strategy_order(r["strategy"] for r in rows)
     spps = sorted({r["spp"] for r in rows})
     denoisers = sorted({r["denoiser"] for r in rows})
     first_denoiser = {(r["spp"], r["strategy"]): r for r in rows if r["denoiser"] == denoisers[0]}
     first = rows[0]
     lines = [
-        f"### {_group_title(key)}",
+        f"### {group_title(key)}",
         "",
         f"{first['width']}x{first['height']}, {first['frames']} measured frames after "
         f"{first['warmup']} warmup, {first['seed_sets']} seed set(s), "
@@ -352,7 +306,7 @@ def _sampler_note(rows: list[dict]) -> list[str]:
     per-pixel sampler condition (none: no line, so older tables stay as they were)."""
     condition = rows[0]["sampler"]
     own: dict[str, list[str]] = defaultdict(list)
-    for s in _strategies(rows):
+    for s in strategy_order(r["strategy"] for r in rows):
         used = {r["render_sampler"] for r in rows if r["strategy"] == s} - {condition, None}
         for name in sorted(used):
             own[name].append(s)
@@ -371,10 +325,10 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     denoiser): permuting seeds only moves error, so such a difference is a finding to explain."""
     seen, body = set(), []
     for r in rows:
-        key = (_group_key(r), r["strategy"], r["spp"])
+        key = (group_key(r), r["strategy"], r["spp"])
         if r["raw_differs_from_white"] and key not in seen:
             seen.add(key)
-            title = _group_title(_group_key(r))
+            title = group_title(group_key(r))
             body.append(
                 [r["scene"], title, r["strategy"], str(r["spp"]), _ratio_text(r, "raw_mse")]
             )
@@ -411,7 +365,7 @@ def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
                 " / ".join(_headline_ratio(by.get((spp, d, s))) for s in HEADLINE_STRATEGIES)
                 for d in denoisers
             ]
-            body.append([_group_title(key), str(spp), *cells])
+            body.append([group_title(key), str(spp), *cells])
     if not body:
         return []
     return [
@@ -432,7 +386,7 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
     cells."""
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for row in rows:
-        groups[_group_key(row)].append(row)
+        groups[group_key(row)].append(row)
     order = sorted(groups, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4]))
     lines = [f"# {title}", "", *_headline(groups, order)]
     for key in order:
@@ -451,7 +405,7 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
             (
                 [
                     r["scene"],
-                    _group_title(_group_key(r)),
+                    group_title(group_key(r)),
                     r["strategy"],
                     str(r["spp"]),
                     r["denoiser"],
@@ -480,11 +434,11 @@ def best_rows(
     MSE (white included, ``exclude`` left out; ties go to the earlier strategy in the report's
     order)."""
     best: dict[tuple, dict] = {}
-    order = {s: i for i, s in enumerate(_strategies(rows))}
+    order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
     for row in rows:
         if row.get("den_mse") is None or row["strategy"] in exclude:
             continue
-        key = (_group_key(row), row["spp"], row["denoiser"])
+        key = (group_key(row), row["spp"], row["denoiser"])
         old = best.get(key)
         rank = (row["den_mse"], order[row["strategy"]])
         if old is None or rank < (old["den_mse"], order[old["strategy"]]):
@@ -520,16 +474,14 @@ def decision_table(
     MSE, its MSE as a fraction of white's (95% paired interval) and its cost per frame (render +
     permutation milliseconds, the strategy's whole overhead included); ``exclude`` left out."""
     best = best_rows(rows, exclude)
-    groups = sorted(
-        {k[0] for k in best}, key=lambda k: (k[0], k[1], -1 if k[2] is None else k[2], k[3], k[4])
-    )
+    groups = sorted({k[0] for k in best}, key=group_order)
     denoisers = sorted({k[2] for k in best})
     body = []
     for group in groups:
         for spp in sorted({k[1] for k in best if k[0] == group}):
             cells = [best.get((group, spp, d)) for d in denoisers]
             body.append(
-                [_group_title(group), str(spp)]
+                [group_title(group), str(spp)]
                 + ["-" if c is None else _decision_cell(c) for c in cells]
             )
     lines = [
@@ -565,7 +517,7 @@ def _error_vs_time(slug: str, title: str, rows: list[dict], out: Path) -> Path:
     fig = Figure(figsize=(4.2 * cols, 3.4 * nrows))
     for i, d in enumerate(denoisers):
         ax = fig.add_subplot(nrows, cols, i + 1)
-        for s in _strategies(rows):
+        for s in strategy_order(r["strategy"] for r in rows):
             pts = sorted(
                 (r for r in rows if r["denoiser"] == d and r["strategy"] == s),
                 key=lambda r: r["spp"],
@@ -611,7 +563,7 @@ def _spectra(
     drawn = False
     for j, (kind, label) in enumerate((("raw", "raw error"), ("den", f"error after {denoiser}"))):
         ax = fig.add_subplot(1, 2, j + 1)
-        for s in _strategies(rows):
+        for s in strategy_order(r["strategy"] for r in rows):
             rec = records.get((slug, s, spp, denoiser))
             spec = None if rec is None else rec.spectrum.get(kind)
             if spec is None or not spec.freq:
@@ -640,7 +592,7 @@ def _crops(
     spp = min(r["spp"] for r in rows)
     denoiser = sorted({r["denoiser"] for r in rows})[0]
     images = []
-    for s in _strategies(rows):
+    for s in strategy_order(r["strategy"] for r in rows):
         rec = records.get((slug, s, spp, denoiser))
         if rec is None or not rec.crop or not (out / rec.crop).exists():
             continue
@@ -675,16 +627,16 @@ def write_charts(
     by_slug: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
         if row["region"] == "all":
-            by_slug[_group_slug(_group_key(row))].append(row)
+            by_slug[group_slug(group_key(row))].append(row)
     lookup = {}
     for rec in records:
         c = rec.cell
         if c.region == "all":
-            slug = _group_slug((c.scene, c.motion, c.depth, c.region, c.sampler))
+            slug = group_slug((c.scene, c.motion, c.depth, c.region, c.sampler))
             lookup[(slug, c.strategy, c.spp, c.denoiser)] = rec
     written = []
     for slug, group in sorted(by_slug.items()):
-        title = _group_title(_group_key(group[0]))
+        title = group_title(group_key(group[0]))
         written.append(_error_vs_time(slug, title, group, out))
         for chart in (_spectra, _crops):
             path = chart(slug, title, group, lookup, out)

@@ -4,7 +4,6 @@ figures are computed by hand here."""
 import pytest
 
 from benchmarks import denoise_response as dr
-from benchmarks import report
 from benchmarks.plan import Cell
 from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
 from benchmarks.report import summarize, write_report
@@ -89,12 +88,6 @@ def _records(denoisers=None, own=True, scene="direct"):
 
 def _rows(records):
     return summarize(records, resamples=200)
-
-
-def test_the_copies_of_the_reports_order_and_titles_match_it():
-    assert dr._STRATEGY_ORDER == report._STRATEGY_ORDER
-    for key in [("direct", 1, None, "all", "owen_sobol"), ("medium", 0, 3, "edges", "sobol")]:
-        assert dr._group_title(key) == report._group_title(key)
 
 
 def test_accumulation_flags_and_factors_by_hand():

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from benchmarks import report
+from benchmarks.groups import group_key
 from benchmarks.plan import Cell
 from benchmarks.records import (
     Record,
@@ -248,7 +249,7 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
         same = [
             r
             for r in rows
-            if report._group_key(r) == group
+            if group_key(r) == group
             and (r["spp"], r["denoiser"]) == (spp, denoiser)
             and r["strategy"] not in report.DECISION_EXCLUDES
         ]
