@@ -205,8 +205,8 @@ _ALL_DENOISERS = (
     "taa",
     "svgf",
 )
-#: The denoisers that see one frame at a time (everything but the temporal accumulation).
-_SINGLE_FRAME_DENOISERS = tuple(d for d in _ALL_DENOISERS if d not in ("taa", "svgf"))
+#: The oracle's: the denoisers that see one frame at a time, trained or tuned on white noise.
+_ORACLE_DENOISERS = tuple(d for d in _ALL_DENOISERS if d not in ("taa", "svgf", "unet_blue"))
 #: Filters also tuned on each strategy's own frames (``NAME:own``; the fair columns stay tuned on
 #: white noise): the cheap ones whose tuned width decides most of their error.
 _OWN_TUNED = ("gaussian:own", "atrous:own", "guided:own")
@@ -282,11 +282,13 @@ SUITES: dict[str, Suite] = {
             # tuned on white only. Under taa / svgf every strategy renders its warm-up frames
             # (the accumulation needs them), which for the oracle's 32 candidate renders per
             # frame would triple the suite's largest cost; its own tuning would add a fourth.
+            # Nor the blue-trained U-Net: its question is how much of the temporal method's gain
+            # it keeps, and the oracle's cells then stay those of the suite before it (--resume).
             Sweep(
                 scenes=_ALL_SCENES,
                 strategies=("oracle",),
                 spp=(1, 4, 16),
-                denoisers=_SINGLE_FRAME_DENOISERS,
+                denoisers=_ORACLE_DENOISERS,
                 res=(128, 128),
                 reference_spp=1024,
                 **_SETS,
