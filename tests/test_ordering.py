@@ -291,3 +291,78 @@ def test_best_variant_beats_temporal_after_a_sigma2_blur_on_textured_snooker(gap
 def test_best_variant_keeps_whites_raw_mse(gap):
     ratio = _gap_ratio(gap, BEST, "white", "raw", "mse", "snooker")
     assert ratio.lo <= 1.0 <= ratio.hi, f"raw {BEST} / white = {ratio}"
+
+
+# The rivals (issue 13, docs/METHODS.md, sections 5 and 7): the a-priori patterns need no previous
+# frame, so on the untextured direct-lighting scene their gain should hold at 4 and 16 spp, where
+# the temporal method's has faded (_OWEN_SOBOL_4SPP). Each against white after the tuned Gaussian;
+# and each not worse than white in raw MSE beyond the interval (they are other samplers, not a
+# permutation of white's seeds, so equality is not the claim).
+RIVAL_CLAIMS = ("zsobol", "cycles_blue")
+_RIVAL_SPP = (4, 16)
+_RIVAL_LEVEL = 1 - 0.05 / (2 * len(RIVAL_CLAIMS) * len(_RIVAL_SPP))  # den and raw per cell
+_RIVAL_16SPP = (
+    "Not established at 16 spp: after the Gaussian tuned on white (sigma 0.5 px at 16 spp, so "
+    "narrow that little low-frequency error is removed either way) zsobol / white measured "
+    "0.976 [0.945, 1.014] here and 0.974 [0.950, 1.004] in results/quality (1024-spp "
+    "references); at 4 spp the gain is clear (0.917 [0.888, 0.951] there)."
+)
+_SHARED_SCRAMBLE = (
+    "cycles_blue and zsobol take each pixel's samples as an aligned block of one sequence under "
+    "one scramble shared by all pixels, so the image's raw MSE is one draw per scramble instead "
+    "of an average over per-pixel scrambles (docs/METHODS.md, section 7; tests/test_sequences.py). "
+    "Cycles fixes its sequence seed, so its draw on direct at 4 spp (1.077 [1.043, 1.121] here, "
+    "1.067 [1.035, 1.099] in results/quality) never changes; ZSobol draws a fresh scramble per "
+    "frame and shows no excess on average on toy integrands, but its MSE varies from frame to "
+    "frame 2.4 times as much as white's, so these 12 frames land above 1 (1.165 [1.023, 1.305] "
+    "at 4 spp, 1.042 [1.002, 1.074] at 16; 1.018 [0.969, 1.083] and 1.003 [0.965, 1.046] in "
+    "results/quality). The rivals' design, not a defect in our samplers."
+)
+_RIVAL_FAILURES = {
+    ("den", "zsobol", 16): _RIVAL_16SPP,
+    ("raw", "zsobol", 4): _SHARED_SCRAMBLE,
+    ("raw", "zsobol", 16): _SHARED_SCRAMBLE,
+    ("raw", "cycles_blue", 4): _SHARED_SCRAMBLE,
+}
+
+
+def _rival_cells(kind):
+    return [
+        pytest.param(s, n, marks=pytest.mark.xfail(strict=True, reason=_RIVAL_FAILURES[kind, s, n]))
+        if (kind, s, n) in _RIVAL_FAILURES
+        else (s, n)
+        for s in RIVAL_CLAIMS
+        for n in _RIVAL_SPP
+    ]
+
+
+@pytest.fixture(scope="module")
+def rivals(tmp_path_factory, cache):
+    sweep = Sweep(
+        scenes=("direct",),
+        strategies=("white", *RIVAL_CLAIMS),
+        spp=_RIVAL_SPP,
+        denoisers=("gaussian",),
+        metrics=("mse",),
+        **_COMMON,
+    )
+    suite = Suite("rivals", "test", sweeps=(sweep,), crops=False)
+    return _index(
+        run_suite(suite, tmp_path_factory.mktemp("rivals"), cache_dir=cache, progress=False)
+    )
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("strategy", "spp"), _rival_cells("den"))
+def test_rival_beats_white_after_a_gaussian_on_direct(rivals, strategy, spp):
+    cell = dict(scene="direct", spp=spp, denoiser="gaussian")
+    ratio = _ratio(rivals, strategy, "white", "den", _RIVAL_LEVEL, **cell)
+    assert ratio.hi < 1.0, f"{strategy} / white = {ratio}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("strategy", "spp"), _rival_cells("raw"))
+def test_rival_raw_mse_is_not_worse_than_whites_on_direct(rivals, strategy, spp):
+    cell = dict(scene="direct", spp=spp, denoiser="gaussian")
+    ratio = _ratio(rivals, strategy, "white", "raw", _RIVAL_LEVEL, **cell)
+    assert ratio.lo <= 1.0, f"raw {strategy} / white = {ratio}"
