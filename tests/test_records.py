@@ -69,7 +69,7 @@ def test_write_and_load_keep_order_and_values(tmp_path):
     assert not list(tmp_path.glob(".*.tmp*"))
 
 
-@pytest.mark.parametrize("suite", ["quick", "quality", "stability"])
+@pytest.mark.parametrize("suite", ["quick", "quality", "stability", "gap"])
 def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
     path = _RESULTS / suite / RESULTS_FILE
     if not path.exists():
