@@ -49,6 +49,7 @@ from bnerr.metrics import bootstrap_interval, paired_ratio
 __all__ = [
     "COLUMNS",
     "HEADLINE_STRATEGIES",
+    "RAW_CAUSES",
     "DECISION_EXCLUDES",
     "best_rows",
     "decision_table",
@@ -335,7 +336,40 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     lines = ["## Raw MSE different from white beyond the interval", ""]
     if not body:
         return lines + ["No cell: every strategy's raw MSE interval contains white's.", ""]
-    return lines + _table(["scene", "condition", "strategy", "spp", "raw MSE / white"], body) + [""]
+    lines += _table(["scene", "condition", "strategy", "spp", "raw MSE / white"], body) + [""]
+    return lines + _raw_causes(sorted({b[2] for b in body}))
+
+
+#: The measured cause of a strategy's raw MSE differing from white's, by strategy (a temporal
+#: variant by its base name): what the strategy samples differently, with where it was measured.
+RAW_CAUSES: dict[str, str] = {
+    "bnds": "Cranley-Patterson rotation of one sequence shared by all pixels: an independently "
+    "written sampler that shifts the shared sequence by uniform random offsets, with no mask, has "
+    "the same excess over per-pixel Owen-scrambled Sobol (docs/METHODS.md, section 3).",
+    "zsobol": "one scramble shared by all pixels, each pixel an aligned block of one sequence: the "
+    "image's raw MSE is one draw per scramble instead of an average over per-pixel scrambles; "
+    "ZSobol draws a fresh scramble each frame, so its MSE varies more from frame to frame and "
+    "not on average (docs/METHODS.md, section 7; tests/test_sequences.py).",
+    "cycles_blue": "one scramble shared by all pixels with a fixed sequence seed: its raw MSE is "
+    "one draw that never changes, above or below white's depending on the scene and spp "
+    "(docs/METHODS.md, section 7; tests/test_sequences.py).",
+}
+RAW_CAUSES["bnds_st"] = RAW_CAUSES["bnds"]
+RAW_CAUSES["zsobol_t"] = RAW_CAUSES["temporal_zsobol"] = RAW_CAUSES["zsobol"].replace(
+    "ZSobol draws a fresh scramble each frame, so its MSE varies more from frame to frame and not "
+    "on average",
+    "this strategy keeps one scramble per seed set, so a suite's few seed sets are few draws",
+)
+
+
+def _raw_causes(strategies: Sequence[str]) -> list[str]:
+    """One line per strategy of the raw-difference table: its measured cause, or that none is
+    established."""
+    lines = []
+    for name in strategies:
+        cause = RAW_CAUSES.get(name.split("+")[0])
+        lines.append(f"- {name}: " + (cause or "cause not established."))
+    return lines + [""]
 
 
 #: Strategies the headline compares with white, in its cells' order.

@@ -200,6 +200,15 @@ def test_raw_mse_differences_from_white_are_listed_once_per_run():
         section.count("| direct | direct | bnds | 1 |") == 1
         and section.count("| direct | direct | bnds | 4 |") == 1
     )
+    assert f"- bnds: {report.RAW_CAUSES['bnds']}" in section  # the measured cause, once
+
+
+def test_a_raw_difference_without_a_known_cause_says_so():
+    assert report._raw_causes(["temporal+groups", "zsobol_t"]) == [
+        "- temporal+groups: cause not established.",
+        f"- zsobol_t: {report.RAW_CAUSES['zsobol_t']}",
+        "",
+    ]
 
 
 def test_write_report_reads_the_results_file_when_given_no_records(tmp_path):
