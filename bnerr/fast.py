@@ -52,7 +52,6 @@ import torch
 
 from bnerr.errors import (
     FLOAT_DTYPES,
-    FileFormatError,
     ShapeError,
     UnknownNameError,
     ValueRangeError,
@@ -65,8 +64,8 @@ from bnerr.errors import (
 )
 from bnerr.hashing import MASK32, lowbias32, lowbias32_host, signed32
 from bnerr.masks import void_and_cluster
-from bnerr.resources import data_dir, load_array, shipped_files
-from bnerr.retarget import check_displacement
+from bnerr.resources import load_array, shipped_files
+from bnerr.retarget import read_shipped_field
 
 __all__ = [
     "DEFAULT_ITERATIONS",
@@ -425,11 +424,4 @@ def load_fast_retarget(size: int = 64) -> torch.Tensor:
         file is missing, unreadable or not a valid field.
     """
     size = _check_shipped(size, "FAST retargeting field")
-    name = f"retarget_fast_{size}.npy"
-    array = load_array(name, np.int8, (2, size, size))
-    try:
-        return check_displacement(torch.from_numpy(array.astype(np.int64)))
-    except ValueError as err:
-        raise FileFormatError(
-            f"{data_dir().joinpath(name)}: expected a valid displacement field, got: {err}"
-        ) from err
+    return read_shipped_field(f"retarget_fast_{size}.npy", size)

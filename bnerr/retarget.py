@@ -85,6 +85,7 @@ __all__ = [
     "check_displacement",
     "inverse_field",
     "load_retarget",
+    "read_shipped_field",
     "optimize_retarget",
     "retarget",
     "retarget_energy",
@@ -357,7 +358,16 @@ def load_retarget(size: int) -> torch.Tensor:
         raise UnknownNameError(
             f"retarget size {size}: expected one of the shipped sizes {shipped or 'none shipped'}"
         )
-    name = f"retarget_{size}.npy"
+    return read_shipped_field(f"retarget_{size}.npy", size)
+
+
+def read_shipped_field(name: str, size: int) -> torch.Tensor:
+    """A shipped displacement field ``name`` (int8 ``[2, size, size]`` in the package data),
+    checked: ``[2, T, T]`` int64 on the CPU.
+
+    Raises:
+        FileFormatError: the file is missing, unreadable or not a valid field.
+    """
     array = load_array(name, np.int8, (2, size, size))
     try:
         return check_displacement(torch.from_numpy(array.astype(np.int64)))

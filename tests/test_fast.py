@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import torch
 
-from bnerr import fast
+from bnerr import fast, retarget
 from bnerr.errors import (
     DtypeError,
     FileFormatError,
@@ -173,7 +173,7 @@ def test_a_corrupt_shipped_file_is_named(monkeypatch, tmp_path):
     field[1] = 7  # a permutation of the tile, but beyond the 6-pixel reach
     np.save(tmp_path / "retarget_fast_8.npy", field)
     monkeypatch.setattr(resources, "data_dir", lambda: tmp_path)
-    monkeypatch.setattr(fast, "data_dir", lambda: tmp_path)
+    monkeypatch.setattr(retarget, "data_dir", lambda: tmp_path)
     with pytest.raises(FileFormatError, match=r"fast_gauss_8.npy: expected float32 of shape"):
         load_fast_mask(8)
     with pytest.raises(FileFormatError, match=r"retarget_fast_8.npy: expected a valid"):
