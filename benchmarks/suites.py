@@ -19,10 +19,13 @@ The four suites (issue 6):
 - ``quality``: every scene, strategy (the rivals zsobol, cycles_blue, zsobol_t, bnds_st and
   temporal_zsobol among them) and denoiser (kornia filters, U-Net, OIDN, the temporal taa and
   svgf, and gaussian, atrous and guided also tuned on each strategy's own frames) at 1, 4 and
-  16 spp, 128x128: 51 minutes on the same machine before the rivals, estimated 65-80 with them
-  (each adds about one render per frame, at 1-3x white's render time for the Z-order samplers;
-  the oracle's 32 renders per frame still dominate); the own tuning and the temporal denoisers
-  (which see the warm-up frames of every strategy) add to that, not yet measured.
+  16 spp, 128x128 (the oracle with the single-frame denoisers only). 51 minutes on the same
+  machine before the rivals; with them about 2.5 hours of one core without rendering the oracle
+  again (measured: 1 h 40 min of wall time sharing the 2 cores with the gap and stability suites,
+  the last half hour as two Ray workers, with the oracle's cells kept from the run before by
+  ``--resume``; rendering them again adds about an hour). A profile of the
+  serial run on a cheap scene: denoisers 48 %, metrics 20 %, tuning 15 %, rendering 16 %,
+  rewriting ``cells.jsonl`` after each run 8 %; the a-trous filter alone 30 %.
 - ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
@@ -270,7 +273,7 @@ SUITES: dict[str, Suite] = {
     "quality": Suite(
         name="quality",
         description=(
-            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (65-80 minutes)"
+            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (2.5-3.5 core-hours)"
         ),
         sweeps=(
             Sweep(
