@@ -2,10 +2,9 @@
 figures are computed by hand here."""
 
 import pytest
+from _records import small_record
 
 from benchmarks import denoise_response as dr
-from benchmarks.plan import Cell
-from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
 from benchmarks.report import summarize, write_report
 from bnerr.metrics import paired_ratio
 
@@ -25,39 +24,15 @@ def _record(strategy, denoiser, den, raw=10.0, *, blur2=0.5, spp=4, scene="direc
     def pairs(values):
         return [[[v * count, count] for v in row] for row in _frames(values)]
 
-    cell = Cell(
-        scene=scene,
-        strategy=strategy,
-        spp=spp,
-        denoiser=denoiser,
-        motion=1,
-        depth=None,
-        region="all",
-        sampler="owen_sobol",
-        frames=_FRAMES,
-        warmup=2,
-        width=16,
-        height=16,
-        seed_sets=_SETS,
-        reference_spp=64,
-    )
     raw_frames = _frames(raw)
-    return Record(
-        cell=cell,
-        dimensions=4,
-        t=list(range(2, 2 + _FRAMES)),
-        raw={
-            "mse": pairs(raw_frames),
-            "mse_blur2": pairs([[v * blur2 for v in r] for r in raw_frames]),
-        },
-        den={"mse": pairs(den)},
-        denoiser_params={},
-        timings=Timings(*([[[1.0] * _FRAMES] * _SETS] * 3)),
-        reference=ReferenceInfo(spp=64, floor=None, version="test"),
-        spectrum={k: Spectrum(freq=[0.1], power=[1.0]) for k in ("raw", "den")},
-        crop=None,
-        tcorr=tcorr,
-    )
+    raw_pairs = {
+        "mse": pairs(raw_frames),
+        "mse_blur2": pairs([[v * blur2 for v in r] for r in raw_frames]),
+    }
+    return small_record(
+        strategy, denoiser, raw=raw_pairs, den={"mse": pairs(den)}, frames=_FRAMES,
+        seed_sets=_SETS, spp=spp, scene=scene, tcorr=tcorr,
+    )  # fmt: skip
 
 
 # Post-denoise MSE per strategy and denoiser (raw MSE 10 unless named; zsobol's raw MSE is 8).

@@ -5,6 +5,7 @@ import io
 import math
 
 import pytest
+from _records import small_record
 
 from benchmarks.gap import (
     GAP_CSV,
@@ -14,8 +15,6 @@ from benchmarks.gap import (
     gap_shares,
     write_gap_tables,
 )
-from benchmarks.plan import Cell
-from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
 from bnerr.errors import ValueRangeError
 
 _SETS, _FRAMES = 3, 4
@@ -32,39 +31,12 @@ def _record(strategy, level, *, denoiser="gaussian", spp=4, motion=1, noise=0.0,
             for s in range(_SETS)
         ]
 
-    cell = Cell(
-        scene="direct",
-        strategy=strategy,
-        spp=spp,
-        denoiser=denoiser,
-        motion=motion,
-        depth=None,
-        region="all",
-        sampler="owen_sobol",
-        frames=_FRAMES,
-        warmup=2,
-        width=16,
-        height=16,
-        seed_sets=_SETS,
-        reference_spp=64,
-    )
     raw = {m: pairs(level) for m in ("mse", "mse_blur1", "mse_blur2")}
-    return Record(
-        cell=cell,
-        dimensions=4,
-        t=list(range(2, 2 + _FRAMES)),
-        raw=raw,
-        den={"mse": pairs(level if den is None else den)},
-        denoiser_params={},
-        timings=Timings(
-            render_ms=[[1.0] * _FRAMES] * _SETS,
-            perm_ms=[[1.0] * _FRAMES] * _SETS,
-            denoise_ms=[[1.0] * _FRAMES] * _SETS,
-        ),
-        reference=ReferenceInfo(spp=64, floor=None, version="test"),
-        spectrum={k: Spectrum(freq=[0.1], power=[1.0]) for k in ("raw", "den")},
-        crop=None,
-    )
+    den_pairs = {"mse": pairs(level if den is None else den)}
+    return small_record(
+        strategy, denoiser, raw=raw, den=den_pairs, frames=_FRAMES, seed_sets=_SETS, spp=spp,
+        motion=motion,
+    )  # fmt: skip
 
 
 def _records(noise=0.0):

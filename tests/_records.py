@@ -1,0 +1,30 @@
+"""A small benchmark record for report tests: 16x16 frames, metrics given as per-frame pairs."""
+
+from benchmarks.plan import Cell
+from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
+
+
+def small_record(
+    strategy, denoiser, *, raw, den, frames, seed_sets, spp=4, scene="direct", motion=1, tcorr=None
+):
+    """A :class:`Record` of ``seed_sets x frames`` frames whose ``raw`` and ``den`` are metric ->
+    ``[S][F][2]`` pairs as given; timings 1 ms, a flat spectrum, no crop."""
+    cell = Cell(
+        scene=scene, strategy=strategy, spp=spp, denoiser=denoiser, motion=motion, depth=None,
+        region="all", sampler="owen_sobol", frames=frames, warmup=2, width=16, height=16,
+        seed_sets=seed_sets, reference_spp=64,
+    )  # fmt: skip
+    ms = [[1.0] * frames] * seed_sets
+    return Record(
+        cell=cell,
+        dimensions=4,
+        t=list(range(2, 2 + frames)),
+        raw=raw,
+        den=den,
+        denoiser_params={},
+        timings=Timings(render_ms=ms, perm_ms=ms, denoise_ms=ms),
+        reference=ReferenceInfo(spp=64, floor=None, version="test"),
+        spectrum={k: Spectrum(freq=[0.1], power=[1.0]) for k in ("raw", "den")},
+        crop=None,
+        tcorr=tcorr,
+    )
