@@ -40,6 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from benchmarks.groups import group_key, group_order, group_title, strategy_order
+from benchmarks.markdown import table_lines
 from benchmarks.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import paired_ratio
@@ -115,11 +116,6 @@ def _fmt(iv: Interval | None) -> str:
 
 def _num(x: float | None, spec: str = ".2f") -> str:
     return "-" if x is None or not math.isfinite(x) else format(x, spec)
-
-
-def _table(header: Sequence[str], body: Iterable[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    return lines + ["| " + " | ".join(cells) + " |" for cells in body]
 
 
 def _denoisers(records: Iterable[Record] | Iterable[dict]) -> set[str]:
@@ -257,7 +253,12 @@ def _accumulation_markdown(items: Sequence[Accumulation]) -> list[str]:
     head = ["spp", "strategy", "gaussian", "taa", "svgf", "tcorr", "white tcorr", "acc. factor"]
     for group in dict.fromkeys(a.group for a in items):
         mine = [a for a in items if a.group == group]
-        lines += [f"### {group}", "", *_table([*head, "flag"], map(_accumulation_cells, mine)), ""]
+        lines += [
+            f"### {group}",
+            "",
+            *table_lines([*head, "flag"], map(_accumulation_cells, mine)),
+            "",
+        ]
     flagged = [a for a in items if a.flag]
     lines += ["Flagged strategies and the measured cause:", ""]
     if not flagged:
@@ -354,7 +355,7 @@ def _oidn_markdown(kept: Sequence[OidnResponse], left: Sequence[tuple]) -> list[
     ]
     if body:
         head = ["scene", "spp", "strategy", "raw", "raw blur2", *shown, "OIDN verdict"]
-        lines += [*_table(head, body), ""]
+        lines += [*table_lines(head, body), ""]
     else:
         lines += ["No strategy's raw MSE equals white's within the interval.", ""]
     if left:
@@ -449,7 +450,7 @@ def _best_markdown(items: Sequence[BestDenoisers]) -> list[str]:
         "different denoisers), so below 1 means the adopter who picks both strategy and "
         "denoiser does better than with white noise.",
         "",
-        *_table(["scene", "spp", *head, "best / white's best"], body),
+        *table_lines(["scene", "spp", *head, "best / white's best"], body),
         "",
         *_goal_lines(items),
     ]
@@ -554,9 +555,9 @@ def _unet_markdown(items: Sequence[UnetGain]) -> list[str]:
         "more of the strategy's gain; white's own unet_blue MSE over its unet MSE (below) says "
         "what the blue training costs on white noise.",
         "",
-        *_table([*head, "gain ratio"], body),
+        *table_lines([*head, "gain ratio"], body),
         "",
-        *_table(["scene", "spp", "white: unet_blue / unet MSE"], whites),
+        *table_lines(["scene", "spp", "white: unet_blue / unet MSE"], whites),
         "",
         *(_unet_goal(items, g) for g in dict.fromkeys(u.group for u in items)),
         "",

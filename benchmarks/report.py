@@ -42,6 +42,7 @@ import numpy as np
 from benchmarks.denoise_response import write_denoise_tables
 from benchmarks.gap import write_gap_tables
 from benchmarks.groups import group_key, group_order, group_slug, group_title, strategy_order
+from benchmarks.markdown import table_lines
 from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
@@ -226,12 +227,6 @@ def _ratio_text(row: dict | None, name: str) -> str:
     return text + (" (worse)" if row[f"{name}_ratio_lo"] > 1.0 else "")
 
 
-def _table(header: Sequence[str], body: Iterable[Sequence[str]]) -> list[str]:
-    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    lines += ["| " + " | ".join(cells) + " |" for cells in body]
-    return lines
-
-
 def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
     """Post-denoise MSE per spp and denoiser: white's value, the others' ratios to it."""
     by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
@@ -281,7 +276,7 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
         "",
     ]
     lines += _sampler_note(rows)
-    lines += _table(["spp", "denoiser", *strategies], _den_body(rows, strategies))
+    lines += table_lines(["spp", "denoiser", *strategies], _den_body(rows, strategies))
     lines += [
         "",
         "Raw error as a fraction of white's: MSE / MSE after a sigma-1 blur / after a sigma-2 "
@@ -289,10 +284,10 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
         "",
     ]
     body = [[str(n)] + [_raw_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
-    lines += _table(["spp", *strategies], body)
+    lines += table_lines(["spp", *strategies], body)
     lines += ["", "Milliseconds per frame: render + permutation (strategy overhead).", ""]
     body = [[str(n)] + [_time_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
-    lines += _table(["spp", *strategies], body)
+    lines += table_lines(["spp", *strategies], body)
     times = {d: np.mean([r["denoise_ms"] for r in rows if r["denoiser"] == d]) for d in denoisers}
     lines += [
         "",
@@ -336,7 +331,7 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     lines = ["## Raw MSE different from white beyond the interval", ""]
     if not body:
         return lines + ["No cell: every strategy's raw MSE interval contains white's.", ""]
-    lines += _table(["scene", "condition", "strategy", "spp", "raw MSE / white"], body) + [""]
+    lines += table_lines(["scene", "condition", "strategy", "spp", "raw MSE / white"], body) + [""]
     return lines + _raw_causes(sorted({b[2] for b in body}))
 
 
@@ -410,7 +405,7 @@ def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
         "Bold: below white beyond the 95% paired interval; ↑: above white beyond it; "
         "-: not measured. Intervals and absolute values are in the sections below.",
         "",
-        *_table(["scene", "spp", *denoisers], body),
+        *table_lines(["scene", "spp", *denoisers], body),
         "",
     ]
 
@@ -434,7 +429,7 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
             "",
         ]
     else:
-        lines += _table(
+        lines += table_lines(
             ["scene", "condition", "strategy", "spp", "denoiser", "ratio to white"],
             (
                 [
@@ -527,7 +522,7 @@ def decision_table(
         "without bold is lowest by its point estimate only; white: no strategy was lower."
         + _left_out(exclude),
         "",
-        *_table(["scene", "spp", *denoisers], body),
+        *table_lines(["scene", "spp", *denoisers], body),
         "",
     ]
     return "\n".join(lines)

@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from benchmarks.markdown import table_lines
 from benchmarks.suites import Suite
 from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
@@ -108,12 +109,6 @@ def _ratio(value: Any, anchor: Any) -> str:
     return f"{_fmt(a / b)}x"
 
 
-def _table(header: list[str], rows: list[list[str]]) -> list[str]:
-    """Markdown table lines."""
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    return lines + ["| " + " | ".join(row) + " |" for row in rows]
-
-
 def _default(script: str, parameter: str) -> Any:
     """The default of ``parameter`` of ``benchmarks.<script>.measure`` (what the suite ran)."""
     module = importlib.import_module(f"benchmarks.{script}")
@@ -173,7 +168,7 @@ def _tracer(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
                 ]
             )
     header = ["scene", "renderer", "best s", "median s", "first call s", "Msamples/s"]
-    return lines + _table(header + ["ours / this"], rows) + [""]
+    return lines + table_lines(header + ["ours / this"], rows) + [""]
 
 
 def _permutation(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
@@ -223,7 +218,7 @@ def _permutation(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[
         "",
     ]
     header = ["pass", "ms", "MB moved", "GB/s", "copy ms", "pass / copy"]
-    lines += _table(header, rows) + [""]
+    lines += table_lines(header, rows) + [""]
     if copy is None:
         lines += [
             "No memory-copy anchor in these figures: they predate `speed_copy`; the next "
@@ -260,7 +255,7 @@ def _gap(values: Mapping[str, Any]) -> list[str]:
         "",
     ]
     rows = [[name.removesuffix("_ms"), _fmt(ms), _ratio(ms, anchor)] for name, ms in gap.items()]
-    return lines + _table(["option", "ms", "option / sort pass"], rows) + [""]
+    return lines + table_lines(["option", "ms", "option / sort pass"], rows) + [""]
 
 
 def _samplers(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
@@ -292,7 +287,7 @@ def _samplers(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str
                 _ratio(s, _get(white, c)),
             ]
         rows.append(cells)
-    return lines + _table(header, rows) + [""]
+    return lines + table_lines(header, rows) + [""]
 
 
 def _masks(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
@@ -315,7 +310,7 @@ def _masks(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
             [shape, _fmt(_get(row, "seconds")), _fmt(low), _ratio(low, WHITE_LOW_FREQUENCY)]
         )
     header = ["mask", "seconds", "low-frequency fraction", "/ white noise's"]
-    return lines + _table(header, rows) + [""]
+    return lines + table_lines(header, rows) + [""]
 
 
 def _denoisers(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
@@ -338,7 +333,7 @@ def _denoisers(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[st
             if name != "oidn"
             else [name, _fmt(s), _fmt(None if s is None else 1 / s), "1 (anchor)"]
         )
-    return lines + _table(["denoiser", "s / frame", "frames / s", "/ OIDN"], rows) + [""]
+    return lines + table_lines(["denoiser", "s / frame", "frames / s", "/ OIDN"], rows) + [""]
 
 
 _Writer = Callable[[Mapping[str, Any], Mapping[str, Any]], list[str]]
