@@ -335,25 +335,27 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     return lines + _raw_causes(sorted({b[2] for b in body}))
 
 
+_SHARED_SCRAMBLE = (
+    "one scramble shared by all pixels, each pixel an aligned block of one sequence: the image's "
+    "raw MSE is one draw per scramble instead of an average over per-pixel scrambles; "
+)
+_SCRAMBLE_SOURCE = " (docs/METHODS.md, section 7; tests/test_sequences.py)."
 #: The measured cause of a strategy's raw MSE differing from white's, by strategy (a temporal
 #: variant by its base name): what the strategy samples differently, with where it was measured.
 RAW_CAUSES: dict[str, str] = {
     "bnds": "Cranley-Patterson rotation of one sequence shared by all pixels: an independently "
     "written sampler that shifts the shared sequence by uniform random offsets, with no mask, has "
     "the same excess over per-pixel Owen-scrambled Sobol (docs/METHODS.md, section 3).",
-    "zsobol": "one scramble shared by all pixels, each pixel an aligned block of one sequence: the "
-    "image's raw MSE is one draw per scramble instead of an average over per-pixel scrambles; "
-    "ZSobol draws a fresh scramble each frame, so its MSE varies more from frame to frame and "
-    "not on average (docs/METHODS.md, section 7; tests/test_sequences.py).",
+    "zsobol": _SHARED_SCRAMBLE + "ZSobol draws a fresh scramble each frame, so its MSE varies "
+    "more from frame to frame and not on average" + _SCRAMBLE_SOURCE,
     "cycles_blue": "one scramble shared by all pixels with a fixed sequence seed: its raw MSE is "
     "one draw that never changes, above or below white's depending on the scene and spp "
     "(docs/METHODS.md, section 7; tests/test_sequences.py).",
 }
 RAW_CAUSES["bnds_st"] = RAW_CAUSES["bnds"]
-RAW_CAUSES["zsobol_t"] = RAW_CAUSES["temporal_zsobol"] = RAW_CAUSES["zsobol"].replace(
-    "ZSobol draws a fresh scramble each frame, so its MSE varies more from frame to frame and not "
-    "on average",
-    "this strategy keeps one scramble per seed set, so a suite's few seed sets are few draws",
+RAW_CAUSES["zsobol_t"] = RAW_CAUSES["temporal_zsobol"] = (
+    _SHARED_SCRAMBLE + "this strategy keeps one scramble per seed set, so a suite's few seed sets "
+    "are few draws" + _SCRAMBLE_SOURCE
 )
 
 
