@@ -28,7 +28,8 @@ quotes its first error lines, and the torch path runs instead. :func:`status` sa
   offset; grouped blocks run scalar code, about half the torch path's time at 1080p).
 - :func:`native_retarget_gather`: the retargeting pass on CPU tensors.
 
-Not for: CUDA tensors (the callers run their torch path there), or any other kernel.
+Not for: CUDA tensors (the callers run their torch path there). Other C sources (the filter
+kernels of :mod:`denoisers`) use the same machinery through :func:`library`.
 """
 
 from __future__ import annotations
@@ -48,9 +49,11 @@ from bnerr.native import build
 
 __all__ = [
     "Kernels",
+    "Library",
     "SelfCheckedKernels",
     "available",
     "compiler_output",
+    "library",
     "load",
     "native_retarget_gather",
     "native_sort_blocks",
@@ -77,10 +80,6 @@ class Kernels:
     why: str
 
 
-_lock = threading.Lock()
-_state: dict[str, object] = {"loaded": False, "kernels": None, "why": "not loaded yet", "cc": ""}
-
-
 def _bind(library: ctypes.CDLL, why: str) -> Kernels:
     """Bind the expected functions; AttributeError if the library lacks one."""
     p, i64, f32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_float
@@ -94,55 +93,114 @@ def _bind(library: ctypes.CDLL, why: str) -> Kernels:
     return Kernels(sort, gather, why)
 
 
-def _obtain() -> tuple[Kernels | None, str, str | None, str]:
-    """``(kernels, why, warning, compiler stderr)``, building the library if needed."""
-    if os.environ.get("BNERR_NATIVE", "1") == "0":
-        return None, "disabled by BNERR_NATIVE=0", None, ""
-    outcome = build.obtain(TORCH_PATH_COST)
-    if outcome.library is None:
-        return None, outcome.why, outcome.warning, outcome.compiler_output
-    try:
-        kernels = _bind(outcome.library, outcome.why)
-    except AttributeError:
-        missing = [s for s in _SYMBOLS if not hasattr(outcome.library, s)]
-        why = f"the library {outcome.why} lacks the functions {', '.join(missing)}"
-        warning = f"bnerr: {why}; the torch path is used ({TORCH_PATH_COST})"
-        return None, why, warning, outcome.compiler_output
-    return kernels, outcome.why, outcome.warning, outcome.compiler_output
+class Library:
+    """One C source's library: built, cached and bound on first use, once per process.
+
+    ``source``: the file name beside this module; ``bind``: ``(CDLL, why) -> kernels`` that sets
+    the functions' argument types (AttributeError when one is missing); ``symbols``: the names
+    ``bind`` needs (quoted when one is missing); ``cost``: what the fallback costs, for warnings.
+    The first :meth:`load` in a process decides; a problem is reported once, as a RuntimeWarning.
+    """
+
+    def __init__(
+        self,
+        source: str,
+        bind: Callable[[ctypes.CDLL, str], object],
+        symbols: tuple[str, ...],
+        cost: str,
+    ) -> None:
+        self.source, self._bind, self.symbols, self.cost = source, bind, symbols, cost
+        self._lock = threading.Lock()
+        self._state: dict[str, object] = {}
+        self.reset()
+
+    def _obtain(self) -> tuple[object | None, str, str | None, str]:
+        """``(kernels, why, warning, compiler stderr)``, building the library if needed."""
+        if os.environ.get("BNERR_NATIVE", "1") == "0":
+            return None, "disabled by BNERR_NATIVE=0", None, ""
+        outcome = build.obtain(self.cost, self.source)
+        if outcome.library is None:
+            return None, outcome.why, outcome.warning, outcome.compiler_output
+        try:
+            kernels = self._bind(outcome.library, outcome.why)
+        except AttributeError:
+            missing = [s for s in self.symbols if not hasattr(outcome.library, s)]
+            why = f"the library {outcome.why} lacks the functions {', '.join(missing)}"
+            warning = f"bnerr: {why}; the torch path is used ({self.cost})"
+            return None, why, warning, outcome.compiler_output
+        return kernels, outcome.why, outcome.warning, outcome.compiler_output
+
+    def load(self):
+        """The bound kernels, building them on first use; None when unavailable."""
+        if self._state["loaded"]:
+            return self._state["kernels"]
+        with self._lock:
+            if not self._state["loaded"]:
+                kernels, why, warning, stderr = self._obtain()
+                self._state.update(loaded=True, kernels=kernels, why=why, cc=stderr)
+                if warning:
+                    warnings.warn(warning, RuntimeWarning, stacklevel=3)
+        return self._state["kernels"]
+
+    def reset(self) -> None:
+        """Forget the loaded kernels, so that the next :meth:`load` looks again."""
+        with self._lock:
+            self._state.update(loaded=False, kernels=None, why="not loaded yet", cc="")
+
+    def status(self) -> str:
+        """What happened: where the library came from, or why it is not used."""
+        self.load()
+        return str(self._state["why"])
+
+    def compiler_output(self) -> str:
+        """The compiler's stderr of this process's last build ("" after a cache hit)."""
+        self.load()
+        return str(self._state["cc"])
+
+
+_LIBRARIES: list[Library] = []
+
+
+def library(
+    source: str, bind: Callable[[ctypes.CDLL, str], object], symbols: tuple[str, ...], cost: str
+) -> Library:
+    """A :class:`Library` of the C source ``source``, registered so that :func:`reset` forgets
+    it too. Create one per source, at import time of the module that owns its kernels."""
+    made = Library(source, bind, symbols, cost)
+    _LIBRARIES.append(made)
+    return made
+
+
+_PERMUTE = library(build.SOURCE_NAME, _bind, _SYMBOLS, TORCH_PATH_COST)
 
 
 def load() -> Kernels | None:
-    """The bound kernels, building them on first use; None when unavailable (see :func:`status`).
-
-    The first call in a process decides; a problem is reported once, as a RuntimeWarning.
-    """
-    if _state["loaded"]:
-        return _state["kernels"]
-    with _lock:
-        if not _state["loaded"]:
-            kernels, why, warning, stderr = _obtain()
-            _state.update(loaded=True, kernels=kernels, why=why, cc=stderr)
-            if warning:
-                warnings.warn(warning, RuntimeWarning, stacklevel=2)
-    return _state["kernels"]
+    """The bound permutation kernels, building them on first use; None when unavailable (see
+    :func:`status`). The first call in a process decides; a problem is reported once, as a
+    RuntimeWarning."""
+    return _PERMUTE.load()
 
 
 class SelfCheckedKernels:
     """The loaded kernels, handed out only once they pass a caller's self-check.
 
-    Each op that has a native path (the sort pass, the retargeting pass) owns one of these with
-    its own check, a function ``Kernels -> bool`` that compares the kernel with the op's torch
-    path bit for bit. The check runs once per loaded library (again after :func:`reset`); a
+    Each op that has a native path (the sort pass, the retargeting pass, a filter) owns one of
+    these with its own check, a function ``kernels -> bool`` that compares the kernel with the
+    op's torch path. The check runs once per loaded library (again after :func:`reset`); a
     failure is reported once, as a RuntimeWarning naming ``what``, and the op then gets None.
+    ``source``: the library (default: the permutation kernels).
     """
 
-    def __init__(self, check: Callable[[Kernels], bool], what: str) -> None:
+    def __init__(
+        self, check: Callable[[object], bool], what: str, source: Library | None = None
+    ) -> None:
         self._check, self._what = check, what
-        self._checked: tuple[Kernels | None, bool] = (None, False)
+        self._source = _PERMUTE if source is None else source
+        self._checked: tuple[object | None, bool] = (None, False)
         self._lock = threading.Lock()
 
-    def __call__(self) -> Kernels | None:
-        kernels = load()
+    def __call__(self):
+        kernels = self._source.load()
         if kernels is None:
             return None
         if self._checked[0] is not kernels:
@@ -161,27 +219,25 @@ class SelfCheckedKernels:
 
 
 def reset() -> None:
-    """Forget the loaded kernels, so that the next :func:`load` looks again (for tests; the
+    """Forget every loaded library, so that the next load looks again (for tests; the
     environment variables are read again then)."""
-    with _lock:
-        _state.update(loaded=False, kernels=None, why="not loaded yet", cc="")
+    for each in _LIBRARIES:
+        each.reset()
 
 
 def available() -> bool:
-    """Whether the kernels are (or can be) built and loaded on this machine."""
+    """Whether the permutation kernels are (or can be) built and loaded on this machine."""
     return load() is not None
 
 
 def status() -> str:
-    """What happened: where the library came from, or why it is not used."""
-    load()
-    return str(_state["why"])
+    """What happened to the permutation kernels: where they came from, or why they are not used."""
+    return _PERMUTE.status()
 
 
 def compiler_output() -> str:
-    """The compiler's stderr of this process's last build ("" after a cache hit)."""
-    load()
-    return str(_state["cc"])
+    """The compiler's stderr of this process's last build of the permutation kernels."""
+    return _PERMUTE.compiler_output()
 
 
 def _threads(threads: int) -> int:

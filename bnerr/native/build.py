@@ -1,6 +1,7 @@
-"""Build, cache and load the native library: only a library this package built is ever loaded.
+"""Build, cache and load the native libraries: only a library this package built is ever loaded.
 
-The C source (``permute.c`` beside this file) is compiled with the system C compiler into a
+Each C source beside this file (``permute.c``: the seed permutation; the filter kernels of
+:mod:`denoisers` have their own) is compiled with the system C compiler into a
 shared library kept in a per-user cache folder, ``$BNERR_CACHE_DIR/native`` (default
 ``$XDG_CACHE_HOME/bnerr/native``, else ``~/.cache/bnerr/native``):
 
@@ -11,8 +12,9 @@ shared library kept in a per-user cache folder, ``$BNERR_CACHE_DIR/native`` (def
   else can write into it; otherwise the library is built in a private temporary folder for this
   process and not cached.
 - **Record.** At build time the library is written under a name that holds its own content hash,
-  and a sidecar ``permute_<key>.json`` records that name and the library's SHA-256; both are
-  written atomically (temporary file, then rename), the sidecar last.
+  and a sidecar ``<stem>_<key>.json`` (``permute_<key>.json`` for ``permute.c``) records that
+  name and the library's SHA-256; both are written atomically (temporary file, then rename),
+  the sidecar last.
 - **Load.** A cached library is opened without following links and must be a regular file of
   this user; its bytes are read once, and only if their SHA-256 equals the recorded one are those
   very bytes written to a fresh private file (named by the hash) that the dynamic loader opens,
@@ -104,9 +106,14 @@ class Outcome:
     compiler_output: str = ""
 
 
-def source_text() -> str:
-    """The C source of the kernels."""
-    return resources.files("bnerr.native").joinpath(SOURCE_NAME).read_text()
+def source_text(name: str = SOURCE_NAME) -> str:
+    """The C source ``name`` (package data of ``bnerr.native``)."""
+    return resources.files("bnerr.native").joinpath(name).read_text()
+
+
+def _stem(name: str) -> str:
+    """The prefix of a source's cached files: ``permute.c`` -> ``permute``."""
+    return Path(name).stem
 
 
 def find_compiler() -> tuple[Compiler | None, str]:
@@ -200,10 +207,11 @@ def _quote(stderr: str, returncode: int) -> str:
 
 
 def compile_library(
-    compiler: Compiler, flags: tuple[str, ...], source: str, work: Path
+    compiler: Compiler, flags: tuple[str, ...], source: str, work: Path, name: str = SOURCE_NAME
 ) -> tuple[bytes | None, str, str]:
-    """Compile ``source`` in the folder ``work``; ``(library bytes or None, stderr, quote)``."""
-    src, out = work / SOURCE_NAME, work / "library.so"
+    """Compile ``source`` (the text of the file ``name``) in the folder ``work``;
+    ``(library bytes or None, stderr, quote)``."""
+    src, out = work / name, work / "library.so"
     src.write_text(source)
     command = [compiler.program, *compiler.extra, *flags, str(src), "-o", str(out)]
     try:
@@ -262,34 +270,37 @@ def load_verified(path: Path, sha256: str) -> ctypes.CDLL | None:
         os.unlink(copy)
 
 
-def _recorded(folder: Path, key: str) -> tuple[Path, str] | None:
+def _recorded(folder: Path, stem: str, key: str) -> tuple[Path, str] | None:
     """``(library path, sha256)`` from the sidecar of ``key``, or None if absent or malformed."""
     try:
-        record = json.loads((folder / f"permute_{key}.json").read_text())
+        record = json.loads((folder / f"{stem}_{key}.json").read_text())
         name, sha = record["library"], record["sha256"]
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    if not (isinstance(name, str) and re.fullmatch(rf"permute_{key}_[0-9a-f]{{16}}\.so", name)):
+    pattern = rf"{re.escape(stem)}_{key}_[0-9a-f]{{16}}\.so"
+    if not (isinstance(name, str) and re.fullmatch(pattern, name)):
         return None
     if not (isinstance(sha, str) and re.fullmatch(r"[0-9a-f]{64}", sha)):
         return None
     return folder / name, sha
 
 
-def _store(folder: Path, key: str, data: bytes, compiler: Compiler, flags: tuple[str, ...]):
+def _store(
+    folder: Path, stem: str, key: str, data: bytes, compiler: Compiler, flags: tuple[str, ...]
+):
     """Write a built library and its sidecar (sidecar last); return ``(path, sha256)``."""
     sha = hashlib.sha256(data).hexdigest()
-    path = folder / f"permute_{key}_{sha[:16]}.so"
+    path = folder / f"{stem}_{key}_{sha[:16]}.so"
     _write_atomic(path, data)
     record = {"library": path.name, "sha256": sha, "compiler": str(compiler), "flags": flags}
-    _write_atomic(folder / f"permute_{key}.json", json.dumps(record, indent=1).encode())
+    _write_atomic(folder / f"{stem}_{key}.json", json.dumps(record, indent=1).encode())
     return path, sha
 
 
-def _from_cache(folder: Path, key: str) -> tuple[ctypes.CDLL | None, str | None]:
+def _from_cache(folder: Path, stem: str, key: str) -> tuple[ctypes.CDLL | None, str | None]:
     """The cached library of ``key`` if its recorded hash matches; else ``(None, note)`` where
     ``note`` says what was found instead (None when nothing was cached)."""
-    record = _recorded(folder, key)
+    record = _recorded(folder, stem, key)
     if record is None:
         return None, None
     path, sha = record
@@ -301,32 +312,36 @@ def _from_cache(folder: Path, key: str) -> tuple[ctypes.CDLL | None, str | None]
     return library, None
 
 
-def _attempt(compiler: Compiler, flags: tuple[str, ...], source: str, folder: Path | None):
-    """One build-or-reuse with ``flags``; ``(library, where, stderr, quote, note)``."""
-    key = library_key(source, flags, compiler)
+def _attempt(
+    compiler: Compiler, flags: tuple[str, ...], source: str, folder: Path | None, name: str
+):
+    """One build-or-reuse of the source file ``name`` (text ``source``) with ``flags``;
+    ``(library, where, stderr, quote, note)``."""
+    key, stem = library_key(source, flags, compiler), _stem(name)
     note = None
     if folder is not None:
-        library, note = _from_cache(folder, key)
+        library, note = _from_cache(folder, stem, key)
         if library is not None:
             return library, f"cached at {folder}", "", "", None
     with tempfile.TemporaryDirectory(prefix="bnerr-native-") as tmp:
-        data, stderr, quote = compile_library(compiler, flags, source, Path(tmp))
+        data, stderr, quote = compile_library(compiler, flags, source, Path(tmp), name)
         if data is None:
             return None, "", stderr, quote, note
         place = Path(tmp) if folder is None else folder
-        path, sha = _store(place, key, data, compiler, flags)
+        path, sha = _store(place, stem, key, data, compiler, flags)
         return load_verified(path, sha), f"built at {place}", stderr, "", note
 
 
-def obtain(cost: str) -> Outcome:
-    """Find a compiler, then reuse or build the library (native flags, then portable ones).
+def obtain(cost: str, name: str = SOURCE_NAME) -> Outcome:
+    """Find a compiler, then reuse or build the library of the C source ``name`` (native flags,
+    then portable ones).
 
     ``cost`` is what the torch path costs, quoted in the warnings.
     """
     compiler, missing = find_compiler()
     if compiler is None:
         return Outcome(None, missing, f"bnerr: {missing}; the torch path is used ({cost})")
-    source = source_text()
+    source = source_text(name)
     folder: Path | None = cache_dir()
     unsafe = secure_dir(folder)
     notes = [] if unsafe is None else [f"{unsafe}; building in a private temporary folder"]
@@ -335,13 +350,13 @@ def obtain(cost: str) -> Outcome:
     stderr = quote = ""
     for flags in (FLAGS_NATIVE, FLAGS_PORTABLE):
         try:
-            library, where, stderr, quote, note = _attempt(compiler, flags, source, folder)
+            library, where, stderr, quote, note = _attempt(compiler, flags, source, folder, name)
         except OSError as err:  # an unwritable cache, a library the loader refuses
             library, where, stderr, quote, note = None, "", str(err), str(err), None
         notes += [note] if note else []
         if library is not None:
             why = f"{where} with {compiler} {' '.join(flags)}"
             return Outcome(library, why, "bnerr: " + "; ".join(notes) if notes else None, stderr)
-    why = f"the C compiler {compiler} could not build the kernel: {quote}"
+    why = f"the C compiler {compiler} could not build {name}: {quote}"
     warning = "; ".join([f"bnerr: {why}", *notes, f"the torch path is used ({cost})"])
     return Outcome(None, why, warning, stderr)
