@@ -254,8 +254,12 @@ def where(
     (5 to 10x faster). Elsewhere, and for other dtypes, it is ``torch.where`` itself, its slow,
     obviously correct twin. Shapes broadcast as in ``torch.where``; ``mask`` is bool.
     """
+    # Compiled: torch.where itself (and no torch.result_type, which dynamo cannot trace: a graph
+    # break there split every compiled vertex stage in two and made it recompile).
+    if not _eager_cpu(mask):
+        return torch.where(mask, a, b)
     dtype = torch.result_type(a, b)
-    if not _eager_cpu(mask) or dtype not in _BITS:
+    if dtype not in _BITS:
         return torch.where(mask, a, b)
     ints = mask.to(_BITS[dtype])
     if _positive_zero(b):  # where(mask, a, 0): a & m

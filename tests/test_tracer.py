@@ -290,3 +290,25 @@ def test_result_does_not_depend_on_the_thread_count(name):
     assert torch.get_num_threads() == 1
     for key, value in serial.buffers().items():
         assert torch.equal(value, parallel.buffers()[key]), key
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["cornell", "medium"])
+def test_the_compiled_vertex_stage_traces_as_one_graph(name):
+    """A graph break inside :func:`tracer.vertex_step` splits each compiled vertex into pieces
+    that dynamo compiles and guards separately (it once made compiled cornell renders 6x slower:
+    ``torch.result_type`` in ``geometry.where``). Dynamo's explain traces without compiling."""
+    scene = get_scene(name)
+    st, cam = scene_tensors(scene, 0), camera_frame(scene.camera, 0, 4, 4)
+    pix = torch.arange(16)
+    u = WHITE.sample(
+        pix, torch.zeros_like(pix), 0, scene.dimensions, torch.stack([pix // 4, pix % 4], 1)
+    )
+    breaks = []
+
+    def explained_step(*args):
+        breaks.append(torch._dynamo.explain(tracer.vertex_step)(*args).graph_break_count)
+        return tracer.vertex_step(*args)
+
+    tracer.trace(st, cam, scene.layout, pix % 4, pix // 4, u.T.contiguous(), explained_step)
+    assert len(breaks) == scene.layout.vertices and breaks == [0] * len(breaks)
