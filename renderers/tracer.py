@@ -139,19 +139,25 @@ def emission(
     cos_light: torch.Tensor,
     light_pdf_area: torch.Tensor,
     prev_pdf: torch.Tensor | None,
+    camera: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """``[3, N]`` emitted radiance reaching the previous vertex, MIS-weighted against NEE.
 
     ``prev_pdf [N]`` is the solid-angle density with which the previous vertex sampled this
     segment's direction, or None for camera rays (weight 1). The light-sampling density of the
-    same point is ``light_pdf_area * t^2 / cos_light``.
+    same point is ``light_pdf_area * t^2 / cos_light``. ``camera``: a bool tensor that says the
+    same as a None ``prev_pdf`` (weight 1 where it holds), for a compiled stage that must not
+    change its arguments' types between vertices.
     """
     le = where(front, hit_emission, 0.0)
     if prev_pdf is None:
         return le
     t = where(front, t, 0.0)
     p_light = light_pdf_area * t * t / cos_light.clamp_min(1e-12)
-    return le * _power_heuristic(prev_pdf, p_light)
+    weight = _power_heuristic(prev_pdf, p_light)
+    if camera is not None:
+        weight = where(camera, 1.0, weight)
+    return le * weight
 
 
 def _pick_light(st: SceneTensors, u_choice: torch.Tensor | None, n: int) -> torch.Tensor:
@@ -174,7 +180,7 @@ def next_event(
     f: torch.Tensor,
     u_choice: torch.Tensor | None,
     u_light: torch.Tensor,
-    mis: bool,
+    mis: bool | torch.Tensor,
 ) -> torch.Tensor:
     """Next-event estimation: ``[3, N]`` radiance from one light sample, per unit throughput.
 
@@ -185,7 +191,8 @@ def next_event(
             on surfaces (a scene without a medium).
         f: ``[3, N]`` BSDF or phase value (albedo / pi, or 1 / (4 pi) in the medium).
         u_choice: ``[N]`` light choice or None (one light); ``u_light [2, N]`` point on it.
-        mis: weight against the density of the direction sample (False at the last vertex).
+        mis: weight against the density of the direction sample (False at the last vertex);
+            a bool tensor says the same per lane (for the compiled stage, see :func:`trace`).
     """
     light = _pick_light(st, u_choice, x.shape[1])
     y = light[0:3] + (2.0 * u_light[0] - 1.0) * light[3:6] + (2.0 * u_light[1] - 1.0) * light[6:9]
@@ -200,11 +207,12 @@ def next_event(
     ok = (cos_light > 0) & (cos_surface > 0)
     p_light = dist2 / (st.num_lights * cos_light.clamp_min(1e-12) * light[12])  # (1/L)(1/A) d^2/cos
     weight = cos_surface / p_light
-    if mis:
+    if isinstance(mis, torch.Tensor) or mis:
         p_dir = cos_surface * _INV_PI
         if on_surface is not None:
             p_dir = where(on_surface, p_dir, _INV_4PI)
-        weight = weight * _power_heuristic(p_light, p_dir)
+        weighted = weight * _power_heuristic(p_light, p_dir)
+        weight = where(mis, weighted, weight) if isinstance(mis, torch.Tensor) else weighted
     t_block, _ = intersect(st, x, w, with_object=False)
     ok = ok & (t_block >= dist * (1.0 - 1e-4))
     if st.medium is not None:
@@ -287,6 +295,7 @@ def vertex_step(
     u_choice: torch.Tensor | None,
     u_light: torch.Tensor,
     u_direction: torch.Tensor | None,
+    ends: tuple[torch.Tensor, torch.Tensor] | None = None,
 ) -> tuple[torch.Tensor, ...]:
     """Trace the segment ``(o, d)`` to the next vertex, shade it and sample the next segment.
 
@@ -294,6 +303,13 @@ def vertex_step(
     ``alive`` live lanes, ``prev_pdf`` density of the direction that produced this segment (None
     for camera rays). ``u_*`` are this vertex's sampler rows (``u_direction`` None at the last
     vertex, which samples no direction).
+
+    ``ends``: two bool scalar tensors ``(first, last)`` for the compiled stage, which must see
+    the same argument types at every vertex (each new combination of None arguments is one more
+    variant for torch.compile to build and for every new process to trace again). With them,
+    ``prev_pdf`` and ``u_direction`` are tensors at every vertex, the camera ray's emission
+    weight and the last vertex's unweighted next-event estimate are selected by the flags, and
+    the last vertex samples a direction nobody reads.
 
     Returns ``(o, d, beta, radiance, alive, pdf, albedo, normal)``: the next segment, the updated
     state and the vertex's surface albedo and normal (the first vertex's feed the guide buffers).
@@ -313,8 +329,9 @@ def vertex_step(
     if scatter is not None:
         front = front & ~scatter
     # -- emission: a light reached by the previous direction sample (MIS against NEE)
+    first, last = (None, u_direction is None) if ends is None else ends
     radiance = radiance + beta * emission(
-        hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf
+        hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf, first
     )
     alive = front if scatter is None else front | scatter
     beta = where(alive, beta, 0.0)
@@ -322,9 +339,8 @@ def vertex_step(
     on_surface = None if scatter is None else ~scatter
     x, f = _shading_point(o, d, hit, scatter, s)
     # -- next-event estimation (full weight at the last vertex)
-    nee = next_event(
-        st, x, hit.normal, on_surface, f, u_choice, u_light, mis=u_direction is not None
-    )
+    mis = ~last if isinstance(last, torch.Tensor) else not last
+    nee = next_event(st, x, hit.normal, on_surface, f, u_choice, u_light, mis=mis)
     radiance = radiance + where(alive, beta * nee, 0.0)
     if u_direction is None:
         return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
@@ -361,7 +377,9 @@ def trace(
         st: the frame's scene tensors; cam: its camera; layout: the dimension layout.
         px, py: ``[N]`` int64 pixel coordinates of each lane.
         u: ``[D, N]`` the lanes' sampler values, one row per dimension (D = layout.dimensions).
-        step: :func:`vertex_step` or a compiled version of it.
+        step: :func:`vertex_step` or a compiled version of it. A step with a true attribute
+            ``uniform`` gets the same argument types at every vertex (see ``ends`` in
+            :func:`vertex_step`): one compiled variant per scene instead of three.
 
     Returns:
         :class:`PathResult`.
@@ -370,8 +388,11 @@ def trace(
     beta = torch.ones_like(d)
     radiance = torch.zeros_like(d)
     alive = torch.ones_like(px, dtype=torch.bool)
-    prev_pdf = None
+    uniform = getattr(step, "uniform", False)
+    prev_pdf = torch.zeros_like(d[0]) if uniform else None
     albedo = normal = None
+    # Distinct tensors for the two flags: the same tensor passed twice is a guard of its own.
+    firsts, lasts = ([torch.tensor(v, device=d.device) for v in (False, True)] for _ in "fl")
 
     def row(i: int | None) -> torch.Tensor | None:
         return None if i is None else u[i]
@@ -380,18 +401,15 @@ def trace(
         return None if i is None else u[i : i + 2]
 
     for k in range(layout.vertices):
+        args = [row(layout.distance(k)), row(layout.light_choice(k)), pair(layout.light(k))]
+        if uniform:  # contiguous o, a stand-in direction sample at the last vertex, the flags
+            o, last = o.contiguous(), k == layout.vertices - 1
+            args += [pair(layout.light(k) if last else layout.direction(k))]
+            args += [(firsts[k == 0], lasts[last])]
+        else:
+            args += [pair(layout.direction(k))]
         o, d, beta, radiance, alive, prev_pdf, a, n = step(
-            st,
-            o,
-            d,
-            beta,
-            radiance,
-            alive,
-            prev_pdf,
-            row(layout.distance(k)),
-            row(layout.light_choice(k)),
-            pair(layout.light(k)),
-            pair(layout.direction(k)),
+            st, o, d, beta, radiance, alive, prev_pdf, *args
         )
         if k == 0:
             albedo, normal = a, n
@@ -440,12 +458,15 @@ def _use_compile(compile: bool | None) -> bool:
 class _CompiledStep:
     """:func:`vertex_step` through ``torch.compile``, falling back to eager if compiling fails.
 
-    Dynamo specializes on the scene's static layout, on which arguments are None (first and
-    last vertex) and on the lane count, so a process that renders several scenes needs more
-    than dynamo's default 8 variants of one function: :func:`render` raises that limit while it
-    runs (:data:`RECOMPILE_LIMIT`). Lane counts are padded to a power of two, so a render
-    compiles at most two lane counts per variant.
+    Dynamo specializes on the scene's static layout and on the lane count (and would on which
+    arguments are None: :func:`trace` gives this stage the same types at every vertex), so a
+    process that renders several scenes needs more than dynamo's default 8 variants of one
+    function: :func:`render` raises that limit while it runs (:data:`RECOMPILE_LIMIT`). Lane
+    counts are padded to a power of two, so a render compiles at most two lane counts.
     """
+
+    #: :func:`trace` passes the same argument types at every vertex: one variant per scene.
+    uniform = True
 
     def __init__(self) -> None:
         self._fn = torch.compile(vertex_step, dynamic=False)

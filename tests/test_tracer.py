@@ -310,5 +310,28 @@ def test_the_compiled_vertex_stage_traces_as_one_graph(name):
         breaks.append(torch._dynamo.explain(tracer.vertex_step)(*args).graph_break_count)
         return tracer.vertex_step(*args)
 
+    explained_step.uniform = True  # the arguments the compiled stage gets
     tracer.trace(st, cam, scene.layout, pix % 4, pix // 4, u.T.contiguous(), explained_step)
     assert len(breaks) == scene.layout.vertices and breaks == [0] * len(breaks)
+
+
+@pytest.mark.parametrize("name", ["cornell", "medium", "direct"])
+def test_uniform_vertex_arguments_give_the_same_paths_bit_for_bit(name):
+    """The compiled stage gets tensors and flags where the eager one gets None (one compiled
+    variant per scene instead of three); the flags select exactly the values None selects."""
+    scene = get_scene(name)
+    st, cam = scene_tensors(scene, 1), camera_frame(scene.camera, 1, 6, 5)
+    pix = torch.arange(30).repeat_interleave(3)
+    index = torch.arange(3).repeat(30)
+    rows = torch.stack([pix // 6, pix % 6], 1)
+    u = WHITE.sample(pix * 7 + 1, index, 0, scene.dimensions, rows).T.contiguous()
+
+    def uniform_step(*args):
+        assert len(args) == 12 and all(args[i] is not None for i in (6, 10, 11))  # pdf, u, ends
+        return tracer.vertex_step(*args)
+
+    uniform_step.uniform = True
+    plain = tracer.trace(st, cam, scene.layout, pix % 6, pix // 6, u)
+    flagged = tracer.trace(st, cam, scene.layout, pix % 6, pix // 6, u, uniform_step)
+    for field in ("radiance", "albedo", "normal"):
+        assert torch.equal(getattr(plain, field), getattr(flagged, field)), field
