@@ -221,3 +221,31 @@ def test_strategy_errors_are_one_line_before_anything_is_written(tmp_path, capsy
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err
     assert not list(out.glob("*.exr")) if out.exists() else True
+
+
+@pytest.mark.parametrize(
+    ("extra", "compiled"),
+    [
+        (["--res", "256x256", "--spp", "32"], True),  # 2^21 paths: compiled by default
+        (["--res", "256x256", "--spp", "16"], False),
+        (["--res", "256x256", "--spp", "16", "--frames", "2"], True),  # paths of all frames
+        (["--res", "256x256", "--spp", "32", "--no-compile"], False),
+        (["--res", "8x8", "--spp", "1", "--compile"], True),
+        (["--res", "256x256", "--spp", "32", "--strategy", "white"], False),  # bench's path
+    ],
+)
+def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders(
+    tmp_path, capsys, monkeypatch, extra, compiled
+):
+    import renderers
+
+    seen = []
+
+    def fake_render(scene, t, seeds, sampler, spp, *, compile=None):
+        seen.append(compile)
+        raise SystemExit(0)  # stop before rendering anything
+
+    monkeypatch.setattr(renderers, "render", fake_render)
+    with pytest.raises(SystemExit):
+        main(["render", "--scene", "direct", *extra, "--out", str(tmp_path)])
+    assert seen == [compiled]

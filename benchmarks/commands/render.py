@@ -17,6 +17,14 @@ strategy chooses the seeds instead, its state carried from frame to frame: frame
 strategy (the temporal ones) renders frames ``0 .. --start - 1`` too, unwritten, to carry its
 state; a stateless one starts at ``--start``, as the benchmark skips its warmup.
 
+The tracer runs compiled (``torch.compile`` of its vertex stage, about 5x faster once built)
+when a fixed-seed render traces at least 2^21 paths in all (``W * H * spp * frames``, e.g.
+256x256 at 32 spp), and eagerly below; ``--compile`` / ``--no-compile`` decide instead. The
+first compiled render on a machine builds the kernels (tens of seconds); later processes find
+them in torch's on-disk cache and only trace the stage again (seconds). With ``--strategy`` the
+default is eager, the benchmark's path, so that its frames stay the benchmark's bit for bit.
+Each output line says which path ran.
+
 Before rendering, the resolution is checked against the memory it needs and ``DIR`` against its
 kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR``'s lock
 (:func:`bnerr.outputs.output_lock`), so a second writer into ``DIR`` refuses.
@@ -30,9 +38,19 @@ from pathlib import Path
 
 from bnerr.errors import DtypeError, ValueRangeError
 
-__all__ = ["parse_resolution", "register", "render_bytes", "run"]
+__all__ = [
+    "AUTO_COMPILE_PATHS",
+    "compile_choice",
+    "parse_resolution",
+    "register",
+    "render_bytes",
+    "run",
+]
 
 SAMPLER_NAMES = ("white", "owen_sobol")
+#: Fixed-seed renders of at least this many paths in all run the compiled tracer by default:
+#: about where a warm start-up (tracing the stage again, seconds) costs less than it saves.
+AUTO_COMPILE_PATHS = 1 << 21
 
 
 def parse_resolution(text: str) -> tuple[int, int]:
@@ -97,12 +115,23 @@ def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
     return width, height, check_output(args.out, "dir", need_bytes=need)
 
 
-def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, dimensions: int) -> None:
+def compile_choice(args: argparse.Namespace, width: int, height: int) -> bool:
+    """Whether to run the compiled tracer: ``--compile``/``--no-compile`` if given, else eager
+    with ``--strategy`` (the benchmark's path) and compiled from :data:`AUTO_COMPILE_PATHS`
+    paths in all otherwise."""
+    if args.compile is not None:
+        return bool(args.compile)
+    if args.strategy is not None:
+        return False
+    return width * height * args.spp * args.frames >= AUTO_COMPILE_PATHS
+
+
+def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, scene, path: str):
     elapsed = max(elapsed, 1e-9)
     rate = width * height * spp / elapsed / 1e6
     print(
-        f"{stem}.exr  {width}x{height} {spp} spp D={dimensions} "
-        f"{elapsed:.2f} s ({rate:.2f} M samples/s)"
+        f"{stem}.exr  {width}x{height} {spp} spp D={scene.dimensions} "
+        f"{elapsed:.2f} s ({rate:.2f} M samples/s, {path})"
     )
 
 
@@ -117,7 +146,7 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
     for t in range(args.start, args.start + args.frames):
         seeds = pixel_seeds(height, width, (seed * 100003 + t) * height * width)
         start = time.perf_counter()
-        frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile or None)
+        frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
         yield t, frame, time.perf_counter() - start
 
 
@@ -131,7 +160,7 @@ def _strategy_frames(args: argparse.Namespace, strategy, scene):
     for t in range(first, args.start + args.frames):
 
         def render_t(seeds, sampler, t=t):
-            return render(scene, t, seeds, sampler, args.spp, compile=args.compile or None)
+            return render(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
 
         start = time.perf_counter()
         frame = strategy.frame(t, render_t)
@@ -146,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
     from renderers import get_scene
 
     width, height, out = _check_args(args)
+    args.compile_now = compile_choice(args, width, height)
     scene = get_scene(args.scene, animated=not args.static)
     if args.strategy is None:
         frames = _fixed_seed_frames(args, scene, height, width)
@@ -166,7 +196,8 @@ def run(args: argparse.Namespace) -> int:
             stem = out / f"{scene.name}_{t:04d}"
             write_frame(stem.with_suffix(".exr"), frame)
             write_png(stem.with_suffix(".png"), frame.color, exposure=args.exposure)
-            _report(stem, seconds, width, height, args.spp, scene.dimensions)
+            path = "compiled" if args.compile_now else "eager"
+            _report(stem, seconds, width, height, args.spp, scene, path)
     return 0
 
 
@@ -199,8 +230,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--static", action="store_true", help="the scene's static variant (no motion)")
     p.add_argument(
         "--compile",
-        action="store_true",
-        help="torch.compile the tracer (faster for large renders; compiles on first use)",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="torch.compile the tracer (default: from 2^21 paths in all, not with --strategy)",
     )
     p.add_argument("--exposure", type=float, default=0.0, help="PNG preview exposure in stops")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
