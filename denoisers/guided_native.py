@@ -1,0 +1,155 @@
+"""The guided filter's native CPU kernel (``bnerr/native/guided.c``) and its dispatch.
+
+:func:`denoisers.filters.guided_filter` asks :func:`native_guided` first; None means "use the
+torch path". The kernel is used for CPU float32 inputs only, when the library builds and loads
+(:mod:`bnerr.native`: system C compiler, per-user cache, ``BNERR_NATIVE=0`` turns it off) and
+once it has matched the torch path on a self-check (odd sizes, several tiles, radii up to larger
+than the image, a flat guide region).
+
+Why a C kernel: the torch path makes about 60 full-frame planes of window statistics and runs
+the per-pixel 7 x 7 Cholesky solve as a few hundred full-frame tensor ops, so its cost is memory
+traffic (about 3 s per 1920 x 1080 frame on two threads). The kernel computes the same values
+in the same order, band by band and tile by tile, with the statistics of one row and the last
+``2 radius + 1`` coefficient rows in the CPU's caches, and 8 pixels per SIMD vector in the solve.
+
+Agreement: the kernel does the torch path's operations in its order, without fused
+multiply-adds; torch's own kernels fuse some (``addcmul``), sum seven planes in another order and
+round ``rsqrt`` differently, so the two differ by a few float32 roundings (measured below 4e-7 of
+the largest output value at eps >= 1e-2). Results do not depend on the thread count: each value
+is computed by the same operations whatever band it falls in.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from dataclasses import dataclass
+
+import torch
+
+from bnerr import native
+
+__all__ = ["Kernels", "load", "native_guided", "status"]
+
+#: What the torch path costs instead, quoted in the warnings (1920 x 1080, radius 2, 2 threads).
+TORCH_PATH_COST = "the guided filter runs about 10x slower on the CPU at 1080p"
+_SYMBOLS = ("bnerr_guided",)
+# Below this many pixels one thread does it all (thread start-up would cost more than it saves).
+_THREADED_PIXELS = 1 << 16
+# Self-check tolerance, relative to the largest output value. Measured on the check's inputs
+# (eps 1e-2 to 1): at most 3.3e-7; the systems there have condition numbers below 1e3, so a few
+# roundings of 6e-8 in the window sums move the output by at most about 1e-5 (the bound of the
+# kornia comparison in tests/test_filters.py). A wrong kernel errs by the size of the values.
+_CHECK_TOLERANCE = 1e-5
+
+
+@dataclass(frozen=True)
+class Kernels:
+    """The bound C function of one loaded library (``why`` says where it came from)."""
+
+    guided: ctypes._CFuncPtr
+    why: str
+
+
+def _bind(library: ctypes.CDLL, why: str) -> Kernels:
+    """Bind ``bnerr_guided``; AttributeError if the library lacks it."""
+    p, i64, f32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_float
+    guided = library.bnerr_guided
+    guided.argtypes = [p, p, p, p, p, i64, i64, i64, f32, f32, f32, ctypes.c_int]
+    guided.restype = ctypes.c_int
+    return Kernels(guided, why)
+
+
+_LIBRARY = native.library("guided.c", _bind, _SYMBOLS, TORCH_PATH_COST)
+
+
+def load() -> Kernels | None:
+    """The bound kernel, building it on first use; None when unavailable (see :func:`status`)."""
+    return _LIBRARY.load()
+
+
+def status() -> str:
+    """Where the kernel's library came from, or why it is not used."""
+    return _LIBRARY.status()
+
+
+def run_kernel(
+    kernels: Kernels,
+    color: torch.Tensor,
+    albedo: torch.Tensor,
+    normal: torch.Tensor,
+    lum: torch.Tensor,
+    radius: int,
+    eps: float,
+    threads: int = 1,
+) -> torch.Tensor | None:
+    """The guided filter in C on CPU float32 ``[3, H, W]`` color, albedo, normal and the guide's
+    luminance ``lum [1, H, W]``; None when the kernel refuses (sizes, memory).
+
+    The scalars are rounded to float32 as torch rounds a Python number applied to a float32
+    tensor: ``eps``, the pivot floor ``eps / 2`` and ``1 / (2 radius + 1)^2``.
+    """
+    planes = [t.contiguous() for t in (albedo, normal, lum, color)]
+    _, h, w = color.shape
+    out = torch.empty((3, h, w), dtype=torch.float32)
+    k = 2 * radius + 1
+    code = kernels.guided(
+        *(t.data_ptr() for t in planes), out.data_ptr(), h, w, radius,
+        eps, 0.5 * eps, 1.0 / (k * k), max(1, min(64, int(threads))),
+    )  # fmt: skip
+    return out if code == 0 else None
+
+
+def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> bool:
+    """One self-check case: random inputs with a firefly and a flat guide region."""
+    from denoisers.filters import _guided_torch, _relative, luminance  # filters imports us
+
+    g = torch.Generator().manual_seed(seed)
+    color = torch.rand(3, h, w, generator=g).square() * 4.0
+    color[0, h // 2, w // 3] = 60.0
+    albedo = torch.rand(3, h, w, generator=g)
+    albedo[:, :, : w // 4] = 0.5
+    normal = torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0)
+    lum = luminance(_relative(color))
+    eps = (1e-2, 1.0, 0.1)[seed % 3]
+    want = _guided_torch(color, albedo, normal, lum, radius, eps)
+    for threads in (1, 3):
+        got = run_kernel(kernels, color, albedo, normal, lum, radius, eps, threads)
+        tolerance = _CHECK_TOLERANCE * float(want.abs().amax())
+        if got is None or not bool(((got - want).abs() <= tolerance).all()):
+            return False
+    return True
+
+
+def _self_check(kernels: Kernels) -> bool:
+    """Compare the kernel with the torch path: odd sizes, more than one tile (256 columns), a
+    radius larger than the image. True if they agree (see :data:`_CHECK_TOLERANCE`)."""
+    cases = ((13, 300, 2, 0), (9, 7, 1, 1), (5, 6, 4, 2), (21, 17, 3, 3))
+    return all(_check_case(kernels, *case) for case in cases)
+
+
+#: The kernel if it loads and passes :func:`_self_check` (run once per library).
+_checked = native.SelfCheckedKernels(
+    _self_check, "denoisers.guided_native: the guided filter kernel", source=_LIBRARY
+)
+
+
+def native_guided(
+    color: torch.Tensor,
+    albedo: torch.Tensor,
+    normal: torch.Tensor,
+    lum: torch.Tensor,
+    radius: int,
+    eps: float,
+) -> torch.Tensor | None:
+    """The guided filter by the native kernel, or None where the torch path must run instead:
+    a tensor not on the CPU or not float32, the kernel unavailable or failing its self-check, or
+    refusing the sizes. Inputs as :func:`run_kernel`'s."""
+    tensors = (color, albedo, normal, lum)
+    if any(t.device.type != "cpu" or t.dtype != torch.float32 for t in tensors):
+        return None
+    kernels = _checked()
+    if kernels is None:
+        return None
+    _, h, w = color.shape
+    threads = torch.get_num_threads() if h * w >= _THREADED_PIXELS else 1
+    return run_kernel(kernels, color, albedo, normal, lum, radius, eps, threads)
