@@ -200,26 +200,20 @@ def guided_filter(
     times faster (:mod:`denoisers.guided_native`); elsewhere, or without a C compiler, the torch
     path below runs.
     """
+    out = native_guided(color, albedo, normal, radius, eps)
+    if out is not None:
+        return out
     if _needs_float64(color, albedo, normal):
         wide = guided_filter(color.double(), albedo.double(), normal.double(), radius, eps)
         return wide.to(color.dtype)
-    lum = luminance(_relative(color))
-    out = native_guided(color, albedo, normal, lum, radius, eps)
-    if out is not None:
-        return out
-    return _guided_torch(color, albedo, normal, lum, radius, eps)
+    return _guided_torch(color, albedo, normal, radius, eps)
 
 
 def _guided_torch(
-    color: torch.Tensor,
-    albedo: torch.Tensor,
-    normal: torch.Tensor,
-    lum: torch.Tensor,
-    radius: int,
-    eps: float,
+    color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, radius: int, eps: float
 ) -> torch.Tensor:
-    """The torch path of :func:`guided_filter`, ``lum [1, H, W]`` the guide's luminance."""
-    guide = torch.cat([albedo, normal, lum])
+    """The torch path of :func:`guided_filter` (no float64 switch)."""
+    guide = torch.cat([albedo, normal, luminance(_relative(color))])
     n = guide.shape[0]
     iu = torch.triu_indices(n, n, device=color.device)
     products = torch.cat([guide[iu[0]] * guide[iu[1]], (guide[:, None] * color).flatten(0, 1)])

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import torch
 
 from bnerr import native
+from bnerr.color import LUMINANCE_WEIGHTS
 
 __all__ = ["Kernels", "load", "native_guided", "status"]
 
@@ -54,7 +55,7 @@ def _bind(library: ctypes.CDLL, why: str) -> Kernels:
     """Bind ``bnerr_guided``; AttributeError if the library lacks it."""
     p, i64, f32 = ctypes.c_void_p, ctypes.c_int64, ctypes.c_float
     guided = library.bnerr_guided
-    guided.argtypes = [p, p, p, p, p, i64, i64, i64, f32, f32, f32, ctypes.c_int]
+    guided.argtypes = [p, p, p, p, i64, i64, i64, *[f32] * 7, ctypes.c_int]
     guided.restype = ctypes.c_int
     return Kernels(guided, why)
 
@@ -77,31 +78,34 @@ def run_kernel(
     color: torch.Tensor,
     albedo: torch.Tensor,
     normal: torch.Tensor,
-    lum: torch.Tensor,
     radius: int,
     eps: float,
     threads: int = 1,
 ) -> torch.Tensor | None:
-    """The guided filter in C on CPU float32 ``[3, H, W]`` color, albedo, normal and the guide's
-    luminance ``lum [1, H, W]``; None when the kernel refuses (sizes, memory).
+    """The guided filter in C on CPU float32 ``[3, H, W]`` color, albedo and normal; None when
+    the kernel refuses (sizes, memory) or finds a value above 1e18 (the float64 switch of
+    :func:`denoisers.filters.guided_filter` applies).
 
-    The scalars are rounded to float32 as torch rounds a Python number applied to a float32
-    tensor: ``eps``, the pivot floor ``eps / 2`` and ``1 / (2 radius + 1)^2``.
+    The guide's luminance channel is computed in C from ``color / scale`` with the scale of
+    :func:`denoisers.filters._relative` (the mean color, at least 1e-6). The scalars are
+    rounded to float32 as torch rounds a Python number applied to a float32 tensor: ``eps``,
+    the pivot floor ``eps / 2``, ``1 / (2 radius + 1)^2`` and the luminance weights.
     """
-    planes = [t.contiguous() for t in (albedo, normal, lum, color)]
+    planes = [t.contiguous() for t in (albedo, normal, color)]
+    scale = float(planes[2].mean().clamp_min(1e-6))
     _, h, w = color.shape
     out = torch.empty((3, h, w), dtype=torch.float32)
     k = 2 * radius + 1
     code = kernels.guided(
         *(t.data_ptr() for t in planes), out.data_ptr(), h, w, radius,
-        eps, 0.5 * eps, 1.0 / (k * k), max(1, min(64, int(threads))),
+        eps, 0.5 * eps, 1.0 / (k * k), scale, *LUMINANCE_WEIGHTS, max(1, min(64, int(threads))),
     )  # fmt: skip
     return out if code == 0 else None
 
 
 def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> bool:
     """One self-check case: random inputs with a firefly and a flat guide region."""
-    from denoisers.filters import _guided_torch, _relative, luminance  # filters imports us
+    from denoisers.filters import _guided_torch  # filters imports this module
 
     g = torch.Generator().manual_seed(seed)
     color = torch.rand(3, h, w, generator=g).square() * 4.0
@@ -109,11 +113,10 @@ def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> boo
     albedo = torch.rand(3, h, w, generator=g)
     albedo[:, :, : w // 4] = 0.5
     normal = torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0)
-    lum = luminance(_relative(color))
     eps = (1e-2, 1.0, 0.1)[seed % 3]
-    want = _guided_torch(color, albedo, normal, lum, radius, eps)
+    want = _guided_torch(color, albedo, normal, radius, eps)
     for threads in (1, 3):
-        got = run_kernel(kernels, color, albedo, normal, lum, radius, eps, threads)
+        got = run_kernel(kernels, color, albedo, normal, radius, eps, threads)
         tolerance = _CHECK_TOLERANCE * float(want.abs().amax())
         if got is None or not bool(((got - want).abs() <= tolerance).all()):
             return False
@@ -121,7 +124,7 @@ def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> boo
 
 
 def _self_check(kernels: Kernels) -> bool:
-    """Compare the kernel with the torch path: odd sizes, more than one tile (256 columns), a
+    """Compare the kernel with the torch path: odd sizes, more than one tile (128 columns), a
     radius larger than the image. True if they agree (see :data:`_CHECK_TOLERANCE`)."""
     cases = ((13, 300, 2, 0), (9, 7, 1, 1), (5, 6, 4, 2), (21, 17, 3, 3))
     return all(_check_case(kernels, *case) for case in cases)
@@ -134,17 +137,12 @@ _checked = native.SelfCheckedKernels(
 
 
 def native_guided(
-    color: torch.Tensor,
-    albedo: torch.Tensor,
-    normal: torch.Tensor,
-    lum: torch.Tensor,
-    radius: int,
-    eps: float,
+    color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, radius: int, eps: float
 ) -> torch.Tensor | None:
     """The guided filter by the native kernel, or None where the torch path must run instead:
-    a tensor not on the CPU or not float32, the kernel unavailable or failing its self-check, or
-    refusing the sizes. Inputs as :func:`run_kernel`'s."""
-    tensors = (color, albedo, normal, lum)
+    a tensor not on the CPU or not float32, the kernel unavailable or failing its self-check,
+    refusing the sizes, or a value above 1e18 (float64). Inputs as :func:`run_kernel`'s."""
+    tensors = (color, albedo, normal)
     if any(t.device.type != "cpu" or t.dtype != torch.float32 for t in tensors):
         return None
     kernels = _checked()
@@ -152,4 +150,4 @@ def native_guided(
         return None
     _, h, w = color.shape
     threads = torch.get_num_threads() if h * w >= _THREADED_PIXELS else 1
-    return run_kernel(kernels, color, albedo, normal, lum, radius, eps, threads)
+    return run_kernel(kernels, color, albedo, normal, radius, eps, threads)

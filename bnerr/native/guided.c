@@ -1,17 +1,24 @@
 /* The guided filter of denoisers.filters.guided_filter on the CPU, float32.
  *
- * Guide: 7 planes (albedo, normal, luminance), input: 3 color planes, all [H, W]. Every window
- * mean is a separable box sum over replicated borders: a vertical sum of 2r + 1 rows (each term
- * recomputed from the inputs, no running sums that drift), then a horizontal sum of 2r + 1
- * columns, times 1 / (2r + 1)^2. Per pixel the 7 x 7 ridge system is solved by Cholesky for the 3
- * color channels; the 24 coefficient planes are box-averaged the same way and combined with the
- * guide. The operations are the torch path's, in its order, without fused multiply-adds (the
- * build uses -ffp-contract=off); they differ from torch's kernels by a few float32 roundings.
+ * Inputs: albedo, normal and color, 3 planes [H, W] each; the guide is albedo, normal and the
+ * luminance of color / scale (scale: the frame's mean color, given). Every window mean is a
+ * separable box sum over replicated borders: a vertical sum of the 2r + 1 rows (recomputed for
+ * each row: no running sums that drift), then a horizontal sum of 2r + 1 columns, times
+ * 1 / (2r + 1)^2. Per pixel the 7 x 7 ridge system is solved by Cholesky for the 3 color
+ * channels; the 24 coefficient planes are box-averaged the same way and combined with the guide.
+ * The operations are the torch path's, in its order, without fused multiply-adds (the build uses
+ * -ffp-contract=off); they differ from torch's own kernels by a few float32 roundings.
  *
  * Layout: each thread takes a band of output rows and walks it tile by tile (TILE columns plus
- * halos), keeping the window statistics of one row and a ring of the last 2r + 1 coefficient rows
- * in its caches. Each value is computed by the same operations whatever the band, so the result
- * does not depend on the thread count.
+ * halos). Per tile it keeps in its caches a ring of the last 2r + 1 input rows with their 59
+ * window channels (guide, color, the 28 guide products and the 21 guide-color products), the
+ * window means of one row, and a ring of the last 2r + 1 rows of coefficients. Every value is
+ * computed by the same operations whatever band it falls in, so the result does not depend on
+ * the thread count.
+ *
+ * Fireflies: the caller filters a frame with a value above 1e18 in float64 instead (its square
+ * overflows float32). The kernel looks for such values as it reads the inputs and then returns 2,
+ * with the rule of the torch path's check: a tensor that holds a NaN does not count.
  */
 #include <math.h>
 #include <pthread.h>
@@ -23,15 +30,20 @@
 #include <immintrin.h>
 #endif
 
-#define NG 7                       /* guide channels */
-#define NC 3                       /* color channels */
-#define NII 28                     /* guide products i <= j, row by row */
-#define NIP (NG * NC)              /* guide-color products, i * 3 + c */
-#define NSTAT (NG + NC + NII + NIP) /* window means: guide, color, products */
-#define NCOEF (NIP + NC)           /* a (i * 3 + c), then b */
-#define TILE 256
+#define NG 7                        /* guide channels: albedo, normal, luminance */
+#define NC 3                        /* color channels */
+#define NB (NG + NC)                /* base channels: the guide, then color */
+#define NII 28                      /* guide products i <= j, row by row */
+#define NIP (NG * NC)               /* guide-color products, i * 3 + c */
+#define NP (NII + NIP)              /* products */
+#define NSTAT (NB + NP)             /* window channels */
+#define NCOEF (NIP + NC)            /* a (i * 3 + c), then b */
+#define TILE 128
 #define LANES 8
 #define MAX_THREADS 64
+#define BIG 1e18f
+/* Index of the guide product (i, j), i <= j, in the row-by-row upper triangle. */
+#define TRI(i, j) ((i) * NG - (i) * ((i) - 1) / 2 + (j) - (i))
 
 typedef float v8 __attribute__((vector_size(32)));
 typedef float v8u __attribute__((vector_size(32), aligned(4)));
@@ -58,57 +70,80 @@ static inline v8 clamp_min(v8 x, v8 lo) {
 }
 
 typedef struct {
-    const float *in[NG + NC]; /* guide planes, then color planes */
+    const float *in[9]; /* albedo, normal, color planes */
     float *out;
     int64_t h, w, r, k, slots;
-    float eps, floor, inv_kk;
-    int pair_a[NSTAT], pair_b[NSTAT]; /* a statistic is in[a] (b < 0) or in[a] * in[b] */
-    int tri[NG][NG];                  /* slot of (i, j) among the 28 guide products */
+    float eps, floor, inv_kk, scale, weight[3];
+    int pair_a[NP], pair_b[NP]; /* product t is base channel a times base channel b */
 } Job;
 
 typedef struct {
-    float *vp, *mean, *ring, *cp, *coef;
-    int64_t vw, cw, pw, tw;
+    float *ring, *vp, *mean, *coef_ring, *cp, *coef;
+    const float **rows; /* the k rows of a vertical sum */
+    int64_t rw, vw, cw, pw, tw;
+    v8i big[3], nan[3]; /* per input tensor: saw a value above BIG, saw a NaN */
 } Buffers;
 
 static int64_t round8(int64_t n) { return (n + LANES - 1) / LANES * LANES; }
 static int64_t clamp64(int64_t v, int64_t lo, int64_t hi) { return v < lo ? lo : v > hi ? hi : v; }
+static int64_t min64(int64_t a, int64_t b) { return a < b ? a : b; }
+static int64_t max64(int64_t a, int64_t b) { return a > b ? a : b; }
 
-static void init_job(Job *job) {
-    int s = 0;
-    for (int i = 0; i < NG + NC; i++, s++) job->pair_a[s] = i, job->pair_b[s] = -1;
+static void init_pairs(Job *job) {
+    int t = 0;
     for (int i = 0; i < NG; i++)
-        for (int j = i; j < NG; j++, s++) {
-            job->tri[i][j] = job->tri[j][i] = s - NG - NC;
-            job->pair_a[s] = i, job->pair_b[s] = j;
-        }
+        for (int j = i; j < NG; j++, t++) job->pair_a[t] = i, job->pair_b[t] = j;
     for (int i = 0; i < NG; i++)
-        for (int c = 0; c < NC; c++, s++) job->pair_a[s] = i, job->pair_b[s] = NG + c;
+        for (int c = 0; c < NC; c++, t++) job->pair_a[t] = i, job->pair_b[t] = NG + c;
 }
 
-/* dst[x - lo] = sum over the window's rows (top to bottom, clamped) of the statistic s at
- * column x, for x in [lo, hi). */
-static void vertical(const Job *job, int s, int64_t row, int64_t lo, int64_t hi, float *dst) {
-    const float *a = job->in[job->pair_a[s]];
-    const float *b = job->pair_b[s] < 0 ? NULL : job->in[job->pair_b[s]];
-    const int64_t w = job->w, n = hi - lo;
-    for (int64_t d = 0; d < job->k; d++) {
-        int64_t y = clamp64(row - job->r + d, 0, job->h - 1);
-        const float *pa = a + y * w + lo, *pb = b ? b + y * w + lo : NULL;
-        int64_t x = 0;
-        if (d == 0 && pb) {
-            for (; x + LANES <= n; x += LANES) store(dst + x, load(pa + x) * load(pb + x));
-            for (; x < n; x++) dst[x] = pa[x] * pb[x];
-        } else if (d == 0) {
-            memcpy(dst, pa, (size_t)n * sizeof(float));
-        } else if (pb) {
-            for (; x + LANES <= n; x += LANES)
-                store(dst + x, load(dst + x) + load(pa + x) * load(pb + x));
-            for (; x < n; x++) dst[x] = dst[x] + pa[x] * pb[x];
-        } else {
-            for (; x + LANES <= n; x += LANES) store(dst + x, load(dst + x) + load(pa + x));
-            for (; x < n; x++) dst[x] = dst[x] + pa[x];
+/* Ring slot of input row q's columns [lo, lo + n): the 59 window channels, 8 columns at a time
+ * (the last chunk through a zero-padded copy, so nothing past the planes is read). */
+static void fill_row(const Job *job, Buffers *buf, int64_t q, int64_t lo, int64_t n) {
+    float *dst = buf->ring + (q % job->slots) * NSTAT * buf->rw;
+    const v8 big = splat(BIG);
+    const v8i magnitude_bits = {INT32_MAX, INT32_MAX, INT32_MAX, INT32_MAX,
+                                INT32_MAX, INT32_MAX, INT32_MAX, INT32_MAX};
+    for (int64_t x = 0; x < n; x += LANES) {
+        v8 in[9], base[NB];
+        for (int p = 0; p < 9; p++) {
+            const float *src = job->in[p] + q * job->w + lo + x;
+            if (x + LANES <= n) {
+                in[p] = load(src);
+            } else {
+                float pad[LANES] = {0};
+                memcpy(pad, src, (size_t)(n - x) * sizeof(float));
+                in[p] = load(pad);
+            }
+            buf->big[p / 3] |= (v8)((v8i)in[p] & magnitude_bits) > big;
+            buf->nan[p / 3] |= in[p] != in[p];
         }
+        const v8 scale = splat(job->scale);
+        for (int c = 0; c < 6; c++) base[c] = in[c];
+        for (int c = 0; c < NC; c++) base[NG + c] = in[6 + c];
+        base[6] = ((in[6] / scale) * splat(job->weight[0]) + (in[7] / scale) * splat(job->weight[1]))
+                  + (in[8] / scale) * splat(job->weight[2]);
+        for (int c = 0; c < NB; c++) store(dst + c * buf->rw + x, base[c]);
+        for (int t = 0; t < NP; t++)
+            store(dst + (NB + t) * buf->rw + x, base[job->pair_a[t]] * base[job->pair_b[t]]);
+    }
+}
+
+/* dst[x] = rows[0][x] + rows[1][x] + ... + rows[k - 1][x] (in that order), x < n8 (n8 % 8 == 0). */
+static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst) {
+    int64_t x = 0;
+    for (; x + 2 * LANES <= n8; x += 2 * LANES) {
+        v8 a = load(rows[0] + x), b = load(rows[0] + x + LANES);
+        for (int64_t d = 1; d < k; d++) {
+            a = a + load(rows[d] + x);
+            b = b + load(rows[d] + x + LANES);
+        }
+        store(dst + x, a), store(dst + x + LANES, b);
+    }
+    if (x < n8) {
+        v8 a = load(rows[0] + x);
+        for (int64_t d = 1; d < k; d++) a = a + load(rows[d] + x);
+        store(dst + x, a);
     }
 }
 
@@ -119,9 +154,9 @@ static void replicate(float *buf, int64_t first, int64_t n, int64_t w) {
     for (int64_t p = w - first; p < n; p++) buf[p] = buf[w - 1 - first];
 }
 
-/* dst[x] = (src[x] + src[x + 1] + ... + src[x + k - 1]) * inv_kk, x in [0, n8) (n8 % 8 == 0). */
+/* dst[x] = (src[x] + src[x + 1] + ... + src[x + k - 1]) * inv_kk, x < n8 (n8 % 8 == 0). */
 static void horizontal(const float *src, int64_t n8, int64_t k, float inv_kk, float *dst) {
-    v8 scale = splat(inv_kk);
+    const v8 scale = splat(inv_kk);
     for (int64_t x = 0; x < n8; x += LANES) {
         v8 acc = load(src + x);
         for (int64_t d = 1; d < k; d++) acc = acc + load(src + x + d);
@@ -133,87 +168,113 @@ static void horizontal(const float *src, int64_t n8, int64_t k, float inv_kk, fl
 static void solve8(const Job *job, const float *m, int64_t ms, float *coef, int64_t cs) {
     v8 mi[NG], mp[NC], low[NG][NG], inv[NG], x[NG][NC], var[NII];
     const v8 eps = splat(job->eps), floor = splat(job->floor);
+    #pragma GCC unroll 8
     for (int i = 0; i < NG; i++) mi[i] = load(m + i * ms);
+    #pragma GCC unroll 8
     for (int c = 0; c < NC; c++) mp[c] = load(m + (NG + c) * ms);
+    #pragma GCC unroll 8
     for (int i = 0; i < NG; i++)
+        #pragma GCC unroll 8
         for (int j = i; j < NG; j++) {
-            int t = job->tri[i][j];
-            var[t] = load(m + (NG + NC + t) * ms) - mi[i] * mi[j];
-            if (i == j) var[t] = var[t] + eps;
+            var[TRI(i, j)] = load(m + (NB + TRI(i, j)) * ms) - mi[i] * mi[j];
+            if (i == j) var[TRI(i, j)] = var[TRI(i, j)] + eps;
         }
+    #pragma GCC unroll 8
     for (int j = 0; j < NG; j++) {
-        v8 pivot = var[job->tri[j][j]];
+        v8 pivot = var[TRI(j, j)];
+        #pragma GCC unroll 8
         for (int q = 0; q < j; q++) pivot = pivot - low[j][q] * low[j][q];
         inv[j] = splat(1.0f) / vsqrt(clamp_min(pivot, floor));
+        #pragma GCC unroll 8
         for (int i = j + 1; i < NG; i++) {
-            v8 entry = var[job->tri[i][j]];
+            v8 entry = var[TRI(j, i)];
+            #pragma GCC unroll 8
             for (int q = 0; q < j; q++) entry = entry - low[i][q] * low[j][q];
             low[i][j] = entry * inv[j];
         }
     }
+    #pragma GCC unroll 8
     for (int i = 0; i < NG; i++)
+        #pragma GCC unroll 8
         for (int c = 0; c < NC; c++) {
-            v8 v = load(m + (NG + NC + NII + i * NC + c) * ms) - mi[i] * mp[c];
+            v8 v = load(m + (NB + NII + i * NC + c) * ms) - mi[i] * mp[c];
+            #pragma GCC unroll 8
             for (int q = 0; q < i; q++) v = v - low[i][q] * x[q][c];
             x[i][c] = v * inv[i];
         }
+    #pragma GCC unroll 8
     for (int i = NG - 1; i >= 0; i--)
+        #pragma GCC unroll 8
         for (int c = 0; c < NC; c++) {
             v8 v = x[i][c];
+            #pragma GCC unroll 8
             for (int q = i + 1; q < NG; q++) v = v - low[q][i] * x[q][c];
             x[i][c] = v * inv[i];
             store(coef + (i * NC + c) * cs, x[i][c]);
         }
+    #pragma GCC unroll 8
     for (int c = 0; c < NC; c++) {
         v8 sum = splat(0.0f);
+        #pragma GCC unroll 8
         for (int i = 0; i < NG; i++) sum = sum + x[i][c] * mi[i];
         store(coef + (NIP + c) * cs, mp[c] - sum);
     }
 }
 
-/* The coefficients of row `row` at columns [ca, cb) into ring slot row % slots. */
-static void coefficient_row(const Job *job, Buffers *buf, int64_t row, int64_t ca, int64_t cb) {
-    const int64_t r = job->r, first = ca - r, n = cb - ca;
-    const int64_t lo = first < 0 ? 0 : first, hi = cb + r > job->w ? job->w : cb + r;
+/* The columns of a tile: output [x0, x1), coefficients [ca, cb), inputs [lo, hi). */
+typedef struct {
+    int64_t x0, x1, ca, cb, lo, hi;
+} Tile;
+
+/* Coefficient row c at the tile's columns [ca, cb), into the coefficient ring. */
+static void coefficient_row(const Job *job, Buffers *buf, const Tile *tile, int64_t c) {
+    const int64_t r = job->r, first = tile->ca - r, n = tile->cb - tile->ca;
+    const float **rows = buf->rows;
     for (int s = 0; s < NSTAT; s++) {
         float *vp = buf->vp + s * buf->vw;
-        vertical(job, s, row, lo, hi, vp + (lo - first));
+        for (int64_t d = 0; d < job->k; d++) {
+            int64_t q = clamp64(c - r + d, 0, job->h - 1);
+            rows[d] = buf->ring + ((q % job->slots) * NSTAT + s) * buf->rw;
+        }
+        vertical(rows, job->k, round8(tile->hi - tile->lo), vp + (tile->lo - first));
         replicate(vp, first, n + 2 * r, job->w);
         horizontal(vp, round8(n), job->k, job->inv_kk, buf->mean + s * buf->cw);
     }
-    float *slot = buf->ring + (row % job->slots) * NCOEF * buf->cw;
+    float *slot = buf->coef_ring + (c % job->slots) * NCOEF * buf->cw;
     for (int64_t x = 0; x < n; x += LANES)
         solve8(job, buf->mean + x, buf->cw, slot + x, buf->cw);
 }
 
-/* Output row y at columns [x0, x1), from the ring that holds coefficient columns [ca, cb). */
-static void output_row(const Job *job, Buffers *buf, int64_t y, int64_t x0, int64_t x1,
-                       int64_t ca, int64_t cb) {
-    const int64_t r = job->r, first = x0 - r, n = x1 - x0, nc = cb - ca, w = job->w;
-    const int64_t ring_row = NCOEF * buf->cw;
+/* Output row y at the tile's columns [x0, x1): box means of the coefficients, times the guide. */
+static void output_row(const Job *job, Buffers *buf, const Tile *tile, int64_t y) {
+    const int64_t r = job->r, first = tile->x0 - r, n = tile->x1 - tile->x0;
+    const float **rows = buf->rows;
     for (int ch = 0; ch < NCOEF; ch++) {
-        float *cp = buf->cp + ch * buf->pw, *dst = cp + (ca - first);
+        float *cp = buf->cp + ch * buf->pw;
         for (int64_t d = 0; d < job->k; d++) {
-            int64_t row = clamp64(y - r + d, 0, job->h - 1);
-            const float *src = buf->ring + (row % job->slots) * ring_row + ch * buf->cw;
-            int64_t x = 0;
-            if (d == 0) {
-                memcpy(dst, src, (size_t)nc * sizeof(float));
-                continue;
-            }
-            for (; x + LANES <= nc; x += LANES) store(dst + x, load(dst + x) + load(src + x));
-            for (; x < nc; x++) dst[x] = dst[x] + src[x];
+            int64_t q = clamp64(y - r + d, 0, job->h - 1);
+            rows[d] = buf->coef_ring + ((q % job->slots) * NCOEF + ch) * buf->cw;
         }
-        replicate(cp, first, n + 2 * r, w);
+        vertical(rows, job->k, round8(tile->cb - tile->ca), cp + (tile->ca - first));
+        replicate(cp, first, n + 2 * r, job->w);
         horizontal(cp, round8(n), job->k, job->inv_kk, buf->coef + ch * buf->tw);
     }
+    const float *guide = buf->ring + (y % job->slots) * NSTAT * buf->rw + (tile->x0 - tile->lo);
     for (int c = 0; c < NC; c++) {
-        float *out = job->out + (c * job->h + y) * w + x0;
-        for (int64_t x = 0; x < n; x++) {
-            float sum = 0.0f;
+        float *out = job->out + (c * job->h + y) * job->w + tile->x0;
+        for (int64_t x = 0; x < n; x += LANES) {
+            v8 sum = splat(0.0f);
             for (int i = 0; i < NG; i++)
-                sum = sum + buf->coef[(i * NC + c) * buf->tw + x] * job->in[i][y * w + x0 + x];
-            out[x] = sum + buf->coef[(NIP + c) * buf->tw + x];
+                sum = sum + load(buf->coef + (i * NC + c) * buf->tw + x) *
+                                load(guide + i * buf->rw + x);
+            sum = sum + load(buf->coef + (NIP + c) * buf->tw + x);
+            if (x + LANES <= n) {
+                store(out + x, sum);
+            } else {
+                float last[LANES];
+                store(last, sum);
+                memcpy(out + x, last, (size_t)(n - x) * sizeof(float));
+            }
         }
     }
 }
@@ -227,84 +288,102 @@ static void *alloc(int64_t floats) {
 
 static int make_buffers(const Job *job, Buffers *buf) {
     const int64_t r = job->r;
-    buf->cw = round8(TILE + 2 * r);
-    buf->vw = round8(buf->cw + 2 * r);
+    memset(buf, 0, sizeof *buf);
+    buf->rw = round8(min64(job->w, TILE + 4 * r));
+    buf->cw = round8(min64(job->w, TILE + 2 * r));
     buf->tw = round8(TILE);
-    buf->pw = round8(buf->tw + 2 * r);
+    buf->vw = round8(2 * r) + buf->rw + buf->cw;
+    buf->pw = round8(2 * r) + buf->cw + buf->tw;
+    buf->rows = malloc((size_t)job->k * sizeof *buf->rows);
+    buf->ring = alloc(job->slots * NSTAT * buf->rw);
     buf->vp = alloc(NSTAT * buf->vw);
     buf->mean = alloc(NSTAT * buf->cw);
-    buf->ring = alloc(job->slots * NCOEF * buf->cw);
+    buf->coef_ring = alloc(job->slots * NCOEF * buf->cw);
     buf->cp = alloc(NCOEF * buf->pw);
     buf->coef = alloc(NCOEF * buf->tw);
-    return buf->vp && buf->mean && buf->ring && buf->cp && buf->coef;
+    return buf->ring && buf->vp && buf->mean && buf->coef_ring && buf->cp && buf->coef &&
+           buf->rows;
 }
 
 static void free_buffers(Buffers *buf) {
-    free(buf->vp), free(buf->mean), free(buf->ring), free(buf->cp), free(buf->coef);
+    free(buf->ring), free(buf->vp), free(buf->mean);
+    free(buf->coef_ring), free(buf->cp), free(buf->coef), free(buf->rows);
 }
 
 typedef struct {
     const Job *job;
     int64_t y0, y1;
-    int status;
+    int status, big[3], nan[3];
 } Band;
+
+/* Rows [y0, y1) at one tile's columns: input rows enter the ring as coefficient rows need them,
+ * coefficient rows as output rows need them. */
+static void run_tile(const Job *job, Buffers *buf, const Band *band, const Tile *tile) {
+    const int64_t r = job->r, h = job->h;
+    int64_t next_in = max64(0, band->y0 - 2 * r), next_c = max64(0, band->y0 - r);
+    for (int64_t y = band->y0; y < band->y1; y++) {
+        for (; next_c <= min64(h - 1, y + r); next_c++) {
+            for (; next_in <= min64(h - 1, next_c + r); next_in++)
+                fill_row(job, buf, next_in, tile->lo, tile->hi - tile->lo);
+            coefficient_row(job, buf, tile, next_c);
+        }
+        output_row(job, buf, tile, y);
+    }
+}
 
 static void *run_band(void *arg) {
     Band *band = arg;
     const Job *job = band->job;
+    const int64_t r = job->r, w = job->w;
     Buffers buf;
-    if (!make_buffers(job, &buf)) {
-        free_buffers(&buf);
-        band->status = 1;
-        return NULL;
+    band->status = make_buffers(job, &buf) ? 0 : 1;
+    for (int64_t x0 = 0; x0 < w && band->status == 0; x0 += TILE) {
+        Tile tile = {x0, min64(w, x0 + TILE), max64(0, x0 - r), min64(w, x0 + TILE + r),
+                     max64(0, x0 - 2 * r), min64(w, x0 + TILE + 2 * r)};
+        run_tile(job, &buf, band, &tile);
     }
-    for (int64_t x0 = 0; x0 < job->w; x0 += TILE) {
-        int64_t x1 = x0 + TILE < job->w ? x0 + TILE : job->w;
-        int64_t ca = x0 - job->r < 0 ? 0 : x0 - job->r;
-        int64_t cb = x1 + job->r > job->w ? job->w : x1 + job->r;
-        int64_t next = band->y0 - job->r < 0 ? 0 : band->y0 - job->r;
-        for (int64_t y = band->y0; y < band->y1; y++) {
-            int64_t last = y + job->r < job->h ? y + job->r : job->h - 1;
-            for (; next <= last; next++) coefficient_row(job, &buf, next, ca, cb);
-            output_row(job, &buf, y, x0, x1, ca, cb);
+    for (int p = 0; p < 3; p++)
+        for (int l = 0; l < LANES; l++) {
+            band->big[p] |= buf.big[p][l] != 0;
+            band->nan[p] |= buf.nan[p][l] != 0;
         }
-    }
     free_buffers(&buf);
-    band->status = 0;
     return NULL;
 }
 
-/* Returns 0 on success, 1 when a buffer could not be allocated or the sizes are refused. */
-int bnerr_guided(const float *albedo, const float *normal, const float *lum, const float *color,
-                 float *out, int64_t h, int64_t w, int64_t radius, float eps, float floor,
-                 float inv_kk, int threads) {
+/* Returns 0 on success, 1 when the sizes are refused or a buffer could not be allocated, 2 when
+ * an input holds a value above 1e18 (the caller filters in float64; out is then undefined). */
+int bnerr_guided(const float *albedo, const float *normal, const float *color, float *out,
+                 int64_t h, int64_t w, int64_t radius, float eps, float floor, float inv_kk,
+                 float scale, float w0, float w1, float w2, int threads) {
     if (h <= 0 || w <= 0 || radius < 1 || radius > (int64_t)1 << 20) return 1;
-    Job job = {.out = out, .h = h, .w = w, .r = radius, .k = 2 * radius + 1,
-               .eps = eps, .floor = floor, .inv_kk = inv_kk};
-    job.slots = job.k < h ? job.k : h;
+    Job job = {.out = out, .h = h, .w = w, .r = radius, .k = 2 * radius + 1, .eps = eps,
+               .floor = floor, .inv_kk = inv_kk, .scale = scale, .weight = {w0, w1, w2}};
+    job.slots = min64(job.k, h);
     for (int c = 0; c < 3; c++) {
         job.in[c] = albedo + c * h * w;
         job.in[3 + c] = normal + c * h * w;
-        job.in[NG + c] = color + c * h * w;
+        job.in[6 + c] = color + c * h * w;
     }
-    job.in[6] = lum;
-    init_job(&job);
-    if (threads < 1) threads = 1;
-    if (threads > MAX_THREADS) threads = MAX_THREADS;
-    if (threads > h) threads = (int)h;
+    init_pairs(&job);
+    threads = (int)min64(min64(threads < 1 ? 1 : threads, MAX_THREADS), h);
     Band bands[MAX_THREADS];
     pthread_t ids[MAX_THREADS];
     int started[MAX_THREADS] = {0};
     for (int t = 0; t < threads; t++)
-        bands[t] = (Band){&job, h * t / threads, h * (t + 1) / threads, 1};
+        bands[t] = (Band){&job, h * t / threads, h * (t + 1) / threads, 1, {0}, {0}};
     for (int t = 1; t < threads; t++)
         started[t] = pthread_create(&ids[t], NULL, run_band, &bands[t]) == 0;
     run_band(&bands[0]);
-    int status = bands[0].status;
-    for (int t = 1; t < threads; t++) {
-        if (started[t]) pthread_join(ids[t], NULL);
-        else run_band(&bands[t]);
+    int status = 0, big[3] = {0}, nan[3] = {0};
+    for (int t = 0; t < threads; t++) {
+        if (t > 0 && started[t]) pthread_join(ids[t], NULL);
+        else if (t > 0) run_band(&bands[t]);
         status |= bands[t].status;
+        for (int p = 0; p < 3; p++) big[p] |= bands[t].big[p], nan[p] |= bands[t].nan[p];
     }
-    return status;
+    if (status) return 1;
+    for (int p = 0; p < 3; p++)
+        if (big[p] && !nan[p]) return 2;
+    return 0;
 }
