@@ -74,7 +74,6 @@ typedef struct {
     float *out;
     int64_t h, w, r, k, slots;
     float eps, floor, inv_kk, scale, weight[3];
-    int pair_a[NP], pair_b[NP]; /* product t is base channel a times base channel b */
 } Job;
 
 typedef struct {
@@ -88,14 +87,6 @@ static int64_t round8(int64_t n) { return (n + LANES - 1) / LANES * LANES; }
 static int64_t clamp64(int64_t v, int64_t lo, int64_t hi) { return v < lo ? lo : v > hi ? hi : v; }
 static int64_t min64(int64_t a, int64_t b) { return a < b ? a : b; }
 static int64_t max64(int64_t a, int64_t b) { return a > b ? a : b; }
-
-static void init_pairs(Job *job) {
-    int t = 0;
-    for (int i = 0; i < NG; i++)
-        for (int j = i; j < NG; j++, t++) job->pair_a[t] = i, job->pair_b[t] = j;
-    for (int i = 0; i < NG; i++)
-        for (int c = 0; c < NC; c++, t++) job->pair_a[t] = i, job->pair_b[t] = NG + c;
-}
 
 /* Ring slot of input row q's columns [lo, lo + n): the 59 window channels, 8 columns at a time
  * (the last chunk through a zero-padded copy, so nothing past the planes is read). */
@@ -124,13 +115,21 @@ static void fill_row(const Job *job, Buffers *buf, int64_t q, int64_t lo, int64_
         base[6] = ((in[6] / scale) * splat(job->weight[0]) + (in[7] / scale) * splat(job->weight[1]))
                   + (in[8] / scale) * splat(job->weight[2]);
         for (int c = 0; c < NB; c++) store(dst + c * buf->rw + x, base[c]);
-        for (int t = 0; t < NP; t++)
-            store(dst + (NB + t) * buf->rw + x, base[job->pair_a[t]] * base[job->pair_b[t]]);
+#pragma GCC unroll 8
+        for (int i = 0; i < NG; i++) {
+#pragma GCC unroll 8
+            for (int j = i; j < NG; j++)
+                store(dst + (NB + TRI(i, j)) * buf->rw + x, base[i] * base[j]);
+#pragma GCC unroll 8
+            for (int c = 0; c < NC; c++)
+                store(dst + (NB + NII + i * NC + c) * buf->rw + x, base[i] * base[NG + c]);
+        }
     }
 }
 
 /* dst[x] = rows[0][x] + rows[1][x] + ... + rows[k - 1][x] (in that order), x < n8 (n8 % 8 == 0). */
-static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst) {
+static inline __attribute__((always_inline)) void vertical_k(const float *const *rows, int64_t k,
+                                                             int64_t n8, float *dst) {
     int64_t x = 0;
     for (; x + 2 * LANES <= n8; x += 2 * LANES) {
         v8 a = load(rows[0] + x), b = load(rows[0] + x + LANES);
@@ -147,6 +146,16 @@ static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst
     }
 }
 
+/* vertical_k, with the loop over rows unrolled for the radii 1 to 3. */
+static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst) {
+    switch (k) {
+    case 3: vertical_k(rows, 3, n8, dst); break;
+    case 5: vertical_k(rows, 5, n8, dst); break;
+    case 7: vertical_k(rows, 7, n8, dst); break;
+    default: vertical_k(rows, k, n8, dst);
+    }
+}
+
 /* Replicate the border: buf[p] holds column first + p for p in [0, n); positions whose column is
  * left of 0 (right of w - 1) get column 0's (w - 1's) value, which is already in buf. */
 static void replicate(float *buf, int64_t first, int64_t n, int64_t w) {
@@ -155,12 +164,23 @@ static void replicate(float *buf, int64_t first, int64_t n, int64_t w) {
 }
 
 /* dst[x] = (src[x] + src[x + 1] + ... + src[x + k - 1]) * inv_kk, x < n8 (n8 % 8 == 0). */
-static void horizontal(const float *src, int64_t n8, int64_t k, float inv_kk, float *dst) {
+static inline __attribute__((always_inline)) void horizontal_k(const float *src, int64_t n8,
+                                                               int64_t k, float inv_kk, float *dst) {
     const v8 scale = splat(inv_kk);
     for (int64_t x = 0; x < n8; x += LANES) {
         v8 acc = load(src + x);
         for (int64_t d = 1; d < k; d++) acc = acc + load(src + x + d);
         store(dst + x, acc * scale);
+    }
+}
+
+/* horizontal_k, with the loop over columns unrolled for the radii 1 to 3. */
+static void horizontal(const float *src, int64_t n8, int64_t k, float inv_kk, float *dst) {
+    switch (k) {
+    case 3: horizontal_k(src, n8, 3, inv_kk, dst); break;
+    case 5: horizontal_k(src, n8, 5, inv_kk, dst); break;
+    case 7: horizontal_k(src, n8, 7, inv_kk, dst); break;
+    default: horizontal_k(src, n8, k, inv_kk, dst);
     }
 }
 
@@ -365,7 +385,6 @@ int bnerr_guided(const float *albedo, const float *normal, const float *color, f
         job.in[3 + c] = normal + c * h * w;
         job.in[6 + c] = color + c * h * w;
     }
-    init_pairs(&job);
     threads = (int)min64(min64(threads < 1 ? 1 : threads, MAX_THREADS), h);
     Band bands[MAX_THREADS];
     pthread_t ids[MAX_THREADS];
