@@ -10,10 +10,11 @@
  * -ffp-contract=off); they differ from torch's own kernels by a few float32 roundings.
  *
  * Layout: each thread takes a band of output rows and walks it tile by tile (TILE columns plus
- * halos). Per tile it keeps in its caches a ring of the last 2r + 1 input rows with their 59
- * window channels (guide, color, the 28 guide products and the 21 guide-color products), the
- * window means of one row, and a ring of the last 2r + 1 rows of coefficients. Every value is
- * computed by the same operations whatever band it falls in, so the result does not depend on
+ * halos), two rows at a time (their windows share 2r rows, read once). Per tile it keeps in its
+ * caches a ring of the last 2r + 2 input rows with their 59 window channels (guide, color, the 28
+ * guide products and the 21 guide-color products), the window means of two rows, and a ring of
+ * the last 2r + 2 rows of coefficients. Every value is computed by the same operations whatever
+ * band it falls in and whether it is computed alone or paired, so the result does not depend on
  * the thread count.
  *
  * Fireflies: the caller filters a frame with a value above 1e18 in float64 instead (its square
@@ -127,33 +128,35 @@ static void fill_row(const Job *job, Buffers *buf, int64_t q, int64_t lo, int64_
     }
 }
 
-/* dst[x] = rows[0][x] + rows[1][x] + ... + rows[k - 1][x] (in that order), x < n8 (n8 % 8 == 0). */
+/* dst[x] = rows[0][x] + rows[1][x] + ... + rows[k - 1][x] (in that order), x < n8 (n8 % 8 == 0);
+ * with `pair`, also next[x] = rows[1][x] + ... + rows[k][x] (the window one row down), from the
+ * same loads. */
 static inline __attribute__((always_inline)) void vertical_k(const float *const *rows, int64_t k,
-                                                             int64_t n8, float *dst) {
-    int64_t x = 0;
-    for (; x + 2 * LANES <= n8; x += 2 * LANES) {
-        v8 a = load(rows[0] + x), b = load(rows[0] + x + LANES);
-        for (int64_t d = 1; d < k; d++) {
-            a = a + load(rows[d] + x);
-            b = b + load(rows[d] + x + LANES);
+                                                             int64_t n8, float *dst, float *next,
+                                                             int pair) {
+    for (int64_t x = 0; x < n8; x += LANES) {
+        v8 b = load(rows[1] + x), a = load(rows[0] + x) + b;
+        for (int64_t d = 2; d < k; d++) {
+            v8 v = load(rows[d] + x);
+            a = a + v;
+            if (pair) b = b + v;
         }
-        store(dst + x, a), store(dst + x + LANES, b);
-    }
-    if (x < n8) {
-        v8 a = load(rows[0] + x);
-        for (int64_t d = 1; d < k; d++) a = a + load(rows[d] + x);
         store(dst + x, a);
+        if (pair) store(next + x, b + load(rows[k] + x));
     }
 }
 
-/* vertical_k, with the loop over rows unrolled for the radii 1 to 3. */
-static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst) {
+/* vertical_k for one row (next == NULL) or two, unrolled for the radii 1 to 3. */
+static void vertical(const float *const *rows, int64_t k, int64_t n8, float *dst, float *next) {
+#define VERTICAL(K)                                                                               \
+    (next ? vertical_k(rows, K, n8, dst, next, 1) : vertical_k(rows, K, n8, dst, NULL, 0))
     switch (k) {
-    case 3: vertical_k(rows, 3, n8, dst); break;
-    case 5: vertical_k(rows, 5, n8, dst); break;
-    case 7: vertical_k(rows, 7, n8, dst); break;
-    default: vertical_k(rows, k, n8, dst);
+    case 3: VERTICAL(3); break;
+    case 5: VERTICAL(5); break;
+    case 7: VERTICAL(7); break;
+    default: VERTICAL(k);
     }
+#undef VERTICAL
 }
 
 /* Replicate the border: buf[p] holds column first + p for p in [0, n); positions whose column is
@@ -246,48 +249,44 @@ typedef struct {
     int64_t x0, x1, ca, cb, lo, hi;
 } Tile;
 
-/* Coefficient row c at the tile's columns [ca, cb), into the coefficient ring. */
-static void coefficient_row(const Job *job, Buffers *buf, const Tile *tile, int64_t c) {
+/* Coefficient rows c and, with `pair`, c + 1 at the tile's columns [ca, cb), into their ring. */
+static void coefficient_rows(const Job *job, Buffers *buf, const Tile *tile, int64_t c, int pair) {
     const int64_t r = job->r, first = tile->ca - r, n = tile->cb - tile->ca;
     const float **rows = buf->rows;
+    float *vp[2] = {buf->vp, buf->vp + buf->vw};
     for (int s = 0; s < NSTAT; s++) {
-        float *vp = buf->vp + s * buf->vw;
-        for (int64_t d = 0; d < job->k; d++) {
+        for (int64_t d = 0; d < job->k + pair; d++) {
             int64_t q = clamp64(c - r + d, 0, job->h - 1);
             rows[d] = buf->ring + ((q % job->slots) * NSTAT + s) * buf->rw;
         }
-        vertical(rows, job->k, round8(tile->hi - tile->lo), vp + (tile->lo - first));
-        replicate(vp, first, n + 2 * r, job->w);
-        horizontal(vp, round8(n), job->k, job->inv_kk, buf->mean + s * buf->cw);
+        int64_t offset = tile->lo - first;
+        vertical(rows, job->k, round8(tile->hi - tile->lo), vp[0] + offset,
+                 pair ? vp[1] + offset : NULL);
+        for (int j = 0; j <= pair; j++) {
+            replicate(vp[j], first, n + 2 * r, job->w);
+            horizontal(vp[j], round8(n), job->k, job->inv_kk,
+                       buf->mean + (j * NSTAT + s) * buf->cw);
+        }
     }
-    float *slot = buf->coef_ring + (c % job->slots) * NCOEF * buf->cw;
-    for (int64_t x = 0; x < n; x += LANES)
-        solve8(job, buf->mean + x, buf->cw, slot + x, buf->cw);
+    for (int j = 0; j <= pair; j++) {
+        float *slot = buf->coef_ring + ((c + j) % job->slots) * NCOEF * buf->cw;
+        const float *mean = buf->mean + j * NSTAT * buf->cw;
+        for (int64_t x = 0; x < n; x += LANES) solve8(job, mean + x, buf->cw, slot + x, buf->cw);
+    }
 }
 
-/* Output row y at the tile's columns [x0, x1): box means of the coefficients, times the guide. */
-static void output_row(const Job *job, Buffers *buf, const Tile *tile, int64_t y) {
-    const int64_t r = job->r, first = tile->x0 - r, n = tile->x1 - tile->x0;
-    const float **rows = buf->rows;
-    for (int ch = 0; ch < NCOEF; ch++) {
-        float *cp = buf->cp + ch * buf->pw;
-        for (int64_t d = 0; d < job->k; d++) {
-            int64_t q = clamp64(y - r + d, 0, job->h - 1);
-            rows[d] = buf->coef_ring + ((q % job->slots) * NCOEF + ch) * buf->cw;
-        }
-        vertical(rows, job->k, round8(tile->cb - tile->ca), cp + (tile->ca - first));
-        replicate(cp, first, n + 2 * r, job->w);
-        horizontal(cp, round8(n), job->k, job->inv_kk, buf->coef + ch * buf->tw);
-    }
+/* Output row y at the tile's columns [x0, x1) from its box-averaged coefficients `coef`. */
+static void combine(const Job *job, const Buffers *buf, const Tile *tile, int64_t y,
+                    const float *coef) {
+    const int64_t n = tile->x1 - tile->x0;
     const float *guide = buf->ring + (y % job->slots) * NSTAT * buf->rw + (tile->x0 - tile->lo);
     for (int c = 0; c < NC; c++) {
         float *out = job->out + (c * job->h + y) * job->w + tile->x0;
         for (int64_t x = 0; x < n; x += LANES) {
             v8 sum = splat(0.0f);
             for (int i = 0; i < NG; i++)
-                sum = sum + load(buf->coef + (i * NC + c) * buf->tw + x) *
-                                load(guide + i * buf->rw + x);
-            sum = sum + load(buf->coef + (NIP + c) * buf->tw + x);
+                sum = sum + load(coef + (i * NC + c) * buf->tw + x) * load(guide + i * buf->rw + x);
+            sum = sum + load(coef + (NIP + c) * buf->tw + x);
             if (x + LANES <= n) {
                 store(out + x, sum);
             } else {
@@ -297,6 +296,28 @@ static void output_row(const Job *job, Buffers *buf, const Tile *tile, int64_t y
             }
         }
     }
+}
+
+/* Output rows y and, with `pair`, y + 1: box means of the coefficients, times the guide. */
+static void output_rows(const Job *job, Buffers *buf, const Tile *tile, int64_t y, int pair) {
+    const int64_t r = job->r, first = tile->x0 - r, n = tile->x1 - tile->x0;
+    const float **rows = buf->rows;
+    float *cp[2] = {buf->cp, buf->cp + buf->pw};
+    for (int ch = 0; ch < NCOEF; ch++) {
+        for (int64_t d = 0; d < job->k + pair; d++) {
+            int64_t q = clamp64(y - r + d, 0, job->h - 1);
+            rows[d] = buf->coef_ring + ((q % job->slots) * NCOEF + ch) * buf->cw;
+        }
+        int64_t offset = tile->ca - first;
+        vertical(rows, job->k, round8(tile->cb - tile->ca), cp[0] + offset,
+                 pair ? cp[1] + offset : NULL);
+        for (int j = 0; j <= pair; j++) {
+            replicate(cp[j], first, n + 2 * r, job->w);
+            horizontal(cp[j], round8(n), job->k, job->inv_kk,
+                       buf->coef + (j * NCOEF + ch) * buf->tw);
+        }
+    }
+    for (int j = 0; j <= pair; j++) combine(job, buf, tile, y + j, buf->coef + j * NCOEF * buf->tw);
 }
 
 static void *alloc(int64_t floats) {
@@ -314,13 +335,13 @@ static int make_buffers(const Job *job, Buffers *buf) {
     buf->tw = round8(TILE);
     buf->vw = round8(2 * r) + buf->rw + buf->cw;
     buf->pw = round8(2 * r) + buf->cw + buf->tw;
-    buf->rows = malloc((size_t)job->k * sizeof *buf->rows);
+    buf->rows = malloc((size_t)(job->k + 1) * sizeof *buf->rows);
     buf->ring = alloc(job->slots * NSTAT * buf->rw);
-    buf->vp = alloc(NSTAT * buf->vw);
-    buf->mean = alloc(NSTAT * buf->cw);
+    buf->vp = alloc(2 * buf->vw);
+    buf->mean = alloc(2 * NSTAT * buf->cw);
     buf->coef_ring = alloc(job->slots * NCOEF * buf->cw);
-    buf->cp = alloc(NCOEF * buf->pw);
-    buf->coef = alloc(NCOEF * buf->tw);
+    buf->cp = alloc(2 * buf->pw);
+    buf->coef = alloc(2 * NCOEF * buf->tw);
     return buf->ring && buf->vp && buf->mean && buf->coef_ring && buf->cp && buf->coef &&
            buf->rows;
 }
@@ -336,18 +357,22 @@ typedef struct {
     int status, big[3], nan[3];
 } Band;
 
-/* Rows [y0, y1) at one tile's columns: input rows enter the ring as coefficient rows need them,
- * coefficient rows as output rows need them. */
+/* Rows [y0, y1) at one tile's columns, two at a time: input rows enter the ring as coefficient
+ * rows need them, coefficient rows (two at a time where both are due) as output rows need them. */
 static void run_tile(const Job *job, Buffers *buf, const Band *band, const Tile *tile) {
     const int64_t r = job->r, h = job->h;
     int64_t next_in = max64(0, band->y0 - 2 * r), next_c = max64(0, band->y0 - r);
-    for (int64_t y = band->y0; y < band->y1; y++) {
-        for (; next_c <= min64(h - 1, y + r); next_c++) {
-            for (; next_in <= min64(h - 1, next_c + r); next_in++)
+    for (int64_t y = band->y0; y < band->y1; y += 2) {
+        int pair_out = y + 1 < band->y1;
+        int64_t last_c = min64(h - 1, y + pair_out + r);
+        while (next_c <= last_c) {
+            int pair = next_c + 1 <= last_c;
+            for (; next_in <= min64(h - 1, next_c + pair + r); next_in++)
                 fill_row(job, buf, next_in, tile->lo, tile->hi - tile->lo);
-            coefficient_row(job, buf, tile, next_c);
+            coefficient_rows(job, buf, tile, next_c, pair);
+            next_c += 1 + pair;
         }
-        output_row(job, buf, tile, y);
+        output_rows(job, buf, tile, y, pair_out);
     }
 }
 
@@ -379,7 +404,7 @@ int bnerr_guided(const float *albedo, const float *normal, const float *color, f
     if (h <= 0 || w <= 0 || radius < 1 || radius > (int64_t)1 << 20) return 1;
     Job job = {.out = out, .h = h, .w = w, .r = radius, .k = 2 * radius + 1, .eps = eps,
                .floor = floor, .inv_kk = inv_kk, .scale = scale, .weight = {w0, w1, w2}};
-    job.slots = min64(job.k, h);
+    job.slots = min64(job.k + 1, h); /* the rows of two windows, one row apart */
     for (int c = 0; c < 3; c++) {
         job.in[c] = albedo + c * h * w;
         job.in[3 + c] = normal + c * h * w;
