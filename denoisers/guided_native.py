@@ -13,10 +13,10 @@ in the same order, band by band and tile by tile, with the statistics of one row
 ``2 radius + 1`` coefficient rows in the CPU's caches, and 8 pixels per SIMD vector in the solve.
 
 Agreement: the kernel does the torch path's operations in its order, without fused
-multiply-adds; torch's own kernels fuse some (``addcmul``), sum seven planes in another order and
-round ``rsqrt`` differently, so the two differ by a few float32 roundings (measured below 4e-7 of
-the largest output value at eps >= 1e-2). Results do not depend on the thread count: each value
-is computed by the same operations whatever band it falls in.
+multiply-adds; torch's own kernels fuse some (``addcmul``) and sum seven planes in another order,
+and neither computes ``1 / sqrt`` exactly, so the two differ by a few float32 roundings (measured
+below 3e-7 of the largest output value, eps 1e-8 to 10). Results do not depend on the thread
+count: each value is computed by the same operations whatever band it falls in.
 """
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ TORCH_PATH_COST = "the guided filter runs about 10x slower on the CPU at 1080p"
 _SYMBOLS = ("bnerr_guided",)
 # Below this many pixels one thread does it all (thread start-up would cost more than it saves).
 _THREADED_PIXELS = 1 << 16
-# Self-check tolerance, relative to the largest output value. Measured on the check's inputs
-# (eps 1e-2 to 1): at most 3.3e-7; the systems there have condition numbers below 1e3, so a few
+# Self-check tolerance, relative to the largest output value. Measured on the check's inputs:
+# below 3e-7; the systems there (eps 1e-2 to 1) have condition numbers below 1e3, so a few
 # roundings of 6e-8 in the window sums move the output by at most about 1e-5 (the bound of the
-# kornia comparison in tests/test_filters.py). A wrong kernel errs by the size of the values.
+# tests against kornia). A wrong kernel errs by the size of the values.
 _CHECK_TOLERANCE = 1e-5
 
 

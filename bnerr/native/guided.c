@@ -54,12 +54,15 @@ static inline v8 load(const float *p) { return *(const v8u *)p; }
 static inline void store(float *p, v8 v) { *(v8u *)p = v; }
 static inline v8 splat(float x) { return (v8){x, x, x, x, x, x, x, x}; }
 
-static inline v8 vsqrt(v8 x) {
+/* 1 / sqrt(x) for x > 0 to about 2 ulp: the hardware estimate and one Newton step (a division
+ * and a square root cost about ten times as much; torch's own rsqrt is not exact either). */
+static inline v8 inv_sqrt(v8 x) {
 #if defined(__AVX__)
-    return (v8)_mm256_sqrt_ps((__m256)x);
+    v8 y = (v8)_mm256_rsqrt_ps((__m256)x);
+    return y * (splat(1.5f) - (splat(0.5f) * x) * (y * y));
 #else
     v8 r;
-    for (int l = 0; l < LANES; l++) r[l] = sqrtf(x[l]);
+    for (int l = 0; l < LANES; l++) r[l] = 1.0f / sqrtf(x[l]);
     return r;
 #endif
 }
@@ -207,7 +210,7 @@ static void solve8(const Job *job, const float *m, int64_t ms, float *coef, int6
         v8 pivot = var[TRI(j, j)];
         #pragma GCC unroll 8
         for (int q = 0; q < j; q++) pivot = pivot - low[j][q] * low[j][q];
-        inv[j] = splat(1.0f) / vsqrt(clamp_min(pivot, floor));
+        inv[j] = inv_sqrt(clamp_min(pivot, floor));
         #pragma GCC unroll 8
         for (int i = j + 1; i < NG; i++) {
             v8 entry = var[TRI(j, i)];
