@@ -27,7 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#if defined(__AVX__)
+#if defined(__AVX__) || defined(__SSE__)
 #include <immintrin.h>
 #endif
 
@@ -60,6 +60,13 @@ static inline v8 inv_sqrt(v8 x) {
 #if defined(__AVX__)
     v8 y = (v8)_mm256_rsqrt_ps((__m256)x);
     return y * (splat(1.5f) - (splat(0.5f) * x) * (y * y));
+#elif defined(__SSE__)
+    __m128 lo = _mm_sqrt_ps(_mm_loadu_ps((const float *)&x));
+    __m128 hi = _mm_sqrt_ps(_mm_loadu_ps((const float *)&x + 4));
+    v8 root;
+    _mm_storeu_ps((float *)&root, lo);
+    _mm_storeu_ps((float *)&root + 4, hi);
+    return splat(1.0f) / root;
 #else
     v8 r;
     for (int l = 0; l < LANES; l++) r[l] = 1.0f / sqrtf(x[l]);
