@@ -196,7 +196,7 @@ def guided_filter(
     a pixel above about 1e18 (the output was NaN); such a frame is filtered in float64 and
     returned in the input's dtype.
 
-    On the CPU in float32 a C kernel computes the same operations in the same order about ten
+    On the CPU in float32 a C kernel computes the same operations in the same order about 30
     times faster (:mod:`denoisers.guided_native`); elsewhere, or without a C compiler, the torch
     path below runs.
     """
