@@ -143,3 +143,16 @@ def test_guided_filter_uses_the_kernel_on_cpu_float32():
     want = guided_native.run_kernel(KERNELS, color, albedo, normal, 3, 0.1)
     assert torch.equal(guided_filter(color, albedo, normal, 3, 0.1), want)
     assert guided_native._self_check(KERNELS)
+
+
+@needs_kernel
+def test_a_kernel_failing_its_self_check_is_not_used(monkeypatch):
+    color, albedo, normal = _inputs(10, 12, seed=9)
+    failing = native.SelfCheckedKernels(
+        lambda kernels: False, "a test kernel", guided_native._LIBRARY
+    )
+    monkeypatch.setattr(guided_native, "_checked", failing)
+    with pytest.warns(RuntimeWarning, match="a test kernel disagrees with the torch path"):
+        assert guided_native.native_guided(color, albedo, normal, 2, 1.0) is None
+    want = _guided_torch(color, albedo, normal, 2, 1.0)
+    assert torch.equal(guided_filter(color, albedo, normal, 2, 1.0), want)
