@@ -42,6 +42,7 @@
 #define TILE 128
 #define LANES 8
 #define MAX_THREADS 64
+#define BANDS_PER_THREAD 4 /* bands of rows per thread, handed out as threads come free */
 #define BIG 1e18f
 /* Index of the guide product (i, j), i <= j, in the row-by-row upper triangle. */
 #define TRI(i, j) ((i) * NG - (i) * ((i) - 1) / 2 + (j) - (i))
@@ -361,19 +362,13 @@ static void free_buffers(Buffers *buf) {
     free(buf->coef_ring), free(buf->cp), free(buf->coef), free(buf->rows);
 }
 
-typedef struct {
-    const Job *job;
-    int64_t y0, y1;
-    int status, big[3], nan[3];
-} Band;
-
 /* Rows [y0, y1) at one tile's columns, two at a time: input rows enter the ring as coefficient
  * rows need them, coefficient rows (two at a time where both are due) as output rows need them. */
-static void run_tile(const Job *job, Buffers *buf, const Band *band, const Tile *tile) {
+static void run_tile(const Job *job, Buffers *buf, int64_t y0, int64_t y1, const Tile *tile) {
     const int64_t r = job->r, h = job->h;
-    int64_t next_in = max64(0, band->y0 - 2 * r), next_c = max64(0, band->y0 - r);
-    for (int64_t y = band->y0; y < band->y1; y += 2) {
-        int pair_out = y + 1 < band->y1;
+    int64_t next_in = max64(0, y0 - 2 * r), next_c = max64(0, y0 - r);
+    for (int64_t y = y0; y < y1; y += 2) {
+        int pair_out = y + 1 < y1;
         int64_t last_c = min64(h - 1, y + pair_out + r);
         while (next_c <= last_c) {
             int pair = next_c + 1 <= last_c;
@@ -386,21 +381,38 @@ static void run_tile(const Job *job, Buffers *buf, const Band *band, const Tile 
     }
 }
 
-static void *run_band(void *arg) {
-    Band *band = arg;
-    const Job *job = band->job;
+/* Rows [y0, y1), tile by tile. */
+static void run_band(const Job *job, Buffers *buf, int64_t y0, int64_t y1) {
     const int64_t r = job->r, w = job->w;
-    Buffers buf;
-    band->status = make_buffers(job, &buf) ? 0 : 1;
-    for (int64_t x0 = 0; x0 < w && band->status == 0; x0 += TILE) {
+    for (int64_t x0 = 0; x0 < w; x0 += TILE) {
         Tile tile = {x0, min64(w, x0 + TILE), max64(0, x0 - r), min64(w, x0 + TILE + r),
                      max64(0, x0 - 2 * r), min64(w, x0 + TILE + 2 * r)};
-        run_tile(job, &buf, band, &tile);
+        run_tile(job, buf, y0, y1, &tile);
+    }
+}
+
+/* A thread: takes the next band of rows until none is left (a thread the machine runs less
+ * often does fewer). */
+typedef struct {
+    const Job *job;
+    int64_t *next, bands; /* the next band to take (shared), the number of bands */
+    int status, big[3], nan[3];
+} Worker;
+
+static void *run_worker(void *arg) {
+    Worker *me = arg;
+    const Job *job = me->job;
+    Buffers buf;
+    me->status = make_buffers(job, &buf) ? 0 : 1;
+    while (me->status == 0) {
+        int64_t b = __atomic_fetch_add(me->next, 1, __ATOMIC_RELAXED);
+        if (b >= me->bands) break;
+        run_band(job, &buf, job->h * b / me->bands, job->h * (b + 1) / me->bands);
     }
     for (int p = 0; p < 3; p++)
         for (int l = 0; l < LANES; l++) {
-            band->big[p] |= buf.big[p][l] != 0;
-            band->nan[p] |= buf.nan[p][l] != 0;
+            me->big[p] |= buf.big[p][l] != 0;
+            me->nan[p] |= buf.nan[p][l] != 0;
         }
     free_buffers(&buf);
     return NULL;
@@ -421,20 +433,19 @@ int bnerr_guided(const float *albedo, const float *normal, const float *color, f
         job.in[6 + c] = color + c * h * w;
     }
     threads = (int)min64(min64(threads < 1 ? 1 : threads, MAX_THREADS), h);
-    Band bands[MAX_THREADS];
+    int64_t next = 0, bands = threads > 1 ? min64(h, BANDS_PER_THREAD * threads) : 1;
+    Worker workers[MAX_THREADS];
     pthread_t ids[MAX_THREADS];
     int started[MAX_THREADS] = {0};
-    for (int t = 0; t < threads; t++)
-        bands[t] = (Band){&job, h * t / threads, h * (t + 1) / threads, 1, {0}, {0}};
+    for (int t = 0; t < threads; t++) workers[t] = (Worker){&job, &next, bands, 0, {0}, {0}};
     for (int t = 1; t < threads; t++)
-        started[t] = pthread_create(&ids[t], NULL, run_band, &bands[t]) == 0;
-    run_band(&bands[0]);
+        started[t] = pthread_create(&ids[t], NULL, run_worker, &workers[t]) == 0;
+    run_worker(&workers[0]);
     int status = 0, big[3] = {0}, nan[3] = {0};
     for (int t = 0; t < threads; t++) {
-        if (t > 0 && started[t]) pthread_join(ids[t], NULL);
-        else if (t > 0) run_band(&bands[t]);
-        status |= bands[t].status;
-        for (int p = 0; p < 3; p++) big[p] |= bands[t].big[p], nan[p] |= bands[t].nan[p];
+        if (started[t]) pthread_join(ids[t], NULL);
+        status |= workers[t].status;
+        for (int p = 0; p < 3; p++) big[p] |= workers[t].big[p], nan[p] |= workers[t].nan[p];
     }
     if (status) return 1;
     for (int p = 0; p < 3; p++)
