@@ -131,9 +131,10 @@ def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> boo
 
 
 def _self_check(kernels: Kernels) -> bool:
-    """Compare the kernel with the torch path: odd sizes, more than one tile (128 columns), a
-    radius larger than the image. True if they agree (see :data:`_CHECK_TOLERANCE`)."""
-    cases = ((13, 300, 2, 0), (9, 7, 1, 1), (5, 6, 4, 2), (21, 17, 3, 3))
+    """Compare the kernel with the torch path: odd sizes, two tiles (of 128 columns), a radius
+    larger than the image. True if they agree (see :data:`_CHECK_TOLERANCE`). Two small cases:
+    the torch path costs about 0.1 s on each, whatever the size (it runs a few hundred ops)."""
+    cases = ((9, 140, 2, 0), (5, 6, 4, 2))
     return all(_check_case(kernels, *case) for case in cases)
 
 
