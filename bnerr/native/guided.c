@@ -90,7 +90,7 @@ typedef struct {
 
 typedef struct {
     float *ring, *vp, *mean, *coef_ring, *cp, *coef;
-    const float **rows; /* the k rows of a vertical sum */
+    const float **rows; /* the k + 1 rows of two vertical sums */
     int64_t rw, vw, cw, pw, tw;
     v8i big[3], nan[3]; /* per input tensor: saw a value above BIG, saw a NaN */
 } Buffers;
@@ -121,11 +121,13 @@ static void fill_row(const Job *job, Buffers *buf, int64_t q, int64_t lo, int64_
             buf->big[p / 3] |= (v8)((v8i)in[p] & magnitude_bits) > big;
             buf->nan[p / 3] |= in[p] != in[p];
         }
-        const v8 scale = splat(job->scale);
         for (int c = 0; c < 6; c++) base[c] = in[c];
         for (int c = 0; c < NC; c++) base[NG + c] = in[6 + c];
-        base[6] = ((in[6] / scale) * splat(job->weight[0]) + (in[7] / scale) * splat(job->weight[1]))
-                  + (in[8] / scale) * splat(job->weight[2]);
+        /* The luminance of color / scale, rounded as torch's luminance(_relative(color)). */
+        const v8 scale = splat(job->scale);
+        v8 red = in[6] / scale, green = in[7] / scale, blue = in[8] / scale;
+        base[6] = (red * splat(job->weight[0]) + green * splat(job->weight[1])) +
+                  blue * splat(job->weight[2]);
         for (int c = 0; c < NB; c++) store(dst + c * buf->rw + x, base[c]);
 #pragma GCC unroll 8
         for (int i = 0; i < NG; i++) {
@@ -179,7 +181,8 @@ static void replicate(float *buf, int64_t first, int64_t n, int64_t w) {
 
 /* dst[x] = (src[x] + src[x + 1] + ... + src[x + k - 1]) * inv_kk, x < n8 (n8 % 8 == 0). */
 static inline __attribute__((always_inline)) void horizontal_k(const float *src, int64_t n8,
-                                                               int64_t k, float inv_kk, float *dst) {
+                                                               int64_t k, float inv_kk,
+                                                               float *dst) {
     const v8 scale = splat(inv_kk);
     for (int64_t x = 0; x < n8; x += LANES) {
         v8 acc = load(src + x);
