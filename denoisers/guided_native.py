@@ -9,7 +9,7 @@ than the image, a flat guide region).
 Why a C kernel: the torch path makes about 60 full-frame planes of window statistics and runs
 the per-pixel 7 x 7 Cholesky solve as a few hundred full-frame tensor ops, so its cost is memory
 traffic (about 3 s per 1920 x 1080 frame on two threads). The kernel computes the same values
-in the same order, band by band and tile by tile (128 columns), two rows at a time, with the last
+in the same order, band by band and tile by tile (256 columns), two rows at a time, with the last
 ``2 radius + 2`` input rows and their products, the window statistics of two rows and the last
 ``2 radius + 2`` coefficient rows in the CPU's caches, 8 pixels per SIMD vector. It also computes
 the guide's luminance and the float64 switch's test for values above 1e18 as it reads the
@@ -131,10 +131,10 @@ def _check_case(kernels: Kernels, h: int, w: int, radius: int, seed: int) -> boo
 
 
 def _self_check(kernels: Kernels) -> bool:
-    """Compare the kernel with the torch path: odd sizes, two tiles (of 128 columns), a radius
+    """Compare the kernel with the torch path: odd sizes, two tiles (of 256 columns), a radius
     larger than the image. True if they agree (see :data:`_CHECK_TOLERANCE`). Two small cases:
     the torch path costs about 0.1 s on each, whatever the size (it runs a few hundred ops)."""
-    cases = ((9, 140, 2, 0), (5, 6, 4, 2))
+    cases = ((9, 300, 2, 0), (5, 6, 4, 2))
     return all(_check_case(kernels, *case) for case in cases)
 
 

@@ -44,7 +44,8 @@ def _close(got, want):
 @pytest.mark.parametrize(
     ("h", "w", "radius", "eps"),
     [
-        (13, 300, 2, 1e-2),  # three tiles of 128 columns, the last one partial
+        (13, 300, 2, 1e-2),  # two tiles of 256 columns, the last one partial
+        (6, 530, 3, 1.0),  # three tiles
         (40, 257, 5, 10.0),  # the tuning grid's largest radius across a tile edge
         (41, 37, 3, 0.1),
         (9, 7, 1, 1.0),

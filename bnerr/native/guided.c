@@ -39,7 +39,7 @@
 #define NP (NII + NIP)              /* products */
 #define NSTAT (NB + NP)             /* window channels */
 #define NCOEF (NIP + NC)            /* a (i * 3 + c), then b */
-#define TILE 128
+#define TILE 256
 #define LANES 8
 #define MAX_THREADS 64
 #define BANDS_PER_THREAD 4 /* bands of rows per thread, handed out as threads come free */
