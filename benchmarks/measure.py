@@ -522,7 +522,8 @@ def tune_missing(
     The frames are ``min(frames, 4)`` measured frames (a stateful ``source`` renders its warmup
     frames first) from a seed set no measured run uses (:data:`TUNING_SEED_SET`: held out, so
     that tuning cannot fit the measured noise), against the same references. Nothing is rendered
-    when ``names`` is empty.
+    when ``names`` is empty. ``NAME`` and ``NAME:own`` among ``names`` share one search (the
+    same frames give the same result).
     """
     if not names:
         return {}
@@ -539,7 +540,11 @@ def tune_missing(
         if t >= run.warmup:
             frames.append(frame)
             refs.append(references.get(run, scene, _t_reference(run, t)).color)
-    return {name: parts.tune_denoiser(split_own(name)[0], frames, refs) for name in names}
+    # ``NAME`` and ``NAME:own`` on the same frames (the white run) are one grid search
+    tuned: dict[str, Any] = {}
+    for base in dict.fromkeys(split_own(name)[0] for name in names):
+        tuned[base] = parts.tune_denoiser(base, frames, refs)
+    return {name: tuned[split_own(name)[0]] for name in names}
 
 
 def store_tuned(
