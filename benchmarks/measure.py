@@ -50,7 +50,7 @@ from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from bnerr.metrics import FrameMetrics, edge_mask, temporal_correlation
+from bnerr.metrics import FrameMetrics, PreparedReference, edge_mask, temporal_correlation
 from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
@@ -257,8 +257,9 @@ class _SeedSetMeasurement:
         masks = _region_masks(self.run, ref)
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
+        target = PreparedReference(ref.color)  # the reference's share of the metrics, once
         for region, mask in masks.items():
-            self.raw[region].update(frame.color, ref.color, mask)
+            self.raw[region].update(frame.color, target, mask)
         err = frame.color - ref.color
         self._spectrum("raw", err)
         if self._prev_err is not None:
@@ -272,7 +273,7 @@ class _SeedSetMeasurement:
             outputs[name] = out
             self._spectrum(name, out - ref.color)
             for region, mask in masks.items():
-                self.den[name, region].update(out, ref.color, mask)
+                self.den[name, region].update(out, target, mask)
         if self.run.crops and self.group == 0 and not self.crop:
             images = {"reference": ref.color, "raw": frame.color}
             images.update({f"denoised/{n}": o for n, o in outputs.items()})
