@@ -115,12 +115,21 @@ class _BoundRender:
         self.parts, self.scene, self.spp = parts, scene, spp
         self.motion_scale = motion_scale
         self.t_render = 0
+        if parts.render_batch is not None:
+            self.batch = self._batch
 
-    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
-        frame = self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp)
+    def _scaled(self, frame: Frame) -> Frame:
         if self.motion_scale != 1 and frame.motion is not None:
             frame.motion = frame.motion * self.motion_scale
         return frame
+
+    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
+        return self._scaled(self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp))
+
+    def _batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
+        """The renders of ``seeds [K, H, W]`` at once (``render.batch``, for the oracle)."""
+        frames = self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
+        return [self._scaled(frame) for frame in frames]
 
 
 def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
