@@ -50,7 +50,7 @@ from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from bnerr.metrics import FrameMetrics, edge_mask, temporal_correlation
+from bnerr.metrics import FrameMetrics, PreparedReference, edge_mask, temporal_correlation
 from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
@@ -115,12 +115,21 @@ class _BoundRender:
         self.parts, self.scene, self.spp = parts, scene, spp
         self.motion_scale = motion_scale
         self.t_render = 0
+        if parts.render_batch is not None:
+            self.batch = self._batch
 
-    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
-        frame = self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp)
+    def _scaled(self, frame: Frame) -> Frame:
         if self.motion_scale != 1 and frame.motion is not None:
             frame.motion = frame.motion * self.motion_scale
         return frame
+
+    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
+        return self._scaled(self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp))
+
+    def _batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
+        """The renders of ``seeds [K, H, W]`` at once (``render.batch``, for the oracle)."""
+        frames = self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
+        return [self._scaled(frame) for frame in frames]
 
 
 def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
@@ -257,8 +266,9 @@ class _SeedSetMeasurement:
         masks = _region_masks(self.run, ref)
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
+        target = PreparedReference(ref.color)  # the reference's share of the metrics, once
         for region, mask in masks.items():
-            self.raw[region].update(frame.color, ref.color, mask)
+            self.raw[region].update(frame.color, target, mask)
         err = frame.color - ref.color
         self._spectrum("raw", err)
         if self._prev_err is not None:
@@ -272,7 +282,7 @@ class _SeedSetMeasurement:
             outputs[name] = out
             self._spectrum(name, out - ref.color)
             for region, mask in masks.items():
-                self.den[name, region].update(out, ref.color, mask)
+                self.den[name, region].update(out, target, mask)
         if self.run.crops and self.group == 0 and not self.crop:
             images = {"reference": ref.color, "raw": frame.color}
             images.update({f"denoised/{n}": o for n, o in outputs.items()})
@@ -522,7 +532,8 @@ def tune_missing(
     The frames are ``min(frames, 4)`` measured frames (a stateful ``source`` renders its warmup
     frames first) from a seed set no measured run uses (:data:`TUNING_SEED_SET`: held out, so
     that tuning cannot fit the measured noise), against the same references. Nothing is rendered
-    when ``names`` is empty.
+    when ``names`` is empty. ``NAME`` and ``NAME:own`` among ``names`` share one search (the
+    same frames give the same result).
     """
     if not names:
         return {}
@@ -539,7 +550,11 @@ def tune_missing(
         if t >= run.warmup:
             frames.append(frame)
             refs.append(references.get(run, scene, _t_reference(run, t)).color)
-    return {name: parts.tune_denoiser(split_own(name)[0], frames, refs) for name in names}
+    # ``NAME`` and ``NAME:own`` on the same frames (the white run) are one grid search
+    tuned: dict[str, Any] = {}
+    for base in dict.fromkeys(split_own(name)[0] for name in names):
+        tuned[base] = parts.tune_denoiser(base, frames, refs)
+    return {name: tuned[split_own(name)[0]] for name in names}
 
 
 def store_tuned(

@@ -111,6 +111,9 @@ class Parts:
         with_depth: ``(scene, depth) -> scene`` with its maximum path depth replaced.
         code_version: a string that changes whenever a reference's pixels could change: the
             renderer's and the samplers' source code (:func:`benchmarks.references.code_version`).
+        render_batch: ``(scene, t, seeds [K, H, W], sampler, spp) -> list[Frame]``, the K
+            renders of :attr:`render` at once and bit-identical to them (the oracle's
+            candidates), or None to render them one by one.
     """
 
     get_scene: Callable[[str, bool], Scene]
@@ -122,6 +125,7 @@ class Parts:
     reference_sampler: Callable[[], Sampler]
     with_depth: Callable[[Scene, int], Scene]
     code_version: str
+    render_batch: Callable[..., list[Frame]] | None = None
 
 
 def real_parts() -> Parts:
@@ -160,6 +164,7 @@ def real_parts() -> Parts:
         reference_sampler=reference_sampler,
         with_depth=lambda scene, depth: dataclasses.replace(scene, max_depth=depth),
         code_version=code_version(),
+        render_batch=renderers.render_batch,
     )
 
 

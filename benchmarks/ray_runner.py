@@ -379,4 +379,5 @@ def run_suite_ray(
         scheduler.cancel()
         if started:
             ray.shutdown()
+    sweep.finish()
     return sweep.ordered()

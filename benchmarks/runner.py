@@ -4,8 +4,9 @@
 folder when resuming, tunes the denoisers once per scene, condition and spp on white noise
 (:func:`benchmarks.measure.tune_denoisers`, saved in ``<out>/tuned_params.json``), measures each
 pending run (:func:`benchmarks.measure.measure_run`) against cached references
-(:mod:`benchmarks.references`), and rewrites ``<out>/cells.jsonl`` atomically after every run
-(:mod:`benchmarks.records`), so an interrupted sweep loses at most the run in progress.
+(:mod:`benchmarks.references`), and writes ``<out>/cells.jsonl`` after every run
+(:mod:`benchmarks.records`: whole and atomically the first time, then each run's lines appended),
+so an interrupted sweep loses at most the run in progress.
 
 The unit of work is one seed set of a run (:func:`benchmarks.measure.measure_seed_set`); the
 serial loop here and the Ray tasks of :mod:`benchmarks.ray_runner` both compute it and merge a
@@ -29,7 +30,13 @@ from typing import Any
 from benchmarks.measure import measure_run, tune_denoisers
 from benchmarks.parts import Parts, real_parts
 from benchmarks.plan import Run, pending
-from benchmarks.records import Record, check_no_results, load_records, write_records
+from benchmarks.records import (
+    Record,
+    append_records,
+    check_no_results,
+    load_records,
+    write_records,
+)
 from benchmarks.references import ReferenceCache
 from benchmarks.suites import Suite
 
@@ -44,7 +51,10 @@ class SweepState:
     """A sweep in progress: its output folder, parts, records, tuned parameters and pending runs.
 
     Records are written in one order whatever the order runs finish in: those kept from the
-    results file first, then the pending runs' cells in plan order.
+    results file first, then the pending runs' cells in plan order. The first write replaces the
+    file atomically (so a fresh run keeps the old file until a run has finished); later ones
+    append the run's lines, and :meth:`finish` rewrites the file once if runs finished out of
+    plan order (Ray), so the file ends the same either way.
     """
 
     out: Path
@@ -53,6 +63,7 @@ class SweepState:
     store: Any
     todo: list[Run]
     order: list[str] = field(default_factory=list)
+    written: list[str] | None = None  # the keys in the file, in file order; None: not written yet
 
     @property
     def params_path(self) -> Path:
@@ -62,9 +73,15 @@ class SweepState:
         self.store.save(self.params_path)
 
     def add(self, measured: list[Record]) -> None:
-        """Keep a finished run's records and rewrite the results file atomically."""
+        """Keep a finished run's records and write them: appended to the file this sweep wrote,
+        or the whole file the first time (and when a record replaces one already written)."""
+        fresh = [r for r in measured if r.key not in self.records]
         self.records.update((r.key, r) for r in measured)
-        self.write()
+        if self.written is None or len(fresh) != len(measured):
+            self.write()
+            return
+        append_records(self.out, fresh)
+        self.written.extend(r.key for r in fresh)
 
     def ordered(self) -> list[Record]:
         """The records, kept ones first, then the pending runs' cells in plan order."""
@@ -73,7 +90,15 @@ class SweepState:
         return [self.records[k] for k in keys]
 
     def write(self) -> None:
-        write_records(self.out, self.ordered())
+        """Replace the file atomically with every record, in :meth:`ordered` order."""
+        records = self.ordered()
+        write_records(self.out, records)
+        self.written = [r.key for r in records]
+
+    def finish(self) -> None:
+        """End the sweep with the file in :meth:`ordered` order (rewritten only if it is not)."""
+        if self.written != [r.key for r in self.ordered()]:
+            self.write()
 
 
 def start_sweep(
@@ -91,7 +116,7 @@ def start_sweep(
     out = Path(out_dir)
     if not resume and not overwrite:
         check_no_results(out)
-    records = {r.key: r for r in load_records(out)} if resume else {}
+    records = {r.key: r for r in load_records(out, torn_tail=True)} if resume else {}
     parts = real_parts() if parts is None else parts
     out.mkdir(parents=True, exist_ok=True)
     params_path = out / TUNED_PARAMS_FILE
@@ -144,6 +169,5 @@ def run_suite(
                 on_frame=lambda: bar.update(1),
             )
             sweep.add(measured)
-    if not sweep.todo:
-        sweep.write()
+    sweep.finish()
     return sweep.ordered()

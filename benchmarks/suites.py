@@ -25,7 +25,13 @@ The four suites (issue 6):
   the last half hour as two Ray workers, with the oracle's cells kept from the run before by
   ``--resume``; rendering them again adds about an hour). A profile of the
   serial run on a cheap scene: denoisers 48 %, metrics 20 %, tuning 15 %, rendering 16 %,
-  rewriting ``cells.jsonl`` after each run 8 %; the a-trous filter alone 30 %.
+  rewriting ``cells.jsonl`` after each run 8 %; the a-trous filter alone 30 %. Since then the
+  results file is appended to a run at a time (rewriting it cost about 12-38 core-minutes,
+  growing with the square of the cells), the metrics take each reference's share once per frame
+  (1.4x faster, the same bits) and the white run's fair and own tunings are one search. What
+  stays outside the denoisers is mostly rendering: by the committed records' timings about 105
+  core-minutes (the oracle's 61, two thirds of it at 16 spp), against 28 for the denoisers
+  (tuning included) and about 14 for the metrics.
 - ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys

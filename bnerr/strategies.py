@@ -510,7 +510,9 @@ class Strategy:
         Args:
             t: frame index >= 0 (it selects the masks' offset and the fresh seeds).
             render: ``render(seeds [H, W] int64, sampler) -> Frame`` of size ``H x W`` that
-                reports its time in ``timings["render"]`` (milliseconds).
+                reports its time in ``timings["render"]`` (milliseconds). It may also have
+                ``render.batch(seeds [K, H, W], sampler) -> list[Frame]``, the same K renders at
+                once (:func:`renderers.tracer.render_batch`), which the oracle then uses.
 
         Returns:
             The frame to show, with ``timings["render"]`` (the sum over this frame's renders,
@@ -520,7 +522,9 @@ class Strategy:
         render_ms: list[float] = []
 
         def checked(seeds: torch.Tensor, sampler: Sampler) -> Frame:
-            out = render(seeds, sampler)
+            return checked_frame(render(seeds, sampler))
+
+        def checked_frame(out: object) -> Frame:
             if not isinstance(out, Frame):
                 raise DtypeError(f"render: expected a Frame, got {type(out).__name__}")
             if (out.height, out.width) != (self.height, self.width):
@@ -531,6 +535,15 @@ class Strategy:
             if "render" in out.timings:
                 render_ms.append(float(out.timings["render"]))
             return out
+
+        batch = getattr(render, "batch", None)
+        if batch is not None:  # K renders at once (the oracle), through the same checks
+
+            def checked_batch(seeds: torch.Tensor, sampler: Sampler) -> list[Frame]:
+                frames = batch(seeds, sampler)
+                return [checked_frame(out) for out in frames]
+
+            checked.batch = checked_batch  # type: ignore[attr-defined]
 
         sync(self.device)
         watch = Stopwatch()
@@ -937,6 +950,9 @@ class TemporalZSobolStrategy(TemporalStrategy):
 class OracleStrategy(Strategy):
     """``oracle``: K candidate renders, per pixel the candidate at rank floor(b K) by luminance.
 
+    The K renders go through ``render.batch`` when the renderer offers one (the tracer's
+    :func:`renderers.tracer.render_batch`: the same frames bit for bit, faster at low spp).
+
     Every buffer of the chosen candidate is assembled per pixel (color, albedo, normal, ...), so
     the frame is one the renderer could have produced with the per-pixel chosen seed. Memory: the
     K candidate frames are held until the selection (K times one frame).
@@ -966,18 +982,17 @@ class OracleStrategy(Strategy):
         return _per_pixel("oracle", self.K)
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
-        frames = [
-            render(
-                pixel_seeds(
-                    self.height,
-                    self.width,
-                    _stream_key(self.seed, t, _STREAM_ORACLE, k),
-                    self.device,
-                ),
-                self.sampler,
+        seeds = [
+            pixel_seeds(
+                self.height, self.width, _stream_key(self.seed, t, _STREAM_ORACLE, k), self.device
             )
             for k in range(self.K)
         ]
+        batch = getattr(render, "batch", None)  # the K renders at once, bit-identical
+        if batch is not None:
+            frames = batch(torch.stack(seeds), self.sampler)
+        else:
+            frames = [render(s, self.sampler) for s in seeds]
         device = frames[0].color.device
         lum = torch.stack([luminance(f.color.to(device)) for f in frames])
         b = tile_mask(

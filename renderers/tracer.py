@@ -82,7 +82,7 @@ from renderers.geometry import (
 from renderers.layout import Layout
 from renderers.scene import Scene
 
-__all__ = ["DEFAULT_CHUNK", "PathResult", "render", "trace", "vertex_step"]
+__all__ = ["DEFAULT_CHUNK", "PathResult", "render", "render_batch", "trace", "vertex_step"]
 
 #: Paths traced at once. 2^16 keeps a chunk's working set (a few dozen [3, N] tensors plus the
 #: [D, N] sample block) in the tens of MB, so memory is flat in resolution and spp.
@@ -599,9 +599,71 @@ def render(
     _check_render_args(scene, t, seeds, sampler, spp, chunk)
     workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
     with _intra_op_threads(1):
-        frame = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
+        (frame,) = _render(scene, t, seeds[None], sampler, spp, chunk, compile, workers)
     frame.timings["render"] = watch.ms(frame.color)  # waits for the device's queued work
     return frame
+
+
+#: A batch's chunks may hold several frames' pixels only when a frame's pixel count is a multiple
+#: of this: every lane then keeps its place modulo the widest SIMD loop (2 x 16 float32 lanes,
+#: rounded up), so each elementwise kernel computes it with the same instructions as alone.
+_BATCH_ALIGN = 64
+
+
+def render_batch(
+    scene: Scene,
+    t: int,
+    seeds: torch.Tensor,
+    sampler: Sampler,
+    spp: int,
+    *,
+    chunk: int = DEFAULT_CHUNK,
+    compile: bool | None = None,
+) -> list[Frame]:
+    """``[render(scene, t, seeds[k], sampler, spp) for k in range(K)]``, bit for bit, faster.
+
+    The K frames share the frame's scene tensors, cameras and guide buffers (depth, object id
+    and motion depend on the camera, not the seeds: computed once), and at low spp several
+    frames' pixels share a chunk (a 128 x 128 frame at 1 spp fills a quarter of one), so the
+    per-operation overhead is paid once per chunk instead of once per frame. Every lane still
+    runs the same elementwise operations on the same values at the same SIMD position, so each
+    frame is bit-identical to its own :func:`render` (tests/test_tracer.py). A compiled stage
+    (``compile``, ``BNERR_COMPILE``) renders the frames one by one: its kernels are specialised
+    on the lane count.
+
+    Args:
+        seeds: ``[K, H, W]`` int64, one seed image per frame; the rest as :func:`render`.
+
+    Returns:
+        K frames; each one's ``timings["render"]`` is the batch's time divided by K, so that
+        their sum is the batch's time.
+    """
+    check_shape(seeds, "K H W", "seeds")
+    if _use_compile(compile) or seeds.shape[0] == 0:
+        return [render(scene, t, s, sampler, spp, chunk=chunk, compile=compile) for s in seeds]
+    watch = Stopwatch()
+    _check_render_args(scene, t, seeds[0], sampler, spp, chunk)
+    workers = torch.get_num_threads() if seeds.device.type == "cpu" else 1
+    with _intra_op_threads(1):
+        frames = _render(scene, t, seeds, sampler, spp, chunk, compile, workers)
+    ms = watch.ms(frames[-1].color) / len(frames)
+    for frame in frames:
+        frame.timings["render"] = ms
+    return frames
+
+
+def _pixel_ranges(frames: int, n_pixels: int, per_range: int) -> list[tuple[int, int]]:
+    """Ranges of at most ``per_range`` pixels over ``frames`` frames of ``n_pixels`` each: across
+    frame boundaries when a frame's pixels align (:data:`_BATCH_ALIGN`), else within each
+    frame, exactly as that frame alone would be cut (a single frame: the same either way)."""
+    if frames == 1 or n_pixels % _BATCH_ALIGN == 0:
+        total = frames * n_pixels
+        return [(p0, min(total, p0 + per_range)) for p0 in range(0, total, per_range)]
+    return [
+        (f * n_pixels + p0, f * n_pixels + min(n_pixels, p0 + per_range))
+        for f in range(frames)
+        for p0 in range(0, n_pixels, per_range)
+    ]
 
 
 def _check_render_args(
@@ -633,21 +695,19 @@ def _render(
     chunk: int,
     compile: bool | None,
     workers: int,
-) -> Frame:
-    """:func:`render` after its checks, with torch's ops on one thread."""
-    height, width = seeds.shape
+) -> list[Frame]:
+    """:func:`render` of each seed image of ``seeds [K, H, W]`` after the checks, with torch's
+    ops on one thread."""
+    frames, height, width = seeds.shape
     device = seeds.device
     st = scene_tensors(scene, t, device)
     cam = camera_frame(scene.camera, t, width, height, device)
     step = _compiled_step() if _use_compile(compile) else vertex_step
-    job = _PathJob(st, cam, scene.layout, seeds.reshape(-1), width, sampler, spp, step)
-    sums = _PixelSums.zeros(height * width, device)
-    per_chunk = min(spp, chunk)  # sample indices per chunk
-    pixels_per_chunk = max(1, chunk // per_chunk)
+    job = _PathJob(st, cam, scene.layout, seeds.reshape(-1), width, height, sampler, spp, step)
     n_pixels = height * width
-    ranges = [
-        (p0, min(n_pixels, p0 + pixels_per_chunk)) for p0 in range(0, n_pixels, pixels_per_chunk)
-    ]
+    sums = _PixelSums.zeros(frames * n_pixels, device)
+    per_chunk = min(spp, chunk)  # sample indices per chunk
+    ranges = _pixel_ranges(frames, n_pixels, max(1, chunk // per_chunk))
 
     def work(pixel_range: tuple[int, int]) -> None:
         _trace_range(job, sums, pixel_range, per_chunk)
@@ -660,31 +720,39 @@ def _render(
     cam_prev = camera_frame(scene.camera, t - 1, width, height, device)
     depth, object_id, motion = _guide_buffers(st, cam, cam_prev, n_pixels, width, chunk)
 
-    def image(x: torch.Tensor) -> torch.Tensor:
-        return x.reshape(-1, height, width).contiguous()
+    def image(x: torch.Tensor, f: int) -> torch.Tensor:
+        return x[..., f * n_pixels : (f + 1) * n_pixels].reshape(-1, height, width).contiguous()
 
-    variance = image(sums.m2 / ((spp - 1) * spp)) if spp > 1 else None
-    return Frame(
-        color=image(sums.mean),
-        albedo=image(sums.albedo / spp),
-        normal=image(sums.normal / spp),
-        depth=image(depth),
-        motion=image(motion),
-        object_id=image(object_id),
-        variance=variance,
-    )
+    def guide(x: torch.Tensor) -> torch.Tensor:  # one per frame, however many share it
+        shared = x.reshape(-1, height, width).contiguous()
+        return shared if frames == 1 else shared.clone()
+
+    return [
+        Frame(
+            color=image(sums.mean, f),
+            albedo=image(sums.albedo / spp, f),
+            normal=image(sums.normal / spp, f),
+            depth=guide(depth),
+            motion=guide(motion),
+            object_id=guide(object_id),
+            variance=image(sums.m2 / ((spp - 1) * spp), f) if spp > 1 else None,
+        )
+        for f in range(frames)
+    ]
 
 
 @dataclass
 class _PathJob:
     """What every chunk of one render shares: the frame's scene and camera, the seeds
-    (``seeds_flat [H*W]``), the image width, the sampler, spp and the vertex stage to run."""
+    (``seeds_flat [K*H*W]``: K frames' seed images), the image size, the sampler, spp and the
+    vertex stage to run."""
 
     st: SceneTensors
     cam: CameraFrame
     layout: Layout
     seeds_flat: torch.Tensor
     width: int
+    height: int
     sampler: Sampler
     spp: int
     step: Callable[..., tuple[torch.Tensor, ...]]
@@ -741,7 +809,7 @@ def _lanes(
     device = pix.device
     lane_pix = pix.repeat_interleave(ns)
     lane_index = torch.arange(s0, s0 + ns, device=device).repeat(pix.shape[0])
-    py, px = lane_pix // job.width, lane_pix % job.width
+    py, px = (lane_pix // job.width) % job.height, lane_pix % job.width  # frame k's pixel
     u = job.sampler.sample(
         job.seeds_flat[lane_pix],
         lane_index,

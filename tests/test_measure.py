@@ -243,6 +243,24 @@ def test_own_tuning_tunes_on_the_strategys_held_out_frames_and_stores_its_own_na
     assert [r.cell.denoiser for r in records] == ["half", "half:own"]
 
 
+def test_on_white_the_fair_and_own_tunings_are_one_search_stored_under_both_names(tmp_path):
+    from denoisers.tuning import ParamStore, TuneResult
+
+    tuned = []
+
+    def tune_denoiser(name, frames, refs):
+        tuned.append(name)
+        return TuneResult(denoiser=name, params={"scale": 0.5}, mse=1.0, noisy_mse=2.0, frames=2)
+
+    parts = dataclasses.replace(_parts(_Render()), tune_denoiser=tune_denoiser)
+    run = dataclasses.replace(_run("white", crops=False), denoisers=("half", "half:own"))
+    store = ParamStore()
+    tune_denoisers(run, parts, ReferenceCache(tmp_path, parts), store)
+    assert tuned == ["half"]  # white's own frames are the fair tuning's frames
+    assert store.params("half", "direct/m1/owen_sobol/10x8", 2) == {"scale": 0.5}
+    assert store.params("half:own", "direct/m1/owen_sobol/10x8/white", 2) == {"scale": 0.5}
+
+
 def test_split_own_names():
     from benchmarks.measure import split_own, tuning_source
 

@@ -13,6 +13,7 @@ from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameErro
 from bnerr.metrics import (
     Estimate,
     FrameMetrics,
+    PreparedReference,
     blurred_mse,
     bootstrap_interval,
     edge_mask,
@@ -74,6 +75,62 @@ def test_ssim_is_scikit_image_with_the_reference_range():
     assert ssim(ref, ref) == pytest.approx(1.0)
     noisier, _ = _pair(shape=(3, 32, 32), noise=0.3)
     assert ssim(noisier, ref) < ssim(pred, ref)
+
+
+@pytest.mark.parametrize("shape", [(3, 128, 128), (3, 17, 23), (1, 9, 7), (2, 40, 31)])
+def test_ssim_map_is_scikit_image_bit_for_bit_with_and_without_a_mask(shape):
+    # computed here with scipy's filters so that the reference's half is computed once; the
+    # committed results were measured with scikit-image: exact equality, not approx
+    pred, ref = _pair(shape=shape, noise=0.3)
+    want, want_map = structural_similarity(
+        ref.double().numpy(),
+        pred.double().numpy(),
+        data_range=float(ref.max() - ref.min()),
+        channel_axis=0,
+        full=True,
+    )
+    prepared = PreparedReference(ref)
+    assert ssim(pred, ref) == float(want)
+    assert np.array_equal(prepared.ssim.map(pred), want_map)
+    mask = torch.rand(shape[1:], generator=torch.Generator().manual_seed(3)) > 0.5
+    keep = mask.numpy().copy()
+    keep[:3, :] = keep[-3:, :] = keep[:, :3] = keep[:, -3:] = False
+    assert ssim(pred, ref, mask) == float(want_map[:, keep].mean())
+
+
+@pytest.mark.parametrize("shape", [(3, 128, 128), (3, 17, 23), (1, 40, 9), (3, 256, 256)])
+@pytest.mark.parametrize("sigma", [1.0, 2.0])
+def test_the_blur_is_kornias_bit_for_bit(shape, sigma):
+    # the fast path (below 256 x 256) against kornia's own call; above it kornia is called
+    from kornia.filters import gaussian_blur2d
+
+    kernel = 2 * math.ceil(3 * sigma) + 1
+    gen = torch.Generator().manual_seed(shape[1])
+    for scale in (1e-3, 1.0, 1e3):
+        err = torch.randn(*shape, dtype=torch.float64, generator=gen) * scale
+        want = gaussian_blur2d(err[None], (kernel, kernel), (sigma, sigma), border_type="reflect")
+        assert torch.equal(metrics._gaussian_blur(err, sigma, kernel), want[0])
+
+
+def test_a_prepared_reference_gives_the_same_stats_bit_for_bit():
+    names = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
+    _, ref = _pair(shape=(3, 32, 40))
+    prepared = PreparedReference(ref)
+    mask = torch.zeros(32, 40, dtype=torch.bool)
+    mask[4:20, 6:30] = True
+    plain, fast = FrameMetrics(names, tile=16), FrameMetrics(names, tile=16)
+    for noise in (0.3, 0.1, 0.01):
+        pred, _ = _pair(shape=(3, 32, 40), noise=noise)
+        for m in (None, mask):
+            assert plain.update(pred, ref, m) == fast.update(pred, prepared, m)
+    for name in names:
+        assert torch.equal(plain.stats(name), fast.stats(name))
+    with pytest.raises(ShapeError, match="pred: expected the shape of ref"):
+        fast.update(torch.zeros(3, 8, 8), prepared)
+    with pytest.raises(NonFiniteError):
+        PreparedReference(torch.full((3, 8, 8), math.nan))
+    with pytest.raises(ValueRangeError, match="non-constant reference"):
+        FrameMetrics(["ssim"]).update(torch.rand(3, 8, 8), PreparedReference(torch.ones(3, 8, 8)))
 
 
 def _blur_twin(err: np.ndarray, sigma: float) -> np.ndarray:

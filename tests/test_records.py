@@ -14,6 +14,7 @@ from benchmarks.records import (
     ResultsExistError,
     Spectrum,
     Timings,
+    append_records,
     check_no_results,
     load_records,
     write_records,
@@ -102,6 +103,35 @@ def test_a_truncated_last_line_is_reported_not_skipped(tmp_path):
     (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # a write cut short
     with pytest.raises(FileFormatError, match="bad line 2"):
         load_records(tmp_path)
+
+
+def test_appending_gives_the_file_a_full_rewrite_would(tmp_path):
+    records = [_record("white"), _record("temporal"), _record("oracle")]
+    append_records(tmp_path, records[:1])  # no file yet: created
+    append_records(tmp_path, records[1:])
+    append_records(tmp_path, [])
+    (tmp_path / "whole").mkdir()
+    write_records(tmp_path / "whole", records)
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    assert data == (tmp_path / "whole" / RESULTS_FILE).read_bytes()
+    assert load_records(tmp_path) == records
+
+
+def test_a_torn_tail_is_dropped_on_request_and_refused_as_a_base_for_appending(tmp_path):
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # an append cut short
+    with pytest.warns(UserWarning, match="line 2 was cut short"):
+        assert load_records(tmp_path, torn_tail=True) == [_record("white")]
+    with pytest.raises(FileFormatError, match="ending with a whole line"):
+        append_records(tmp_path, [_record("oracle")])
+    # only the last line may be torn: a bad line before it is an error even so
+    (tmp_path / RESULTS_FILE).write_bytes(b"{garbage\n" + data)
+    with pytest.raises(FileFormatError, match="bad line 1"):
+        load_records(tmp_path, torn_tail=True)
+    # a complete last record without its newline is kept (the cut fell just before it)
+    (tmp_path / RESULTS_FILE).write_bytes(data[:-1])
+    assert load_records(tmp_path, torn_tail=True) == [_record("white"), _record("temporal")]
 
 
 def test_a_record_with_a_foreign_cell_field_is_refused(tmp_path):

@@ -147,6 +147,30 @@ def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):
     )  # bit-identical metrics: renders and seeds are deterministic
 
 
+def test_the_appended_results_file_is_the_one_a_full_rewrite_gives(tiny, tmp_path):
+    from benchmarks.records import write_records
+
+    out, _, records, _ = tiny
+    write_records(tmp_path, records)
+    assert (out / RESULTS_FILE).read_bytes() == (tmp_path / RESULTS_FILE).read_bytes()
+
+
+def test_a_run_resumes_after_an_append_cut_short(tiny, tmp_path):
+    out, cache, records, _ = tiny
+    data = (out / RESULTS_FILE).read_bytes()
+    (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # the last line torn
+    counting = _Counting(real_parts().render)
+    with pytest.warns(UserWarning, match="cut short"):
+        done = run_suite(
+            _suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache, resume=True,
+            progress=False,
+        )  # fmt: skip
+    assert counting.calls > 0  # the torn cell's run is measured again
+    strip = lambda recs: [(r.key, r.raw, r.den, r.denoiser_params) for r in recs]  # noqa: E731
+    assert strip(done) == strip(records) and strip(load_records(tmp_path)) == strip(records)
+    assert len(load_records(tmp_path)) == len(records)  # nothing lost, nothing twice
+
+
 def test_a_fresh_run_refuses_a_folder_with_finished_cells_unless_told_to_overwrite(tiny, tmp_path):
     out, cache, records, _ = tiny
     (tmp_path / RESULTS_FILE).write_bytes((out / RESULTS_FILE).read_bytes())

@@ -166,6 +166,30 @@ def test_oracle_selects_by_histogram_sampling_and_assembles_every_buffer():
     assert out.timings["strategy"] == strategy.overhead_ms >= 0
 
 
+def test_the_oracle_renders_its_candidates_through_render_batch_when_offered():
+    one_by_one: list = []
+    want = OracleStrategy(12, 18, seed=3, mask=load_mask("scalar", 64), K=4).frame(
+        2, _hash_render(one_by_one)
+    )
+    batches: list = []
+    render = _hash_render()
+
+    def batch(seeds, sampler):
+        batches.append(seeds.clone())
+        return [render(s, sampler) for s in seeds]
+
+    render.batch = batch
+    got = OracleStrategy(12, 18, seed=3, mask=load_mask("scalar", 64), K=4).frame(2, render)
+    assert len(batches) == 1 and batches[0].shape == (4, 12, 18)
+    assert torch.equal(batches[0], torch.stack([s for s, _ in one_by_one]))
+    for name, value in want.buffers().items():
+        assert torch.equal(value, got.buffers()[name]), name
+    assert got.timings["render"] == 4.0  # summed over the candidates either way
+    render.batch = lambda seeds, sampler: [render(s, sampler).color for s in seeds]
+    with pytest.raises(DtypeError, match="expected a Frame"):  # the same checks as one by one
+        OracleStrategy(12, 18, mask=load_mask("scalar", 64), K=2).frame(0, render)
+
+
 def test_bnds_takes_the_vector_mask_with_the_fewest_channels_covering_the_integrand(monkeypatch):
     import bnerr.strategies as strategies
 

@@ -54,6 +54,35 @@ def test_same_seeds_give_bit_identical_frames(name):
     assert not torch.equal(a.color, c.color)
 
 
+@pytest.mark.parametrize(
+    ("name", "size", "spp", "chunk"),
+    [
+        ("cornell", (16, 16), 1, 1024),  # 4 frames per chunk: frames aligned to 64 pixels
+        ("medium", (16, 16), 3, 4096),
+        ("snooker", (13, 7), 1, 1024),  # 91 pixels: each frame cut into chunks on its own
+        ("indirect", (13, 7), 16, 64),
+    ],
+)
+def test_a_batch_renders_each_frame_bit_for_bit_as_alone(name, size, spp, chunk):
+    # the oracle's candidates are rendered as one batch: the cells of the committed results
+    # were measured with one render per candidate, so exact equality, not approx
+    scene = get_scene(name)
+    seeds = torch.stack([seeds_for(*size, key=k) for k in range(5)])
+    batch = tracer.render_batch(scene, 3, seeds, WHITE, spp, chunk=chunk)
+    assert len(batch) == 5
+    for k, frame in enumerate(batch):
+        alone = render(scene, 3, seeds[k], WHITE, spp)
+        assert alone.buffers().keys() == frame.buffers().keys()
+        for key, value in alone.buffers().items():
+            assert torch.equal(value, frame.buffers()[key]), (k, key)
+        assert frame.timings["render"] > 0
+    batch[0].depth += 1  # every frame owns its buffers
+    assert not torch.equal(batch[0].depth, batch[1].depth)
+    assert tracer.render_batch(scene, 3, seeds[:0], WHITE, spp) == []
+    with pytest.raises(ShapeError):
+        tracer.render_batch(scene, 3, seeds[0], WHITE, spp)
+
+
 def test_chunking_changes_only_rounding():
     scene = get_scene("indirect")
     seeds = seeds_for(8, 8)
