@@ -197,8 +197,9 @@ def guided_filter(
     returned in the input's dtype.
 
     On the CPU in float32 a C kernel computes the same statistics and solve (within 3e-7 of the
-    largest output value: another summation order, no fused multiply-add) about 30 times faster (:mod:`denoisers.guided_native`); elsewhere, or without a C compiler, the torch
-    path below runs.
+    largest output value: another summation order, no fused multiply-add) about 30 times faster
+    (:mod:`denoisers.guided_native`); elsewhere, or without a C compiler, the torch path below
+    runs.
     """
     out = native_guided(color, albedo, normal, radius, eps)
     if out is not None:
