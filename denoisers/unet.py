@@ -18,6 +18,10 @@ Much smaller than OIDN's (0.37 M parameters instead of about 0.9 M at the defaul
 ``MAX_PARAMETERS`` is the project's cap): it has to train in minutes on two CPU cores. It is a
 baseline that shows what a learned denoiser does with white and blue-noise input, not a
 replacement for OIDN.
+
+Inference on the CPU runs :class:`FastUNet`, the same network rearranged for speed (folded
+upsampling convolutions, fused ReLU, channels-last layout; outputs equal within float32 rounding);
+training and other devices run :class:`UNet` itself.
 """
 
 from __future__ import annotations
@@ -283,7 +287,9 @@ class FastUNet:
                 self._w.pop(f"{name}.bias"),
             )
 
-    def _conv(self, x: torch.Tensor, name: str, relu: bool = True, add=None) -> torch.Tensor:
+    def _conv(
+        self, x: torch.Tensor, name: str, relu: bool = True, add: torch.Tensor | None = None
+    ) -> torch.Tensor:
         return conv_fused(x, self._w[f"{name}.weight"], self._w[f"{name}.bias"], relu, add)
 
     def _up_cat_conv(self, low: torch.Tensor, skip: torch.Tensor, name: str) -> torch.Tensor:
