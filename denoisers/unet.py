@@ -18,6 +18,10 @@ Much smaller than OIDN's (0.37 M parameters instead of about 0.9 M at the defaul
 ``MAX_PARAMETERS`` is the project's cap): it has to train in minutes on two CPU cores. It is a
 baseline that shows what a learned denoiser does with white and blue-noise input, not a
 replacement for OIDN.
+
+Inference on the CPU runs :class:`FastUNet`, the same network rearranged for speed (folded
+upsampling convolutions, fused ReLU, channels-last layout; outputs equal within float32 rounding);
+training and other devices run :class:`UNet` itself.
 """
 
 from __future__ import annotations
@@ -38,6 +42,7 @@ from denoisers.base import Denoiser
 __all__ = [
     "BLUE_WEIGHTS",
     "DEFAULT_WEIGHTS",
+    "FastUNet",
     "MAX_PARAMETERS",
     "UNet",
     "UNetBlueDenoiser",
@@ -46,6 +51,9 @@ __all__ = [
     "atomic_torch_save",
     "auto_exposure",
     "check_parameter_count",
+    "conv_fused",
+    "fold_upsampled_kernel",
+    "interleave_phases",
     "load_torch_file",
     "load_weights",
     "network_input",
@@ -181,8 +189,137 @@ class UNet(nn.Module):
         return y[..., :h, :w]
 
 
+# Inference-only fast path for the CPU (issue 16). Three changes to the plain forward, none to the
+# arithmetic it computes (only to the order of float32 sums):
+# - A 3 x 3 convolution of a 2x nearest-upsampled input is, for each of the 4 output phases (row
+#   and column parity), a 2 x 2 convolution of the low-resolution input with kernel taps summed
+#   ("folded"): 4 instead of 9 taps, run at a quarter of the pixels. Each decoder convolution of
+#   ``cat([up(y), skip])`` is split into that folded convolution of ``y`` plus a 3 x 3 convolution
+#   of ``skip`` alone, so neither the upsampled tensor nor the concatenation is materialised
+#   (the concatenation at full resolution was the largest single cost, 23 % of a 1080p forward).
+# - ReLU and the sums are fused into oneDNN's convolutions (its pointwise post-ops), instead of
+#   separate passes over the activations in memory.
+# - Every activation is channels-last, the layout oneDNN's convolutions run fastest on.
+# Row selection per output phase: phase 0 (even rows) reads low rows i - 1, i, i for kernel rows
+# 0, 1, 2; phase 1 (odd rows) reads i, i, i + 1. Rows of ``_FOLD[a]``: the 2 folded taps.
+_FOLD = ((1.0, 0.0, 0.0), (0.0, 1.0, 1.0)), ((1.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+
+
+def fold_upsampled_kernel(weight: torch.Tensor) -> torch.Tensor:
+    """``[cout, cin, 3, 3]`` acting on a 2x nearest-upsampled input -> ``[4 cout, cin, 2, 2]``.
+
+    The result, applied with padding 1 to the low-resolution input ``[h, w]``, gives an
+    ``[h + 1, w + 1]`` output; output phase ``(a, b)`` (row and column parity, channels
+    ``(2 a + b) cout`` on) is its window ``[a : a + h, b : b + w]``. Zero padding of the
+    upsampled input is zero padding of the low-resolution one, so borders agree too.
+    """
+    fold = torch.tensor(_FOLD, dtype=weight.dtype, device=weight.device)
+    folded = torch.einsum("ars,bqt,oist->aboirq", fold, fold, weight)
+    return folded.reshape(4 * weight.shape[0], weight.shape[1], 2, 2).contiguous()
+
+
+def interleave_phases(z: torch.Tensor, channels: int) -> torch.Tensor:
+    """The 2x upsampled ``[B, channels, 2 h, 2 w]`` (channels-last) from the folded convolution's
+    output ``z [B, 4 channels, h + 1, w + 1]`` (channels-last): see
+    :func:`fold_upsampled_kernel`."""
+    n, _, hp, wp = z.shape
+    h, w = hp - 1, wp - 1
+    out = torch.empty(
+        (n, channels, 2 * h, 2 * w), dtype=z.dtype, device=z.device,
+        memory_format=torch.channels_last,
+    )  # fmt: skip
+    out6 = out.permute(0, 2, 3, 1).view(n, h, 2, w, 2, channels)
+    z6 = z.permute(0, 2, 3, 1).view(n, hp, wp, 2, 2, channels)
+    for a in (0, 1):
+        for b in (0, 1):
+            out6[:, :, a, :, b, :].copy_(z6[:, a : a + h, b : b + w, a, b, :])
+    return out
+
+
+def _fused_op():
+    """oneDNN's convolution with pointwise post-ops, or None where this torch lacks it."""
+    return getattr(torch.ops.mkldnn, "_convolution_pointwise", None)
+
+
+def conv_fused(
+    x: torch.Tensor,
+    weight: torch.Tensor,
+    bias: torch.Tensor | None,
+    relu: bool,
+    add: torch.Tensor | None = None,
+    padding: int = 1,
+) -> torch.Tensor:
+    """``relu?(conv2d(x, weight, bias, padding) + add?)`` in one oneDNN call on the CPU (channels-
+    last ``x`` and ``add``); separate torch ops where the fused op is missing or disabled."""
+    op = _fused_op() if torch.backends.mkldnn.is_available() else None
+    pad, one = [padding, padding], [1, 1]
+    if op is None:
+        y = F.conv2d(x, weight, bias, padding=padding)
+        y = y.add_(add) if add is not None else y
+        return y.relu_() if relu else y
+    if add is None:
+        return op(x, weight, bias, pad, one, one, 1, "relu" if relu else "none", [None], "")
+    unary = "relu" if relu else None
+    return op.binary(x, add, weight, bias, pad, one, one, 1, "add", None, unary, [None], "")
+
+
+class FastUNet:
+    """Inference-only CPU float32 twin of a :class:`UNet` (same outputs within float32
+    rounding): folded upsampling convolutions, fused ReLU and sums, channels-last activations.
+
+    Built from a network's weights once (a copy: later changes to ``model`` are not seen); called
+    like the network on ``[B, 9, H, W]``. Other devices or dtypes, or a call with gradients
+    enabled, run the plain network ``model`` instead, so training and CUDA are unaffected.
+    """
+
+    def __init__(self, model: UNet) -> None:
+        self.model = model
+        self.residual = model.residual
+        self.widths = model.widths
+        self._w = {k: v.detach().clone() for k, v in model.state_dict().items()}
+        self._split = {}
+        low = {"dec3_a": model.widths[3], "dec2_a": model.widths[2], "dec1_a": model.widths[1]}
+        for name, c_up in low.items():
+            weight = self._w.pop(f"{name}.weight")
+            self._split[name] = (
+                fold_upsampled_kernel(weight[:, :c_up]),
+                weight[:, c_up:].contiguous(),
+                self._w.pop(f"{name}.bias"),
+            )
+
+    def _conv(
+        self, x: torch.Tensor, name: str, relu: bool = True, add: torch.Tensor | None = None
+    ) -> torch.Tensor:
+        return conv_fused(x, self._w[f"{name}.weight"], self._w[f"{name}.bias"], relu, add)
+
+    def _up_cat_conv(self, low: torch.Tensor, skip: torch.Tensor, name: str) -> torch.Tensor:
+        """``relu(conv(cat([up(low), skip])))`` without building the upsampled tensor or the
+        concatenation."""
+        folded, skip_weight, bias = self._split[name]
+        up = interleave_phases(conv_fused(low, folded, None, False), skip_weight.shape[0])
+        return conv_fused(skip, skip_weight, bias, True, up)
+
+    def __call__(self, x: torch.Tensor) -> torch.Tensor:
+        if x.device.type != "cpu" or x.dtype != torch.float32 or torch.is_grad_enabled():
+            return self.model(x)
+        h, w = x.shape[-2:]
+        ph, pw = (-h) % 8, (-w) % 8
+        x = F.pad(x, (0, pw, 0, ph), mode="replicate") if ph or pw else x
+        x = x.contiguous(memory_format=torch.channels_last)
+        y = self._conv(self._conv(x, "enc0"), "enc1")
+        skip1 = F.max_pool2d(y, 2)  # 1/2
+        skip2 = F.max_pool2d(self._conv(skip1, "enc2"), 2)  # 1/4
+        y = F.max_pool2d(self._conv(skip2, "enc3"), 2)  # 1/8
+        y = self._conv(self._conv(y, "mid_a"), "mid_b")
+        y = self._conv(self._up_cat_conv(y, skip2, "dec3_a"), "dec3_b")  # 1/4
+        y = self._conv(self._up_cat_conv(y, skip1, "dec2_a"), "dec2_b")  # 1/2
+        y = self._conv(self._up_cat_conv(y, x, "dec1_a"), "dec1_b")  # 1
+        color = x[:, :3].contiguous(memory_format=torch.channels_last) if self.residual else None
+        return self._conv(y, "out", relu=False, add=color)[..., :h, :w]
+
+
 def unet_denoise(
-    model: UNet, color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor
+    model: UNet | FastUNet, color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor
 ) -> torch.Tensor:
     """Denoise ``color [3, H, W]`` with ``model``, guided by ``albedo`` and ``normal [3, H, W]``.
 
@@ -277,7 +414,7 @@ class UNetDenoiser(Denoiser):
         if weights is not None and not isinstance(weights, (str, Path)):
             raise DtypeError(f"unet: weights: expected a path, got {type(weights).__name__}")
         self.weights = Path(weights) if weights is not None else DEFAULT_WEIGHTS
-        self._models: dict[object, UNet] = {"cpu": load_weights(self.weights)}
+        self._models: dict[object, UNet | FastUNet] = {"cpu": load_weights(self.weights)}
 
     @property
     def model(self) -> UNet:
@@ -288,13 +425,17 @@ class UNetDenoiser(Denoiser):
         device = frame.color.device
         key = ("fast", str(device))
         if key not in self._models:
-            # A copy in channels-last layout, the one oneDNN's convolutions run fastest on
-            # (measured 1.2x on 2 AVX2 cores at 960 x 540); outputs agree within float32 rounding
-            # (a different summation order, max 5e-6 of the shipped weights' output).
-            fast = UNet(self.model.widths, residual=self.model.residual)
-            fast.load_state_dict(self.model.state_dict())
-            self._models[key] = fast.eval().to(device, memory_format=torch.channels_last)
+            self._models[key] = self._inference_model(device)
         return unet_denoise(self._models[key], frame.color, frame.albedo, frame.normal)
+
+    def _inference_model(self, device: torch.device) -> UNet | FastUNet:
+        """The network for inference on ``device``: :class:`FastUNet` on the CPU, elsewhere a
+        channels-last copy (the layout cuDNN's convolutions prefer too)."""
+        if device.type == "cpu":
+            return FastUNet(self.model)
+        fast = UNet(self.model.widths, residual=self.model.residual)
+        fast.load_state_dict(self.model.state_dict())
+        return fast.eval().to(device, memory_format=torch.channels_last)
 
     def params(self) -> dict[str, str]:
         return {"weights": str(self.weights)}

@@ -16,9 +16,12 @@ from denoisers.unet import (
     DEFAULT_WEIGHTS,
     DEFAULT_WIDTHS,
     MAX_PARAMETERS,
+    FastUNet,
     UNet,
     UNetDenoiser,
     auto_exposure,
+    fold_upsampled_kernel,
+    interleave_phases,
     load_weights,
     network_input,
     parameter_count,
@@ -248,16 +251,98 @@ def test_a_tiny_file_asking_for_a_huge_network_is_refused_without_building_it(
         load_weights(path)
 
 
-def test_channels_last_copy_gives_the_plain_networks_output():
-    """UNetDenoiser runs a channels-last copy (issue 16); the weights' network is untouched.
+def test_denoiser_fast_path_gives_the_plain_networks_output():
+    """UNetDenoiser runs a FastUNet on the CPU (issue 16); the weights' network is untouched.
 
-    Tolerance: 1e-4 relative, 1e-5 absolute: oneDNN sums the convolutions in another order in that
-    layout (measured at most 5e-6 on a 960 x 540 frame)."""
+    Tolerance: 1e-4 relative, 1e-5 absolute: the fast path sums the convolutions in another order
+    (measured at most 5e-6 on a 960 x 540 and a 1920 x 1080 synthetic frame)."""
     frame = _frame(h=67, w=45, scale=3.0)
     denoiser = UNetDenoiser()
     want = unet_denoise(denoiser.model, frame.color, frame.albedo, frame.normal)
     torch.testing.assert_close(denoiser(frame), want, rtol=1e-4, atol=1e-5)
+    assert isinstance(denoiser._models[("fast", "cpu")], FastUNet)
     assert denoiser.model.enc1.weight.is_contiguous()  # the loaded network stays as it was
+
+
+# FastUNet against the plain eager forward. Measured on the shipped weights, inputs up to 3 (the
+# log color's range), 2 x 9 x {37 x 53, 67 x 45, 9 x 15, 1 x 1}: at most 1.6e-6 absolute on
+# outputs up to 3.1, about 7 float32 ulps (the folded kernels and fused sums add in another
+# order), the same with and without oneDNN's fused op. 1e-5 absolute and relative leaves room for
+# other CPUs, whose oneDNN kernels block the sums differently.
+FAST_TOL = {"rtol": 1e-5, "atol": 1e-5}
+
+
+def _net_input(h, w, batch=2, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    scale = torch.tensor([3.0] * 3 + [1.0] * 6).view(1, 9, 1, 1)
+    return torch.rand(batch, 9, h, w, generator=g) * scale
+
+
+@pytest.mark.parametrize("h, w", [(37, 53), (1, 1), (16, 24)])
+def test_fast_unet_matches_the_plain_forward_on_the_shipped_weights(h, w):
+    net = load_weights(DEFAULT_WEIGHTS)
+    x = _net_input(h, w)
+    with torch.no_grad():
+        want, got = net(x), FastUNet(net)(x)
+    assert got.shape == want.shape == (2, 3, h, w)
+    torch.testing.assert_close(got, want, **FAST_TOL)
+
+
+@pytest.mark.parametrize("residual", [True, False])
+def test_fast_unet_matches_the_plain_forward_on_other_widths(residual):
+    torch.manual_seed(1)
+    net = UNet((5, 7, 6, 3), residual=residual).eval()
+    x = _net_input(21, 19, batch=1)
+    with torch.no_grad():
+        torch.testing.assert_close(FastUNet(net)(x), net(x), **FAST_TOL)
+
+
+def test_fast_unet_is_bit_identical_run_to_run_and_across_thread_counts():
+    fast, x = FastUNet(load_weights(DEFAULT_WEIGHTS)), _net_input(37, 53)
+    threads = torch.get_num_threads()
+    try:
+        with torch.no_grad():
+            first = fast(x)
+            assert torch.equal(fast(x), first)
+            torch.set_num_threads(1 if threads > 1 else 2)
+            assert torch.equal(fast(x), first)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def test_fast_unet_without_onednns_fused_op_gives_the_same_output(monkeypatch):
+    net = load_weights(DEFAULT_WEIGHTS)
+    x = _net_input(13, 11)
+    with torch.no_grad():
+        fused = FastUNet(net)(x)
+        monkeypatch.setattr(unet_module, "_fused_op", lambda: None)
+        plain = FastUNet(net)(x)
+        torch.testing.assert_close(plain, net(x), **FAST_TOL)
+    torch.testing.assert_close(plain, fused, **FAST_TOL)
+
+
+def test_fast_unet_defers_to_the_plain_network_for_gradients_and_other_dtypes():
+    net = load_weights(DEFAULT_WEIGHTS)
+    fast, x = FastUNet(net), _net_input(9, 10)
+    assert torch.equal(fast(x), net(x))  # gradients enabled: training's forward, unchanged
+    net.double()  # the plain network the fast path holds, now in float64
+    with torch.no_grad():
+        assert torch.equal(fast(x.double()), net(x.double()))
+
+
+@pytest.mark.parametrize("h, w", [(5, 7), (1, 1), (6, 4)])
+def test_folded_kernel_on_the_low_resolution_input_is_the_conv_of_the_upsampled_input(h, w):
+    """The slow, obviously correct twin: upsample, then the 3 x 3 convolution (zero padding)."""
+    g = torch.Generator().manual_seed(h * w)
+    low, weight = torch.randn(2, 4, h, w, generator=g), torch.randn(6, 4, 3, 3, generator=g)
+    want = torch.nn.functional.conv2d(
+        torch.nn.functional.interpolate(low, scale_factor=2.0, mode="nearest"), weight, padding=1
+    )
+    z = torch.nn.functional.conv2d(low, fold_upsampled_kernel(weight), padding=1)
+    got = interleave_phases(z.contiguous(memory_format=torch.channels_last), 6)
+    # Sums of 36 products of unit normals: float32 rounding, measured below 4e-6.
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=2e-5)
+    assert got.is_contiguous(memory_format=torch.channels_last)
 
 
 def test_unet_blue_is_registered_with_its_own_shipped_weights():
