@@ -327,7 +327,9 @@ _VARIANCE_WINDOW = 7
 
 def _unit_normals(normal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Normalized normals ``[3, H, W]`` and the mask ``[1, H, W]`` of pixels that hit a surface."""
-    length = normal.norm(dim=0, keepdim=True)
+    # The square root of the sum of squares, not normal.norm(dim=0): the same value within an
+    # ulp, 50 times faster on the CPU (norm over the outer dimension took 0.3 s at 1080p).
+    length = normal.square().sum(0, keepdim=True).sqrt()
     hit = length > 0.5  # pixel-averaged normals of a hit are close to unit length; escaped are 0
     return torch.where(hit, normal / length.clamp_min(1e-12), torch.zeros_like(normal)), hit
 

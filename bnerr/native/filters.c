@@ -34,31 +34,39 @@
 #define MAX_THREADS 64
 #define MAX_CHANNELS 16
 
+/* a * b + c: one fused multiply-add where the CPU has it (the polynomials below only: shorter
+   dependency chains, one rounding fewer; the weights' own arithmetic rounds as written). */
+#ifdef __FMA__
+#define MADD(a, b, c) fmaf((a), (b), (c))
+#else
+#define MADD(a, b, c) ((a) * (b) + (c))
+#endif
+
 /* exp(x) for x in [-87, 88] (callers clamp): Cephes' expf, round-to-nearest split into
-   n ln 2 + r, a degree-6 polynomial of r, times 2^n built from its bits. */
+   n ln 2 + r, its degree-5 polynomial of r (evaluated in Estrin's order), times 2^n built from
+   its bits. */
 static inline float exp_poly(float x) {
     const float magic = 12582912.0f; /* 1.5 * 2^23: adding it rounds to an integer */
     float t = x * 1.44269504088896341f + magic;
     float n = t - magic;
     float r = x - n * 0.693359375f;
     r = r - n * -2.12194440e-4f;
-    float p = 1.9875691500e-4f;
-    p = p * r + 1.3981999507e-3f;
-    p = p * r + 8.3334519073e-3f;
-    p = p * r + 4.1665795894e-2f;
-    p = p * r + 1.6666665459e-1f;
-    p = p * r + 5.0000001201e-1f;
-    p = (p * (r * r) + r) + 1.0f;
+    const float r2 = r * r;
+    const float a = MADD(1.9875691500e-4f, r, 1.3981999507e-3f);
+    const float b = MADD(8.3334519073e-3f, r, 4.1665795894e-2f);
+    const float c = MADD(1.6666665459e-1f, r, 5.0000001201e-1f);
+    const float p = MADD(MADD(a, r2, b), r2, c);
+    const float e = MADD(p, r2, r) + 1.0f;
     int32_t bits;
     memcpy(&bits, &t, 4);
     bits = (bits - 0x4B400000 + 127) << 23;
     float scale;
     memcpy(&scale, &bits, 4);
-    return p * scale;
+    return e * scale;
 }
 
-/* log(x) for a normal positive x: Cephes' logf, x = m 2^e with m in [sqrt(1/2), sqrt(2)), a
-   degree-9 polynomial of m - 1, e ln 2 added in two parts. */
+/* log(x) for a normal positive x: Cephes' logf, x = m 2^e with m in [sqrt(1/2), sqrt(2)), its
+   degree-8 polynomial of m - 1 (Estrin's order), e ln 2 added in two parts. */
 static inline float log_poly(float x) {
     int32_t bits;
     memcpy(&bits, &x, 4);
@@ -70,21 +78,17 @@ static inline float log_poly(float x) {
     e = e - low;
     const float twice = m + m; /* computed either way: a branch would stop the vectoriser */
     m = (low ? twice : m) - 1.0f;
-    float z = m * m;
-    float y = 7.0376836292e-2f;
-    y = y * m - 1.1514610310e-1f;
-    y = y * m + 1.1676998740e-1f;
-    y = y * m - 1.2420140846e-1f;
-    y = y * m + 1.4249322787e-1f;
-    y = y * m - 1.6668057665e-1f;
-    y = y * m + 2.0000714765e-1f;
-    y = y * m - 2.4999993993e-1f;
-    y = y * m + 3.3333331174e-1f;
-    y = (y * m) * z;
-    float fe = (float)e;
-    y = y + fe * -2.12194440e-4f;
-    y = y - 0.5f * z;
-    return (m + y) + fe * 0.693359375f;
+    const float z = m * m, z2 = z * z;
+    const float a = MADD(-1.1514610310e-1f, m, 1.1676998740e-1f);
+    const float b = MADD(-1.2420140846e-1f, m, 1.4249322787e-1f);
+    const float c = MADD(-1.6668057665e-1f, m, 2.0000714765e-1f);
+    const float d = MADD(-2.4999993993e-1f, m, 3.3333331174e-1f);
+    const float p = MADD(MADD(7.0376836292e-2f, z2, MADD(a, z, b)), z2, MADD(c, z, d));
+    float y = (p * m) * z;
+    const float fe = (float)e;
+    y = MADD(fe, -2.12194440e-4f, y);
+    y = MADD(-0.5f, z, y);
+    return MADD(fe, 0.693359375f, m + y);
 }
 
 static inline int64_t clamp64(int64_t v, int64_t lo, int64_t hi) {
