@@ -105,6 +105,10 @@ def bilateral_filter(color: torch.Tensor, sigma_color: float, sigma_space: float
 
     Not for HDR fireflies: a pixel far brighter than its neighbours finds no similar neighbour
     and is kept as it is. That is the textbook behaviour, kept on purpose.
+
+    Computed as kornia's ``bilateral_blur``; on CPU float32 tensors by the native kernel of
+    :mod:`denoisers.native`, which agrees with kornia within float32 rounding (about 10 times
+    faster at 1080p).
     """
     k = _odd(2.0 * sigma_space)
     # Filtering color / mean and multiplying back equals a range sigma of sigma_color * mean.
@@ -197,7 +201,9 @@ def joint_bilateral_filter(
     linear): it brings a partly covered light pixel close to a fully covered one.
 
     Implemented as kornia's ``joint_bilateral_blur`` with the guide channels divided by their
-    sigmas and a unit range sigma (one L2 range kernel equals the product of the three).
+    sigmas and a unit range sigma (one L2 range kernel equals the product of the three); on CPU
+    float32 tensors by the native kernel of :mod:`denoisers.native` (the same weights, within
+    float32 rounding, about 13 times faster at 1080p).
     """
     guide = torch.cat(
         [albedo / sigma_feature, normal / sigma_feature, _relative(color) / sigma_color]
@@ -495,6 +501,10 @@ def atrous_filter(
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
     1e18 switches to float64 (see :class:`ATrous`).
+
+    On CPU float32 tensors the passes run in the native kernel of :mod:`denoisers.native` (the
+    same weights within float32 rounding, about 15 times faster at 1080p); float64 and CUDA
+    tensors run the torch path.
 
     Raises:
         ShapeError: ``variance`` is not ``[H, W]``.

@@ -289,17 +289,18 @@ int bnerr_atrous(const float *color, const float *variance, const float *normal4
                  float floor, const float *lum_weights, const float *blur, int threads) {
     if (H < 1 || W < 1 || iterations < 1 || iterations > 20) return 1;
     const int64_t P = H * W;
-    float *buf = (float *)malloc(sizeof(float) * (size_t)P * 10);
+    float *buf = (float *)malloc(sizeof(float) * (size_t)P * 7);
     if (!buf) return 1;
-    /* buf: two color planes [3] and two variance planes to alternate, luminance, 1 / phi_l. */
-    float *col[2] = {buf, buf + 3 * P}, *var[2] = {buf + 6 * P, buf + 7 * P};
+    /* buf: a color [3] and two variance planes, luminance, 1 / phi_l. The passes alternate
+       between buf's color and out, in the order that ends in out. */
+    float *col[2] = {out, buf}, *var[2] = {buf + 3 * P, buf + 4 * P};
     threads = clamp_threads(threads, H);
     ajob_t jobs[MAX_THREADS];
     const float *c = color, *v = variance;
     for (int it = 0; it < iterations; ++it) {
-        float *oc = it + 1 == iterations ? out : col[it & 1], *ov = var[it & 1];
+        float *oc = col[(iterations - 1 - it) & 1], *ov = var[it & 1];
         for (int i = 0; i < threads; ++i) {
-            ajob_t jb = {c, v, normal4, depth, depth_width, buf + 8 * P, buf + 9 * P, oc, ov,
+            ajob_t jb = {c, v, normal4, depth, depth_width, buf + 5 * P, buf + 6 * P, oc, ov,
                          H, W, (int64_t)1 << it, H * i / threads, H * (i + 1) / threads,
                          sigma_color, sigma_normal, sigma_depth, floor, lum_weights, blur};
             jobs[i] = jb;
