@@ -500,11 +500,8 @@ def atrous_filter(
     ``medium`` scene, against 0.5 without demodulation).
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
-    1e18 switches to float64 (see :class:`ATrous`).
-
-    On CPU float32 tensors the passes run in the native kernel of :mod:`denoisers.native` (the
-    same weights within float32 rounding, about 15 times faster at 1080p); float64 and CUDA
-    tensors run the torch path.
+    1e18 switches to float64 (see :class:`ATrous`). CPU float32 tensors run the native kernel of
+    :mod:`denoisers.native` (the same within float32 rounding, 15 times faster at 1080p).
 
     Raises:
         ShapeError: ``variance`` is not ``[H, W]``.
