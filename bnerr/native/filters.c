@@ -167,8 +167,10 @@ typedef struct {
     float c[3][BLOCK], v[BLOCK], w[BLOCK];
 } aacc_t;
 
-/* One tap over n pixels: weight h * exp(max(-80, sigma_n log(max(cos, floor)) - e)),
-   e = |l_p - l_q| / phi_l + |z_p - z_q| / phi_z; sigma_n 0: -80 |esc_p - esc_q| - e. */
+/* One tap over n pixels (n <= BLOCK): weight h * exp(max(-80, sigma_n log(max(cos, floor)) - e)),
+   e = |l_p - l_q| / phi_l + |z_p - z_q| / phi_z; sigma_n 0: -80 |esc_p - esc_q| - e. Three short
+   loops (exponent terms, log, exp and sums) instead of one: each has a shorter dependency chain,
+   so the CPU overlaps more pixels (about twice as fast as the single loop). */
 __attribute__((noinline)) static void atrous_tap(
     int64_t n, const float *restrict qc0, const float *restrict qc1, const float *restrict qc2,
     const float *restrict ql, const float *restrict qv, const float *restrict qn0,
@@ -178,37 +180,37 @@ __attribute__((noinline)) static void atrous_tap(
     const float *restrict pn3, const float *restrict inv_l, const float *restrict inv_z,
     float *restrict s0, float *restrict s1, float *restrict s2, float *restrict sv,
     float *restrict sw, float h, float sigma_n, float floor) {
+    float ea[BLOCK], cosa[BLOCK];
+    float *restrict e = ea, *restrict cs = cosa;
+    for (int64_t i = 0; i < n; ++i) {
+        float t = fabsf(ql[i] - pl[i]) * inv_l[i];
+        e[i] = t + fabsf(qz[i] - pz[i]) * inv_z[i];
+    }
     if (sigma_n != 0.0f) {
         for (int64_t i = 0; i < n; ++i) {
-            float e = fabsf(ql[i] - pl[i]) * inv_l[i];
-            e = e + fabsf(qz[i] - pz[i]) * inv_z[i];
-            float cs = qn0[i] * pn0[i];
-            cs = cs + qn1[i] * pn1[i];
-            cs = cs + qn2[i] * pn2[i];
-            cs = cs + qn3[i] * pn3[i];
-            cs = cs < floor ? floor : cs;
-            float a = log_poly(cs) * sigma_n - e;
-            a = a < -80.0f ? -80.0f : a;
-            float wt = exp_poly(a) * h;
-            sw[i] = sw[i] + wt;
-            s0[i] = s0[i] + wt * qc0[i];
-            s1[i] = s1[i] + wt * qc1[i];
-            s2[i] = s2[i] + wt * qc2[i];
-            sv[i] = sv[i] + (wt * wt) * qv[i];
+            float c = qn0[i] * pn0[i];
+            c = c + qn1[i] * pn1[i];
+            c = c + qn2[i] * pn2[i];
+            c = c + qn3[i] * pn3[i];
+            cs[i] = c < floor ? floor : c;
+        }
+        for (int64_t i = 0; i < n; ++i) {
+            const float a = log_poly(cs[i]) * sigma_n - e[i];
+            cs[i] = a < -80.0f ? -80.0f : a;
         }
     } else {
         for (int64_t i = 0; i < n; ++i) {
-            float e = fabsf(ql[i] - pl[i]) * inv_l[i];
-            e = e + fabsf(qz[i] - pz[i]) * inv_z[i];
-            float a = fabsf(qn3[i] - pn3[i]) * -80.0f - e;
-            a = a < -80.0f ? -80.0f : a;
-            float wt = exp_poly(a) * h;
-            sw[i] = sw[i] + wt;
-            s0[i] = s0[i] + wt * qc0[i];
-            s1[i] = s1[i] + wt * qc1[i];
-            s2[i] = s2[i] + wt * qc2[i];
-            sv[i] = sv[i] + (wt * wt) * qv[i];
+            const float a = fabsf(qn3[i] - pn3[i]) * -80.0f - e[i];
+            cs[i] = a < -80.0f ? -80.0f : a;
         }
+    }
+    for (int64_t i = 0; i < n; ++i) {
+        const float wt = exp_poly(cs[i]) * h;
+        sw[i] = sw[i] + wt;
+        s0[i] = s0[i] + wt * qc0[i];
+        s1[i] = s1[i] + wt * qc1[i];
+        s2[i] = s2[i] + wt * qc2[i];
+        sv[i] = sv[i] + (wt * wt) * qv[i];
     }
 }
 
