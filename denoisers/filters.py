@@ -501,7 +501,7 @@ def atrous_filter(
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
     1e18 switches to float64 (see :class:`ATrous`). CPU float32 tensors run the native kernel of
-    :mod:`denoisers.native` (the same within float32 rounding, 15 times faster at 1080p).
+    :mod:`denoisers.native` (the same within float32 rounding, 6-15 times faster at 1080p).
 
     Raises:
         ShapeError: ``variance`` is not ``[H, W]``.

@@ -42,11 +42,12 @@ __all__ = [
 ]
 
 #: What the torch path costs instead, quoted in the warnings. Measured at 1920x1080 on 2 threads
-#: of a shared 2-core machine, old and new side by side: the torch a-trous filter took 15 times,
-#: the kornia joint bilateral 14 times and the kornia bilateral 9 times as long.
+#: of a shared 2-core machine, old and new side by side (more under heavier load): the torch
+#: a-trous filter took 6-15 times, the kornia joint bilateral 13 times and the kornia bilateral
+#: 6-9 times as long.
 TORCH_PATH_COST = (
-    "at 1080p the a-trous and joint bilateral filters run about 14x and the bilateral about 9x "
-    "slower on the CPU"
+    "at 1080p the a-trous filter runs about 6-15x, the joint bilateral about 13x and the "
+    "bilateral about 6-9x slower on the CPU"
 )
 _SOURCE = "filters.c"
 _SYMBOLS = ("bnerr_atrous", "bnerr_bilateral")
