@@ -33,6 +33,7 @@ from bnerr.errors import (
     check_shape,
 )
 from bnerr.frame import Frame
+from denoisers import native
 from denoisers.base import Denoiser
 from denoisers.guided_native import native_guided
 
@@ -105,19 +106,69 @@ def bilateral_filter(color: torch.Tensor, sigma_color: float, sigma_space: float
 
     Not for HDR fireflies: a pixel far brighter than its neighbours finds no similar neighbour
     and is kept as it is. That is the textbook behaviour, kept on purpose.
+
+    Computed as kornia's ``bilateral_blur``; on CPU float32 tensors by the native kernel of
+    :mod:`denoisers.native`, which agrees with kornia within float32 rounding (about 10 times
+    faster at 1080p).
     """
     k = _odd(2.0 * sigma_space)
     # Filtering color / mean and multiplying back equals a range sigma of sigma_color * mean.
     scale = color.mean().clamp_min(1e-6)
-    out = KF.bilateral_blur(
-        color[None] / scale,
-        (k, k),
-        sigma_color,
-        (sigma_space, sigma_space),
-        border_type=_BORDER,
-        color_distance_type="l2",
-    )
-    return out[0] * scale
+    return _bilateral(color / scale, None, k, sigma_color, sigma_space) * scale
+
+
+def _bilateral(
+    image: torch.Tensor,
+    guide: torch.Tensor | None,
+    kernel_size: int,
+    sigma_color: float,
+    sigma_space: float,
+) -> torch.Tensor:
+    """kornia's ``bilateral_blur`` (``guide`` None) or ``joint_bilateral_blur`` of ``image
+    [C, H, W]``: L2 color distance, replicate border; the native kernel on CPU float32 tensors."""
+    tensors = (image,) if guide is None else (image, guide)
+    kernels = _native_bilateral() if native.eligible(*tensors) else None
+    if kernels is not None:
+        threads = native.threads_for(image.shape[1] * image.shape[2])
+        out = native.native_bilateral(
+            kernels, image, guide, kernel_size, sigma_color, sigma_space, threads
+        )
+        if out is not None:
+            return out
+    return _kornia_bilateral(image, guide, kernel_size, sigma_color, sigma_space)
+
+
+def _kornia_bilateral(
+    image: torch.Tensor,
+    guide: torch.Tensor | None,
+    kernel_size: int,
+    sigma_color: float,
+    sigma_space: float,
+) -> torch.Tensor:
+    """The torch path of :func:`_bilateral` (kornia's own functions)."""
+    args = ((kernel_size, kernel_size), sigma_color, (sigma_space, sigma_space))
+    options = {"border_type": _BORDER, "color_distance_type": "l2"}
+    if guide is None:
+        return KF.bilateral_blur(image[None], *args, **options)[0]
+    return KF.joint_bilateral_blur(image[None], guide[None], *args, **options)[0]
+
+
+def _check_bilateral(kernels: native.FilterKernels) -> bool:
+    """Compare the native bilateral kernel with kornia on small odd-sized images (a firefly, a
+    flat region, 3 and 9 guide channels): True if they agree within float32 rounding."""
+    gen = torch.Generator().manual_seed(16)
+    image = torch.rand(3, 23, 31, generator=gen).square() * 4.0
+    image[1, 5, 7], image[:, 10:, :6] = 60.0, 0.5
+    for guide, k, sigma_color in ((None, 5, 1.0), (torch.rand(9, 23, 31, generator=gen), 9, 0.3)):
+        want = _kornia_bilateral(image, guide, k, sigma_color, k / 4)
+        got = native.native_bilateral(kernels, image, guide, k, sigma_color, k / 4, 2)
+        if got is None or not torch.allclose(got, want, rtol=1e-4, atol=1e-5 * 60.0):
+            return False
+    return True
+
+
+#: The native bilateral kernel if it loads and passes :func:`_check_bilateral` (once per library).
+_native_bilateral = native.checked(_check_bilateral, "denoisers.filters: the native bilateral")
 
 
 def _relative(color: torch.Tensor) -> torch.Tensor:
@@ -151,22 +202,14 @@ def joint_bilateral_filter(
     linear): it brings a partly covered light pixel close to a fully covered one.
 
     Implemented as kornia's ``joint_bilateral_blur`` with the guide channels divided by their
-    sigmas and a unit range sigma (one L2 range kernel equals the product of the three).
+    sigmas and a unit range sigma (one L2 range kernel equals the product of the three); on CPU
+    float32 tensors by the native kernel of :mod:`denoisers.native` (the same weights, within
+    float32 rounding, about 13 times faster at 1080p).
     """
     guide = torch.cat(
         [albedo / sigma_feature, normal / sigma_feature, _relative(color) / sigma_color]
     )
-    k = _odd(2.0 * sigma_space)
-    out = KF.joint_bilateral_blur(
-        color[None],
-        guide[None],
-        (k, k),
-        1.0,
-        (sigma_space, sigma_space),
-        border_type=_BORDER,
-        color_distance_type="l2",
-    )
-    return out[0]
+    return _bilateral(color, guide, _odd(2.0 * sigma_space), 1.0, sigma_space)
 
 
 def guided_filter(
@@ -305,7 +348,9 @@ _VARIANCE_WINDOW = 7
 
 def _unit_normals(normal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
     """Normalized normals ``[3, H, W]`` and the mask ``[1, H, W]`` of pixels that hit a surface."""
-    length = normal.norm(dim=0, keepdim=True)
+    # The square root of the sum of squares, not normal.norm(dim=0): the same value within an
+    # ulp, 50 times faster on the CPU (norm over the outer dimension took 0.3 s at 1080p).
+    length = normal.square().sum(0, keepdim=True).sqrt()
     hit = length > 0.5  # pixel-averaged normals of a hit are close to unit length; escaped are 0
     return torch.where(hit, normal / length.clamp_min(1e-12), torch.zeros_like(normal)), hit
 
@@ -324,6 +369,17 @@ def _spatial_variance(lum: torch.Tensor) -> torch.Tensor:
 _ATROUS_MIN_LOG_WEIGHT = -80.0
 # Rows per strip of one a-trous pass: the per-tap buffers of a strip stay in the CPU's caches.
 _ATROUS_ROWS = 128
+
+
+# The luminance weights and the 3 x 3 variance blur, as the native a-trous kernel takes them.
+_ATROUS_CONSTANTS = (_LUMINANCE, _VARIANCE_BLUR)
+
+
+def _normal_floor(sigma_normal: float) -> float:
+    """The smallest cosine whose log the normal weight takes: cos^sigma_normal below exp(-80) is
+    clamped there anyway, and the floor keeps log away from 0 (sigma_normal 0: SVGF's 0^0 = 1
+    between surfaces, 0 between surface and sky, computed without a log)."""
+    return max(math.exp(_ATROUS_MIN_LOG_WEIGHT / sigma_normal), 1e-37) if sigma_normal else 0.0
 
 
 def _atrous_taps(step: int) -> list[tuple[int, int, float]]:
@@ -393,9 +449,7 @@ def _atrous_strip(
     sum_c = torch.zeros((3, *lum.shape[1:]), device=lum.device, dtype=lum.dtype)
     sum_v, sum_w = torch.zeros_like(lum), torch.zeros_like(lum)
     e, t, wt = torch.empty_like(lum), torch.empty_like(lum), torch.empty_like(lum)
-    # cos^sigma_normal below exp(-80) is clamped there anyway: the same floor on cos keeps log
-    # away from 0 (sigma_normal 0: SVGF's 0^0 = 1 between surfaces, 0 between surface and sky).
-    floor = max(math.exp(_ATROUS_MIN_LOG_WEIGHT / sigma_normal), 1e-37) if sigma_normal else 0.0
+    floor = _normal_floor(sigma_normal)
     inv_depth: dict[float, torch.Tensor] = {}
     for dy, dx, hw in _atrous_taps(step):
         q = padded[:, r + dy : r + dy + lum.shape[1], r + dx : r + dx + w]
@@ -461,7 +515,8 @@ def atrous_filter(
     ``medium`` scene, against 0.5 without demodulation).
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
-    1e18 switches to float64 (see :class:`ATrous`).
+    1e18 switches to float64 (see :class:`ATrous`). CPU float32 tensors run the native kernel of
+    :mod:`denoisers.native` (the same within float32 rounding, 6-15 times faster at 1080p).
 
     Raises:
         ShapeError: ``variance`` is not ``[H, W]``.
@@ -503,7 +558,30 @@ def _atrous(
     sigma_depth: float,
     initial: torch.Tensor | None = None,
 ) -> torch.Tensor:
-    """:func:`atrous_filter` on finite inputs whose squares fit their dtype."""
+    """:func:`atrous_filter` on finite inputs whose squares fit their dtype: the native kernel on
+    CPU float32 tensors (:mod:`denoisers.native`), else the torch path."""
+    planes = _atrous_planes(color, normal, depth, initial)
+    sigmas = (sigma_color, sigma_normal, sigma_depth)
+    kernels = _native_atrous() if native.eligible(*planes) else None
+    if kernels is not None:
+        threads = native.threads_for(color.shape[1] * color.shape[2])
+        floor = _normal_floor(sigma_normal)
+        out = native.native_atrous(
+            kernels, planes, iterations, sigmas, floor, _ATROUS_CONSTANTS, threads
+        )
+        if out is not None:
+            return out
+    return _atrous_passes(planes, iterations, sigmas)
+
+
+def _atrous_planes(
+    color: torch.Tensor,
+    normal: torch.Tensor,
+    depth: torch.Tensor,
+    initial: torch.Tensor | None,
+) -> tuple[torch.Tensor, ...]:
+    """What every pass reads: ``(color, variance [1, H, W], normal4 [4, H, W], depth,
+    depth_width [1, H, W])`` (see :func:`_atrous_step`)."""
     unit, hit = _unit_normals(normal)
     normal4 = torch.cat([unit, (~hit).to(color.dtype)])
     padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
@@ -513,10 +591,44 @@ def _atrous(
     variance = _spatial_variance(luminance(color))
     if initial is not None:
         variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
-    sigmas = (sigma_color, sigma_normal, sigma_depth)
+    return color, variance, normal4, depth, depth_width
+
+
+def _atrous_passes(
+    planes: tuple[torch.Tensor, ...], iterations: int, sigmas: tuple[float, float, float]
+) -> torch.Tensor:
+    """The torch path of :func:`_atrous`: ``iterations`` calls of :func:`_atrous_step`."""
+    color, variance, normal4, depth, depth_width = planes
     for i in range(iterations):
         color, variance = _atrous_step(color, variance, normal4, depth, depth_width, 2**i, sigmas)
     return color
+
+
+def _check_atrous(kernels: native.FilterKernels) -> bool:
+    """Compare the native a-trous kernel with the torch path on a small odd-sized frame (a
+    firefly, escaped pixels, a given variance; normal weights on and off): True if they agree
+    within float32 rounding."""
+    gen = torch.Generator().manual_seed(16)
+    color = torch.rand(3, 37, 29, generator=gen).square() * 4.0
+    color[1, 9, 11] = 40.0
+    normal = F.normalize(
+        torch.randn(3, 37, 29, generator=gen) + torch.tensor([[[0.0]], [[0]], [[2]]]), dim=0
+    )
+    depth = torch.rand(1, 37, 29, generator=gen) + 1.0
+    normal[:, :9, :7], depth[:, :9, :7] = 0.0, 0.0
+    initial = torch.where(torch.rand(37, 29, generator=gen) < 0.5, float("nan"), 0.1)
+    planes = _atrous_planes(color, normal, depth, initial)
+    for sigmas in ((4.0, 128.0, 1.0), (16.0, 0.0, 0.1)):
+        want = _atrous_passes(planes, 3, sigmas)
+        floor = _normal_floor(sigmas[1])
+        got = native.native_atrous(kernels, planes, 3, sigmas, floor, _ATROUS_CONSTANTS, 2)
+        if got is None or not torch.allclose(got, want, rtol=1e-4, atol=1e-5):
+            return False
+    return True
+
+
+#: The native a-trous kernel if it loads and passes :func:`_check_atrous` (once per library).
+_native_atrous = native.checked(_check_atrous, "denoisers.filters: the native a-trous filter")
 
 
 def median_bytes(height: int, width: int, kernel_size: int) -> int:

@@ -20,6 +20,8 @@ from denoisers.filters import (
     JointBilateral,
     Median,
     _atrous,
+    _atrous_passes,
+    _atrous_planes,
     _relative,
     _spatial_variance,
     _unit_normals,
@@ -380,8 +382,10 @@ def test_fast_atrous_matches_its_slow_twin(iterations, sigma_color, sigma_normal
     color, normal, depth = _atrous_case()
     sigmas = (sigma_color, sigma_normal, sigma_depth)
     want = _reference_atrous(color, normal, depth, iterations, *sigmas)
-    got = _atrous(color, normal, depth, iterations, *sigmas)
+    got = _atrous(color, normal, depth, iterations, *sigmas)  # the native kernel where it loads
     torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+    torch_path = _atrous_passes(_atrous_planes(color, normal, depth, None), iterations, sigmas)
+    torch.testing.assert_close(torch_path, want, rtol=1e-4, atol=1e-6)
     variance = torch.rand(70, 53, generator=torch.Generator().manual_seed(2))
     variance[::3] = float("nan")
     want = _reference_atrous(color, normal, depth, iterations, *sigmas, variance)
@@ -393,9 +397,10 @@ def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
     import denoisers.filters as filters
 
     color, normal, depth = _atrous_case(h=45)
-    whole = _atrous(color, normal, depth, 3, 4.0, 128.0, 1.0)
+    planes = _atrous_planes(color, normal, depth, None)  # the torch path (strips are its own)
+    whole = _atrous_passes(planes, 3, (4.0, 128.0, 1.0))
     monkeypatch.setattr(filters, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
-    assert torch.equal(_atrous(color, normal, depth, 3, 4.0, 128.0, 1.0), whole)
+    assert torch.equal(_atrous_passes(planes, 3, (4.0, 128.0, 1.0)), whole)
 
 
 # -- the fast guided filter against kornia's guided_blur (its slow twin) --------------------------

@@ -1,0 +1,250 @@
+"""Tests of denoisers/native.py: the C kernels of the a-trous and (joint) bilateral filters against
+their torch paths (the a-trous passes of denoisers.filters, kornia's bilateral blurs), the thread
+count, the dispatch (CPU float32 only) and the fallback when the library is unavailable.
+
+The native comparisons skip, with the reason, when the library cannot be built or loaded here
+(no C compiler, or ``BNERR_NATIVE=0``); the dispatch and fallback tests run everywhere.
+
+Tolerances, from the largest differences measured over 4 seeds of these cases:
+
+- a-trous, relative 1e-4 of each value (absolute 1e-6 near 0) for sigma_normal up to 128: the
+  kernel takes the same steps in the same order (no fused multiply-add), but its exp and log are
+  polynomials of about 1 ulp, not torch's; a one-ulp change of log(cos) moves cos ** 128 by about
+  128 ulp (8e-6), measured up to 2.2e-5 after 5 passes (5e-7 at sigma_normal 0.5 or 0).
+- bilateral and joint bilateral, relative 1e-4 of each value (absolute 1e-6 of the largest):
+  the weights agree to about 2 ulp (the same exponent, another exp); kornia's unfold path (small
+  images) sums each window by rows, then the rows, where the kernel adds its taps in order,
+  which moves a sum of 81 terms by up to ~80 ulp; measured up to 3.5e-5 (firefly of 3e38).
+"""
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from bnerr import native as bnerr_native
+from denoisers import filters, native
+from denoisers.filters import (
+    _ATROUS_CONSTANTS,
+    _atrous,
+    _atrous_passes,
+    _atrous_planes,
+    _kornia_bilateral,
+    _normal_floor,
+    _odd,
+    atrous_filter,
+    bilateral_filter,
+    joint_bilateral_filter,
+)
+
+ATROUS_CORNERS = [
+    (5, 4.0, 128.0, 1.0),
+    (1, 1.0, 128.0, 1.0),
+    (3, 16.0, 0.5, 0.1),
+    (2, 64.0, 0.0, 10.0),
+]
+
+
+@pytest.fixture
+def kernels():
+    """The loaded filter kernels, or a skip that says why there are none."""
+    loaded = native.load()
+    if loaded is None:
+        pytest.skip(f"native filter kernels unavailable: {native.status()}")
+    return loaded
+
+
+@pytest.fixture
+def no_native(monkeypatch):
+    """The library switched off (``BNERR_NATIVE=0``), and looked up again after the test."""
+    monkeypatch.setenv("BNERR_NATIVE", "0")
+    bnerr_native.reset()
+    yield
+    monkeypatch.undo()
+    bnerr_native.reset()
+
+
+def _frame(h=70, w=53, seed=1, firefly=40.0):
+    """Color with a firefly, tilted normals, escaped pixels (no normal, depth 0), albedo."""
+    g = torch.Generator().manual_seed(seed)
+    color = torch.rand(3, h, w, generator=g).square() * 4.0
+    color[1, 10, 12] = firefly
+    tilt = torch.randn(3, h, w, generator=g) * 0.2 + torch.tensor([0.0, 0.0, 1.0])[:, None, None]
+    normal = F.normalize(tilt, dim=0)
+    normal[:, :20, :15] = 0.0
+    depth = torch.rand(1, h, w, generator=g) + 1.0
+    depth[:, :20, :15] = 0.0
+    albedo = torch.rand(3, h, w, generator=g)
+    return color, normal, depth, albedo
+
+
+def _run_atrous(kernels, planes, params, threads=2):
+    iterations, *sigmas = params
+    floor = _normal_floor(sigmas[1])
+    return native.native_atrous(
+        kernels, planes, iterations, tuple(sigmas), floor, _ATROUS_CONSTANTS, threads
+    )
+
+
+# -- a-trous ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("params", ATROUS_CORNERS)
+@pytest.mark.parametrize("with_variance", [False, True])
+def test_atrous_matches_the_torch_path(kernels, params, with_variance):
+    color, normal, depth, _ = _frame()
+    initial = None
+    if with_variance:
+        initial = torch.rand(70, 53, generator=torch.Generator().manual_seed(2))
+        initial[::3] = float("nan")  # those rows take the spatial estimate
+    planes = _atrous_planes(color, normal, depth, initial)
+    want = _atrous_passes(planes, params[0], params[1:])
+    got = _run_atrous(kernels, planes, params)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize(("h", "w"), [(1, 1), (1, 9), (9, 1), (3, 300), (41, 37)])
+def test_atrous_on_tiny_and_odd_sizes(kernels, h, w):
+    # Hole spacing 16 on a 1-pixel image: every tap is clamped onto the image (replicate border).
+    color, normal, depth, _ = _frame(max(h, 21), max(w, 16))
+    planes = _atrous_planes(color[:, :h, :w], normal[:, :h, :w], depth[:, :h, :w], None)
+    want = _atrous_passes(planes, 5, (4.0, 128.0, 1.0))
+    got = _run_atrous(kernels, planes, (5, 4.0, 128.0, 1.0))
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+
+
+def test_atrous_does_not_depend_on_the_thread_count(kernels):
+    color, normal, depth, _ = _frame(h=67, w=300)
+    planes = _atrous_planes(color, normal, depth, None)
+    one = _run_atrous(kernels, planes, (3, 4.0, 128.0, 1.0), threads=1)
+    for threads in (2, 3, 67, 200):
+        assert torch.equal(_run_atrous(kernels, planes, (3, 4.0, 128.0, 1.0), threads), one)
+
+
+def test_atrous_filter_dispatches_cpu_float32_to_the_kernel(kernels):
+    color, normal, depth, _ = _frame()
+    planes = _atrous_planes(color, normal, depth, None)
+    want = _run_atrous(kernels, planes, (5, 4.0, 128.0, 1.0))
+    assert torch.equal(atrous_filter(color, normal, depth), want)
+
+
+def test_atrous_float64_and_fireflies_keep_the_torch_path():
+    # float64 (and the float64 switch a firefly above 1e18 makes) never reaches the kernel.
+    color, normal, depth, _ = _frame()
+    wide = [t.double() for t in (color, normal, depth)]
+    want = _atrous_passes(_atrous_planes(*wide, None), 5, (4.0, 128.0, 1.0))
+    assert torch.equal(_atrous(*wide, 5, 4.0, 128.0, 1.0), want)
+    color[0, 3, 3] = 1e20
+    out = atrous_filter(color, normal, depth)
+    assert out.dtype == torch.float32 and torch.isfinite(out).all()
+
+
+def test_atrous_without_the_library_runs_the_torch_path(no_native):
+    assert native.load() is None
+    color, normal, depth, _ = _frame()
+    want = _atrous_passes(_atrous_planes(color, normal, depth, None), 5, (4.0, 128.0, 1.0))
+    assert torch.equal(atrous_filter(color, normal, depth), want)
+
+
+# -- bilateral and joint bilateral --------------------------------------------------------------
+
+# (sigma_color, sigma_space) corners: the defaults, the classes' limits, a wide window.
+BILATERAL_CORNERS = [(1.0, 1.5), (1e-3, 0.1), (1e3, 16.0), (0.3, 2.5)]
+
+
+def _bilateral_case(firefly, size=(41, 37)):
+    color, normal, _, albedo = _frame(*size, firefly=firefly)
+    return color, normal, albedo
+
+
+@pytest.mark.parametrize("firefly", [40.0, 1e20, 3e38])
+@pytest.mark.parametrize(("sigma_color", "sigma_space"), BILATERAL_CORNERS)
+def test_bilateral_matches_kornia(kernels, firefly, sigma_color, sigma_space):
+    color, _, _ = _bilateral_case(firefly)
+    k = _odd(2.0 * sigma_space)
+    image = color / color.mean()
+    want = _kornia_bilateral(image, None, k, sigma_color, sigma_space)
+    got = native.native_bilateral(kernels, image, None, k, sigma_color, sigma_space, 2)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6 * float(want.abs().amax()))
+
+
+@pytest.mark.parametrize("firefly", [40.0, 1e20, 3e38])
+@pytest.mark.parametrize(("sigma_color", "sigma_space"), BILATERAL_CORNERS)
+def test_joint_bilateral_matches_kornia(kernels, firefly, sigma_color, sigma_space):
+    color, normal, albedo = _bilateral_case(firefly)
+    k = _odd(2.0 * sigma_space)
+    guide = torch.cat([albedo / 0.3, normal / 0.3, color / color.mean() / sigma_color])
+    want = _kornia_bilateral(color, guide, k, 1.0, sigma_space)
+    got = native.native_bilateral(kernels, color, guide, k, 1.0, sigma_space, 2)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6 * float(want.abs().amax()))
+
+
+def test_bilateral_filters_match_kornia_on_an_image_kornia_filters_by_taps(kernels):
+    # 3 x 160 x 139 values: above kornia's threshold for its tap loop (65536), which adds the
+    # taps in the kernel's order; the unfold path of the small cases sums rows first.
+    color, normal, albedo = _bilateral_case(40.0, size=(160, 139))
+    scale = color.mean()
+    want = _kornia_bilateral(color / scale, None, 7, 1.0, 1.5) * scale
+    torch.testing.assert_close(bilateral_filter(color, 1.0, 1.5), want, rtol=1e-4, atol=1e-6)
+    guide = torch.cat([albedo / 0.3, normal / 0.3, color / scale / 4.0])
+    want = _kornia_bilateral(color, guide, 9, 1.0, 2.0)
+    got = joint_bilateral_filter(color, albedo, normal, 2.0, 0.3, 4.0)
+    torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize(("h", "w"), [(1, 1), (1, 9), (9, 1), (3, 300)])
+def test_bilateral_on_tiny_and_odd_sizes(kernels, h, w):
+    color, normal, albedo = _bilateral_case(40.0, size=(max(h, 21), max(w, 16)))
+    color, guide = color[:, :h, :w], torch.cat([albedo, normal])[:, :h, :w]
+    for g, k in ((None, 5), (guide, 9)):
+        want = _kornia_bilateral(color, g, k, 0.7, k / 4)
+        got = native.native_bilateral(kernels, color, g, k, 0.7, k / 4, 2)
+        torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6 * float(want.abs().amax()))
+
+
+def test_bilateral_does_not_depend_on_the_thread_count(kernels):
+    color, normal, albedo = _bilateral_case(40.0, size=(67, 300))
+    guide = torch.cat([albedo, normal, color])
+    for g in (None, guide):
+        one = native.native_bilateral(kernels, color, g, 9, 0.5, 2.0, 1)
+        for threads in (2, 3, 67, 200):
+            assert torch.equal(
+                native.native_bilateral(kernels, color, g, 9, 0.5, 2.0, threads), one
+            )
+
+
+def test_bilateral_kernel_refuses_what_it_cannot_do(kernels):
+    # More than 16 image channels: None, and the caller keeps kornia's path.
+    image = torch.rand(17, 8, 8)
+    assert native.native_bilateral(kernels, image, None, 3, 1.0, 1.0, 1) is None
+    want = _kornia_bilateral(image, None, 3, 1.0, 1.0)
+    assert torch.equal(filters._bilateral(image, None, 3, 1.0, 1.0), want)
+
+
+def test_bilateral_float64_keeps_kornias_path():
+    color, normal, albedo = _bilateral_case(40.0)
+    wide = color.double()
+    want = _kornia_bilateral(wide / wide.mean(), None, 7, 1.0, 1.5) * wide.mean()
+    assert torch.equal(bilateral_filter(wide, 1.0, 1.5), want)
+
+
+def test_bilateral_without_the_library_runs_kornia(no_native):
+    assert native.load() is None
+    color, normal, albedo = _bilateral_case(40.0)
+    scale = color.mean()
+    want = _kornia_bilateral(color / scale, None, 7, 1.0, 1.5) * scale
+    assert torch.equal(bilateral_filter(color, 1.0, 1.5), want)
+    guide = torch.cat([albedo / 0.3, normal / 0.3, color / scale / 4.0])
+    want = _kornia_bilateral(color, guide, 9, 1.0, 2.0)
+    assert torch.equal(joint_bilateral_filter(color, albedo, normal, 2.0, 0.3, 4.0), want)
+
+
+# -- the library and its self-checks ------------------------------------------------------------
+
+
+def test_self_checks_pass_and_eligibility(kernels):
+    assert filters._native_atrous() is kernels
+    assert filters._native_bilateral() is kernels
+    assert not native.status().startswith("disabled")
+    assert native.eligible(torch.zeros(2), torch.zeros(3))
+    assert not native.eligible(torch.zeros(2), torch.zeros(3, dtype=torch.float64))
+    assert native.threads_for(10) == 1
