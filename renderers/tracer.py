@@ -283,6 +283,25 @@ def _shading_point(
     return x, where(~scatter, hit.albedo * _INV_PI, _INV_4PI)
 
 
+def _medium_event(
+    st: SceneTensors,
+    o: torch.Tensor,
+    d: torch.Tensor,
+    t: torch.Tensor,
+    u_distance: torch.Tensor | None,
+    alive: torch.Tensor,
+    beta: torch.Tensor,
+) -> tuple[torch.Tensor | None, torch.Tensor | None, torch.Tensor]:
+    """A scattering event before the surface at ``t``: ``(scatter [N], s [N], beta)`` with the
+    throughput scaled by the medium's albedo where it scatters; ``(None, None, beta)`` without a
+    medium (every vertex on a surface, and the selects between the two cases skipped)."""
+    if st.medium is None:
+        return None, None, beta
+    scatter, s = sample_medium(st, o, d, t, u_distance)
+    scatter = scatter & alive
+    return scatter, s, where(scatter, beta * st.medium_albedo[:, None], beta)
+
+
 def vertex_step(
     st: SceneTensors,
     o: torch.Tensor,
@@ -304,12 +323,10 @@ def vertex_step(
     for camera rays). ``u_*`` are this vertex's sampler rows (``u_direction`` None at the last
     vertex, which samples no direction).
 
-    ``ends``: two bool scalar tensors ``(first, last)`` for the compiled stage, which must see
-    the same argument types at every vertex (each new combination of None arguments is one more
-    variant for torch.compile to build and for every new process to trace again). With them,
-    ``prev_pdf`` and ``u_direction`` are tensors at every vertex, the camera ray's emission
-    weight and the last vertex's unweighted next-event estimate are selected by the flags, and
-    the last vertex samples a direction nobody reads.
+    ``ends``: bool scalar tensors ``(first, last)`` that replace the None arguments for the
+    compiled stage (one variant per scene; see :func:`trace`): the flags select the camera
+    ray's emission weight and the last vertex's unweighted next-event estimate, and the last
+    vertex samples a direction nobody reads.
 
     Returns ``(o, d, beta, radiance, alive, pdf, albedo, normal)``: the next segment, the updated
     state and the vertex's surface albedo and normal (the first vertex's feed the guide buffers).
@@ -319,11 +336,7 @@ def vertex_step(
     hit = surface_at(st, o, d, t, obj)
     # -- medium: a scattering event before the surface replaces it (scatter None: no medium,
     # every vertex lies on a surface, and the selects between the two cases are skipped)
-    scatter = s = None
-    if st.medium is not None:
-        scatter, s = sample_medium(st, o, d, t, u_distance)
-        scatter = scatter & alive
-        beta = where(scatter, beta * st.medium_albedo[:, None], beta)
+    scatter, s, beta = _medium_event(st, o, d, t, u_distance, alive, beta)
     cos_hit = -dot(d, hit.normal)
     front = (obj >= 0) & (cos_hit > 0) & alive
     if scatter is not None:
@@ -346,10 +359,7 @@ def vertex_step(
         return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
     # -- sample the next direction (BSDF or phase function)
     d, pdf = sample_direction(hit.normal, on_surface, u_direction)
-    if on_surface is None:
-        beta = beta * hit.albedo
-    else:
-        beta = where(on_surface, beta * hit.albedo, beta)
+    beta = beta * hit.albedo if on_surface is None else where(on_surface, beta * hit.albedo, beta)
     return x, d, beta, radiance, alive, pdf, hit.albedo, hit.normal
 
 
