@@ -219,15 +219,22 @@ void to_lanes(const int B, int32_t keys[][8 * NL], vec *k, int *lane_of) {
     for (int bl = 0; bl < NL; ++bl) lane_of[bl] = bl;
 }
 
-/* rank[i][l] = #{q: k_q < k_i} + #{q < i: k_q == k_i} in each lane: stable by position. */
+/* rank[i][l] = #{q: k_q < k_i} + #{q < i: k_q == k_i} in each lane: stable by position. One
+   comparison per pair q < i, g = (k_q > k_i) as -1 or 0: the pair adds [k_q <= k_i] = 1 + g to
+   rank i (the 1s summed up front as i) and [k_i < k_q] = -g to rank q. */
 static inline __attribute__((always_inline))
 void ranks(const int n, const vec *k, int32_t rank[][NL]) {
-    for (int i = 0; i < n; ++i) {
-        vec c = {0};
-        for (int q = 0; q < i; ++q) c -= k[q] <= k[i];
-        for (int q = i + 1; q < n; ++q) c -= k[q] < k[i];
-        memcpy(rank[i], &c, sizeof c);
-    }
+    vec c[64];
+    for (int i = 0; i < n; ++i) c[i] = (vec){0} + i;
+#pragma GCC unroll 64
+    for (int i = 1; i < n; ++i)
+#pragma GCC unroll 64
+        for (int q = 0; q < i; ++q) {
+            const vec g = k[q] > k[i];
+            c[i] += g;
+            c[q] -= g;
+        }
+    memcpy(rank, c, (size_t)n * sizeof(vec));
 }
 
 /* dst[0 .. m-1] = src[0 .. m-1], with non-temporal (streaming) stores where dst is aligned for
@@ -262,47 +269,73 @@ static inline void rows_done(void) {
 #endif
 }
 
+/* The ranks of the keys of one step: `count` full blocks side by side from pixel (y0, xs), one
+   block per lane (lane_of[block]); the lanes of missing blocks get zero keys. */
+static inline __attribute__((always_inline))
+void step_ranks(const job_t *j, const int B, int64_t y0, int64_t xs, int count,
+                int32_t rank[][NL], int *lane_of) {
+    int32_t keys[8][8 * NL] __attribute__((aligned(64)));
+    for (int a = 0; a < B; ++a) {
+        key_run(j, (y0 + a) * j->W + xs, count * B, keys[a]);
+        for (int i = count * B; i < NL * B; ++i) keys[a][i] = 0;
+    }
+    vec k[64];
+    to_lanes(B, keys, k, lane_of);
+    ranks(B * B, k, rank);
+}
+
+/* Write a staged step (count blocks of B*B seeds, each in block order) row by row into out. */
+static inline __attribute__((always_inline))
+void flush(job_t *j, const int B, const int64_t *moved, int64_t y0, int64_t xs, int count) {
+    const int n = B * B;
+    for (int a = 0; a < B; ++a) {
+        int64_t row[8 * NL] __attribute__((aligned(64)));
+        if (count == NL)
+            for (int bl = 0; bl < NL; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
+        else
+            for (int bl = 0; bl < count; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
+        put_row(j->out + (y0 + a) * j->W + xs, row, count * B);
+    }
+}
+
 /* Full blocks bx in [bx_first, bx_last) of one block row, NL blocks per step, one block per SIMD
-   lane; the moved seeds are staged in `moved` (the step's B rows) and then written row by row.
-   B is a compile-time constant after inlining, so the loops below unroll. */
+   lane. Each step's moved seeds are staged block by block in one of two buffers and written out
+   during the next step, so that the staging stores have left the store queue before the row
+   loads read them. B is a compile-time constant after inlining, so the loops below unroll. */
 static inline __attribute__((always_inline))
 void row_vector(job_t *j, const int B, int64_t by, int64_t bx_first, int64_t bx_last, int64_t nbx) {
     const int n = B * B;
     const int64_t y0 = by * B - j->oy, W = j->W;
     int64_t off[64];
     for (int p = 0; p < n; ++p) off[p] = (p / B) * W + p % B;
-    for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += NL) {
+    int64_t moved[2][64 * NL] __attribute__((aligned(64)));
+    int64_t last_xs = 0;
+    int last_count = 0, step = 0;
+    for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += NL, step ^= 1) {
         const int count = bx_last - bx0 < NL ? (int)(bx_last - bx0) : NL;
         const int64_t xs = bx0 * B - j->ox;
         const uint8_t *ord = j->order + (by * nbx + bx0) * n;
         uint8_t worst = 0;
         for (int i = 0; i < count * n; ++i) worst = ord[i] > worst ? ord[i] : worst;
         if (worst >= n) { j->err = 1; return; }
-        int32_t keys[8][8 * NL] __attribute__((aligned(64)));
-        for (int a = 0; a < B; ++a) {
-            key_run(j, (y0 + a) * W + xs, count * B, keys[a]);
-            for (int i = count * B; i < NL * B; ++i) keys[a][i] = 0;
-        }
-        vec k[64];
-        int lane_of[NL];
-        to_lanes(B, keys, k, lane_of);
         int32_t rank[64][NL] __attribute__((aligned(64)));
-        ranks(n, k, rank);
-        /* Block by block (n seeds each, in block order), then row by row into out. */
-        int64_t moved[64 * NL] __attribute__((aligned(64)));
+        int lane_of[NL];
+        step_ranks(j, B, y0, xs, count, rank, lane_of);
         for (int bl = 0; bl < count; ++bl) {
             const int l = lane_of[bl];
             const uint8_t *o = ord + bl * n;
             const int64_t *src = j->seeds + y0 * W + xs + bl * B;
-            int64_t *to = moved + bl * n;
-            for (int i = 0; i < n; ++i) to[o[rank[i][l]]] = src[off[i]];
+            int64_t *to = moved[step] + bl * n;
+            /* By value rank: the store addresses then come from the plan alone. */
+            uint8_t by_rank[64];
+            for (int i = 0; i < n; ++i) by_rank[rank[i][l]] = (uint8_t)i;
+            for (int r = 0; r < n; ++r) to[o[r]] = src[off[by_rank[r]]];
         }
-        for (int a = 0; a < B; ++a) {
-            int64_t row[8 * NL] __attribute__((aligned(64)));
-            for (int bl = 0; bl < count; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
-            put_row(j->out + (y0 + a) * W + xs, row, count * B);
-        }
+        if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
+        last_xs = xs;
+        last_count = count;
     }
+    if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
 }
 
 static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
