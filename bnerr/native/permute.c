@@ -429,21 +429,54 @@ typedef struct {
     const int64_t *seeds;
     const int32_t *d;           /* [2, T, T]: dy then dx */
     int64_t *out;
-    int64_t H, W, T, oy, ox, y0, y1;
+    int64_t H, W, T, oy, ox, reach, y0, y1;
 } rjob_t;
 
+/* Row y, columns x0 .. x1 - 1, each source checked against the screen. */
+static void gather_checked(const rjob_t *j, int64_t y, int64_t x0, int64_t x1) {
+    const int64_t H = j->H, W = j->W, T = j->T;
+    const int64_t qy = (y + j->oy) % T;
+    const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
+    int64_t qx = (x0 + j->ox) % T;
+    for (int64_t x = x0; x < x1; ++x) {
+        const int64_t sy = y + dy[qx], sx = x + dx[qx];
+        if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+        if (++qx == T) qx = 0;
+    }
+}
+
+/* Longest tile side whose row of flat offsets fits the stack; larger tiles take the checked loop
+   everywhere. */
+#define RETARGET_MAX_T 512
+
+/* Rows y0 .. y1 - 1. Away from the border (reach pixels: no displacement is longer), every source
+   is on screen, so the interior of a row is a plain gather through the flat offsets dy * W + dx
+   of its tile row. */
 static void *retarget_rows(void *arg) {
     const rjob_t *j = (const rjob_t *)arg;
-    const int64_t H = j->H, W = j->W, T = j->T;
+    const int64_t H = j->H, W = j->W, T = j->T, r = j->reach;
+    int64_t rel[RETARGET_MAX_T];
     for (int64_t y = j->y0; y < j->y1; ++y) {
+        if (y < r || y >= H - r || W <= 2 * r || T > RETARGET_MAX_T) {
+            gather_checked(j, y, 0, W);
+            continue;
+        }
         const int64_t qy = (y + j->oy) % T;
         const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
-        int64_t qx = j->ox;
-        for (int64_t x = 0; x < W; ++x) {
-            const int64_t sy = y + dy[qx], sx = x + dx[qx];
-            if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+        for (int64_t t = 0; t < T; ++t) rel[t] = dy[t] * W + dx[t];
+        gather_checked(j, y, 0, r);
+        const int64_t *s = j->seeds + y * W;
+        int64_t *o = j->out + y * W;
+        /* The row that first comes into reach at the next row: its lines are read sparsely at
+           first (by the pixels displaced the most), which hardware prefetchers miss. */
+        const int64_t *next = y + r + 1 < H ? j->seeds + (y + r + 1) * W : s;
+        int64_t qx = (r + j->ox) % T;
+        for (int64_t x = r; x < W - r; ++x) {
+            if ((x & 7) == 0) __builtin_prefetch(next + x + 64);
+            o[x] = s[x + rel[qx]];
             if (++qx == T) qx = 0;
         }
+        gather_checked(j, y, W - r, W);
     }
     return 0;
 }
@@ -454,9 +487,14 @@ static inline void band_step(int64_t *y, int64_t *x, int64_t H, int64_t W, int64
     if (!(*y < r || *y >= H - r) && *x >= r && *x < W - r) *x = W - r;
 }
 
+/* a mod T for a >= 0; `low` is T - 1 when T is a power of two (a mask then, no division). */
+static inline int64_t wrap(int64_t a, int64_t T, int64_t low) {
+    return low >= 0 ? a & low : a % T;
+}
+
 static inline int on_screen(const int32_t *f, int64_t y, int64_t x, int64_t H, int64_t W,
-                            int64_t T, int64_t oy, int64_t ox) {
-    const int64_t u = ((y + oy) % T) * T + (x + ox) % T;
+                            int64_t T, int64_t low, int64_t oy, int64_t ox) {
+    const int64_t u = wrap(y + oy, T, low) * T + wrap(x + ox, T, low);
     const int64_t sy = y + f[u], sx = x + f[T * T + u];
     return sy >= 0 && sy < H && sx >= 0 && sx < W;
 }
@@ -469,21 +507,22 @@ int bnerr_retarget(const int64_t *seeds, const int32_t *d, const int32_t *inv, i
     threads = clamp_threads(threads, H);
     rjob_t jobs[64];
     for (int i = 0; i < threads; ++i) {
-        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, H * i / threads, H * (i + 1) / threads};
+        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, reach, H * i / threads, H * (i + 1) / threads};
         jobs[i] = jb;
     }
     run_parallel(retarget_rows, (char *)jobs, sizeof(rjob_t), threads);
     if (reach == 0) return 0;
+    const int64_t low = (T & (T - 1)) == 0 ? T - 1 : -1;
     int64_t fy = 0, fx = -1;  /* cursor over candidate free sources */
     int64_t y = 0, x = -1;    /* cursor over targets */
     for (;;) {
         band_step(&y, &x, H, W, reach);
         if (y >= H) break;
-        if (on_screen(d, y, x, H, W, T, oy, ox)) continue;
+        if (on_screen(d, y, x, H, W, T, low, oy, ox)) continue;
         do {
             band_step(&fy, &fx, H, W, reach);
             if (fy >= H) return 3;
-        } while (on_screen(inv, fy, fx, H, W, T, oy, ox));
+        } while (on_screen(inv, fy, fx, H, W, T, low, oy, ox));
         out[y * W + x] = seeds[fy * W + fx];
     }
     return 0;
