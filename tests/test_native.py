@@ -24,7 +24,7 @@ import torch
 from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import ValueRangeError
-from bnerr.permute import plan_sort, sort_pass, sort_pass_reference
+from bnerr.permute import luminance, plan_sort, sort_pass, sort_pass_reference
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 
@@ -259,3 +259,34 @@ def test_sort_kernel_takes_groups_and_grid_offsets_and_refuses_bad_ones():
     broken[-1, 0] = 15  # the last block is 1 x 1 (13 x 21 in 4 x 4 blocks): position 15 is off
     with pytest.raises(ValueRangeError, match=r"mask: expected a plan made by plan_sort"):
         native.native_sort_blocks(kernels, seeds, lum, broken, 4, LUMINANCE_WEIGHTS, groups=groups)
+
+
+@needs_cc
+@pytest.mark.parametrize("define", ["-DBNERR_LANES=4", "-DBNERR_NO_SHUFFLE"])
+def test_sort_kernel_moves_the_same_seeds_at_another_vector_width(fresh, monkeypatch, define):
+    # The kernel's vector width is chosen at build time (8 lanes with AVX2, 16 with AVX-512), and
+    # 4 x 4 blocks move between pixel rows and lanes by in-lane shuffles where the compiler has
+    # them; a build forced to 4 lanes, or to the scalar transposes, must move the same seeds. The
+    # widths cover one full step of lanes and a partial one in every block size. (A 16-lane build
+    # is not forced here: without AVX-512 its vectors are emulated and take minutes to compile.)
+    monkeypatch.setenv("CC", f"cc {define}")
+    kernels, messages = _load(1)
+    if kernels is None:
+        pytest.skip(f"native kernels unavailable: {native.status()}")
+    assert messages == []
+    gen = torch.Generator().manual_seed(5)
+    for block in range(2, 9):
+        h, w = 2 * block + 1, 17 * block + 3
+        color = torch.randint(0, 6, (3, h, w), generator=gen).float() / 5
+        color[0, 0, :7], color[1, 1, :3], color[2, 2, :4] = float("nan"), float("inf"), -0.0
+        seeds = torch.randperm(h * w, generator=gen).view(h, w)
+        mask = torch.rand(h, w, generator=gen)
+        for grid in ((0, 0), (1, block - 1)):
+            want = sort_pass_reference(seeds, color, mask, block, grid_offset=grid)
+            order = plan_sort(mask, block, grid).order
+            lum = luminance(color)
+            for values in (color, lum):
+                got = native.native_sort_blocks(
+                    kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, 2, grid_offset=grid
+                )
+                assert torch.equal(got, want), (define, block, grid, values.ndim)

@@ -71,13 +71,14 @@ def _retarget_reference(
 @given(
     h=st.integers(1, 40),
     w=st.integers(1, 40),
-    size=st.sampled_from([8, 16]),
+    size=st.sampled_from([8, 12, 16]),
     oy=st.integers(-20, 20),
     ox=st.integers(-20, 20),
     seed=st.integers(0, 2**16),
 )
 @example(h=37, w=29, size=16, oy=3, ox=-5, seed=0)
 @example(h=1, w=1, size=8, oy=0, ox=0, seed=1)
+@example(h=40, w=37, size=12, oy=5, ox=-7, seed=2)
 def test_retarget_is_a_permutation_and_equals_the_loop_reference(h, w, size, oy, ox, seed):
     field = _random_field(size, seed)
     seeds = torch.randperm(h * w, generator=torch.Generator().manual_seed(seed)).view(h, w) + 100

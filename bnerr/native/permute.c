@@ -12,22 +12,36 @@
 #include <stdint.h>
 #include <string.h>
 #include <pthread.h>
+#if defined(__SSE2__)
+#include <immintrin.h>
+#endif
+
+/* The vector width of the sorting pass: one block per lane, BNERR_LANES lanes of int32 (16 with
+   AVX-512, 8 with AVX2, else 4), chosen at build time so that a vector fits one register; a build
+   may force another width with -DBNERR_LANES=4, 8 or 16 (through $CC), which changes the speed
+   only, never the result. */
+#ifndef BNERR_LANES
+#if defined(__AVX512F__)
+#define BNERR_LANES 16
+#elif defined(__AVX2__)
+#define BNERR_LANES 8
+#else
+#define BNERR_LANES 4
+#endif
+#endif
+#if BNERR_LANES != 4 && BNERR_LANES != 8 && BNERR_LANES != 16
+#error "BNERR_LANES must be 4, 8 or 16"
+#endif
+#define NL BNERR_LANES
+typedef int32_t vec __attribute__((vector_size(4 * NL)));
 
 /* Ordered 32-bit key of a float's bits: signed comparison of keys orders the floats, with
-   -0 == +0, every NaN equal to one canonical NaN above +inf. */
-typedef int32_t v16 __attribute__((vector_size(64)));
-
+   -0 == +0, every NaN equal to one canonical NaN above +inf. Branch-free, so that loops of it
+   vectorize. No key is INT32_MIN (the smallest is -inf's, 0x807fffff). */
 static inline int32_t okey(int32_t b) {
-    if ((b & 0x7fffffff) > 0x7f800000) b = 0x7fc00000;
-    if (b == (int32_t)0x80000000) b = 0;
-    return b < 0 ? (b ^ 0x7fffffff) : b;
-}
-
-static inline v16 okeyv(v16 b) {
-    v16 nan = (b & 0x7fffffff) > 0x7f800000;
-    b = (nan & 0x7fc00000) | (~nan & b);
-    b = b & ~(b == (int32_t)0x80000000);
-    return b ^ ((b < 0) & 0x7fffffff);
+    b = (b & 0x7fffffff) > 0x7f800000 ? 0x7fc00000 : b;
+    b = b == (int32_t)0x80000000 ? 0 : b;
+    return b ^ ((b >> 31) & 0x7fffffff);
 }
 
 typedef struct {
@@ -125,42 +139,203 @@ static void block_scalar(job_t *j, const int B, int64_t by, int64_t bx, int64_t 
     }
 }
 
-/* Full blocks bx in [bx_first, bx_last) of one block row, 16 blocks per step, one block per SIMD
-   lane. B is a compile-time constant after inlining, so the loops below unroll. */
+/* The keys of the m pixels idx .. idx + m - 1 of one row, elementwise (the loop vectorizes). */
+static inline __attribute__((always_inline))
+void key_run(const job_t *j, int64_t idx, int m, int32_t *restrict dst) {
+    if (j->v1) {
+        const float *r = j->v0 + idx, *g = j->v1 + idx, *b = j->v2 + idx;
+        const float w0 = j->w0, w1 = j->w1, w2 = j->w2;
+        for (int i = 0; i < m; ++i) {
+            const float a = w0 * r[i], c = w1 * g[i], e = w2 * b[i];
+            const float f = (a + c) + e;
+            int32_t bits;
+            memcpy(&bits, &f, 4);
+            dst[i] = okey(bits);
+        }
+    } else {
+        const float *v = j->v0 + idx;
+        for (int i = 0; i < m; ++i) {
+            int32_t bits;
+            memcpy(&bits, v + i, 4);
+            dst[i] = okey(bits);
+        }
+    }
+}
+
+/* In-lane 4 x 4 transposes of 32-bit elements (each 128-bit quarter on its own, as unpcklps /
+   unpcklpd do), where the compiler has __builtin_shufflevector; else a scalar transpose. */
+#if defined(__has_builtin)
+#if __has_builtin(__builtin_shufflevector) && !defined(BNERR_NO_SHUFFLE)
+#define BNERR_SHUFFLE 1
+#endif
+#endif
+#ifdef BNERR_SHUFFLE
+#define SV __builtin_shufflevector
+#if NL == 4
+#define LO32(a, b) SV(a, b, 0, 4, 1, 5)
+#define HI32(a, b) SV(a, b, 2, 6, 3, 7)
+#define LO64(a, b) SV(a, b, 0, 1, 4, 5)
+#define HI64(a, b) SV(a, b, 2, 3, 6, 7)
+#elif NL == 8
+#define LO32(a, b) SV(a, b, 0, 8, 1, 9, 4, 12, 5, 13)
+#define HI32(a, b) SV(a, b, 2, 10, 3, 11, 6, 14, 7, 15)
+#define LO64(a, b) SV(a, b, 0, 1, 8, 9, 4, 5, 12, 13)
+#define HI64(a, b) SV(a, b, 2, 3, 10, 11, 6, 7, 14, 15)
+#else
+#define LO32(a, b) SV(a, b, 0, 16, 1, 17, 4, 20, 5, 21, 8, 24, 9, 25, 12, 28, 13, 29)
+#define HI32(a, b) SV(a, b, 2, 18, 3, 19, 6, 22, 7, 23, 10, 26, 11, 27, 14, 30, 15, 31)
+#define LO64(a, b) SV(a, b, 0, 1, 16, 17, 4, 5, 20, 21, 8, 9, 24, 25, 12, 13, 28, 29)
+#define HI64(a, b) SV(a, b, 2, 3, 18, 19, 6, 7, 22, 23, 10, 11, 26, 27, 14, 15, 30, 31)
+#endif
+#endif
+
+/* keys[a][l*B + b] (row a of NL blocks side by side) to k[a*B + b], one block per lane. Returns
+   the lane of each block: with B = 4 the in-lane transposes leave block (l % 4) * NL/4 + l / 4
+   in lane l; otherwise block l is in lane l. */
+static inline __attribute__((always_inline))
+void to_lanes(const int B, int32_t keys[][8 * NL], vec *k, int *lane_of) {
+#ifdef BNERR_SHUFFLE
+    if (B == 4) {
+        for (int a = 0; a < 4; ++a) {
+            vec r[4];
+            memcpy(r, keys[a], sizeof r);
+            const vec t0 = LO32(r[0], r[1]), t1 = HI32(r[0], r[1]);
+            const vec t2 = LO32(r[2], r[3]), t3 = HI32(r[2], r[3]);
+            k[a * 4 + 0] = LO64(t0, t2);
+            k[a * 4 + 1] = HI64(t0, t2);
+            k[a * 4 + 2] = LO64(t1, t3);
+            k[a * 4 + 3] = HI64(t1, t3);
+        }
+        for (int bl = 0; bl < NL; ++bl) lane_of[bl] = (bl % (NL / 4)) * 4 + bl / (NL / 4);
+        return;
+    }
+#endif
+    for (int a = 0; a < B; ++a)
+        for (int b = 0; b < B; ++b) {
+            int32_t t[NL] __attribute__((aligned(4 * NL)));
+            for (int l = 0; l < NL; ++l) t[l] = keys[a][l * B + b];
+            memcpy(&k[a * B + b], t, sizeof t);
+        }
+    for (int bl = 0; bl < NL; ++bl) lane_of[bl] = bl;
+}
+
+/* rank[i][l] = #{q: k_q < k_i} + #{q < i: k_q == k_i} in each lane: stable by position. One
+   comparison per pair q < i, g = (k_q > k_i) as -1 or 0: the pair adds [k_q <= k_i] = 1 + g to
+   rank i (the 1s summed up front as i) and [k_i < k_q] = -g to rank q. */
+static inline __attribute__((always_inline))
+void ranks(const int n, const vec *k, int32_t rank[][NL]) {
+    vec c[64];
+    for (int i = 0; i < n; ++i) c[i] = (vec){0} + i;
+#pragma GCC unroll 64
+    for (int i = 1; i < n; ++i)
+#pragma GCC unroll 64
+        for (int q = 0; q < i; ++q) {
+            const vec g = k[q] > k[i];
+            c[i] += g;
+            c[q] -= g;
+        }
+    memcpy(rank, c, (size_t)n * sizeof(vec));
+}
+
+/* dst[0 .. m-1] = src[0 .. m-1], with non-temporal (streaming) stores where dst is aligned for
+   them: the output is written once and not read again here, so it need not be read into the
+   cache first. The caller issues the store fence (rows_done). */
+static inline __attribute__((always_inline))
+void put_row(int64_t *restrict dst, const int64_t *restrict src, int m) {
+#if defined(__AVX512F__)
+    if (((uintptr_t)dst & 63) == 0 && m % 8 == 0) {
+        for (int i = 0; i < m; i += 8) _mm512_stream_si512((void *)(dst + i), _mm512_load_si512(src + i));
+        return;
+    }
+#elif defined(__AVX__)
+    if (((uintptr_t)dst & 31) == 0 && m % 4 == 0) {
+        for (int i = 0; i < m; i += 4)
+            _mm256_stream_si256((__m256i *)(dst + i), _mm256_load_si256((const __m256i *)(src + i)));
+        return;
+    }
+#elif defined(__SSE2__)
+    if (((uintptr_t)dst & 15) == 0 && m % 2 == 0) {
+        for (int i = 0; i < m; i += 2)
+            _mm_stream_si128((__m128i *)(dst + i), _mm_load_si128((const __m128i *)(src + i)));
+        return;
+    }
+#endif
+    memcpy(dst, src, (size_t)m * 8);
+}
+
+static inline void rows_done(void) {
+#if defined(__SSE2__)
+    _mm_sfence();
+#endif
+}
+
+/* The ranks of the keys of one step: `count` full blocks side by side from pixel (y0, xs), one
+   block per lane (lane_of[block]); the lanes of missing blocks get zero keys. */
+static inline __attribute__((always_inline))
+void step_ranks(const job_t *j, const int B, int64_t y0, int64_t xs, int count,
+                int32_t rank[][NL], int *lane_of) {
+    int32_t keys[8][8 * NL] __attribute__((aligned(64)));
+    for (int a = 0; a < B; ++a) {
+        key_run(j, (y0 + a) * j->W + xs, count * B, keys[a]);
+        for (int i = count * B; i < NL * B; ++i) keys[a][i] = 0;
+    }
+    vec k[64];
+    to_lanes(B, keys, k, lane_of);
+    ranks(B * B, k, rank);
+}
+
+/* Write a staged step (count blocks of B*B seeds, each in block order) row by row into out. */
+static inline __attribute__((always_inline))
+void flush(job_t *j, const int B, const int64_t *moved, int64_t y0, int64_t xs, int count) {
+    const int n = B * B;
+    for (int a = 0; a < B; ++a) {
+        int64_t row[8 * NL] __attribute__((aligned(64)));
+        if (count == NL)
+            for (int bl = 0; bl < NL; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
+        else
+            for (int bl = 0; bl < count; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
+        put_row(j->out + (y0 + a) * j->W + xs, row, count * B);
+    }
+}
+
+/* Full blocks bx in [bx_first, bx_last) of one block row, NL blocks per step, one block per SIMD
+   lane. Each step's moved seeds are staged block by block in one of two buffers and written out
+   during the next step, so that the staging stores have left the store queue before the row
+   loads read them. B is a compile-time constant after inlining, so the loops below unroll. */
 static inline __attribute__((always_inline))
 void row_vector(job_t *j, const int B, int64_t by, int64_t bx_first, int64_t bx_last, int64_t nbx) {
     const int n = B * B;
     const int64_t y0 = by * B - j->oy, W = j->W;
-    for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += 16) {
-        const int lanes = bx_last - bx0 < 16 ? (int)(bx_last - bx0) : 16;
+    int64_t off[64];
+    for (int p = 0; p < n; ++p) off[p] = (p / B) * W + p % B;
+    int64_t moved[2][64 * NL] __attribute__((aligned(64)));
+    int64_t last_xs = 0;
+    int last_count = 0, step = 0;
+    for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += NL, step ^= 1) {
+        const int count = bx_last - bx0 < NL ? (int)(bx_last - bx0) : NL;
         const int64_t xs = bx0 * B - j->ox;
-        int32_t raw[64][16] __attribute__((aligned(64)));
-        for (int a = 0; a < B; ++a) {
-            const int64_t row = (y0 + a) * W + xs;
-            for (int l = 0; l < 16; ++l)
-                for (int b = 0; b < B; ++b)
-                    raw[a * B + b][l] = l < lanes ? load_bits(j, row + l * B + b) : 0;
+        const uint8_t *ord = j->order + (by * nbx + bx0) * n;
+        uint8_t worst = 0;
+        for (int i = 0; i < count * n; ++i) worst = ord[i] > worst ? ord[i] : worst;
+        if (worst >= n) { j->err = 1; return; }
+        int32_t rank[64][NL] __attribute__((aligned(64)));
+        int lane_of[NL];
+        step_ranks(j, B, y0, xs, count, rank, lane_of);
+        for (int bl = 0; bl < count; ++bl) {
+            const int l = lane_of[bl];
+            const uint8_t *o = ord + bl * n;
+            const int64_t *src = j->seeds + y0 * W + xs + bl * B;
+            int64_t *to = moved[step] + bl * n;
+            /* By value rank: the store addresses then come from the plan alone. */
+            uint8_t by_rank[64];
+            for (int i = 0; i < n; ++i) by_rank[rank[i][l]] = (uint8_t)i;
+            for (int r = 0; r < n; ++r) to[o[r]] = src[off[by_rank[r]]];
         }
-        v16 k[64];
-        for (int i = 0; i < n; ++i) { v16 t; memcpy(&t, raw[i], 64); k[i] = okeyv(t); }
-        /* rank_i = #{k: key_k < key_i} + #{k < i: key_k == key_i}: stable by position. */
-        int32_t rank[64][16] __attribute__((aligned(64)));
-        for (int i = 0; i < n; ++i) {
-            v16 c = {0};
-            for (int q = 0; q < i; ++q) c -= k[q] <= k[i];
-            for (int q = i + 1; q < n; ++q) c -= k[q] < k[i];
-            memcpy(rank[i], &c, 64);
-        }
-        for (int l = 0; l < lanes; ++l) {
-            const int64_t x0 = xs + l * B;
-            const uint8_t *ord = j->order + (by * nbx + bx0 + l) * n;
-            for (int i = 0; i < n; ++i) {
-                const int p = ord[rank[i][l]];
-                if (p >= n) { j->err = 1; continue; }
-                j->out[(y0 + p / B) * W + x0 + p % B] = j->seeds[(y0 + i / B) * W + x0 + i % B];
-            }
-        }
+        if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
+        last_xs = xs;
+        last_count = count;
     }
+    if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
 }
 
 static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
@@ -173,6 +348,7 @@ static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
         for (int64_t bx = 0; bx < nbx; ++bx)
             if (!full || bx < bx_first || bx >= bx_last) block_scalar(j, B, by, bx, nbx);
     }
+    rows_done();
 }
 
 static void rows2(job_t *j) { rows(j, 2); }
@@ -253,21 +429,54 @@ typedef struct {
     const int64_t *seeds;
     const int32_t *d;           /* [2, T, T]: dy then dx */
     int64_t *out;
-    int64_t H, W, T, oy, ox, y0, y1;
+    int64_t H, W, T, oy, ox, reach, y0, y1;
 } rjob_t;
 
+/* Row y, columns x0 .. x1 - 1, each source checked against the screen. */
+static void gather_checked(const rjob_t *j, int64_t y, int64_t x0, int64_t x1) {
+    const int64_t H = j->H, W = j->W, T = j->T;
+    const int64_t qy = (y + j->oy) % T;
+    const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
+    int64_t qx = (x0 + j->ox) % T;
+    for (int64_t x = x0; x < x1; ++x) {
+        const int64_t sy = y + dy[qx], sx = x + dx[qx];
+        if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+        if (++qx == T) qx = 0;
+    }
+}
+
+/* Longest tile side whose row of flat offsets fits the stack; larger tiles take the checked loop
+   everywhere. */
+#define RETARGET_MAX_T 512
+
+/* Rows y0 .. y1 - 1. Away from the border (reach pixels: no displacement is longer), every source
+   is on screen, so the interior of a row is a plain gather through the flat offsets dy * W + dx
+   of its tile row. */
 static void *retarget_rows(void *arg) {
     const rjob_t *j = (const rjob_t *)arg;
-    const int64_t H = j->H, W = j->W, T = j->T;
+    const int64_t H = j->H, W = j->W, T = j->T, r = j->reach;
+    int64_t rel[RETARGET_MAX_T];
     for (int64_t y = j->y0; y < j->y1; ++y) {
+        if (y < r || y >= H - r || W <= 2 * r || T > RETARGET_MAX_T) {
+            gather_checked(j, y, 0, W);
+            continue;
+        }
         const int64_t qy = (y + j->oy) % T;
         const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
-        int64_t qx = j->ox;
-        for (int64_t x = 0; x < W; ++x) {
-            const int64_t sy = y + dy[qx], sx = x + dx[qx];
-            if (sy >= 0 && sy < H && sx >= 0 && sx < W) j->out[y * W + x] = j->seeds[sy * W + sx];
+        for (int64_t t = 0; t < T; ++t) rel[t] = dy[t] * W + dx[t];
+        gather_checked(j, y, 0, r);
+        const int64_t *s = j->seeds + y * W;
+        int64_t *o = j->out + y * W;
+        /* The row that first comes into reach at the next row: its lines are read sparsely at
+           first (by the pixels displaced the most), which hardware prefetchers miss. */
+        const int64_t *next = y + r + 1 < H ? j->seeds + (y + r + 1) * W : s;
+        int64_t qx = (r + j->ox) % T;
+        for (int64_t x = r; x < W - r; ++x) {
+            if ((x & 7) == 0) __builtin_prefetch(next + x + 64);
+            o[x] = s[x + rel[qx]];
             if (++qx == T) qx = 0;
         }
+        gather_checked(j, y, W - r, W);
     }
     return 0;
 }
@@ -278,9 +487,14 @@ static inline void band_step(int64_t *y, int64_t *x, int64_t H, int64_t W, int64
     if (!(*y < r || *y >= H - r) && *x >= r && *x < W - r) *x = W - r;
 }
 
+/* a mod T for a >= 0; `low` is T - 1 when T is a power of two (a mask then, no division). */
+static inline int64_t wrap(int64_t a, int64_t T, int64_t low) {
+    return low >= 0 ? a & low : a % T;
+}
+
 static inline int on_screen(const int32_t *f, int64_t y, int64_t x, int64_t H, int64_t W,
-                            int64_t T, int64_t oy, int64_t ox) {
-    const int64_t u = ((y + oy) % T) * T + (x + ox) % T;
+                            int64_t T, int64_t low, int64_t oy, int64_t ox) {
+    const int64_t u = wrap(y + oy, T, low) * T + wrap(x + ox, T, low);
     const int64_t sy = y + f[u], sx = x + f[T * T + u];
     return sy >= 0 && sy < H && sx >= 0 && sx < W;
 }
@@ -293,21 +507,22 @@ int bnerr_retarget(const int64_t *seeds, const int32_t *d, const int32_t *inv, i
     threads = clamp_threads(threads, H);
     rjob_t jobs[64];
     for (int i = 0; i < threads; ++i) {
-        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, H * i / threads, H * (i + 1) / threads};
+        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, reach, H * i / threads, H * (i + 1) / threads};
         jobs[i] = jb;
     }
     run_parallel(retarget_rows, (char *)jobs, sizeof(rjob_t), threads);
     if (reach == 0) return 0;
+    const int64_t low = (T & (T - 1)) == 0 ? T - 1 : -1;
     int64_t fy = 0, fx = -1;  /* cursor over candidate free sources */
     int64_t y = 0, x = -1;    /* cursor over targets */
     for (;;) {
         band_step(&y, &x, H, W, reach);
         if (y >= H) break;
-        if (on_screen(d, y, x, H, W, T, oy, ox)) continue;
+        if (on_screen(d, y, x, H, W, T, low, oy, ox)) continue;
         do {
             band_step(&fy, &fx, H, W, reach);
             if (fy >= H) return 3;
-        } while (on_screen(inv, fy, fx, H, W, T, oy, ox));
+        } while (on_screen(inv, fy, fx, H, W, T, low, oy, ox));
         out[y * W + x] = seeds[fy * W + fx];
     }
     return 0;
