@@ -62,11 +62,10 @@ __all__ = [
 ]
 
 #: What the torch path costs instead, quoted in the warnings. Measured at 1920x1080 with
-#: ``python -m benchmarks.speed_permute``: on 2 idle threads the sort pass took 39 ms against
-#: 3.3 ms, the retargeting pass 12.5 ms against 7.5 ms; on 1 thread of a loaded machine 252 ms
-#: against 87 ms and 52 ms against 22 ms.
+#: ``bnerr bench --suite speed`` on 2 idle threads of an AVX2 host: the sort pass took 65 ms
+#: against 8.0 ms, the retargeting pass 16.6 ms against 5.6 ms.
 TORCH_PATH_COST = (
-    "on the CPU the sort pass runs about 3-12x and the retargeting pass about 2x slower at 1080p"
+    "on the CPU the sort pass runs about 8x and the retargeting pass about 3x slower at 1080p"
 )
 _SYMBOLS = ("bnerr_sort_pass", "bnerr_retarget")
 
