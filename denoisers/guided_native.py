@@ -35,6 +35,7 @@ import torch
 
 from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
+from denoisers import native as filter_kernels
 
 __all__ = ["Kernels", "load", "native_guided", "status"]
 
@@ -42,8 +43,6 @@ __all__ = ["Kernels", "load", "native_guided", "status"]
 #: 2 threads, on a shared 2-core machine: 7.7 s of CPU time against 0.22 s.
 TORCH_PATH_COST = "the guided filter runs about 30x slower on the CPU at 1080p"
 _SYMBOLS = ("bnerr_guided",)
-# Below this many pixels one thread does it all (thread start-up would cost more than it saves).
-_THREADED_PIXELS = 1 << 16
 # Self-check tolerance, relative to the largest output value. Measured on the check's inputs:
 # below 3e-7; the systems there (eps 1e-2 to 1) have condition numbers below 1e3, so a few
 # roundings of 6e-8 in the window sums move the output by at most about 1e-5 (the bound of the
@@ -161,11 +160,11 @@ def native_guided(
     a tensor not on the CPU or not float32, the kernel unavailable or failing its self-check,
     refusing the sizes, or a value above 1e18 (float64). Inputs as :func:`run_kernel`'s."""
     tensors = (color, albedo, normal)
-    if any(t.device.type != "cpu" or t.dtype != torch.float32 for t in tensors):
+    if not filter_kernels.eligible(*tensors):
         return None
     kernels = _checked()
     if kernels is None:
         return None
     _, h, w = color.shape
-    threads = torch.get_num_threads() if h * w >= _THREADED_PIXELS else 1
+    threads = filter_kernels.threads_for(h * w)
     return run_kernel(kernels, color, albedo, normal, radius, eps, threads)
