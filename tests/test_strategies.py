@@ -8,13 +8,20 @@ import pytest
 import torch
 from kornia.filters import gaussian_blur2d
 
-from bnerr import strategies
-from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
+from bnerr import errors, strategies
+from bnerr.errors import (
+    DtypeError,
+    MemoryLimitError,
+    ShapeError,
+    UnknownNameError,
+    ValueRangeError,
+)
 from bnerr.frame import Frame
 from bnerr.hashing import lowbias32_host
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.metrics import blurred_mse
 from bnerr.permute import histogram_select, luminance, sort_pass_reference
+from bnerr.retarget import load_retarget
 from bnerr.sequences import BNDSSampler, cycles_keys, zsobol_2d, zsobol_keys
 from bnerr.stbn import load_stbn
 from bnerr.strategies import (
@@ -24,10 +31,13 @@ from bnerr.strategies import (
     BNDSStrategy,
     OracleStrategy,
     TemporalOptions,
+    dithered,
     estimate_bytes,
     make_strategy,
     parse_variant,
     pixel_seeds,
+    temporal,
+    zorder,
 )
 
 # --------------------------------------------------------------------------------------------------
@@ -84,7 +94,7 @@ def _block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
 
 
 def test_names_are_sorted_and_complete():
-    assert STRATEGIES == tuple(sorted(STRATEGIES))
+    assert tuple(STRATEGIES) == tuple(sorted(STRATEGIES))
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
@@ -191,12 +201,12 @@ def test_the_oracle_renders_its_candidates_through_render_batch_when_offered():
 
 
 def test_bnds_takes_the_vector_mask_with_the_fewest_channels_covering_the_integrand(monkeypatch):
-    import bnerr.strategies as strategies
+    from bnerr.strategies import dithered
 
     shipped = [("scalar", 64), ("vector", 64, 2), ("vector", 64, 4), ("vector", 64, 8)]
-    monkeypatch.setattr(strategies, "shipped_masks", lambda: shipped)
+    monkeypatch.setattr(dithered, "shipped_masks", lambda: shipped)
     monkeypatch.setattr(
-        strategies, "load_mask", lambda kind, size, dims=None: torch.zeros(dims, size, size)
+        dithered, "load_mask", lambda kind, size, dims=None: torch.zeros(dims, size, size)
     )
     for dimensions, want in ((None, 2), (2, 2), (3, 4), (8, 8), (20, 8)):
         strategy = make_strategy("bnds", 8, 8, dimensions=dimensions)
@@ -284,24 +294,23 @@ def test_render_time_comes_from_the_frames_own_clock():
 
 def test_absurd_sizes_are_refused_with_an_estimate_before_allocating(monkeypatch):
     need = estimate_bytes("temporal", 40000, 40000)
-    if strategies._available_bytes(torch.device("cpu")) < need:  # this machine, as it is
-        with pytest.raises(ValueRangeError, match=r"temporal strategy fits in memory"):
+    if errors.available_memory(torch.device("cpu")) < need:  # this machine, as it is
+        with pytest.raises(MemoryLimitError, match=r"temporal strategy at 40000 x 40000"):
             make_strategy("temporal", 40000, 40000)
     allocated = []
-    monkeypatch.setattr(strategies, "pixel_seeds", lambda *a, **k: allocated.append(a))
-    monkeypatch.setattr(strategies, "_available_bytes", lambda device: 64 * 10**9)
-    with pytest.raises(ValueRangeError) as err:
+    monkeypatch.setattr(temporal, "pixel_seeds", lambda *a, **k: allocated.append(a))
+    monkeypatch.setattr(errors, "available_memory", lambda device=None: 64 * 2**30)
+    with pytest.raises(MemoryLimitError) as err:
         make_strategy("temporal", 40000, 40000)
     assert str(err.value) == (
-        "height x width: expected a frame size whose temporal strategy fits in memory, got "
-        "40000 x 40000, which needs about 281.6 GB (176 bytes per pixel) with 64.0 GB available "
-        "on cpu"
+        "temporal strategy at 40000 x 40000 (176 bytes per pixel): expected a size that fits in "
+        "memory (at most 57.6 GiB of the 64 GiB available), got an estimate of 262 GiB"
     )
     assert not allocated
     with pytest.raises(ValueRangeError, match=r"expected at most 2\^31 pixels"):
         make_strategy("white", 50000, 50000)
-    monkeypatch.setattr(strategies, "_available_bytes", lambda device: 10_000)
-    with pytest.raises(ValueRangeError, match=r"oracle strategy fits in memory"):
+    monkeypatch.setattr(errors, "available_memory", lambda device=None: 10_000)
+    with pytest.raises(MemoryLimitError, match=r"oracle strategy at 8 x 8"):
         OracleStrategy(8, 8, mask=torch.zeros(64, 64), K=32)
     assert estimate_bytes("oracle", 8, 8, K=32) > 10_000 > estimate_bytes("white", 8, 8)
 
@@ -417,8 +426,8 @@ def test_raw_mse_is_the_same_for_every_strategy(analytic):
     # white's within 4 standard errors of the tile-paired difference. (A random "vector mask"
     # makes bnds a plain Cranley-Patterson rotation: unbiased, same variance.)
     white = _tiles(analytic["white"].square())
-    for name, errors in analytic.items():
-        diff, se = _paired(_tiles(errors.square()), white)
+    for name, err in analytic.items():
+        diff, se = _paired(_tiles(err.square()), white)
         assert abs(diff) <= 4 * se, (name, diff, se)
 
 
@@ -529,7 +538,7 @@ def test_cycles_blue_keys_are_distinct_and_fresh_every_frame():
 
 
 def _cycles_seed(seed: int, t: int) -> int:
-    return strategies._stream_key(seed, t, strategies._STREAM_CYCLES)
+    return strategies.stream_key(seed, t, strategies.CyclesBlueStrategy.stream)
 
 
 def test_bnds_st_gives_each_dimension_pair_its_own_stbn_slice():
@@ -582,17 +591,19 @@ def test_rivals_refuse_a_missing_or_unusable_spp():
 @pytest.mark.parametrize("name", RIVALS)
 def test_rivals_refuse_absurd_sizes_before_allocating(monkeypatch, name):
     allocated = []
-    for helper in ("pixel_seeds", "zsobol_keys", "cycles_keys", "load_stbn"):
-        monkeypatch.setattr(strategies, helper, lambda *a, **k: allocated.append(a))
-    monkeypatch.setattr(strategies, "_available_bytes", lambda device: 64 * 10**9)
+    for module in (dithered, zorder, temporal):
+        for helper in ("pixel_seeds", "zsobol_keys", "cycles_keys", "load_stbn"):
+            if hasattr(module, helper):
+                monkeypatch.setattr(module, helper, lambda *a, **k: allocated.append(a))
+    monkeypatch.setattr(errors, "available_memory", lambda device=None: 64 * 2**30)
     per_pixel = estimate_bytes(name, 1, 1)
     like = {"temporal_zsobol": "temporal", "cycles_blue": None}.get(name, "white")
     assert per_pixel == (64 + 96 if like is None else estimate_bytes(like, 1, 1))
-    with pytest.raises(ValueRangeError) as err:
+    with pytest.raises(MemoryLimitError) as err:
         make_strategy(name, 30000, 30000, spp=4)
     assert str(err.value).startswith(
-        f"height x width: expected a frame size whose {name} strategy fits in memory, got "
-        f"30000 x 30000, which needs about {30000**2 * per_pixel / 1e9:.1f} GB"
+        f"{name} strategy at 30000 x 30000 ({per_pixel} bytes per pixel): expected a size that "
+        "fits in memory"
     )
     assert not allocated
 
@@ -836,7 +847,7 @@ def test_plain_options_are_the_paper_passes_bit_for_bit():
         17,
         seed=4,
         mask=load_mask("scalar", 64),
-        retarget=strategies.load_retarget(64),
+        retarget=load_retarget(64),
         options=TemporalOptions(),
     )
     assert b.name == "temporal"
