@@ -17,7 +17,10 @@ settings.register_profile(
 )
 settings.load_profile("bnerr")
 
-torch.set_num_threads(min(2, os.cpu_count() or 1))
+# Under pytest-xdist each worker gets its share of the cores (two workers on two cores: one torch
+# thread each), so that workers do not oversubscribe the machine and stall on OpenMP barriers.
+_WORKERS = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+torch.set_num_threads(max(1, min(2, (os.cpu_count() or 1) // _WORKERS)))
 
 
 @pytest.fixture(scope="module")
