@@ -32,7 +32,7 @@ import torch
 
 from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import _sort_torch, luminance, plan_sort, sort_pass
+from bnerr.permute import luminance, plan_sort, sort_pass, sort_torch
 from bnerr.reproject import reproject_seeds
 from bnerr.retarget import Retarget, load_retarget, retarget_sources
 from bnerr.sortkeys import group_labels, sort_key
@@ -130,9 +130,9 @@ def _gap_fns(
     albedo, depth, motion = b["albedo"], b["depth"], b["motion"]
     return {
         "sort_pass_groups_ms": lambda: sort_pass(seeds, lum, plan, block, groups=labels),
-        "sort_pass_groups_torch_ms": lambda: _sort_torch(seeds, lum, plan, labels),
+        "sort_pass_groups_torch_ms": lambda: sort_torch(seeds, lum, plan, labels),
         "sort_pass_grid_ms": lambda: sort_pass(seeds, lum, shifted, block),
-        "sort_pass_grid_torch_ms": lambda: _sort_torch(seeds, lum, shifted),
+        "sort_pass_grid_torch_ms": lambda: sort_torch(seeds, lum, shifted),
         "plan_grid_ms": lambda: plan_sort(mask, block, grid),
         "group_labels_ms": lambda: group_labels(b["oid"], b["normal"]),
         "group_labels_depth_ms": lambda: group_labels(b["oid"], b["normal"], depth),
@@ -187,7 +187,7 @@ def measure(
             "sort_pass_lum_ms": lambda: sort_pass(seeds, lum, plan, block),
             "sort_pass_rgb_ms": lambda: sort_pass(seeds, color, plan, block),
             "argsort_ms": lambda: argsort_sort_pass(seeds, lum, mask, block),
-            "torch_path_ms": lambda: _sort_torch(seeds, lum, plan),
+            "torch_path_ms": lambda: sort_torch(seeds, lum, plan),
             "retarget_ms": lambda: retarget(seeds, offsets[next(counter) % 16]),
             "retarget_torch_ms": retarget_torch,
         }

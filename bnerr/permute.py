@@ -84,9 +84,11 @@ __all__ = [
     "SortPlan",
     "histogram_select",
     "luminance",
+    "ordered_keys",
     "plan_sort",
     "sort_pass",
     "sort_pass_reference",
+    "sort_torch",
 ]
 
 _MIN_BLOCK, _MAX_BLOCK = 2, 8
@@ -175,7 +177,7 @@ def _check_mask(mask: object, height: int, width: int, device: torch.device) -> 
     return mask
 
 
-def _ordered_keys(x: torch.Tensor) -> torch.Tensor:
+def ordered_keys(x: torch.Tensor) -> torch.Tensor:
     """int32 keys whose signed order is the float32 order of ``x`` (see the module docstring)."""
     bits = x.to(torch.float32).contiguous().view(torch.int32)
     nan = (bits & 0x7FFFFFFF) > 0x7F800000
@@ -298,7 +300,7 @@ def plan_sort(
     check_dtype(mask, FLOAT_DTYPES, "mask")
     block = _check_block(block)
     grid = _check_grid_offset(grid_offset, block)
-    order = _block_order(_ordered_keys(mask), block, grid).to(torch.uint8).contiguous()
+    order = _block_order(ordered_keys(mask), block, grid).to(torch.uint8).contiguous()
     return SortPlan(block=block, height=size["H"], width=size["W"], order=order, grid_offset=grid)
 
 
@@ -365,7 +367,7 @@ def _sort_blocks_torch(
     sorts); padding's label sorts last, so padded positions stay last in both.
     """
     h, w = seeds.shape
-    source = _block_order(_ordered_keys(lum), block, offset)  # position of the k-th smallest value
+    source = _block_order(ordered_keys(lum), block, offset)  # position of the k-th smallest value
     target = order.long()
     if groups is not None:
         labels = _blocks(groups, block, _PAD_LABEL, offset)
@@ -375,11 +377,12 @@ def _sort_blocks_torch(
     return _unblocks(out, block, h, w, offset).contiguous()
 
 
-def _sort_torch(
+def sort_torch(
     seeds: torch.Tensor, lum: torch.Tensor, plan: SortPlan, groups: torch.Tensor | None = None
 ) -> torch.Tensor:
     """The torch path of :func:`sort_pass` for ``lum [H, W]`` float32, a plan and optional
-    ``groups [H, W]`` int64."""
+    ``groups [H, W]`` int64: what the native kernel is checked against and falls back to (public
+    for the speed suite, which times both paths side by side)."""
     return _sort_blocks_torch(seeds, lum, plan.order, plan.block, groups, plan.grid_offset)
 
 
@@ -401,7 +404,7 @@ def _self_check(kernels: native.Kernels) -> bool:
         groups = torch.randint(0, 3, (h, w), generator=gen)
         for grid, labels in (((0, 0), None), ((block - 1, 1), None), ((1, 0), groups)):
             plan = plan_sort(torch.rand(h, w, generator=gen), block, grid)
-            want = _sort_torch(seeds, luminance(color), plan, labels)
+            want = sort_torch(seeds, luminance(color), plan, labels)
             for values in (color, luminance(color)):
                 got = native.native_sort_blocks(
                     kernels, seeds, values, plan.order, block, LUMINANCE_WEIGHTS,
@@ -729,7 +732,7 @@ def histogram_select(candidates: torch.Tensor, mask: torch.Tensor) -> torch.Tens
     check_finite(mask, "mask")
     k = size["K"]
     # (key, candidate index) packed into one int64: distinct, so the sort is stable by index.
-    packed = (_ordered_keys(candidates).to(torch.int64) << 32) | torch.arange(
+    packed = (ordered_keys(candidates).to(torch.int64) << 32) | torch.arange(
         k, device=candidates.device
     ).view(k, 1, 1)
     ranked = packed.sort(dim=0).values

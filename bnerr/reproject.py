@@ -60,7 +60,7 @@ from bnerr.errors import (
     check_shape,
     check_tensor,
 )
-from bnerr.permute import _ordered_keys  # the float32 order of the sorting pass, one copy
+from bnerr.permute import ordered_keys  # the float32 order of the sorting pass, one copy
 
 __all__ = [
     "DIRECTIONS",
@@ -179,7 +179,7 @@ def reproject_sources(
     if depth2 is None:
         priority = index
     else:
-        key = _ordered_keys(depth2).reshape(-1).to(torch.int64) + 2**31  # in [0, 2^32)
+        key = ordered_keys(depth2).reshape(-1).to(torch.int64) + 2**31  # in [0, 2^32)
         priority = (key << _INDEX_BITS) | index
     never = torch.iinfo(torch.int64).max  # the priority of no claim: it never wins
     priority = torch.where(inside, priority, never)

@@ -14,12 +14,12 @@ from bnerr.errors import DtypeError, NonFiniteError, ShapeError, ValueRangeError
 from bnerr.permute import (
     SortPass,
     SortPlan,
-    _sort_torch,
     histogram_select,
     luminance,
     plan_sort,
     sort_pass,
     sort_pass_reference,
+    sort_torch,
 )
 
 # Values that stress the order: signed zeros, infinities, NaN, and few distinct values (ties).
@@ -69,7 +69,7 @@ def test_fast_op_equals_reference_and_permutes_inside_blocks(h, w, block, channe
     want = sort_pass_reference(seeds, values, mask, block)
     got = sort_pass(seeds, values, mask, block)  # native kernel where available
     plan = plan_sort(mask, block)
-    torch_path = _sort_torch(seeds, luminance(values), plan)
+    torch_path = sort_torch(seeds, luminance(values), plan)
     assert torch.equal(got, want)
     assert torch.equal(torch_path, want)
     kernels = permute._native_kernels()
@@ -145,7 +145,7 @@ def test_thread_count_and_repeats_give_bit_identical_output():
         torch.set_num_threads(before)
     assert torch.equal(one, two)
     assert torch.equal(one, sort_pass(seeds, color, mask, 4))
-    assert torch.equal(one, _sort_torch(seeds, luminance(color), plan_sort(mask, 4)))
+    assert torch.equal(one, sort_torch(seeds, luminance(color), plan_sort(mask, 4)))
 
 
 def test_native_kernel_status_is_reported():
@@ -407,7 +407,7 @@ def test_groups_and_grid_offsets_agree_on_every_path(
     plan = plan_sort(mask, block, (oy, ox))
     labels = None if groups is None else groups.long()
     assert torch.equal(got, want)
-    assert torch.equal(_sort_torch(seeds, luminance(values), plan, labels), want)
+    assert torch.equal(sort_torch(seeds, luminance(values), plan, labels), want)
     kernels = permute._native_kernels()
     if kernels is not None:
         fast = native.native_sort_blocks(

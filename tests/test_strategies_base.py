@@ -17,7 +17,8 @@ from bnerr.strategies import (
     make_strategy,
     play,
 )
-from bnerr.strategies.base import REGISTRY, RenderFn, pixel_seeds, stream_key
+from bnerr.strategies.base import RenderFn, pixel_seeds, stream_key
+from bnerr.strategies.registry import REGISTRY
 
 
 def _render(record: list | None = None, motion: bool = True):

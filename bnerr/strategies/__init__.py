@@ -42,7 +42,6 @@ import torch
 
 from bnerr.errors import check_positive_int
 from bnerr.strategies.base import (
-    REGISTRY,
     BuildOptions,
     RenderFn,
     Strategy,
@@ -55,6 +54,7 @@ from bnerr.strategies.base import (
 )
 from bnerr.strategies.dithered import STBN_MASK, BNDSStrategy, BNDSSTStrategy
 from bnerr.strategies.oracle import OracleStrategy
+from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.temporal import (
     TemporalSortStrategy,
     TemporalStrategy,

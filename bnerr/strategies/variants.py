@@ -26,7 +26,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name
-from bnerr.strategies.base import REGISTRY
+from bnerr.strategies.registry import REGISTRY
 
 __all__ = [
     "VARIANTS",
