@@ -29,29 +29,38 @@ LUMINANCE_WEIGHTS: tuple[float, float, float] = (0.2126, 0.7152, 0.0722)
 TONEMAPS: tuple[str, ...] = ("aces", "reinhard", "clamp")
 
 
-def luminance(values: torch.Tensor) -> torch.Tensor:
-    """Rec. 709 luminance ``0.2126 R + 0.7152 G + 0.0722 B`` of linear RGB, as float32.
+def luminance(
+    values: torch.Tensor, *, keepdim: bool = False, dtype: torch.dtype | None = torch.float32
+) -> torch.Tensor:
+    """Rec. 709 luminance ``0.2126 R + 0.7152 G + 0.0722 B`` of linear RGB.
 
     Args:
         values: ``[3, H, W]`` linear RGB, ``[1, H, W]`` or ``[H, W]`` (already a scalar per pixel),
             any floating dtype.
+        keepdim: return ``[1, H, W]`` (the filters stack it with other planes) instead of
+            ``[H, W]`` (the sort key).
+        dtype: the dtype to compute in and return; None keeps ``values``' own (the filters'
+            float64 firefly switch).
 
     Returns:
-        ``[H, W]`` float32 on ``values``' device, computed as ``(w0 * R + w1 * G) + w2 * B`` in
-        float32 (this operation order is part of the contract: the native sort kernel repeats it
-        bit for bit). NaN or infinite channels give NaN or infinite luminance.
+        ``[H, W]`` (``[1, H, W]`` with ``keepdim``) on ``values``' device, computed as
+        ``(w0 * R + w1 * G) + w2 * B`` in ``dtype`` (this operation order is part of the
+        contract: the native sort and filter kernels repeat it bit for bit). NaN or infinite
+        channels give NaN or infinite luminance.
     """
     check_tensor(values, "values")
     if values.ndim == 3 and values.shape[0] == 1:
         values = values[0]
     if values.ndim == 2:
         check_dtype(values, FLOAT_DTYPES, "values")
-        return values.to(torch.float32)
-    check_shape(values, "3 H W", "values")
-    check_dtype(values, FLOAT_DTYPES, "values")
-    rgb = values.to(torch.float32)
-    w0, w1, w2 = LUMINANCE_WEIGHTS
-    return w0 * rgb[0] + w1 * rgb[1] + w2 * rgb[2]
+        lum = values if dtype is None else values.to(dtype)
+    else:
+        check_shape(values, "3 H W", "values")
+        check_dtype(values, FLOAT_DTYPES, "values")
+        rgb = values if dtype is None else values.to(dtype)
+        w0, w1, w2 = LUMINANCE_WEIGHTS
+        lum = w0 * rgb[0] + w1 * rgb[1] + w2 * rgb[2]
+    return lum[None] if keepdim else lum
 
 
 def tonemap(x: torch.Tensor, name: str = "reinhard") -> torch.Tensor:

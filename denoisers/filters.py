@@ -11,6 +11,12 @@ below are only reasonable starting points for a 4 spp frame.
 Borders are padded by replication everywhere, so every filter works on any image size (a
 reflection pad must be narrower than the image).
 
+Native kernels: this module owns their dispatch and checks, as :mod:`bnerr.permute` owns its
+kernel's. CPU float32 inputs of the a-trous, (joint) bilateral and guided filters go to the C
+kernels of :mod:`denoisers.native` once each kernel has matched its torch path here
+(:func:`atrous_torch`, :func:`bilateral_torch`, :func:`guided_torch`) on a self-check, run once
+per loaded library; CUDA, float64, a missing compiler or ``BNERR_NATIVE=0`` run the torch paths.
+
 What these filters are not: production denoisers. They are the range of classical behaviours the
 benchmark needs, from a linear low-pass (which removes most of a blue-noise error and little of a
 white one) to feature-guided filters (which may not care how the error is distributed).
@@ -24,7 +30,7 @@ import kornia.filters as KF
 import torch
 import torch.nn.functional as F
 
-from bnerr.color import LUMINANCE_WEIGHTS
+from bnerr.color import LUMINANCE_WEIGHTS, luminance
 from bnerr.errors import (
     ValueRangeError,
     check_memory,
@@ -33,9 +39,9 @@ from bnerr.errors import (
     check_shape,
 )
 from bnerr.frame import Frame
+from bnerr.native import SelfCheckedKernels
 from denoisers import native
 from denoisers.base import Denoiser
-from denoisers.guided_native import native_guided
 
 __all__ = [
     "ATrous",
@@ -45,30 +51,26 @@ __all__ = [
     "JointBilateral",
     "Median",
     "atrous_filter",
+    "atrous_native",
+    "atrous_planes",
+    "atrous_torch",
     "bilateral_filter",
+    "bilateral_torch",
     "gaussian_filter",
     "guided_bytes",
     "guided_filter",
+    "guided_torch",
     "joint_bilateral_filter",
-    "luminance",
     "median_bytes",
     "median_filter",
 ]
 
 _BORDER = "replicate"
 
-# Rec. 709 luminance weights (linear RGB), the ones pbrt and Mitsuba use for luminance().
-_LUMINANCE = LUMINANCE_WEIGHTS
 # Above this magnitude a float32 square (variances, covariances) overflows to infinity and the
 # filters that square their input would return NaN: they then compute in float64 (a finite
 # float32 value squared is at most 1.2e77 there) and return float32. Below it nothing changes.
 _FLOAT32_SAFE = 1e18
-
-
-def luminance(color: torch.Tensor) -> torch.Tensor:
-    """Rec. 709 luminance of linear RGB: ``[3, ...]`` -> ``[1, ...]`` (same device and dtype)."""
-    w = torch.tensor(_LUMINANCE, device=color.device, dtype=color.dtype)
-    return torch.einsum("c...,c->...", color, w).unsqueeze(0)
 
 
 def _needs_float64(*tensors: torch.Tensor) -> bool:
@@ -108,8 +110,8 @@ def bilateral_filter(color: torch.Tensor, sigma_color: float, sigma_space: float
     and is kept as it is. That is the textbook behaviour, kept on purpose.
 
     Computed as kornia's ``bilateral_blur``; on CPU float32 tensors by the native kernel of
-    :mod:`denoisers.native`, which agrees with kornia within float32 rounding (about 10 times
-    faster at 1080p).
+    :mod:`denoisers.native.filters`, which agrees with kornia within float32 rounding (about 10
+    times faster at 1080p).
     """
     k = _odd(2.0 * sigma_space)
     # Filtering color / mean and multiplying back equals a range sigma of sigma_color * mean.
@@ -125,7 +127,8 @@ def _bilateral(
     sigma_space: float,
 ) -> torch.Tensor:
     """kornia's ``bilateral_blur`` (``guide`` None) or ``joint_bilateral_blur`` of ``image
-    [C, H, W]``: L2 color distance, replicate border; the native kernel on CPU float32 tensors."""
+    [C, H, W]``: L2 color distance, replicate border; the native kernel on CPU float32 tensors
+    once it passed :func:`_check_bilateral` (:func:`bilateral_torch` where it refuses)."""
     tensors = (image,) if guide is None else (image, guide)
     kernels = _native_bilateral() if native.eligible(*tensors) else None
     if kernels is not None:
@@ -135,17 +138,19 @@ def _bilateral(
         )
         if out is not None:
             return out
-    return _kornia_bilateral(image, guide, kernel_size, sigma_color, sigma_space)
+    return bilateral_torch(image, guide, kernel_size, sigma_color, sigma_space)
 
 
-def _kornia_bilateral(
+def bilateral_torch(
     image: torch.Tensor,
     guide: torch.Tensor | None,
     kernel_size: int,
     sigma_color: float,
     sigma_space: float,
 ) -> torch.Tensor:
-    """The torch path of :func:`_bilateral` (kornia's own functions)."""
+    """The torch path of the bilateral filters, the native kernel's twin (kornia's own functions):
+    ``image [C, H, W]``, ``guide [G, H, W]`` or None (the image guides itself), a square window
+    of ``kernel_size`` -> ``[C, H, W]``. No scaling and no float64 switch (the callers')."""
     args = ((kernel_size, kernel_size), sigma_color, (sigma_space, sigma_space))
     options = {"border_type": _BORDER, "color_distance_type": "l2"}
     if guide is None:
@@ -160,7 +165,7 @@ def _check_bilateral(kernels: native.FilterKernels) -> bool:
     image = torch.rand(3, 23, 31, generator=gen).square() * 4.0
     image[1, 5, 7], image[:, 10:, :6] = 60.0, 0.5
     for guide, k, sigma_color in ((None, 5, 1.0), (torch.rand(9, 23, 31, generator=gen), 9, 0.3)):
-        want = _kornia_bilateral(image, guide, k, sigma_color, k / 4)
+        want = bilateral_torch(image, guide, k, sigma_color, k / 4)
         got = native.native_bilateral(kernels, image, guide, k, sigma_color, k / 4, 2)
         if got is None or not torch.allclose(got, want, rtol=1e-4, atol=1e-5 * 60.0):
             return False
@@ -168,7 +173,9 @@ def _check_bilateral(kernels: native.FilterKernels) -> bool:
 
 
 #: The native bilateral kernel if it loads and passes :func:`_check_bilateral` (once per library).
-_native_bilateral = native.checked(_check_bilateral, "denoisers.filters: the native bilateral")
+_native_bilateral = SelfCheckedKernels(
+    _check_bilateral, "denoisers.filters: the native bilateral", source=native.FILTERS
+)
 
 
 def _relative(color: torch.Tensor) -> torch.Tensor:
@@ -203,8 +210,8 @@ def joint_bilateral_filter(
 
     Implemented as kornia's ``joint_bilateral_blur`` with the guide channels divided by their
     sigmas and a unit range sigma (one L2 range kernel equals the product of the three); on CPU
-    float32 tensors by the native kernel of :mod:`denoisers.native` (the same weights, within
-    float32 rounding, about 13 times faster at 1080p).
+    float32 tensors by the native kernel of :mod:`denoisers.native.filters` (the same weights,
+    within float32 rounding, about 13 times faster at 1080p).
     """
     guide = torch.cat(
         [albedo / sigma_feature, normal / sigma_feature, _relative(color) / sigma_color]
@@ -241,23 +248,25 @@ def guided_filter(
 
     On the CPU in float32 a C kernel computes the same statistics and solve (within 3e-7 of the
     largest output value: another summation order, no fused multiply-add) about 30 times faster
-    (:mod:`denoisers.guided_native`); elsewhere, or without a C compiler, the torch path below
-    runs.
+    (:mod:`denoisers.native.guided`, once it passed :func:`_check_guided`); elsewhere, or without
+    a C compiler, the torch path (:func:`guided_torch`) runs.
     """
-    out = native_guided(color, albedo, normal, radius, eps)
+    out = _guided_native(color, albedo, normal, radius, eps)
     if out is not None:
         return out
     if _needs_float64(color, albedo, normal):
         wide = guided_filter(color.double(), albedo.double(), normal.double(), radius, eps)
         return wide.to(color.dtype)
-    return _guided_torch(color, albedo, normal, radius, eps)
+    return guided_torch(color, albedo, normal, radius, eps)
 
 
-def _guided_torch(
+def guided_torch(
     color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, radius: int, eps: float
 ) -> torch.Tensor:
-    """The torch path of :func:`guided_filter` (no float64 switch)."""
-    guide = torch.cat([albedo, normal, luminance(_relative(color))])
+    """The torch path of :func:`guided_filter`, the native kernel's twin (no float64 switch): the
+    same arguments and result."""
+    lum = luminance(_relative(color), keepdim=True, dtype=None)
+    guide = torch.cat([albedo, normal, lum])
     n = guide.shape[0]
     iu = torch.triu_indices(n, n, device=color.device)
     products = torch.cat([guide[iu[0]] * guide[iu[1]], (guide[:, None] * color).flatten(0, 1)])
@@ -329,6 +338,58 @@ def _solve_spd(packed: torch.Tensor, rhs: torch.Tensor, n: int, floor: float) ->
     return x
 
 
+# Self-check tolerance of the guided kernel, relative to the largest output value. Measured on the
+# check's inputs: below 3e-7; the systems there (eps 1e-2 to 1) have condition numbers below 1e3,
+# so a few roundings of 6e-8 in the window sums move the output by at most about 1e-5. A wrong
+# kernel errs by the size of the values.
+_GUIDED_CHECK_TOLERANCE = 1e-5
+
+
+def _check_guided_case(kernels: native.GuidedKernels, h: int, w: int, radius: int, seed: int):
+    """One case of :func:`_check_guided`: random inputs with a firefly and a flat guide region."""
+    g = torch.Generator().manual_seed(seed)
+    color = torch.rand(3, h, w, generator=g).square() * 4.0
+    color[0, h // 2, w // 3] = 60.0
+    albedo = torch.rand(3, h, w, generator=g)
+    albedo[:, :, : w // 4] = 0.5
+    normal = F.normalize(torch.randn(3, h, w, generator=g), dim=0)
+    eps = (1e-2, 1.0, 0.1)[seed % 3]
+    want = guided_torch(color, albedo, normal, radius, eps)
+    tolerance = _GUIDED_CHECK_TOLERANCE * float(want.abs().amax())
+    for threads in (1, 3):
+        got = native.native_guided(kernels, color, albedo, normal, radius, eps, threads)
+        if got is None or not bool(((got - want).abs() <= tolerance).all()):
+            return False
+    return True
+
+
+def _check_guided(kernels: native.GuidedKernels) -> bool:
+    """Compare the native guided kernel with :func:`guided_torch`: odd sizes, two tiles (of 256
+    columns), a radius larger than the image. True if they agree within
+    :data:`_GUIDED_CHECK_TOLERANCE`."""
+    cases = ((9, 300, 2, 0), (5, 6, 4, 2))
+    return all(_check_guided_case(kernels, *case) for case in cases)
+
+
+#: The native guided kernel if it loads and passes :func:`_check_guided` (once per library).
+_native_guided = SelfCheckedKernels(
+    _check_guided, "denoisers.filters: the native guided filter", source=native.GUIDED
+)
+
+
+def _guided_native(
+    color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, radius: int, eps: float
+) -> torch.Tensor | None:
+    """The guided filter by the native kernel, or None where the torch path must run instead:
+    a tensor not on the CPU or not float32, the kernel unavailable or failing its self-check,
+    refusing the sizes, or a value above 1e18 (the float64 switch)."""
+    kernels = _native_guided() if native.eligible(color, albedo, normal) else None
+    if kernels is None:
+        return None
+    threads = native.threads_for(color.shape[1] * color.shape[2])
+    return native.native_guided(kernels, color, albedo, normal, radius, eps, threads)
+
+
 def median_filter(color: torch.Tensor, kernel_size: int) -> torch.Tensor:
     """Per-channel median over a ``kernel_size`` square window of ``color [3, H, W]``.
 
@@ -372,7 +433,7 @@ _ATROUS_ROWS = 128
 
 
 # The luminance weights and the 3 x 3 variance blur, as the native a-trous kernel takes them.
-_ATROUS_CONSTANTS = (_LUMINANCE, _VARIANCE_BLUR)
+_ATROUS_CONSTANTS = (LUMINANCE_WEIGHTS, _VARIANCE_BLUR)
 
 
 def _normal_floor(sigma_normal: float) -> float:
@@ -411,7 +472,7 @@ def _atrous_step(
     sigma_color, sigma_normal, sigma_depth = sigmas
     kernel = torch.tensor(_VARIANCE_BLUR, device=color.device, dtype=color.dtype)
     var_blur = F.conv2d(F.pad(variance[None], (1, 1, 1, 1), mode=_BORDER), kernel[None, None])[0]
-    lum = luminance(color)
+    lum = luminance(color, keepdim=True, dtype=None)
     inv_lum = (sigma_color * var_blur.sqrt() + 1e-6).reciprocal_()
     phi_depth = sigma_depth * depth_width
     # One padded copy of everything the taps read; each tap is then a view (a slice), not a copy.
@@ -516,7 +577,7 @@ def atrous_filter(
 
     Values a renderer legitimately writes: ``+inf`` depth is background, and a firefly above
     1e18 switches to float64 (see :class:`ATrous`). CPU float32 tensors run the native kernel of
-    :mod:`denoisers.native` (the same within float32 rounding, 6-15 times faster at 1080p).
+    :mod:`denoisers.native.filters` (the same within float32 rounding, 6-15 times faster at 1080p).
 
     Raises:
         ShapeError: ``variance`` is not ``[H, W]``.
@@ -559,49 +620,66 @@ def _atrous(
     initial: torch.Tensor | None = None,
 ) -> torch.Tensor:
     """:func:`atrous_filter` on finite inputs whose squares fit their dtype: the native kernel on
-    CPU float32 tensors (:mod:`denoisers.native`), else the torch path."""
-    planes = _atrous_planes(color, normal, depth, initial)
+    CPU float32 tensors once it passed :func:`_check_atrous`, else :func:`atrous_torch`."""
+    planes = atrous_planes(color, normal, depth, initial)
     sigmas = (sigma_color, sigma_normal, sigma_depth)
     kernels = _native_atrous() if native.eligible(*planes) else None
     if kernels is not None:
         threads = native.threads_for(color.shape[1] * color.shape[2])
-        floor = _normal_floor(sigma_normal)
-        out = native.native_atrous(
-            kernels, planes, iterations, sigmas, floor, _ATROUS_CONSTANTS, threads
-        )
+        out = atrous_native(kernels, planes, iterations, sigmas, threads)
         if out is not None:
             return out
-    return _atrous_passes(planes, iterations, sigmas)
+    return atrous_torch(planes, iterations, sigmas)
 
 
-def _atrous_planes(
+def atrous_planes(
     color: torch.Tensor,
     normal: torch.Tensor,
     depth: torch.Tensor,
     initial: torch.Tensor | None,
 ) -> tuple[torch.Tensor, ...]:
-    """What every pass reads: ``(color, variance [1, H, W], normal4 [4, H, W], depth,
-    depth_width [1, H, W])`` (see :func:`_atrous_step`)."""
+    """What every pass of the a-trous filter reads, from ``color``, ``normal [3, H, W]``, finite
+    ``depth [1, H, W]`` and the initial variance ``[H, W]`` or None: ``(color, variance [1, H, W],
+    normal4 [4, H, W], depth, depth_width [1, H, W])`` (see :func:`_atrous_step`); the input of
+    both :func:`atrous_torch` and :func:`atrous_native`."""
     unit, hit = _unit_normals(normal)
     normal4 = torch.cat([unit, (~hit).to(color.dtype)])
     padded = F.pad(depth[None], (1, 1, 1, 1), mode=_BORDER)[0]
     gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
     gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
     depth_width = torch.maximum(gx, gy)
-    variance = _spatial_variance(luminance(color))
+    variance = _spatial_variance(luminance(color, keepdim=True, dtype=None))
     if initial is not None:
         variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
     return color, variance, normal4, depth, depth_width
 
 
-def _atrous_passes(
+def atrous_torch(
     planes: tuple[torch.Tensor, ...], iterations: int, sigmas: tuple[float, float, float]
 ) -> torch.Tensor:
-    """The torch path of :func:`_atrous`: ``iterations`` calls of :func:`_atrous_step`."""
+    """The torch path of the a-trous filter, the native kernel's twin: ``iterations`` calls of
+    :func:`_atrous_step` on :func:`atrous_planes`' output; ``sigmas``: (color, normal, depth).
+    Returns the filtered color ``[3, H, W]``."""
     color, variance, normal4, depth, depth_width = planes
     for i in range(iterations):
         color, variance = _atrous_step(color, variance, normal4, depth, depth_width, 2**i, sigmas)
     return color
+
+
+def atrous_native(
+    kernels: native.FilterKernels,
+    planes: tuple[torch.Tensor, ...],
+    iterations: int,
+    sigmas: tuple[float, float, float],
+    threads: int,
+) -> torch.Tensor | None:
+    """:func:`atrous_torch` by the native kernel (``native.FILTERS.load()``) with this module's
+    constants (the luminance weights, the variance blur, the normal weight's floor); CPU float32
+    planes only. None when the kernel refuses the sizes."""
+    floor = _normal_floor(sigmas[1])
+    return native.native_atrous(
+        kernels, planes, iterations, sigmas, floor, _ATROUS_CONSTANTS, threads
+    )
 
 
 def _check_atrous(kernels: native.FilterKernels) -> bool:
@@ -617,18 +695,19 @@ def _check_atrous(kernels: native.FilterKernels) -> bool:
     depth = torch.rand(1, 37, 29, generator=gen) + 1.0
     normal[:, :9, :7], depth[:, :9, :7] = 0.0, 0.0
     initial = torch.where(torch.rand(37, 29, generator=gen) < 0.5, float("nan"), 0.1)
-    planes = _atrous_planes(color, normal, depth, initial)
+    planes = atrous_planes(color, normal, depth, initial)
     for sigmas in ((4.0, 128.0, 1.0), (16.0, 0.0, 0.1)):
-        want = _atrous_passes(planes, 3, sigmas)
-        floor = _normal_floor(sigmas[1])
-        got = native.native_atrous(kernels, planes, 3, sigmas, floor, _ATROUS_CONSTANTS, 2)
+        want = atrous_torch(planes, 3, sigmas)
+        got = atrous_native(kernels, planes, 3, sigmas, 2)
         if got is None or not torch.allclose(got, want, rtol=1e-4, atol=1e-5):
             return False
     return True
 
 
 #: The native a-trous kernel if it loads and passes :func:`_check_atrous` (once per library).
-_native_atrous = native.checked(_check_atrous, "denoisers.filters: the native a-trous filter")
+_native_atrous = SelfCheckedKernels(
+    _check_atrous, "denoisers.filters: the native a-trous filter", source=native.FILTERS
+)
 
 
 def median_bytes(height: int, width: int, kernel_size: int) -> int:

@@ -18,6 +18,19 @@ def test_luminance_repeats_its_documented_operation_order():
         luminance(torch.rand(2, 4, 4))
 
 
+def test_luminance_keepdim_and_dtype_are_the_filters_convention():
+    # The filters stack the luminance with other planes and keep float64 (their firefly switch):
+    # the same values, in the same operation order, as the sort key's.
+    rgb = torch.rand(3, 5, 7, generator=torch.Generator().manual_seed(1)).double()
+    w0, w1, w2 = LUMINANCE_WEIGHTS
+    got = luminance(rgb, keepdim=True, dtype=None)
+    assert got.shape == (1, 5, 7) and got.dtype == torch.float64
+    assert torch.equal(got[0], w0 * rgb[0] + w1 * rgb[1] + w2 * rgb[2])
+    assert torch.equal(luminance(rgb.float(), keepdim=True)[0], luminance(rgb.float()))
+    assert luminance(rgb[:1], keepdim=True, dtype=None).shape == (1, 5, 7)
+    torch.testing.assert_close(luminance(torch.ones(3, 2, 2), keepdim=True), torch.ones(1, 2, 2))
+
+
 @pytest.mark.parametrize("name", TONEMAPS)
 def test_tonemaps_map_into_the_unit_interval(name):
     x = torch.tensor([-1.0, 0.0, 0.5, 1.0, 10.0, 1e6])

@@ -1,35 +1,32 @@
-"""Tests of denoisers/filters.py: the kornia filters and the edge-avoiding a-trous filter."""
+"""Tests of denoisers/filters.py: the kornia filters and the edge-avoiding a-trous filter.
+
+The slow twins (:mod:`_twins`: ``atrous_reference``, ``guided_reference``) write every constant
+out themselves, so a wrong tap or window in the code under test fails here.
+"""
 
 import math
 
-import kornia.filters as KF
 import pytest
 import torch
 import torch.nn.functional as F
+from _twins import atrous_reference, guided_reference
 
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.filters import (
-    _ATROUS_TAPS,
-    _VARIANCE_BLUR,
     ATrous,
     Bilateral,
     Gaussian,
     Guided,
     JointBilateral,
     Median,
-    _atrous,
-    _atrous_passes,
-    _atrous_planes,
-    _relative,
-    _spatial_variance,
-    _unit_normals,
     atrous_filter,
+    atrous_planes,
+    atrous_torch,
     gaussian_filter,
     guided_filter,
     joint_bilateral_filter,
-    luminance,
     median_filter,
 )
 
@@ -128,10 +125,6 @@ def test_atrous_does_not_mix_background_and_surfaces():
     assert float((out[:, :, 4:] - clean[:, :, 4:]).abs().max()) < 1e-3
 
 
-def test_luminance_weights_sum_to_one():
-    torch.testing.assert_close(luminance(torch.ones(3, 2, 2)), torch.ones(1, 2, 2))
-
-
 def test_parameters_are_checked():
     with pytest.raises(ValueRangeError, match="bilateral: sigma_space: expected a value in"):
         Bilateral(sigma_space=0.0)
@@ -212,14 +205,12 @@ def test_absurd_windows_are_refused_before_allocating(name, params, match):
 
 
 def test_atrous_variance_nan_is_the_spatial_estimate_and_none_the_default():
-    from denoisers.filters import _spatial_variance
-
     frame = _guided_frame()
     args = (frame.color, frame.normal, frame.depth)
     plain = atrous_filter(*args)
     h, w = frame.color.shape[1:]
     assert torch.equal(atrous_filter(*args, variance=torch.full((h, w), float("nan"))), plain)
-    spatial = _spatial_variance(luminance(frame.color))[0]
+    spatial = atrous_planes(*args, None)[1][0]  # the variance every pass starts from
     given = torch.rand(h, w, generator=torch.Generator().manual_seed(5))
     mixed = torch.where(torch.arange(w) < w // 2, given, float("nan"))
     want = atrous_filter(*args, variance=torch.where(mixed.isnan(), spatial, mixed))
@@ -266,100 +257,9 @@ def test_atrous_variance_is_checked():
 # exp(sigma_normal * log(cos) - ...) instead of exp(...) * cos ** sigma_normal, and the cosine with
 # fused multiply-adds: a one-ulp change of the cosine (6e-8) moves cos ** 128 by 128 times that,
 # about 8e-6 per pass, measured up to 1.9e-5 after 5 passes. Weights below exp(-80) become exp(-80)
-# (see _ATROUS_MIN_LOG_WEIGHT): 1e-35 of a value, far below a float32 ulp.
-
-
-def _reference_atrous_step(
-    color: torch.Tensor,
-    variance: torch.Tensor,
-    normal: torch.Tensor,
-    hit: torch.Tensor,
-    depth: torch.Tensor,
-    depth_width: torch.Tensor,
-    step: int,
-    sigma_color: float,
-    sigma_normal: float,
-    sigma_depth: float,
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """One edge-avoiding a-trous pass with hole spacing ``step``; returns (color, variance).
-
-    ``hit [1, H, W]`` is 1.0 where the pixel saw a surface and 0.0 where the ray escaped.
-    """
-    _, h, w = color.shape
-    kernel = torch.tensor(_VARIANCE_BLUR, device=color.device, dtype=color.dtype)
-    var_blur = F.conv2d(F.pad(variance[None], (1, 1, 1, 1), mode="replicate"), kernel[None, None])[
-        0
-    ]
-    lum = luminance(color)
-    phi_lum = sigma_color * var_blur.sqrt() + 1e-6
-    phi_depth = sigma_depth * depth_width
-    # One padded copy of everything the taps read; each tap is then a view (a slice), not a copy.
-    r = 2 * step
-    stacked = torch.cat([color, lum, variance, normal, hit, depth])[None]
-    padded = F.pad(stacked, (r, r, r, r), mode="replicate")[0]
-
-    sum_c = torch.zeros_like(color)
-    sum_v = torch.zeros_like(variance)
-    sum_w = torch.zeros_like(variance)
-    for iy, hy in enumerate(_ATROUS_TAPS):
-        for ix, hx in enumerate(_ATROUS_TAPS):
-            dy, dx = (iy - 2) * step, (ix - 2) * step
-            q = padded[:, r + dy : r + dy + h, r + dx : r + dx + w]
-            q_color, q_lum, q_var, q_normal, q_hit, q_depth = q.split((3, 1, 1, 3, 1, 1))
-            cos = (normal * q_normal).sum(0, keepdim=True).clamp_min(0.0)
-            # Escaped pixels (no normal) average only among themselves, with weight 1.
-            w_normal = torch.where(
-                (hit * q_hit) > 0, cos.pow(sigma_normal), (hit == q_hit).to(cos.dtype)
-            )
-            # SVGF's shader scales the depth tolerance by the tap distance in units of the hole
-            # spacing and by the step, i.e. by the distance in pixels.
-            dist = math.hypot(dy, dx)
-            w_depth = (q_depth - depth).abs() / (phi_depth * dist + 1e-6)
-            w_lum = (q_lum - lum).abs() / phi_lum
-            weight = (hy * hx) * torch.exp(-w_lum - w_depth) * w_normal
-            sum_c += weight * q_color
-            sum_v += weight.square() * q_var
-            sum_w += weight
-    # The center tap has weight 3/8 * 3/8 * 1 * 1 (or more), so sum_w is never 0.
-    return sum_c / sum_w, sum_v / sum_w.square()
-
-
-def _reference_atrous(
-    color: torch.Tensor,
-    normal: torch.Tensor,
-    depth: torch.Tensor,
-    iterations: int,
-    sigma_color: float,
-    sigma_normal: float,
-    sigma_depth: float,
-    initial: torch.Tensor | None = None,
-) -> torch.Tensor:
-    """The a-trous filter as first written (commit 2101139): one tensor op per quantity and tap.
-
-    The slow twin of :func:`denoisers.filters._atrous` (same arguments): 25 taps of ``pow``,
-    ``where`` and ``exp`` per pass, outputs that results/quality was produced with."""
-    unit, hit = _unit_normals(normal)
-    padded = F.pad(depth[None], (1, 1, 1, 1), mode="replicate")[0]
-    gy = (padded[:, 2:, 1:-1] - padded[:, :-2, 1:-1]).abs() * 0.5
-    gx = (padded[:, 1:-1, 2:] - padded[:, 1:-1, :-2]).abs() * 0.5
-    depth_width = torch.maximum(gx, gy)
-    variance = _spatial_variance(luminance(color))
-    if initial is not None:
-        variance = torch.where(torch.isnan(initial), variance, initial.to(variance.dtype))
-    for i in range(iterations):
-        color, variance = _reference_atrous_step(
-            color,
-            variance,
-            unit,
-            hit.to(color.dtype),
-            depth,
-            depth_width,
-            2**i,
-            sigma_color,
-            sigma_normal,
-            sigma_depth,
-        )
-    return color
+# (see _ATROUS_MIN_LOG_WEIGHT): 1e-35 of a value, far below a float32 ulp. The twin estimates the
+# spatial variance with another box sum (avg_pool2d, not kornia's box_blur) and normalizes the
+# normals with torch.norm: a few ulps more, far inside the tolerance.
 
 
 def _atrous_case(h=70, w=53, seed=1):
@@ -381,14 +281,14 @@ def _atrous_case(h=70, w=53, seed=1):
 def test_fast_atrous_matches_its_slow_twin(iterations, sigma_color, sigma_normal, sigma_depth):
     color, normal, depth = _atrous_case()
     sigmas = (sigma_color, sigma_normal, sigma_depth)
-    want = _reference_atrous(color, normal, depth, iterations, *sigmas)
-    got = _atrous(color, normal, depth, iterations, *sigmas)  # the native kernel where it loads
+    want = atrous_reference(color, normal, depth, iterations, *sigmas)
+    got = atrous_filter(color, normal, depth, iterations, *sigmas)  # native where it loads
     torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
-    torch_path = _atrous_passes(_atrous_planes(color, normal, depth, None), iterations, sigmas)
+    torch_path = atrous_torch(atrous_planes(color, normal, depth, None), iterations, sigmas)
     torch.testing.assert_close(torch_path, want, rtol=1e-4, atol=1e-6)
     variance = torch.rand(70, 53, generator=torch.Generator().manual_seed(2))
     variance[::3] = float("nan")
-    want = _reference_atrous(color, normal, depth, iterations, *sigmas, variance)
+    want = atrous_reference(color, normal, depth, iterations, *sigmas, initial=variance)
     got = atrous_filter(color, normal, depth, iterations, *sigmas, variance=variance)
     torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-6)
 
@@ -397,10 +297,10 @@ def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
     import denoisers.filters as filters
 
     color, normal, depth = _atrous_case(h=45)
-    planes = _atrous_planes(color, normal, depth, None)  # the torch path (strips are its own)
-    whole = _atrous_passes(planes, 3, (4.0, 128.0, 1.0))
+    planes = atrous_planes(color, normal, depth, None)  # the torch path (strips are its own)
+    whole = atrous_torch(planes, 3, (4.0, 128.0, 1.0))
     monkeypatch.setattr(filters, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
-    assert torch.equal(_atrous_passes(planes, 3, (4.0, 128.0, 1.0)), whole)
+    assert torch.equal(atrous_torch(planes, 3, (4.0, 128.0, 1.0)), whole)
 
 
 # -- the fast guided filter against kornia's guided_blur (its slow twin) --------------------------
@@ -412,13 +312,6 @@ def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
 # moves the output by at most about 6e-5 relative; measured below 2e-6 of the largest value.
 
 
-def _reference_guided(color, albedo, normal, radius, eps):
-    """The guided filter as first written: kornia's guided_blur, batched linalg.solve."""
-    guide = torch.cat([albedo, normal, luminance(_relative(color))])[None]
-    k = 2 * radius + 1
-    return KF.guided_blur(guide, color[None], (k, k), eps, border_type="replicate")[0]
-
-
 @pytest.mark.parametrize(("radius", "eps"), [(1, 1e-2), (2, 1.0), (3, 0.1), (5, 10.0)])
 def test_fast_guided_matches_kornia(radius, eps):
     g = torch.Generator().manual_seed(radius)
@@ -427,7 +320,7 @@ def test_fast_guided_matches_kornia(radius, eps):
     albedo = torch.rand(3, 41, 37, generator=g)
     albedo[:, :, :10] = 0.5  # a flat region: a singular covariance but for eps
     normal = F.normalize(torch.randn(3, 41, 37, generator=g), dim=0)
-    want = _reference_guided(color, albedo, normal, radius, eps)
+    want = guided_reference(color, albedo, normal, radius, eps)
     got = guided_filter(color, albedo, normal, radius, eps)
     scale = float(want.abs().amax())
     torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5 * scale)

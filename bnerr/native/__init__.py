@@ -28,8 +28,9 @@ quotes its first error lines, and the torch path runs instead. :func:`status` sa
   offset; grouped blocks run scalar code, about half the torch path's time at 1080p).
 - :func:`native_retarget_gather`: the retargeting pass on CPU tensors.
 
-Not for: CUDA tensors (the callers run their torch path there). Other C sources (the filter
-kernels of :mod:`denoisers`) use the same machinery through :func:`library`.
+Not for: CUDA tensors (the callers run their torch path there). Other packages' C sources (the
+filter kernels of :mod:`denoisers.native`, package data there) use the same machinery through
+:func:`library`, which names the package and the file.
 """
 
 from __future__ import annotations
@@ -95,20 +96,24 @@ def _bind(library: ctypes.CDLL, why: str) -> Kernels:
 class Library:
     """One C source's library: built, cached and bound on first use, once per process.
 
-    ``source``: the file name beside this module; ``bind``: ``(CDLL, why) -> kernels`` that sets
-    the functions' argument types (AttributeError when one is missing); ``symbols``: the names
-    ``bind`` needs (quoted when one is missing); ``cost``: what the fallback costs, for warnings.
-    The first :meth:`load` in a process decides; a problem is reported once, as a RuntimeWarning.
+    ``package``: the dotted name of the package whose data holds the source (``"bnerr.native"``
+    for ``permute.c``); ``source``: the file name there; ``bind``: ``(CDLL, why) -> kernels``
+    that sets the functions' argument types (AttributeError when one is missing); ``symbols``:
+    the names ``bind`` needs (quoted when one is missing); ``cost``: what the fallback costs, for
+    warnings. The first :meth:`load` in a process decides; a problem is reported once, as a
+    RuntimeWarning.
     """
 
     def __init__(
         self,
+        package: str,
         source: str,
         bind: Callable[[ctypes.CDLL, str], object],
         symbols: tuple[str, ...],
         cost: str,
     ) -> None:
-        self.source, self._bind, self.symbols, self.cost = source, bind, symbols, cost
+        self.package, self.source = package, source
+        self._bind, self.symbols, self.cost = bind, symbols, cost
         self._lock = threading.Lock()
         self._state: dict[str, object] = {}
         self.reset()
@@ -117,7 +122,7 @@ class Library:
         """``(kernels, why, warning, compiler stderr)``, building the library if needed."""
         if os.environ.get("BNERR_NATIVE", "1") == "0":
             return None, "disabled by BNERR_NATIVE=0", None, ""
-        outcome = build.obtain(self.cost, self.source)
+        outcome = build.obtain(self.cost, self.package, self.source)
         if outcome.library is None:
             return None, outcome.why, outcome.warning, outcome.compiler_output
         try:
@@ -161,16 +166,22 @@ _LIBRARIES: list[Library] = []
 
 
 def library(
-    source: str, bind: Callable[[ctypes.CDLL, str], object], symbols: tuple[str, ...], cost: str
+    package: str,
+    source: str,
+    bind: Callable[[ctypes.CDLL, str], object],
+    symbols: tuple[str, ...],
+    cost: str,
 ) -> Library:
-    """A :class:`Library` of the C source ``source``, registered so that :func:`reset` forgets
-    it too. Create one per source, at import time of the module that owns its kernels."""
-    made = Library(source, bind, symbols, cost)
+    """A :class:`Library` of the C source ``source`` (package data of ``package``), registered so
+    that :func:`reset` forgets it too. Create one per source, at import time of the module that
+    binds its kernels (:mod:`denoisers.native` for its own sources: the denoisers' kernels ship
+    with the denoisers, the library only reads them by name)."""
+    made = Library(package, source, bind, symbols, cost)
     _LIBRARIES.append(made)
     return made
 
 
-_PERMUTE = library(build.SOURCE_NAME, _bind, _SYMBOLS, TORCH_PATH_COST)
+_PERMUTE = library(__name__, "permute.c", _bind, _SYMBOLS, TORCH_PATH_COST)
 
 
 def load() -> Kernels | None:

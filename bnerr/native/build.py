@@ -1,8 +1,9 @@
 """Build, cache and load the native libraries: only a library this package built is ever loaded.
 
-Each C source beside this file (``permute.c``: the seed permutation; the filter kernels of
-:mod:`denoisers` have their own) is compiled with the system C compiler into a
-shared library kept in a per-user cache folder, ``$BNERR_CACHE_DIR/native`` (default
+Each C source is package data of the package whose kernels it holds (``permute.c`` beside this
+file: the seed permutation; ``filters.c`` and ``guided.c`` of :mod:`denoisers.native`), named by
+that package and its file name, and is compiled with the system C compiler into a shared library
+kept in a per-user cache folder, ``$BNERR_CACHE_DIR/native`` (default
 ``$XDG_CACHE_HOME/bnerr/native``, else ``~/.cache/bnerr/native``):
 
 - **Key.** A library is looked up by a key that hashes the source, the flags, the compiler (its
@@ -21,8 +22,9 @@ shared library kept in a per-user cache folder, ``$BNERR_CACHE_DIR/native`` (def
   so nothing can be swapped in between the check and the load. Anything else at the cached name
   (a planted file, a link, a half-written file) is rebuilt, never loaded.
 
-Nothing here imports torch or the rest of bnerr: the caller (:mod:`bnerr.native`) decides what
-to do with the result.
+Nothing here imports torch or the rest of bnerr, nor the packages whose sources it builds (it reads
+their package data by name): the caller (:class:`bnerr.native.Library`) decides what to do with
+the result.
 """
 
 from __future__ import annotations
@@ -53,8 +55,6 @@ __all__ = [
     "source_text",
 ]
 
-#: The C source file (package data of ``bnerr.native``).
-SOURCE_NAME = "permute.c"
 # -ffp-contract=off: no fused multiply-add, so the luminance rounds like torch's separate ops.
 FLAGS_NATIVE: tuple[str, ...] = (
     "-O3",
@@ -106,9 +106,10 @@ class Outcome:
     compiler_output: str = ""
 
 
-def source_text(name: str = SOURCE_NAME) -> str:
-    """The C source ``name`` (package data of ``bnerr.native``)."""
-    return resources.files("bnerr.native").joinpath(name).read_text()
+def source_text(package: str, name: str) -> str:
+    """The C source ``name``, package data of the package ``package`` (a dotted name, e.g.
+    ``"bnerr.native"``)."""
+    return resources.files(package).joinpath(name).read_text()
 
 
 def _stem(name: str) -> str:
@@ -207,7 +208,7 @@ def _quote(stderr: str, returncode: int) -> str:
 
 
 def compile_library(
-    compiler: Compiler, flags: tuple[str, ...], source: str, work: Path, name: str = SOURCE_NAME
+    compiler: Compiler, flags: tuple[str, ...], source: str, work: Path, name: str
 ) -> tuple[bytes | None, str, str]:
     """Compile ``source`` (the text of the file ``name``) in the folder ``work``;
     ``(library bytes or None, stderr, quote)``."""
@@ -332,16 +333,16 @@ def _attempt(
         return load_verified(path, sha), f"built at {place}", stderr, "", note
 
 
-def obtain(cost: str, name: str = SOURCE_NAME) -> Outcome:
-    """Find a compiler, then reuse or build the library of the C source ``name`` (native flags,
-    then portable ones).
+def obtain(cost: str, package: str, name: str) -> Outcome:
+    """Find a compiler, then reuse or build the library of the C source ``name``, package data of
+    ``package`` (native flags, then portable ones).
 
     ``cost`` is what the torch path costs, quoted in the warnings.
     """
     compiler, missing = find_compiler()
     if compiler is None:
         return Outcome(None, missing, f"bnerr: {missing}; the torch path is used ({cost})")
-    source = source_text(name)
+    source = source_text(package, name)
     folder: Path | None = cache_dir()
     unsafe = secure_dir(folder)
     notes = [] if unsafe is None else [f"{unsafe}; building in a private temporary folder"]

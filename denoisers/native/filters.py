@@ -1,6 +1,6 @@
-"""Native CPU kernels of the a-trous and the (joint) bilateral filter of :mod:`denoisers.filters`.
+"""Bindings of ``filters.c``: the a-trous and (joint) bilateral kernels of :mod:`denoisers.filters`.
 
-The C source ``filters.c`` (package data of :mod:`bnerr.native`) is built, cached and loaded by
+The C source ``filters.c`` (package data of this package) is built, cached and loaded by
 :func:`bnerr.native.library`, with the same compiler search, hash check and single warning as the
 permutation kernels. This module binds its two functions and wraps them for tensors:
 
@@ -14,10 +14,8 @@ taps of about 15 operations per a-trous pass, 81 taps of 9-channel distances for
 bilateral). The C loops keep a block of 256 pixels of one row in the CPU's first-level cache and
 compute each weight with a polynomial exp (and log) in SIMD registers.
 
-What stays with the caller (:mod:`denoisers.filters`): which inputs go native (CPU float32 only;
-CUDA, float64 and the firefly float64 switch keep the torch path), the self-check of each kernel
-against its torch path (:class:`bnerr.native.SelfCheckedKernels`), and the fallback.
-``BNERR_NATIVE=0`` turns the kernels off.
+What stays with the caller (:mod:`denoisers.filters`): which inputs go native, the constants of
+the a-trous filter, the self-check of each kernel against its torch path and the fallback.
 """
 
 from __future__ import annotations
@@ -30,16 +28,7 @@ import torch
 
 from bnerr import native
 
-__all__ = [
-    "FilterKernels",
-    "checked",
-    "eligible",
-    "load",
-    "native_atrous",
-    "native_bilateral",
-    "status",
-    "threads_for",
-]
+__all__ = ["LIBRARY", "TORCH_PATH_COST", "FilterKernels", "native_atrous", "native_bilateral"]
 
 #: What the torch path costs instead, quoted in the warnings. Measured at 1920x1080 on 2 threads
 #: of a shared 2-core machine, old and new side by side (more under heavier load): the torch
@@ -49,10 +38,7 @@ TORCH_PATH_COST = (
     "at 1080p the a-trous filter runs about 6-15x, the joint bilateral about 13x and the "
     "bilateral about 6-9x slower on the CPU"
 )
-_SOURCE = "filters.c"
 _SYMBOLS = ("bnerr_atrous", "bnerr_bilateral")
-# Below this many pixels one thread does the work (starting threads costs more than it saves).
-_THREADED_PIXELS = 1 << 16
 
 
 @dataclass(frozen=True)
@@ -76,33 +62,9 @@ def _bind(library: ctypes.CDLL, why: str) -> FilterKernels:
     return FilterKernels(atrous, bilateral, why)
 
 
-_LIBRARY = native.library(_SOURCE, _bind, _SYMBOLS, TORCH_PATH_COST)
-
-
-def load() -> FilterKernels | None:
-    """The bound filter kernels, building them on first use; None when unavailable."""
-    return _LIBRARY.load()
-
-
-def status() -> str:
-    """What happened to the filter kernels: where they came from, or why they are not used."""
-    return _LIBRARY.status()
-
-
-def checked(check, what: str) -> native.SelfCheckedKernels:
-    """The filter kernels, handed out only once ``check(kernels) -> bool`` passed (see
-    :class:`bnerr.native.SelfCheckedKernels`); ``what`` names the kernel in the warning."""
-    return native.SelfCheckedKernels(check, what, source=_LIBRARY)
-
-
-def eligible(*tensors: torch.Tensor) -> bool:
-    """Whether the kernels may run on these tensors: all float32 on the CPU."""
-    return all(t.device.type == "cpu" and t.dtype == torch.float32 for t in tensors)
-
-
-def threads_for(pixels: int) -> int:
-    """Worker threads for an image of ``pixels``: torch's thread count, 1 for small images."""
-    return max(1, min(64, torch.get_num_threads())) if pixels >= _THREADED_PIXELS else 1
+#: The library of ``filters.c``: ``LIBRARY.load()`` gives the bound :class:`FilterKernels`
+#: (building them on first use) or None, ``LIBRARY.status()`` says where they came from or why not.
+LIBRARY = native.library(__package__, "filters.c", _bind, _SYMBOLS, TORCH_PATH_COST)
 
 
 def _floats(values) -> torch.Tensor:
@@ -118,10 +80,10 @@ def native_atrous(
     constants: tuple[tuple[float, ...], tuple[tuple[float, ...], ...]],
     threads: int,
 ) -> torch.Tensor | None:
-    """All passes of the a-trous filter in C (the rule of ``denoisers.filters._atrous_step``).
+    """All passes of the a-trous filter in C (the rule of :func:`denoisers.filters.atrous_torch`).
 
     Args:
-        kernels: from :func:`load`.
+        kernels: from ``LIBRARY.load()``.
         planes: ``(color [3, H, W], variance [1, H, W], normal4 [4, H, W], depth [1, H, W],
             depth_width [1, H, W])``, float32 CPU tensors.
         iterations: passes, hole spacing ``2^i`` in pass ``i``.
@@ -159,7 +121,7 @@ def native_bilateral(
     border.
 
     Args:
-        kernels: from :func:`load`.
+        kernels: from ``LIBRARY.load()``.
         image: ``[C, H, W]`` float32 CPU tensor, C <= 16.
         guide: ``[G, H, W]`` float32 CPU tensor or None.
         kernel_size: odd window width.

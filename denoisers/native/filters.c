@@ -2,8 +2,9 @@
    a-trous filter (bnerr_atrous: every pass of it, the color and the variance) and the
    bilateral / joint bilateral filter (bnerr_bilateral: any image and guide channel counts).
 
-   Built by bnerr.native at first use with the system C compiler into a shared library loaded
-   with ctypes (denoisers.native binds it); no Python or torch headers. float32 planes [C, H, W],
+   Package data of denoisers.native, which binds it; built by bnerr.native's machinery at first
+   use with the system C compiler into a shared library loaded with ctypes; no Python or torch
+   headers. float32 planes [C, H, W],
    contiguous. Borders replicate: a tap outside the image reads the nearest pixel (coordinates
    are clamped). Each output pixel is computed by the same operations whatever thread or vector
    lane computes it, so results do not depend on the thread count. Built with

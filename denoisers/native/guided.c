@@ -123,7 +123,7 @@ static void fill_row(const Job *job, Buffers *buf, int64_t q, int64_t lo, int64_
         }
         for (int c = 0; c < 6; c++) base[c] = in[c];
         for (int c = 0; c < NC; c++) base[NG + c] = in[6 + c];
-        /* The luminance of color / scale, rounded as torch's luminance(_relative(color)). */
+        /* The luminance of color / scale, rounded as bnerr.color.luminance of it. */
         const v8 scale = splat(job->scale);
         v8 red = in[6] / scale, green = in[7] / scale, blue = in[8] / scale;
         base[6] = (red * splat(job->weight[0]) + green * splat(job->weight[1])) +
