@@ -9,9 +9,9 @@ strategy and ``oracle`` over the same frames and seed sets::
 the oracle. It is computed for each *measure*: the raw frames' MSE after the sigma-1 and sigma-2
 blurs (``raw mse_blur1``, ``raw mse_blur2``: where a blue-noise error pays off) and each
 denoiser's output MSE (``den mse``, per denoiser). The interval is a paired two-stage bootstrap
-(seed sets, then frames; :mod:`bnerr.metrics`): each resample draws the same frames for the three
-strategies, so the frame-to-frame variation of the content cancels. Next to it, ``gap`` is the
-distance itself relative to white, ``(W - O) / W``: a share of a gap near 0 means little.
+(seed sets, then frames; :mod:`bnerr.metrics.stats`): each resample draws the same frames for the
+three strategies, so the frame-to-frame variation of the content cancels. Next to it, ``gap`` is
+the distance itself relative to white, ``(W - O) / W``: a share of a gap near 0 means little.
 
 - :func:`gap_shares`: one :class:`GapShare` per (scene, spp, condition, measure, strategy).
 - :func:`gap_markdown` / :func:`gap_csv`: the table, one row per (scene, spp, condition,
@@ -38,7 +38,13 @@ import torch
 
 from benchmarks.records import Record
 from bnerr.io import atomic_write
-from bnerr.metrics import _as_stats, _check_level, _interval, _resample, _resampled_values
+from bnerr.metrics import (
+    as_stats,
+    check_bootstrap,
+    percentile_interval,
+    resample_weights,
+    resampled_values,
+)
 
 __all__ = [
     "GAP_CSV",
@@ -106,7 +112,7 @@ def _measures(records: Iterable[Record]) -> dict[tuple, dict[str, dict[str, torc
         for measure, values in wanted:
             if values is not None:
                 by_measure.setdefault(measure, {}).setdefault(
-                    r.cell.strategy, _as_stats(values, measure)
+                    r.cell.strategy, as_stats(values, measure)
                 )
     return out
 
@@ -122,9 +128,9 @@ def _share(
     if not mean[0] > mean[2]:
         nan = float("nan")
         return nan, nan, nan, (mean[0] - mean[2]) / mean[0] if mean[0] else nan
-    weights = _resample(tuple(w.shape[:2]), resamples, 0)
-    rw, rv, ro = (_resampled_values(x, weights) for x in (w, v, o))
-    lo, hi = _interval((rw - rv) / (rw - ro), level)
+    weights = resample_weights(tuple(w.shape[:2]), resamples, 0)
+    rw, rv, ro = (resampled_values(x, weights) for x in (w, v, o))
+    lo, hi = percentile_interval((rw - rv) / (rw - ro), level)
     share = (mean[0] - mean[1]) / (mean[0] - mean[2])
     return share, lo, hi, (mean[0] - mean[2]) / mean[0]
 
@@ -143,7 +149,7 @@ def gap_shares(
         :class:`GapShare` s in the records' order of cells, measures and strategies; white and
         oracle themselves are left out (their shares are 0 and 1 by definition).
     """
-    _check_level(level, resamples)
+    check_bootstrap(level, resamples)
     rows = []
     for key, by_measure in _measures(records).items():
         for measure, by_strategy in by_measure.items():

@@ -7,7 +7,8 @@ a report can be rebuilt without rendering anything (``python -m benchmarks.repor
   denoised MSE and their 95% bootstrap intervals, relMSE, PSNR, SSIM, the blurred MSEs, the error's
   low-frequency fraction, the ratio of each strategy to white noise on the same frames (paired
   bootstrap interval, :func:`bnerr.metrics.paired_ratio`), and the render, permutation and denoise
-  milliseconds per frame.
+  milliseconds per frame. The metric columns come from :data:`bnerr.metrics.METRIC_TABLE`
+  (:func:`table_columns`): a metric added there reaches the table with no change here.
 - ``table.md``: the headline (temporal and oracle against white, per scene, spp and denoiser); per
   scene and condition, each strategy's post-denoise MSE as a fraction of white's,
   the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time per frame; and the list
@@ -45,7 +46,7 @@ from benchmarks.groups import group_key, group_order, group_slug, group_title, s
 from benchmarks.markdown import table_lines
 from benchmarks.records import Record, load_records
 from bnerr.io import atomic_write
-from bnerr.metrics import bootstrap_interval, paired_ratio
+from bnerr.metrics import METRIC_TABLE, Metric, bootstrap_interval, paired_ratio
 
 __all__ = [
     "COLUMNS",
@@ -57,6 +58,7 @@ __all__ = [
     "markdown_table",
     "render_sampler",
     "summarize",
+    "table_columns",
     "write_charts",
     "write_report",
 ]
@@ -76,32 +78,11 @@ _CELL = (
     "warmup",
     "seed_sets",
 )
-_RATIO = ("den_mse", "raw_mse", "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2")
-_INTERVAL = ("raw_mse", "den_mse")
-
-#: Columns of ``table.csv``, in order.
-COLUMNS: tuple[str, ...] = (
-    *_CELL,
-    "dimensions",
-    "raw_mse",
-    "raw_mse_lo",
-    "raw_mse_hi",
-    "den_mse",
-    "den_mse_lo",
-    "den_mse_hi",
-    *(f"{m}_ratio{s}" for m in _RATIO for s in ("", "_lo", "_hi")),
-    "raw_relmse",
-    "den_relmse",
-    "raw_psnr",
-    "den_psnr",
-    "raw_ssim",
-    "den_ssim",
-    "raw_mse_blur1",
-    "raw_mse_blur2",
-    "den_mse_blur1",
-    "den_mse_blur2",
-    "raw_lowfreq",
-    "den_lowfreq",
+_KINDS = ("raw", "den")
+_BOUNDS = ("", "_lo", "_hi")
+#: The ratio the verdicts rest on (worse than white, the headline, the decision table): first.
+_HEADLINE_RATIO = "den_mse"
+_TIMES_AND_FLAGS = (
     "render_ms",
     "perm_ms",
     "denoise_ms",
@@ -112,6 +93,52 @@ COLUMNS: tuple[str, ...] = (
     "raw_differs_from_white",
     "render_sampler",
 )
+
+
+def _tabled() -> dict[str, Metric]:
+    """The metrics of :data:`bnerr.metrics.METRIC_TABLE` that tables show, in its order (read at
+    every call, so that an entry added to the table reaches ``table.csv`` with no change here)."""
+    return {name: metric for name, metric in METRIC_TABLE.items() if metric.tabled}
+
+
+def _interval_names() -> list[str]:
+    """``raw_<m>``, ``den_<m>`` of every metric given a bootstrap interval (``mse``)."""
+    return [f"{k}_{name}" for name, m in _tabled().items() if m.interval for k in _KINDS]
+
+
+def _ratio_names() -> list[str]:
+    """``<kind>_<m>`` of every metric given a ratio to white: the headline's first, then the raw
+    ones, then the denoised ones, each in table order."""
+    names = [f"{k}_{name}" for k in _KINDS for name, m in _tabled().items() if m.ratio]
+    return sorted(names, key=lambda name: name != _HEADLINE_RATIO)  # stable: the rest keep order
+
+
+def _value_names() -> list[str]:
+    """``<kind>_<m>`` of the other metrics: per group (one metric, or the blurred MSEs), the raw
+    values, then the denoised ones."""
+    groups: dict[str, list[str]] = {}
+    for name, m in _tabled().items():
+        if not m.interval:
+            groups.setdefault(m.group or name, []).append(name)
+    return [f"{k}_{name}" for names in groups.values() for k in _KINDS for name in names]
+
+
+def table_columns() -> tuple[str, ...]:
+    """Columns of ``table.csv``, in order: the cell, then each metric's columns as its
+    :class:`bnerr.metrics.Metric` entry asks (interval, ratio to white, group), then the times
+    and flags. Read from the metrics' table at every call."""
+    return (
+        *_CELL,
+        "dimensions",
+        *(f"{name}{b}" for name in _interval_names() for b in _BOUNDS),
+        *(f"{name}_ratio{b}" for name in _ratio_names() for b in _BOUNDS),
+        *_value_names(),
+        *_TIMES_AND_FLAGS,
+    )
+
+
+#: Columns of ``table.csv``, in order, as :func:`table_columns` gives them at import.
+COLUMNS: tuple[str, ...] = table_columns()
 
 
 def _stats(record: Record, kind: str, metric: str) -> np.ndarray | None:
@@ -130,12 +157,12 @@ def _mean_ms(series: list[list[float]]) -> float:
 
 
 def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
-    """The pooled value of every metric and the bootstrap intervals of :data:`_INTERVAL`."""
+    """The pooled value of every metric and the bootstrap interval of those that have one."""
     for kind in ("raw", "den"):
         for metric in getattr(rec, kind):
             stats = _stats(rec, kind, metric)
             row[f"{kind}_{metric}"] = float(stats[..., 0].sum() / stats[..., 1].sum())  # pooled
-    for name in _INTERVAL:
+    for name in _interval_names():
         kind, metric = name.split("_", 1)
         stats = _stats(rec, kind, metric)
         if stats is not None:
@@ -144,8 +171,8 @@ def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
 
 
 def _ratio_columns(row: dict, rec: Record, white: Record | None, resamples: int, seed: int) -> None:
-    """The paired ratios of :data:`_RATIO` to the white record of the same cell."""
-    for name in _RATIO:
+    """The paired ratios to the white record of the same cell, of the metrics that have one."""
+    for name in _ratio_names():
         kind, metric = name.split("_", 1)
         mine = _stats(rec, kind, metric)
         base = None if white is None else _stats(white, kind, metric)
@@ -159,7 +186,9 @@ def _ratio_columns(row: dict, rec: Record, white: Record | None, resamples: int,
         )
 
 
-def _row(rec: Record, white: Record | None, resamples: int, seed: int) -> dict:
+def _row(
+    rec: Record, white: Record | None, resamples: int, seed: int, columns: Sequence[str]
+) -> dict:
     row: dict = {k: getattr(rec.cell, k) for k in _CELL}
     row["dimensions"] = rec.dimensions
     _metric_columns(row, rec, resamples, seed)
@@ -175,7 +204,7 @@ def _row(rec: Record, white: Record | None, resamples: int, seed: int) -> dict:
     raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
     row["raw_differs_from_white"] = None if raw_lo is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
     row["render_sampler"] = render_sampler(rec)
-    return {c: row.get(c) for c in COLUMNS}
+    return {c: row.get(c) for c in columns}
 
 
 def render_sampler(record: Record) -> str:
@@ -190,19 +219,20 @@ def render_sampler(record: Record) -> str:
 
 
 def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -> list[dict]:
-    """One row per record: the columns of :data:`COLUMNS` (missing values as None).
+    """One row per record: the columns of :func:`table_columns` (missing values as None).
 
     Ratios to white pair each record with the white record of the same cell (same scene, spp,
     denoiser, condition, frames and seed sets); None when the suite has no such white record.
     """
     records = list(records)
     whites = {_baseline_key(r): r for r in records if r.cell.strategy == "white"}
-    return [_row(rec, whites.get(_baseline_key(rec)), resamples, seed) for rec in records]
+    columns = table_columns()
+    return [_row(rec, whites.get(_baseline_key(rec)), resamples, seed, columns) for rec in records]
 
 
 def _csv_text(rows: Sequence[dict]) -> str:
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=COLUMNS, lineterminator="\n")
+    writer = csv.DictWriter(buffer, fieldnames=table_columns(), lineterminator="\n")
     writer.writeheader()
     for row in rows:
         writer.writerow(

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import torch
 
 from benchmarks import report
 from benchmarks.groups import group_key
@@ -19,8 +20,8 @@ from benchmarks.records import (
     load_records,
     write_records,
 )
-from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
-from bnerr.metrics import paired_ratio
+from benchmarks.report import COLUMNS, markdown_table, summarize, table_columns, write_report
+from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
 
@@ -215,6 +216,62 @@ def test_write_report_reads_the_results_file_when_given_no_records(tmp_path):
     write_records(tmp_path, _records())
     assert write_report(tmp_path, title="T", charts=False) == markdown_table(
         summarize(_records()), "T"
+    )
+
+
+def _max_abs_error(pair: ImagePair):
+    """A toy metric: the largest absolute error of the frame, as a per-image score."""
+    return pair.score(float(pair.err.abs().max()))
+
+
+def _toy_pairs(noise: float) -> list:
+    """``[2][3][2]`` pairs of the toy metric over 2 seed sets x 3 frames of 16 x 16 images."""
+    acc = FrameMetrics(["maxerr"])
+    gen = torch.Generator().manual_seed(int(noise * 100))
+    for k in range(6):
+        ref = torch.rand(3, 16, 16, generator=gen) + 0.1
+        acc.update(ref + noise * torch.randn(3, 16, 16, generator=gen), ref, group=k // 3)
+    return acc.stats("maxerr").tolist()
+
+
+def test_a_metric_added_to_the_table_reaches_table_csv(tmp_path, monkeypatch):
+    # One update function and one table entry: the records carry it, the report writes its
+    # columns (its ratio to white too, as the entry asks) with no change to the report.
+    monkeypatch.setitem(METRIC_TABLE, "maxerr", Metric(_max_abs_error, ratio=True))
+    white, blue = _toy_pairs(0.2), _toy_pairs(0.1)
+    records = []
+    for rec, pairs in ((r, white if r.cell.strategy == "white" else blue) for r in _records()):
+        raw, den = {**rec.raw, "maxerr": pairs}, {**rec.den, "maxerr": pairs}
+        records.append(dataclasses.replace(rec, raw=raw, den=den))
+    write_records(tmp_path, records)
+    write_report(tmp_path, charts=False)  # from cells.jsonl, as --report-only does
+    with open(tmp_path / "table.csv") as handle:
+        header = next(csv.reader(handle))
+        rows = list(csv.DictReader(handle, fieldnames=header))
+    added = [c for c in header if "maxerr" in c]
+    assert added == [
+        *(f"{k}_maxerr_ratio{b}" for k in ("raw", "den") for b in ("", "_lo", "_hi")),
+        "raw_maxerr",
+        "den_maxerr",
+    ]
+    assert [c for c in header if c not in added] == list(COLUMNS)
+    assert header.index("raw_maxerr") == header.index("den_lowfreq") + 1
+    want = np.asarray(white)[..., 0].sum() / np.asarray(white)[..., 1].sum()
+    assert float(rows[0]["raw_maxerr"]) == pytest.approx(want, rel=1e-5)  # written as .6g
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == "1")
+    ratio = paired_ratio(np.asarray(blue), np.asarray(white))
+    assert float(temporal["den_maxerr_ratio"]) == pytest.approx(ratio.value, rel=1e-5)
+    monkeypatch.delitem(METRIC_TABLE, "maxerr")
+    assert table_columns() == COLUMNS
+
+
+def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
+    assert METRIC_TABLE["flip"].tabled is False
+    assert not [c for c in COLUMNS if "flip" in c]
+    assert all(
+        f"raw_{name}" in COLUMNS or f"raw_{name}_ratio" in COLUMNS
+        for name, m in METRIC_TABLE.items()
+        if m.tabled
     )
 
 

@@ -1,40 +1,33 @@
-"""Tests of bnerr.metrics: per-image metrics, update/compute over frames, bootstrap intervals."""
+"""Tests of bnerr.metrics.image: per-image metrics, their input checks, the prepared reference."""
 
 import math
 
 import numpy as np
 import pytest
 import torch
+from _images import noisy_pair as _pair
 from kornia.filters import get_gaussian_kernel1d
 from skimage.metrics import structural_similarity
 
-from bnerr import metrics
+import bnerr.metrics
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.metrics import (
-    Estimate,
     FrameMetrics,
+    ImagePair,
     PreparedReference,
     blurred_mse,
-    bootstrap_interval,
     edge_mask,
     flip,
+    image,
     lowfreq,
     mse,
-    paired_ratio,
+    pooled_mean,
     psnr,
     relmse,
     ssim,
     temporal_correlation,
 )
 from bnerr.spectrum import low_frequency_fraction
-
-
-def _pair(seed=0, shape=(3, 24, 20), noise=0.1):
-    gen = torch.Generator().manual_seed(seed)
-    ref = torch.rand(shape, generator=gen) + 0.1
-    pred = ref + noise * torch.randn(shape, generator=gen)
-    return pred, ref
-
 
 # -- per-image metrics -----------------------------------------------------------------------------
 
@@ -109,7 +102,7 @@ def test_the_blur_is_kornias_bit_for_bit(shape, sigma):
     for scale in (1e-3, 1.0, 1e3):
         err = torch.randn(*shape, dtype=torch.float64, generator=gen) * scale
         want = gaussian_blur2d(err[None], (kernel, kernel), (sigma, sigma), border_type="reflect")
-        assert torch.equal(metrics._gaussian_blur(err, sigma, kernel), want[0])
+        assert torch.equal(image._gaussian_blur(err, sigma, kernel), want[0])
 
 
 def test_a_prepared_reference_gives_the_same_stats_bit_for_bit():
@@ -174,7 +167,7 @@ def test_lowfreq_is_the_spectrum_fraction_of_the_error():
     assert lowfreq(pred, ref, tile=32) == pytest.approx(want, rel=1e-12)
 
 
-@pytest.mark.skipif(not metrics.flip_available(), reason="flip-evaluator not installed")
+@pytest.mark.skipif(not image.flip_available(), reason="flip-evaluator not installed")
 def test_flip_is_zero_for_a_perfect_match_and_grows_with_error():
     pred, ref = _pair(shape=(3, 32, 32), noise=0.05)
     worse, _ = _pair(shape=(3, 32, 32), noise=0.3)
@@ -183,7 +176,7 @@ def test_flip_is_zero_for_a_perfect_match_and_grows_with_error():
 
 
 def test_flip_missing_package_says_how_to_install(monkeypatch):
-    monkeypatch.setattr(metrics, "flip_available", lambda: False)
+    monkeypatch.setattr(image, "flip_available", lambda: False)
     pred, ref = _pair()
     with pytest.raises(ImportError, match="flip-evaluator"):
         flip(pred, ref)
@@ -199,6 +192,54 @@ def test_edge_mask_marks_pixels_next_to_an_id_change():
     mask1 = edge_mask(ids, radius=1)
     assert mask1[:, 2:6].all() and mask1.sum() == 24
     assert not edge_mask(torch.zeros(5, 5)).any()
+
+
+# -- the update halves -----------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("prepared", [False, True])
+def test_an_image_pairs_updates_are_the_per_image_metrics_bit_for_bit(prepared):
+    pred, ref = _pair(shape=(3, 32, 40), noise=0.2)
+    mask = torch.rand(32, 40, generator=torch.Generator().manual_seed(5)) > 0.3
+    target = PreparedReference(ref) if prepared else ref
+    whole, masked = ImagePair(pred, target, tile=16), ImagePair(pred, target, mask, tile=16)
+    for pair, m in ((whole, None), (masked, mask)):
+        assert torch.equal(pooled_mean(pair.mse()), mse(pred, ref, m))
+        assert torch.equal(pooled_mean(pair.relmse()), relmse(pred, ref, m))
+        for sigma in (1.0, 2.0):
+            assert torch.equal(pooled_mean(pair.blurred(sigma)), blurred_mse(pred, ref, sigma, m))
+        assert pair.psnr().tolist() == [psnr(pred, ref, mask=m), 1.0]
+        assert pair.ssim().tolist() == [ssim(pred, ref, m), 1.0]
+        assert pair.lowfreq().tolist() == [lowfreq(pred, ref, tile=16), 1.0]  # never masked
+        assert pair.score(0.25).dtype == torch.float64 and pair.size == {"C": 3, "H": 32, "W": 40}
+
+
+def test_an_image_pair_checks_its_inputs_as_the_per_image_functions_do():
+    pred, ref = _pair()
+    with pytest.raises(ShapeError, match=r"pred: expected the shape of ref \[3, 24, 20\]"):
+        ImagePair(pred[..., :19], ref)
+    with pytest.raises(ShapeError, match=r"pred: expected the shape of ref"):
+        ImagePair(pred[..., :19], PreparedReference(ref))
+    with pytest.raises(ValueRangeError, match="mask: expected at least one selected pixel"):
+        ImagePair(pred, ref, torch.zeros(24, 20, dtype=torch.bool))
+    with pytest.raises(ValueRangeError, match="tile: expected an integer >= 2"):
+        ImagePair(pred, ref, tile=1)
+    with pytest.raises(ShapeError, match=r"expected H and W > 6 for a sigma 2.0 blur"):
+        ImagePair(pred[:, :6], ref[:, :6]).blurred(2.0)
+
+
+# The names the single module bnerr/metrics.py exported before it became a package.
+_FORMER_API = (
+    "BLUR_SIGMAS METRICS Estimate FrameMetrics PreparedReference blurred_mse bootstrap_interval "
+    "edge_mask flip flip_available lowfreq mse paired_ratio psnr relmse ssim temporal_correlation"
+).split()
+
+
+def test_the_package_keeps_every_name_of_the_former_module():
+    assert set(_FORMER_API) <= set(bnerr.metrics.__all__)
+    for name in bnerr.metrics.__all__:
+        assert getattr(bnerr.metrics, name) is not None, name
+    assert not [n for n in bnerr.metrics.__all__ if n.startswith("_")]
 
 
 # -- input checks ----------------------------------------------------------------------------------
@@ -240,179 +281,6 @@ def test_bad_inputs_raise_typed_errors():
         psnr(pred, torch.ones_like(ref))
     with pytest.raises(UnknownNameError, match="unknown metric 'msee'"):
         FrameMetrics(["msee"])
-
-
-# -- update / compute over frames ------------------------------------------------------------------
-
-
-def test_frame_metrics_update_returns_the_per_image_values():
-    acc = FrameMetrics(
-        ["mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq"], tile=16
-    )
-    pred, ref = _pair(shape=(3, 32, 32))
-    row = acc.update(pred, ref)
-    assert row["mse"] == pytest.approx(mse(pred, ref).item(), rel=1e-12)
-    assert row["relmse"] == pytest.approx(relmse(pred, ref).item(), rel=1e-12)
-    assert row["psnr"] == pytest.approx(psnr(pred, ref), rel=1e-12)
-    assert row["ssim"] == pytest.approx(ssim(pred, ref), rel=1e-12)
-    assert row["mse_blur2"] == pytest.approx(blurred_mse(pred, ref, 2.0).item(), rel=1e-12)
-    assert row["lowfreq"] == pytest.approx(lowfreq(pred, ref, tile=16), rel=1e-12)
-
-
-def test_running_mean_over_frames_is_the_pooled_mean():
-    acc = FrameMetrics(["mse", "psnr"])
-    frames = [_pair(seed=s, noise=0.05 * (s + 1)) for s in range(5)]
-    for pred, ref in frames:
-        acc.update(pred, ref)
-    pooled = torch.stack([(p.double() - r.double()).square().mean() for p, r in frames]).mean()
-    result = acc.compute()
-    assert result["mse"].value == pytest.approx(pooled.item(), rel=1e-12)
-    assert result["psnr"].value == pytest.approx(
-        np.mean([psnr(p, r) for p, r in frames]), rel=1e-12
-    )
-    assert result["mse"].lo <= result["mse"].value <= result["mse"].hi
-    assert result["mse"].n == 5
-
-
-def test_masked_frames_pool_by_pixel_count():
-    # With masks of different sizes, the running value is sum(e^2) / sum(count), not a mean of
-    # means.
-    acc = FrameMetrics(["mse"])
-    pred, ref = _pair()
-    small = torch.zeros(24, 20, dtype=torch.bool)
-    small[0, 0] = True
-    acc.update(pred, ref)
-    acc.update(pred, ref, small)
-    e = (pred.double() - ref.double()) ** 2
-    want = (e.sum() + e[:, 0, 0].sum()) / (e.numel() + 3)
-    assert acc.compute()["mse"].value == pytest.approx(want.item(), rel=1e-12)
-
-
-def test_seed_sets_group_frames_and_must_be_rectangular():
-    acc = FrameMetrics(["mse"])
-    for s in range(6):
-        acc.update(*_pair(seed=s), group=s % 2)
-    assert acc.stats("mse").shape == (2, 3, 2)
-    assert acc.values("mse")[1, 0].item() == pytest.approx(mse(*_pair(seed=1)).item(), rel=1e-12)
-    acc.update(*_pair(seed=9), group=0)
-    with pytest.raises(ShapeError, match=r"equal frames per seed set, got \[4, 3\]"):
-        acc.stats("mse")
-
-
-# -- bootstrap -------------------------------------------------------------------------------------
-
-
-def test_bootstrap_is_deterministic_and_brackets_the_mean():
-    values = torch.tensor([1.0, 2.0, 4.0, 3.0, 5.0, 2.5, 3.5])
-    a = bootstrap_interval(values, seed=3)
-    assert a == bootstrap_interval(values, seed=3)
-    assert a.value == pytest.approx(values.double().mean().item())
-    assert a.lo < a.value < a.hi
-    assert bootstrap_interval(torch.full((9,), 2.0)) == Estimate(2.0, 2.0, 2.0, 9)
-
-
-def test_bootstrap_interval_covers_the_true_mean_at_its_level():
-    # 200 independent data sets of 30 normal values: the count of intervals holding the true mean is
-    # binomial; the percentile bootstrap must stay within 3 binomial standard deviations of 95%.
-    gen = torch.Generator().manual_seed(1)
-    data = 1.0 + torch.randn(200, 30, generator=gen, dtype=torch.float64)
-    intervals = [bootstrap_interval(row, resamples=1000, seed=i) for i, row in enumerate(data)]
-    hits = sum(e.lo <= 1.0 <= e.hi for e in intervals)
-    band = 3 * math.sqrt(0.95 * 0.05 / 200)
-    assert abs(hits / 200 - 0.95) <= band
-
-
-def test_two_stage_bootstrap_is_wider_when_seed_sets_differ():
-    # Seed sets with different means: the two-stage interval must see that spread, which a plain
-    # bootstrap over the pooled frames understates.
-    gen = torch.Generator().manual_seed(2)
-    values = torch.tensor([[1.0], [3.0], [5.0]], dtype=torch.float64) + 0.1 * torch.randn(
-        3, 8, generator=gen
-    )
-    grouped = bootstrap_interval(values)
-    flat = bootstrap_interval(values.flatten())
-    assert grouped.value == pytest.approx(flat.value)
-    assert grouped.hi - grouped.lo > flat.hi - flat.lo
-
-
-def test_paired_ratio_removes_the_shared_frame_variation():
-    # Frames differ a lot in content; a strategy at exactly 0.6x white on every frame must get a
-    # ratio of 0.6 with no width at all, because the pairing cancels the content.
-    content = torch.tensor([0.1, 5.0, 0.7, 2.0, 9.0, 0.3], dtype=torch.float64)
-    exact = paired_ratio(0.6 * content, content)
-    assert (exact.value, exact.lo, exact.hi, exact.n) == (
-        pytest.approx(0.6),
-        pytest.approx(0.6),
-        pytest.approx(0.6),
-        6,
-    )
-    gen = torch.Generator().manual_seed(4)
-    noisy = 0.6 * content * (1 + 0.05 * torch.randn(6, generator=gen, dtype=torch.float64))
-    r = paired_ratio(noisy, content)
-    assert r.lo < r.value < r.hi and r.hi < 1.0
-    with pytest.raises(ShapeError, match=r"values: expected the shape of baseline \[1, 6, 2\]"):
-        paired_ratio(content[:5], content)
-
-
-def test_frame_metrics_ratio_is_a_paired_ratio():
-    white, blue = FrameMetrics(["mse"]), FrameMetrics(["mse"])
-    for s in range(4):
-        pred, ref = _pair(seed=s)
-        white.update(pred, ref)
-        blue.update(ref + 0.5 * (pred - ref), ref)
-    r = blue.ratio(white, "mse")
-    assert r.value == pytest.approx(0.25, rel=1e-6) and r.lo == pytest.approx(0.25, rel=1e-6)
-
-
-def test_bootstrap_checks_its_arguments():
-    with pytest.raises(ShapeError, match="values: expected per-frame values"):
-        bootstrap_interval(torch.zeros(2, 2, 2, 2))
-    with pytest.raises(ValueRangeError, match="level: expected a value in"):
-        bootstrap_interval([1.0, 2.0], level=1.5)
-    with pytest.raises(NonFiniteError, match="values: expected finite"):
-        bootstrap_interval([1.0, math.nan])
-
-
-# -- determinism across thread counts --------------------------------------------------------------
-
-
-def _all_metric_values(pred, ref, mask):
-    acc = FrameMetrics()
-    for k in range(4):
-        acc.update(pred + 0.01 * k, ref, mask=mask if k % 2 else None, group=k % 2)
-    pooled = [x for e in acc.compute().values() for x in (e.value, e.lo, e.hi)]
-    single = [
-        mse(pred, ref).item(),
-        relmse(pred, ref).item(),
-        mse(pred, ref, mask).item(),
-        blurred_mse(pred, ref, 1.0).item(),
-        blurred_mse(pred, ref, 2.0).item(),
-        lowfreq(pred, ref),
-        psnr(pred, ref),
-        ssim(pred, ref),
-    ]
-    return single + pooled + [acc.ratio(acc, "mse").lo]
-
-
-def test_metrics_are_bit_identical_on_one_and_two_threads():
-    # issue 18: bench --threads 1 and --threads 2 differed in 973 of 8064 metric values.
-    pred, ref = _pair(seed=0, shape=(3, 128, 128), noise=0.3)
-    mask = torch.rand(128, 128, generator=torch.Generator().manual_seed(1)) > 0.5
-    before = torch.get_num_threads()
-    try:
-        torch.set_num_threads(1)
-        one = _all_metric_values(pred, ref, mask)
-        torch.set_num_threads(2)
-        two = _all_metric_values(pred, ref, mask)
-    finally:
-        torch.set_num_threads(before)
-    assert [struct_bits(x) for x in one] == [struct_bits(x) for x in two]
-
-
-def struct_bits(x: float) -> bytes:
-    import struct
-
-    return struct.pack("<d", x)
 
 
 def test_fixed_order_sums_stay_within_1e_12_of_torch_sum():

@@ -1,4 +1,4 @@
-"""Image error metrics against a reference, their running means over frames, bootstrap intervals.
+"""Image error metrics against a reference: per-image functions and the metrics' update halves.
 
 What the benchmark measures (docs/METHODS.md, section 6): for a rendered (or denoised) image
 ``pred`` and the converged reference ``ref`` of the same frame, both ``[C, H, W]`` linear radiance,
@@ -10,9 +10,9 @@ What the benchmark measures (docs/METHODS.md, section 6): for a rendered (or den
   data range: the target's range);
 - ``ssim``: scikit-image's ``structural_similarity`` (Wang et al. 2004, 7x7 uniform window) with
   ``data_range`` taken from the reference, channels averaged; computed here with scipy's
-  ``uniform_filter`` exactly as scikit-image computes it (bit-identical, tests/test_metrics.py),
-  so that the reference's local statistics are computed once per reference
-  (:class:`PreparedReference`);
+  ``uniform_filter`` exactly as scikit-image computes it (bit-identical,
+  tests/test_metrics_image.py), so that the reference's local statistics are computed once per
+  reference (:class:`PreparedReference`);
 - ``mse_blur1``, ``mse_blur2``: the MSE of the *error* after a Gaussian blur of sigma 1 and 2
   pixels, the halftoning model of the eye (Heitz & Belcour 2019, section 6; Georgiev & Fajardo
   2016). A blue-noise error loses most of its energy under the blur, a white one keeps
@@ -29,22 +29,15 @@ Every metric may be restricted to a boolean pixel ``mask [H, W]`` (for example t
 object edges, :func:`edge_mask`): the blur is applied to the whole error image first, and only the
 masked pixels are averaged.
 
-**Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
-Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
-pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores such as PSNR and SSIM), and
-the compute step is ``sum(numerators) / sum(denominators)`` over frames. One frame gives the
-per-image value; many frames give the pooled running mean; a bootstrap resamples the frames' pairs.
+**Update halves.** :class:`ImagePair` reduces one image to each metric's pair ``(numerator,
+denominator)`` (``(sum e^2, pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores
+such as PSNR and SSIM): the update half of the update/compute split
+(:mod:`bnerr.metrics.frames`). Each per-image function here is one update followed by the compute
+step, :func:`bnerr.metrics.stats.pooled_mean`.
 
-**Intervals.** :func:`bootstrap_interval` and :func:`paired_ratio` give percentile-bootstrap 95%
-intervals (Efron & Tibshirani 1993) over frames, two-stage when frames come in independent seed
-sets (resample seed sets, then frames inside each), with a fixed ``torch.Generator`` seed so that
-the same inputs give the same interval. Frames of one temporal run are not independent (the seed
-image carries over), so the frame-level bootstrap is a within-run estimate; independent seed sets
-are the unit that makes it honest, and the suites use them where the budget allows.
-
-**Determinism.** Every sum over pixels, tiles, frames and bootstrap resamples runs in a fixed
-order (:func:`bnerr.reduce.fixed_sum`), so every value here is bit-identical whatever torch's
-thread count (tests/test_metrics.py checks 1 against 2 threads); SSIM runs in scipy and FLIP in
+**Determinism.** Every sum over pixels and tiles runs in a fixed order
+(:func:`bnerr.reduce.fixed_sum`), so every value here is bit-identical whatever torch's thread
+count (tests/test_metrics_frames.py checks 1 against 2 threads); SSIM runs in scipy and FLIP in
 its own package, both single-threaded numpy. Across machines, float64 additions and
 kornia's blur are IEEE-exact operations in a fixed order, but the FFT library may differ.
 
@@ -57,8 +50,6 @@ from __future__ import annotations
 import functools
 import importlib.util
 import math
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import torch
@@ -69,49 +60,30 @@ from bnerr.errors import (
     ValueRangeError,
     check_dtype,
     check_finite,
-    check_name,
     check_positive_int,
     check_range,
     check_shape,
     check_tensor,
 )
+from bnerr.metrics.spectrum import low_frequency_fraction
+from bnerr.metrics.stats import pooled_mean
 from bnerr.reduce import fixed_sum
-from bnerr.spectrum import low_frequency_fraction
 
 __all__ = [
-    "BLUR_SIGMAS",
-    "METRICS",
-    "Estimate",
-    "FrameMetrics",
+    "ImagePair",
     "PreparedReference",
     "blurred_mse",
-    "bootstrap_interval",
     "edge_mask",
     "flip",
     "flip_available",
     "lowfreq",
     "mse",
-    "paired_ratio",
     "psnr",
     "relmse",
+    "require_flip",
     "ssim",
     "temporal_correlation",
 ]
-
-#: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
-BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
-
-#: Every metric :class:`FrameMetrics` knows, in table order. ``flip`` needs ``flip-evaluator``.
-METRICS: tuple[str, ...] = (
-    "mse",
-    "relmse",
-    "psnr",
-    "ssim",
-    "mse_blur1",
-    "mse_blur2",
-    "lowfreq",
-    "flip",
-)
 
 _RELMSE_EPS = 0.01
 
@@ -225,7 +197,7 @@ def _gaussian_blur(err: torch.Tensor, sigma: float, kernel: int) -> torch.Tensor
     (reflect pad and a depthwise row convolution, then the same for the columns) with the taps
     built once per sigma and the column pass run as a row pass on the transposed image: the
     same taps times the same values in the same order, bit-identical to kornia
-    (tests/test_metrics.py) and 2-3 times faster at 128x128, where kornia's checks, tap
+    (tests/test_metrics_image.py) and 2-3 times faster at 128x128, where kornia's checks, tap
     construction and column convolution dominate. Anything else is kornia's call.
     """
     channels, height, width = err.shape
@@ -252,19 +224,13 @@ def _value_update(value: float, device: torch.device) -> torch.Tensor:
     return torch.tensor([value, 1.0], dtype=torch.float64, device=device)
 
 
-def _compute(stats: torch.Tensor) -> torch.Tensor:
-    """``sum(numerator) / sum(denominator)`` over the leading axes of ``stats [..., 2]``."""
-    total = fixed_sum(stats.reshape(-1, 2), dim=0)
-    return total[0] / total[1]
-
-
 def _psnr_value(mse_stats: torch.Tensor, ref: torch.Tensor, data_range: float | None) -> float:
     peak = float(ref.max() - ref.min()) if data_range is None else data_range
     if peak <= 0.0:
         raise ValueRangeError(
             f"ref: expected a non-constant reference for the PSNR peak, got range {peak}"
         )
-    err = float(_compute(mse_stats))
+    err = float(pooled_mean(mse_stats))
     return math.inf if err == 0.0 else 10.0 * math.log10(peak * peak / err)
 
 
@@ -346,7 +312,8 @@ def _ssim_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
     return _SSIMReference(ref).value(pred, mask)
 
 
-def _require_flip() -> None:
+def require_flip() -> None:
+    """Raise ``ImportError`` with the install command unless ``flip-evaluator`` is installed."""
     if not flip_available():
         raise ImportError(
             "flip: the FLIP metric needs the optional package 'flip-evaluator' "
@@ -355,7 +322,7 @@ def _require_flip() -> None:
 
 
 def _flip_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None) -> float:
-    _require_flip()
+    require_flip()
     import flip_evaluator
 
     # HDR-FLIP reads HxWxC linear RGB with non-negative values; a denoiser may undershoot below 0.
@@ -375,11 +342,12 @@ def _flip_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
 class PreparedReference:
     """A reference ``[C, H, W]`` checked once and prepared for every frame compared with it.
 
-    :meth:`FrameMetrics.update` takes one in place of the reference tensor when several images
-    (the raw frame and each denoiser's output, in each pixel region) are measured against the
-    same reference: its float64 copy, the relative MSE's denominator, the PSNR and SSIM peak and
-    the reference's half of SSIM are then computed once instead of once per image. The values
-    are the same bit for bit (the same operations on the same numbers).
+    :class:`ImagePair` (and so :meth:`bnerr.metrics.FrameMetrics.update`) takes one in place of
+    the reference tensor when several images (the raw frame and each denoiser's output, in each
+    pixel region) are measured against the same reference: its float64 copy, the relative MSE's
+    denominator, the PSNR and SSIM peak and the reference's half of SSIM are then computed once
+    instead of once per image. The values are the same bit for bit (the same operations on the
+    same numbers).
     """
 
     def __init__(self, ref: torch.Tensor) -> None:
@@ -401,26 +369,82 @@ class PreparedReference:
         return _SSIMReference(self.color)
 
 
-class _Pair:
-    """One image against a prepared reference, with the float64 error and the MSE pair computed
-    at most once for all the metrics of one update."""
+class ImagePair:
+    """One image against its reference, as the metrics' updates see it.
 
-    def __init__(self, pred: torch.Tensor, ref: PreparedReference, mask: torch.Tensor | None):
-        self.pred, self.ref, self.mask = pred, ref, mask
+    Checks the inputs once (as :func:`mse` does) and computes the float64 error and the MSE pair at
+    most once for all the metrics of one frame. Each update method reduces the image to that
+    metric's pair ``(numerator, denominator)``: ``[2]`` float64 on ``pred``'s device. The
+    per-image value is :func:`bnerr.metrics.stats.pooled_mean` of the pair;
+    :class:`bnerr.metrics.FrameMetrics` keeps the pairs of many frames, and its table
+    (:data:`bnerr.metrics.METRIC_TABLE`) names the update of each metric.
+
+    Args:
+        pred: ``[C, H, W]`` floating, finite, as in :func:`mse`.
+        ref: its reference ``[C, H, W]``, or a :class:`PreparedReference` of it (the same values,
+            computed faster when several images are measured against one reference).
+        mask: optional ``[H, W]`` bool restricting every update except :meth:`lowfreq`.
+        tile: tile size of :meth:`lowfreq`'s spectrum (>= 2; clamped to the image by the spectrum).
+
+    Attributes:
+        pred, mask, tile: as given. ref: the :class:`PreparedReference`.
+        size: ``{"C": C, "H": H, "W": W}``.
+    """
+
+    def __init__(
+        self,
+        pred: torch.Tensor,
+        ref: torch.Tensor | PreparedReference,
+        mask: torch.Tensor | None = None,
+        *,
+        tile: int = 64,
+    ) -> None:
+        prepared = ref if isinstance(ref, PreparedReference) else None
+        self.size = _check_pair(pred, ref if prepared is None else prepared.color, mask, prepared)
+        self.tile = check_positive_int(tile, "tile", minimum=2)
+        self.pred, self.ref, self.mask = pred, prepared or PreparedReference(ref), mask
 
     @functools.cached_property
     def err(self) -> torch.Tensor:
+        """``pred - ref`` in float64, ``[C, H, W]``."""
         return self.pred.to(torch.float64) - self.ref.ref64
 
     @functools.cached_property
-    def mse(self) -> torch.Tensor:
+    def _mse(self) -> torch.Tensor:
         return _masked_sum(self.err.square(), self.mask)
 
+    def score(self, value: float) -> torch.Tensor:
+        """A per-image score as the pair ``(value, 1)``, so that compute averages it over frames."""
+        return _value_update(value, self.pred.device)
+
+    def mse(self) -> torch.Tensor:
+        """``(sum e^2, pixel count)`` over the (masked) pixels and channels."""
+        return self._mse
+
     def relmse(self) -> torch.Tensor:
+        """``(sum e^2 / (ref^2 + 0.01), pixel count)``."""
         return _masked_sum(self.err.square() / self.ref.relmse_denominator, self.mask)
 
-    def blurred(self, sigma: float, kernel: int) -> torch.Tensor:
+    def blurred(self, sigma: float) -> torch.Tensor:
+        """``(sum (G_sigma * e)^2, pixel count)``: the error blurred over the whole image first."""
+        kernel = _check_blur_size(self.size, sigma)
         return _blurred_err_sum(self.err, sigma, kernel, self.mask)
+
+    def psnr(self) -> torch.Tensor:
+        """The PSNR (peak: the reference's range) as a score."""
+        return self.score(_psnr_value(self._mse, self.ref.color, None))
+
+    def ssim(self) -> torch.Tensor:
+        """The mean SSIM (the reference's half prepared once) as a score."""
+        return self.score(self.ref.ssim.value(self.pred, self.mask))
+
+    def flip(self) -> torch.Tensor:
+        """The mean HDR-FLIP error as a score (needs ``flip-evaluator``)."""
+        return self.score(_flip_value(self.pred, self.ref.color, self.mask))
+
+    def lowfreq(self) -> torch.Tensor:
+        """The error's low-frequency fraction on ``tile x tile`` tiles as a score (no mask)."""
+        return self.score(low_frequency_fraction(self.err, tile=self.tile))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -439,13 +463,13 @@ def mse(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None)
         A 0-dim float64 tensor on the inputs' device (accumulated in float64).
     """
     _check_pair(pred, ref, mask)
-    return _compute(_mse_update(pred, ref, mask))
+    return pooled_mean(_mse_update(pred, ref, mask))
 
 
 def relmse(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None) -> torch.Tensor:
     """Relative MSE ``mean((pred - ref)^2 / (ref^2 + 0.01))``; shapes as in :func:`mse`."""
     _check_pair(pred, ref, mask)
-    return _compute(_relmse_update(pred, ref, mask))
+    return pooled_mean(_relmse_update(pred, ref, mask))
 
 
 def psnr(
@@ -486,7 +510,7 @@ def blurred_mse(
     """
     size = _check_pair(pred, ref, mask)
     kernel = _check_blur_size(size, sigma)
-    return _compute(_blurred_mse_update(pred, ref, float(sigma), kernel, mask))
+    return pooled_mean(_blurred_mse_update(pred, ref, float(sigma), kernel, mask))
 
 
 def flip_available() -> bool:
@@ -591,265 +615,3 @@ def temporal_correlation(
     a, b = a - fixed_sum(a) / a.numel(), b - fixed_sum(b) / b.numel()
     denom = math.sqrt(float(fixed_sum(a * a)) * float(fixed_sum(b * b)))
     return float(fixed_sum(a * b)) / denom if denom > 0 else 0.0
-
-
-# --------------------------------------------------------------------------------------------------
-# Statistics over frames
-
-
-@dataclass(frozen=True)
-class Estimate:
-    """A point estimate with its bootstrap interval.
-
-    Attributes:
-        value: the estimate on all the data (not the mean of the resamples).
-        lo, hi: the percentile-bootstrap interval at ``level``.
-        n: number of frames it rests on (seed sets x frames).
-        level: confidence level of ``(lo, hi)``.
-    """
-
-    value: float
-    lo: float
-    hi: float
-    n: int
-    level: float = 0.95
-
-    def __str__(self) -> str:
-        return f"{self.value:.4g} [{self.lo:.4g}, {self.hi:.4g}]"
-
-
-def _as_stats(values: object, name: str) -> torch.Tensor:
-    """Per-frame values ``[F]``, ``[S, F]`` or pairs ``[S, F, 2]`` -> ``[S, F, 2]`` float64 CPU."""
-    x = torch.as_tensor(check_tensor(values, name) if isinstance(values, torch.Tensor) else values)
-    x = x.detach().to("cpu", torch.float64)
-    if x.ndim == 1:
-        x = x[None]
-    if x.ndim == 2:
-        x = torch.stack([x, torch.ones_like(x)], dim=-1)
-    if x.ndim != 3 or x.shape[-1] != 2 or x.numel() == 0:
-        raise ShapeError(
-            f"{name}: expected per-frame values [F] or [S, F] (or pairs [S, F, 2]), "
-            f"got shape {list(x.shape)}"
-        )
-    check_finite(x, name)
-    return x
-
-
-def _resample(shape: tuple[int, int], resamples: int, seed: int) -> torch.Tensor:
-    """Two-stage bootstrap weights: how often each of the ``S * F`` frames is drawn, ``[R, S * F]``.
-
-    Stage 1 draws S seed sets with replacement, stage 2 draws F frames with replacement inside each
-    drawn set. With S = 1 this is the ordinary bootstrap over frames. Counts (float64) instead of
-    indices, so that a resample's sums are one matrix product (:func:`_resampled_values`), which is
-    several times faster than gathering ``[R, N, 2]`` for the small N of a benchmark cell.
-    """
-    s, f = shape
-    gen = torch.Generator().manual_seed(seed)
-    sets = torch.randint(s, (resamples, s, 1), generator=gen)
-    frames = torch.randint(f, (resamples, s, f), generator=gen)
-    index = (sets * f + frames).reshape(resamples, s * f)
-    weights = torch.zeros(resamples, s * f, dtype=torch.float64)
-    return weights.scatter_add_(1, index, torch.ones_like(weights))
-
-
-def _resampled_values(stats: torch.Tensor, weights: torch.Tensor) -> torch.Tensor:
-    """``sum(num) / sum(den)`` per resample: ``stats [S, F, 2]``, ``weights [R, N]`` -> ``[R]``."""
-    # A fixed-order sum over frames instead of a matrix product, whose BLAS kernel's order of
-    # additions may depend on the thread count.
-    total = fixed_sum(weights[:, :, None] * stats.reshape(1, -1, 2), dim=1)  # [R, 2]
-    return total[:, 0] / total[:, 1]
-
-
-def _interval(samples: torch.Tensor, level: float) -> tuple[float, float]:
-    alpha = (1.0 - level) / 2.0
-    lo, hi = torch.quantile(samples, torch.tensor([alpha, 1.0 - alpha], dtype=torch.float64))
-    return float(lo), float(hi)
-
-
-def _check_level(level: float, resamples: int) -> None:
-    check_range(level, "level", 0.5, 0.999)
-    check_positive_int(resamples, "resamples", minimum=100)
-
-
-def bootstrap_interval(
-    values: torch.Tensor | Sequence[float],
-    level: float = 0.95,
-    resamples: int = 2000,
-    seed: int = 0,
-) -> Estimate:
-    """Mean of per-frame values with a percentile-bootstrap interval.
-
-    Args:
-        values: per-frame values ``[F]``, or ``[S, F]`` for S independent seed sets of F frames
-            each (two-stage bootstrap: seed sets, then frames), or ``[S, F, 2]`` pairs
-            ``(numerator, denominator)`` from the metric updates, whose mean is the ratio of sums.
-        level: confidence level in [0.5, 0.999].
-        resamples: bootstrap resamples (>= 100).
-        seed: seed of the ``torch.Generator`` that draws the resamples; fixed, so the same values
-            always give the same interval.
-
-    Returns:
-        :class:`Estimate`; with a single frame the interval collapses to the value.
-    """
-    _check_level(level, resamples)
-    stats = _as_stats(values, "values")
-    samples = _resampled_values(stats, _resample(stats.shape[:2], resamples, seed))
-    lo, hi = _interval(samples, level)
-    return Estimate(float(_compute(stats)), lo, hi, stats.shape[0] * stats.shape[1], level)
-
-
-def paired_ratio(
-    values: torch.Tensor | Sequence[float],
-    baseline: torch.Tensor | Sequence[float],
-    level: float = 0.95,
-    resamples: int = 2000,
-    seed: int = 0,
-) -> Estimate:
-    """Ratio ``mean(values) / mean(baseline)`` with a paired bootstrap interval.
-
-    Frame i of ``values`` and frame i of ``baseline`` show the same scene frame (the same
-    reference), rendered by two strategies; resampling the same frame indices for both removes the
-    frame-to-frame variation of the content from the interval (the comparison docs/METHODS.md asks
-    for: "pairwise on the same scene and frames"). A ratio whose interval lies above 1 is worse
-    than the baseline beyond its statistical error.
-
-    Args:
-        values, baseline: per-frame values of the same shape, ``[F]``, ``[S, F]`` or ``[S, F, 2]``
-            as in :func:`bootstrap_interval`.
-        level, resamples, seed: as in :func:`bootstrap_interval`.
-    """
-    _check_level(level, resamples)
-    a = _as_stats(values, "values")
-    b = _as_stats(baseline, "baseline")
-    if a.shape != b.shape:
-        raise ShapeError(
-            f"values: expected the shape of baseline {list(b.shape)} (the same frames), "
-            f"got {list(a.shape)}"
-        )
-    weights = _resample(a.shape[:2], resamples, seed)
-    samples = _resampled_values(a, weights) / _resampled_values(b, weights)
-    lo, hi = _interval(samples, level)
-    return Estimate(float(_compute(a) / _compute(b)), lo, hi, a.shape[0] * a.shape[1], level)
-
-
-class FrameMetrics:
-    """Metrics of a sequence of frames against their references: update per frame, compute over all.
-
-    Keeps, per metric, each frame's ``(numerator, denominator)`` pair (see the module docstring),
-    so that the running mean, the bootstrap interval and a paired ratio to another run all come
-    from the same numbers.
-
-    Example::
-
-        acc = FrameMetrics(["mse", "mse_blur1"])
-        for t in frames:
-            acc.update(denoised[t], reference[t])
-        acc.compute()["mse"]                 # Estimate(value, lo, hi, n)
-        acc.ratio(white_acc, "mse")           # paired ratio to white over the same frames
-
-    Args:
-        names: metric names from :data:`METRICS` (default: all but ``flip``, which is slow).
-        tile: tile size of the ``lowfreq`` spectrum (clamped to the image by the spectrum).
-    """
-
-    def __init__(self, names: Iterable[str] | None = None, *, tile: int = 64) -> None:
-        chosen = tuple(names) if names is not None else tuple(m for m in METRICS if m != "flip")
-        for name in chosen:
-            check_name(name, METRICS, "metric")
-        if "flip" in chosen:
-            _require_flip()
-        self.names = chosen
-        self.tile = check_positive_int(tile, "tile", minimum=2)
-        self._stats: dict[str, list[torch.Tensor]] = {name: [] for name in chosen}
-        self._groups: list[int] = []
-
-    def update(
-        self,
-        pred: torch.Tensor,
-        ref: torch.Tensor | PreparedReference,
-        mask: torch.Tensor | None = None,
-        group: int = 0,
-    ) -> dict[str, float]:
-        """Add one frame; return its per-frame value of every metric.
-
-        Args:
-            pred: ``[C, H, W]`` as in :func:`mse`.
-            ref: its reference ``[C, H, W]``, or a :class:`PreparedReference` of it (the same
-                values, computed faster when several images are measured against one reference).
-            mask: optional ``[H, W]`` bool restricting every metric except ``lowfreq``.
-            group: index of the independent seed set the frame belongs to (0 when there is one).
-        """
-        prepared = ref if isinstance(ref, PreparedReference) else None
-        size = _check_pair(pred, ref if prepared is None else prepared.color, mask, prepared)
-        check_positive_int(group, "group", minimum=0)
-        pair = _Pair(pred, prepared or PreparedReference(ref), mask)
-        row = {name: self._update_one(name, pair, size) for name in self.names}
-        for name, stats in row.items():
-            self._stats[name].append(stats.cpu())
-        self._groups.append(group)
-        return {name: float(_compute(stats)) for name, stats in row.items()}
-
-    def _update_one(self, name: str, pair: _Pair, size: dict) -> torch.Tensor:
-        device = pair.pred.device
-        if name == "mse":
-            return pair.mse
-        if name == "relmse":
-            return pair.relmse()
-        if name in BLUR_SIGMAS:
-            sigma = BLUR_SIGMAS[name]
-            return pair.blurred(sigma, _check_blur_size(size, sigma))
-        if name == "psnr":
-            return _value_update(_psnr_value(pair.mse, pair.ref.color, None), device)
-        if name == "ssim":
-            return _value_update(pair.ref.ssim.value(pair.pred, pair.mask), device)
-        if name == "flip":
-            return _value_update(_flip_value(pair.pred, pair.ref.color, pair.mask), device)
-        return _value_update(low_frequency_fraction(pair.err, tile=self.tile), device)
-
-    def __len__(self) -> int:
-        return len(self._groups)
-
-    def stats(self, name: str) -> torch.Tensor:
-        """Per-frame ``(numerator, denominator)`` pairs of metric ``name``: ``[S, F, 2]`` float64.
-
-        Frames are grouped by seed set in the order they were added; every seed set must hold the
-        same number of frames.
-        """
-        check_name(name, self.names, "metric")
-        if not self._groups:
-            raise ValueRangeError("FrameMetrics: expected at least one frame, got none")
-        groups = torch.tensor(self._groups)
-        stats = torch.stack(self._stats[name])
-        order = torch.argsort(groups, stable=True)
-        counts = torch.bincount(groups[order])
-        counts = counts[counts > 0]
-        if bool((counts != counts[0]).any()):
-            raise ShapeError(
-                f"FrameMetrics: expected equal frames per seed set, got {counts.tolist()}"
-            )
-        return stats[order].reshape(counts.numel(), int(counts[0]), 2)
-
-    def values(self, name: str) -> torch.Tensor:
-        """Per-frame values of metric ``name``: ``[S, F]`` float64."""
-        stats = self.stats(name)
-        return stats[..., 0] / stats[..., 1]
-
-    def compute(
-        self, level: float = 0.95, resamples: int = 2000, seed: int = 0
-    ) -> dict[str, Estimate]:
-        """Every metric's pooled mean over the frames with its bootstrap interval."""
-        return {
-            name: bootstrap_interval(self.stats(name), level, resamples, seed)
-            for name in self.names
-        }
-
-    def ratio(
-        self,
-        baseline: FrameMetrics,
-        name: str,
-        level: float = 0.95,
-        resamples: int = 2000,
-        seed: int = 0,
-    ) -> Estimate:
-        """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames."""
-        return paired_ratio(self.stats(name), baseline.stats(name), level, resamples, seed)

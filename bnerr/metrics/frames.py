@@ -1,0 +1,192 @@
+"""The metrics' table, and their update over frames and compute with bootstrap intervals.
+
+**The table.** :data:`METRIC_TABLE` maps each metric's name to a :class:`Metric`: its update (one
+image -> its pair, a method of :class:`~bnerr.metrics.image.ImagePair` or any function of one) and
+how summary tables show it (``benchmarks/report.py`` takes ``table.csv``'s metric columns from
+it). :data:`METRICS`, the names in table order, is derived from it. Adding a metric is one update
+function and one table entry; :class:`FrameMetrics` and the report need no change.
+
+**Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
+Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
+pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores such as PSNR and SSIM), and
+the compute step is ``sum(numerators) / sum(denominators)`` over frames
+(:func:`bnerr.metrics.stats.pooled_mean`). One frame gives the per-image value; many frames give
+the pooled running mean; a bootstrap resamples the frames' pairs (:mod:`bnerr.metrics.stats`).
+
+Not for: metrics that need more than one frame at a time (the error's correlation from frame to
+frame is :func:`bnerr.metrics.image.temporal_correlation`, measured beside the table).
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+
+import torch
+
+from bnerr.errors import ShapeError, ValueRangeError, check_name, check_positive_int
+from bnerr.metrics.image import ImagePair, PreparedReference, require_flip
+from bnerr.metrics.stats import Estimate, bootstrap_interval, paired_ratio, pooled_mean
+
+__all__ = ["BLUR_SIGMAS", "METRICS", "METRIC_TABLE", "FrameMetrics", "Metric"]
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One entry of :data:`METRIC_TABLE`: how a frame updates the metric, and how tables show it.
+
+    Attributes:
+        update: ``update(pair: ImagePair) -> [2]`` float64, the frame's ``(numerator,
+            denominator)`` on ``pair.pred``'s device (:meth:`ImagePair.score` makes the pair of a
+            per-image value).
+        default: measured by a :class:`FrameMetrics` given no names.
+        require: called when a :class:`FrameMetrics` with the metric is made; raises when the
+            metric cannot run (an optional package missing), so that a run fails before it starts.
+        interval: summary tables give the pooled value's bootstrap interval (``_lo``, ``_hi``),
+            before and after denoising.
+        ratio: summary tables give the paired ratio to the white-noise baseline with its interval.
+        group: the metrics of one group sit side by side in summary tables (each one's raw value,
+            then each one's denoised value); None: a group of its own.
+        tabled: summary tables give the metric columns at all.
+    """
+
+    update: Callable[[ImagePair], torch.Tensor]
+    default: bool = True
+    require: Callable[[], None] | None = None
+    interval: bool = False
+    ratio: bool = False
+    group: str | None = None
+    tabled: bool = True
+
+
+#: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
+BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
+
+#: Every metric :class:`FrameMetrics` knows, by name, in table order (``table.csv``'s column order).
+METRIC_TABLE: dict[str, Metric] = {
+    "mse": Metric(ImagePair.mse, interval=True, ratio=True),
+    "relmse": Metric(ImagePair.relmse),
+    "psnr": Metric(ImagePair.psnr),
+    "ssim": Metric(ImagePair.ssim),
+    **{
+        name: Metric(functools.partial(ImagePair.blurred, sigma=sigma), ratio=True, group="blur")
+        for name, sigma in BLUR_SIGMAS.items()
+    },
+    "lowfreq": Metric(ImagePair.lowfreq),
+    # FLIP needs an optional package and about 0.5 s per 256x256 image: measured only when named.
+    # No suite names it and table.csv never had its columns, so the tables leave it out.
+    "flip": Metric(ImagePair.flip, default=False, require=require_flip, tabled=False),
+}
+
+#: Every metric's name, in table order. ``flip`` needs ``flip-evaluator``.
+METRICS: tuple[str, ...] = tuple(METRIC_TABLE)
+
+
+class FrameMetrics:
+    """Metrics of a sequence of frames against their references: update per frame, compute over all.
+
+    Keeps, per metric, each frame's ``(numerator, denominator)`` pair (see the module docstring),
+    so that the running mean, the bootstrap interval and a paired ratio to another run all come
+    from the same numbers.
+
+    Example::
+
+        acc = FrameMetrics(["mse", "mse_blur1"])
+        for t in frames:
+            acc.update(denoised[t], reference[t])
+        acc.compute()["mse"]                 # Estimate(value, lo, hi, n)
+        acc.ratio(white_acc, "mse")           # paired ratio to white over the same frames
+
+    Args:
+        names: metric names from :data:`METRIC_TABLE` (default: its ``default`` ones, all but
+            ``flip``, which is slow).
+        tile: tile size of the ``lowfreq`` spectrum (clamped to the image by the spectrum).
+    """
+
+    def __init__(self, names: Iterable[str] | None = None, *, tile: int = 64) -> None:
+        table = dict(METRIC_TABLE)  # read now, not at import: an entry added since counts
+        default = tuple(name for name, metric in table.items() if metric.default)
+        chosen = tuple(names) if names is not None else default
+        for name in chosen:
+            check_name(name, tuple(table), "metric")
+        for name in chosen:
+            if table[name].require is not None:
+                table[name].require()  # before any frame: a run fails before it starts
+        self.names = chosen
+        self.tile = check_positive_int(tile, "tile", minimum=2)
+        self._updates = {name: table[name].update for name in chosen}
+        self._stats: dict[str, list[torch.Tensor]] = {name: [] for name in chosen}
+        self._groups: list[int] = []
+
+    def update(
+        self,
+        pred: torch.Tensor,
+        ref: torch.Tensor | PreparedReference,
+        mask: torch.Tensor | None = None,
+        group: int = 0,
+    ) -> dict[str, float]:
+        """Add one frame; return its per-frame value of every metric.
+
+        Args:
+            pred: ``[C, H, W]`` as in :func:`bnerr.metrics.mse`.
+            ref: its reference ``[C, H, W]``, or a :class:`PreparedReference` of it (the same
+                values, computed faster when several images are measured against one reference).
+            mask: optional ``[H, W]`` bool restricting every metric except ``lowfreq``.
+            group: index of the independent seed set the frame belongs to (0 when there is one).
+        """
+        pair = ImagePair(pred, ref, mask, tile=self.tile)
+        check_positive_int(group, "group", minimum=0)
+        row = {name: update(pair) for name, update in self._updates.items()}
+        for name, stats in row.items():
+            self._stats[name].append(stats.cpu())
+        self._groups.append(group)
+        return {name: float(pooled_mean(stats)) for name, stats in row.items()}
+
+    def __len__(self) -> int:
+        return len(self._groups)
+
+    def stats(self, name: str) -> torch.Tensor:
+        """Per-frame ``(numerator, denominator)`` pairs of metric ``name``: ``[S, F, 2]`` float64.
+
+        Frames are grouped by seed set in the order they were added; every seed set must hold the
+        same number of frames.
+        """
+        check_name(name, self.names, "metric")
+        if not self._groups:
+            raise ValueRangeError("FrameMetrics: expected at least one frame, got none")
+        groups = torch.tensor(self._groups)
+        stats = torch.stack(self._stats[name])
+        order = torch.argsort(groups, stable=True)
+        counts = torch.bincount(groups[order])
+        counts = counts[counts > 0]
+        if bool((counts != counts[0]).any()):
+            raise ShapeError(
+                f"FrameMetrics: expected equal frames per seed set, got {counts.tolist()}"
+            )
+        return stats[order].reshape(counts.numel(), int(counts[0]), 2)
+
+    def values(self, name: str) -> torch.Tensor:
+        """Per-frame values of metric ``name``: ``[S, F]`` float64."""
+        stats = self.stats(name)
+        return stats[..., 0] / stats[..., 1]
+
+    def compute(
+        self, level: float = 0.95, resamples: int = 2000, seed: int = 0
+    ) -> dict[str, Estimate]:
+        """Every metric's pooled mean over the frames with its bootstrap interval."""
+        return {
+            name: bootstrap_interval(self.stats(name), level, resamples, seed)
+            for name in self.names
+        }
+
+    def ratio(
+        self,
+        baseline: FrameMetrics,
+        name: str,
+        level: float = 0.95,
+        resamples: int = 2000,
+        seed: int = 0,
+    ) -> Estimate:
+        """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames."""
+        return paired_ratio(self.stats(name), baseline.stats(name), level, resamples, seed)
