@@ -1,8 +1,9 @@
-# Two commands: `make run` and `make test` (ruff lint and format check, then pytest). Each
-# creates .venv on first use and reinstalls only when pyproject.toml changed (the stamp file
-# tracks it). The extras: dev (pytest, hypothesis, ruff), reference (Mitsuba 3, OIDN, FLIP) and
-# cluster (Ray). Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it
-# installs libllvm19 (best effort; without it the tests that need it skip and say why).
+# Two commands: `make run` and `make test` (ruff lint and format check, mypy on bnerr/ as
+# configured in pyproject.toml, then pytest). Each creates .venv on first use and reinstalls only
+# when pyproject.toml changed (the stamp file tracks it). The extras: dev (pytest, hypothesis,
+# ruff, mypy), reference (Mitsuba 3, OIDN, FLIP) and cluster (Ray). Mitsuba's LLVM variants need
+# libLLVM >= 19: where make runs as root on Debian it installs libllvm19 (best effort; without it
+# the tests that need it skip and say why).
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -33,6 +34,7 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q
 
 clean:
