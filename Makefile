@@ -1,9 +1,10 @@
-# Two commands: `make run` and `make test` (ruff lint and format check, then pytest over every
-# core with pytest-xdist). Each creates .venv on first use and reinstalls only when pyproject.toml
-# changed (the stamp file tracks it). The install goes through uv (itself a wheel from PyPI): it
-# fetches and unpacks in parallel and keeps a cache, measured 91 s for a cold install against
-# pip's 140 s here; pip takes over if uv cannot be installed. The extras: dev (pytest,
-# pytest-xdist, hypothesis, ruff), reference (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
+# Two commands: `make run` and `make test` (ruff lint and format check, mypy on bnerr/ as
+# configured in pyproject.toml, then pytest over every core with pytest-xdist). Each creates .venv
+# on first use and reinstalls only when pyproject.toml changed (the stamp file tracks it). The
+# install goes through uv (itself a wheel from PyPI): it fetches and unpacks in parallel and keeps
+# a cache, measured 91 s for a cold install against pip's 140 s here; pip takes over if uv cannot
+# be installed. The extras: dev (pytest, pytest-xdist, hypothesis, ruff, mypy), reference
+# (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
 # Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it installs
 # libllvm19 (best effort; without it the tests that need it skip and say why).
 PYTHON ?= python3.11
@@ -37,6 +38,7 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
+	$(BIN)/mypy
 	$(BIN)/python -m pytest -q -n auto --dist loadfile
 
 clean:

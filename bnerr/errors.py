@@ -12,7 +12,7 @@ The error classes also derive from the matching builtin (``ValueError``, ``TypeE
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable
 from pathlib import Path
 
 import torch
@@ -251,7 +251,7 @@ def check_range(value: object, name: str, lo: float, hi: float) -> float:
     return value
 
 
-def check_name(name: object, known: Sequence[str], what: str) -> str:
+def check_name(name: object, known: Collection[str], what: str) -> str:
     """Return ``name`` if it is one of ``known``; raise :class:`UnknownNameError` listing them."""
     if not isinstance(name, str) or name not in known:
         raise UnknownNameError(

@@ -111,8 +111,9 @@ def _window(sigma: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     ``|dy|`` (and ``|dx|``) among them."""
     cut = _CUT * sigma * math.sqrt(2.0)
     reach = max(1, int(math.floor(cut)))
-    dy, dx = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
-    dy, dx = dy.ravel(), dx.ravel()
+    span = np.arange(-reach, reach + 1)
+    grid_y, grid_x = np.meshgrid(span, span, indexing="ij")
+    dy, dx = grid_y.ravel(), grid_x.ravel()
     r2 = dy**2 + dx**2
     keep = (r2 > 0) & (r2 <= max(cut * cut, 1.0))
     return dy[keep], dx[keep], np.exp(-r2[keep] / (4.0 * sigma * sigma)), reach
@@ -140,7 +141,8 @@ def _energy(values: np.ndarray, nbr: np.ndarray, weight: np.ndarray) -> float:
 
 def _check_mask(mask: object, name: str) -> np.ndarray:
     """A ``[T, T]`` floating, finite tensor as a flat float64 numpy array."""
-    check_shape(check_tensor(mask, name), "T T", name)
+    mask = check_tensor(mask, name)
+    check_shape(mask, "T T", name)
     check_dtype(mask, FLOAT_DTYPES, name)
     check_finite(mask, name)
     if mask.shape[0] == 0:
@@ -261,7 +263,9 @@ class _Footprint:
         self.table = np.zeros((2 * self.reach + 1, 2 * self.reach + 1))
         self.table[dy + self.reach, dx + self.reach] = self.weight
 
-    def deltas(self, values: np.ndarray, p: np.ndarray, q: np.ndarray, d: tuple[int, int]):
+    def deltas(
+        self, values: np.ndarray, p: np.ndarray, q: np.ndarray, d: tuple[int, int]
+    ) -> np.ndarray:
         """:func:`_swap_deltas` of the swaps ``p <-> q = p + d``."""
         pair = self.table[d[0] + self.reach, d[1] + self.reach]
         return _swap_deltas(values, p, q, self.nbr, self.weight, pair)
@@ -307,6 +311,7 @@ def _start_values(start: object, size: int) -> np.ndarray:
     """The start mask as flat float64 values: ``start`` checked, or the void-and-cluster mask."""
     if start is None:
         return void_and_cluster(size).to(torch.float64).numpy().reshape(-1).copy()
+    start = check_tensor(start, "start")
     values = _check_mask(start, "start")
     if start.shape[0] != size:
         raise ShapeError(f"start: expected a [{size}, {size}] mask, got {list(start.shape)}")

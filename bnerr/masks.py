@@ -241,8 +241,9 @@ def _gf_window(sigma_i: float, radius: float) -> tuple[np.ndarray, np.ndarray, n
     """
     cut = radius * sigma_i
     reach = int(math.floor(cut))
-    dy, dx = np.meshgrid(np.arange(-reach, reach + 1), np.arange(-reach, reach + 1), indexing="ij")
-    dy, dx = dy.ravel(), dx.ravel()
+    span = np.arange(-reach, reach + 1)
+    grid_y, grid_x = np.meshgrid(span, span, indexing="ij")
+    dy, dx = grid_y.ravel(), grid_x.ravel()
     r2 = dy**2 + dx**2
     keep = (r2 > 0) & (r2 <= cut * cut)
     return dy[keep], dx[keep], np.exp(-r2[keep] / sigma_i**2), reach
@@ -559,7 +560,7 @@ def tile_mask(
 
 def shipped_masks() -> list[tuple]:
     """The shipped masks, sorted: ``("scalar", T)`` and ``("vector", T, D)`` tuples."""
-    found = []
+    found: list[tuple] = []
     for name in shipped_files(""):
         match = _MASK_FILE.match(name)
         if match and match.group(1):
@@ -585,6 +586,8 @@ def load_mask(kind: str, size: int, dims: int | None = None) -> torch.Tensor:
     """
     check_name(kind, ("scalar", "vector"), "mask kind")
     size = check_positive_int(size, "size")
+    key: tuple[str, int] | tuple[str, int, int]
+    shape: tuple[int, int] | tuple[int, int, int]
     if kind == "scalar":
         if dims is not None:
             raise ValueRangeError(f"dims: expected None for a scalar mask, got {dims!r}")

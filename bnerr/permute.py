@@ -117,7 +117,7 @@ def _check_block(block: object) -> int:
 
 def _check_values(values: object, height: int, width: int) -> torch.Tensor:
     """``values [H, W]`` or ``[C, H, W]`` (C = 1 or 3), floating point, matching ``H x W``."""
-    check_tensor(values, "values")
+    values = check_tensor(values, "values")
     if values.ndim == 2:
         size = check_shape(values, "H W", "values")
     elif values.ndim == 3 and values.shape[0] in (1, 3):
@@ -146,7 +146,8 @@ def _check_grid_offset(grid_offset: object, block: int) -> tuple[int, int]:
 
 def _check_groups(groups: object, height: int, width: int, device: torch.device) -> torch.Tensor:
     """``groups [H, W]`` integer labels on ``device``, as int64."""
-    size = check_shape(check_tensor(groups, "groups"), "H W", "groups")
+    groups = check_tensor(groups, "groups")
+    size = check_shape(groups, "H W", "groups")
     check_dtype(groups, INT_DTYPES, "groups")
     if (size["H"], size["W"]) != (height, width):
         raise ShapeError(
@@ -160,13 +161,15 @@ def _check_groups(groups: object, height: int, width: int, device: torch.device)
 
 
 def _check_seeds(seeds: object) -> tuple[int, int]:
-    size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
+    seeds = check_tensor(seeds, "seeds")
+    size = check_shape(seeds, "H W", "seeds")
     check_dtype(seeds, torch.int64, "seeds")
     return size["H"], size["W"]
 
 
 def _check_mask(mask: object, height: int, width: int, device: torch.device) -> torch.Tensor:
-    size = check_shape(check_tensor(mask, "mask"), "H W", "mask")
+    mask = check_tensor(mask, "mask")
+    size = check_shape(mask, "H W", "mask")
     check_dtype(mask, FLOAT_DTYPES, "mask")
     if (size["H"], size["W"]) != (height, width):
         raise ShapeError(
@@ -490,12 +493,12 @@ _LIBRARY.impl("sort_pass", _sort_pass_default, "CompositeExplicitAutograd")
 
 
 def _resolve_plan(
-    mask: torch.Tensor | SortPlan,
+    mask: object,
     block: int,
     h: int,
     w: int,
     device: torch.device,
-    grid: tuple[int, int] | None,
+    grid: object,
 ) -> SortPlan:
     if isinstance(mask, SortPlan):
         if mask.block != block:
@@ -529,6 +532,7 @@ def _check_pass(
     grid_offset: object,
 ) -> tuple[torch.Tensor, SortPlan, torch.Tensor | None]:
     """:func:`sort_pass`'s checks: ``(values, plan, groups as int64 or None)``."""
+    seeds = check_tensor(seeds, "seeds")
     h, w = _check_seeds(seeds)
     block = _check_block(block)
     values = _check_values(values, h, w)
@@ -644,7 +648,7 @@ def _reference_block(
         for y, x in pixels:
             by_label.setdefault(labels[y][x], []).append((y, x))
         groups = list(by_label.values())
-    pairs = []
+    pairs: list[tuple[tuple[int, int], tuple[int, int]]] = []
     for members in groups:  # members stay in row-major order: Python's sort is stable
         by_value = sorted(members, key=lambda p: _python_key(lum[p[0]][p[1]]))
         by_mask = sorted(members, key=lambda p: _python_key(mvals[p[0]][p[1]]))

@@ -77,9 +77,11 @@ _INDEX_BITS = 31  # pixel indices below 2^31, under a 32-bit depth key: 63 bits 
 
 def _check_seeds(seeds: object, motion: object) -> None:
     """Seeds ``[H, W]`` int64 like ``motion [2, H, W]``, on its device."""
-    size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
+    seeds = check_tensor(seeds, "seeds")
+    size = check_shape(seeds, "H W", "seeds")
     check_dtype(seeds, torch.int64, "seeds")
-    msize = check_shape(check_tensor(motion, "motion"), "2 H W", "motion")
+    motion = check_tensor(motion, "motion")
+    msize = check_shape(motion, "2 H W", "motion")
     if (msize["H"], msize["W"]) != (size["H"], size["W"]):
         raise ShapeError(
             f"motion: expected H x W = {size['H']} x {size['W']} like seeds, "
@@ -93,14 +95,15 @@ def _check_seeds(seeds: object, motion: object) -> None:
 
 def _check_inputs(motion: object, depth: object) -> tuple[int, int, torch.Tensor | None]:
     """``(H, W, depth [H, W] or None)`` after checking shapes, dtypes and devices."""
-    msize = check_shape(check_tensor(motion, "motion"), "2 H W", "motion")
+    motion = check_tensor(motion, "motion")
+    msize = check_shape(motion, "2 H W", "motion")
     check_dtype(motion, FLOAT_DTYPES, "motion")
     h, w = msize["H"], msize["W"]
     if h * w >= 2**_INDEX_BITS:
         raise ValueRangeError(f"motion: expected fewer than 2^31 pixels, got {h} x {w}")
     if depth is None:
         return h, w, None
-    check_tensor(depth, "depth")
+    depth = check_tensor(depth, "depth")
     if depth.ndim == 3:
         dsize = check_shape(depth, "1 H W", "depth")
     else:
@@ -255,7 +258,8 @@ def reproject_seeds_reference(
     mx, my = (c.to(torch.float64).cpu().tolist() for c in motion)
     dep = None if depth2 is None else depth2.to(torch.float32).cpu().tolist()
     flat = seeds.reshape(-1).cpu().tolist()
-    winner: dict[int, tuple[tuple[int, float], int]] = {}  # landing -> (priority, claimant)
+    # landing -> (priority, claimant), the priority being (depth key, claimant)
+    winner: dict[int, tuple[tuple[tuple[int, float], int], int]] = {}
     for i in range(h * w):
         y, x = divmod(i, w)
         dx, dy = mx[y][x], my[y][x]

@@ -106,7 +106,8 @@ METHODS: tuple[str, ...] = ("anneal", "exact")
 
 def _check_tile_mask(mask: object) -> np.ndarray:
     """A ``[T, T]`` floating, finite mask as a float64 numpy array."""
-    size = check_shape(check_tensor(mask, "mask"), "T T", "mask")
+    mask = check_tensor(mask, "mask")
+    size = check_shape(mask, "T T", "mask")
     check_dtype(mask, FLOAT_DTYPES, "mask")
     check_finite(mask, "mask")
     if size["T"] < 1:
@@ -142,7 +143,8 @@ def check_displacement(displacement: object, radius: int | None = MAX_DISPLACEME
         ShapeError (not ``[2, T, T]``), DtypeError (not integer), ValueRangeError (a component
         beyond ``radius``, or two targets taking the same source: not a permutation of the tile).
     """
-    check_shape(check_tensor(displacement, "displacement"), "2 T T", "displacement")
+    displacement = check_tensor(displacement, "displacement")
+    check_shape(displacement, "2 T T", "displacement")
     check_dtype(displacement, INT_DTYPES, "displacement")
     d = displacement.to(torch.int64)
     size = d.shape[-1]
@@ -616,6 +618,8 @@ class Retarget(torch.nn.Module):
     offsets cycle (16 distinct ones for T = 64) computes each only once. Each entry holds
     ``H * W`` int32 (8 MB at 1080p); ``cache=0`` keeps none.
     """
+
+    displacement: torch.Tensor  # a buffer: ``[2, T, T]`` int64
 
     def __init__(self, displacement: torch.Tensor, cache: int = 0) -> None:
         super().__init__()

@@ -80,9 +80,12 @@ KINDS: tuple[str, ...] = ("luminance", "residual", "relative")
 _MAX_RADIUS = 4
 
 
-def _check_buffer(x: object, channels: int, name: str, h: int, w: int, device) -> torch.Tensor:
+def _check_buffer(
+    x: object, channels: int, name: str, h: int, w: int, device: torch.device
+) -> torch.Tensor:
     """A ``[channels, H, W]`` floating buffer like the color's."""
-    size = check_shape(check_tensor(x, name), f"{channels} H W", name)
+    x = check_tensor(x, name)
+    size = check_shape(x, f"{channels} H W", name)
     check_dtype(x, FLOAT_DTYPES, name)
     if (size["H"], size["W"]) != (h, w):
         raise ShapeError(f"{name}: expected H x W = {h} x {w}, got {size['H']} x {size['W']}")
@@ -92,7 +95,8 @@ def _check_buffer(x: object, channels: int, name: str, h: int, w: int, device) -
 
 
 def _check_labels(labels: object, h: int, w: int, device: torch.device) -> torch.Tensor:
-    size = check_shape(check_tensor(labels, "labels"), "H W", "labels")
+    labels = check_tensor(labels, "labels")
+    size = check_shape(labels, "H W", "labels")
     check_dtype(labels, INT_DTYPES, "labels")
     if (size["H"], size["W"]) != (h, w):
         raise ShapeError(f"labels: expected H x W = {h} x {w}, got {size['H']} x {size['W']}")
@@ -193,7 +197,7 @@ def sort_key(
     if demodulate:
         if albedo is None:
             raise ValueRangeError("demodulate: expected an albedo buffer, got albedo=None")
-        _check_buffer(albedo, 3, "albedo", *color.shape[1:], color.device)
+        _check_buffer(albedo, 3, "albedo", color.shape[1], color.shape[2], color.device)
         color = demodulated(color, albedo)
     lum = luminance(color)
     if kind == "luminance":

@@ -40,7 +40,9 @@ minute (vector) on one core): ship them (:func:`load_stbn`; the commands are in
 
 from __future__ import annotations
 
+import functools
 import math
+import operator
 
 import numpy as np
 import torch
@@ -90,13 +92,13 @@ _MAX_DIMS = 8
 
 
 def _check_common(size: object, frames: object, seed: object, minimum: int = 2) -> None:
-    check_positive_int(size, "size", minimum=minimum)
+    size = check_positive_int(size, "size", minimum=minimum)
     if size > _MAX_SIZE:
         raise ValueRangeError(f"size: expected an integer <= {_MAX_SIZE}, got {size}")
-    check_positive_int(frames, "frames")
+    frames = check_positive_int(frames, "frames")
     if frames > _MAX_FRAMES:
         raise ValueRangeError(f"frames: expected an integer <= {_MAX_FRAMES}, got {frames}")
-    check_positive_int(seed, "seed", minimum=0)
+    seed = check_positive_int(seed, "seed", minimum=0)
     if seed > MASK32:
         raise ValueRangeError(f"seed: expected an integer < 2**32, got {seed}")
 
@@ -247,7 +249,9 @@ class _Splatter:
     along the pixel's series): no roll, no copy, no truncation.
     """
 
-    def __init__(self, size: int, frames: int, sigma: float, sigma_t: float, device) -> None:
+    def __init__(
+        self, size: int, frames: int, sigma: float, sigma_t: float, device: torch.device
+    ) -> None:
         kxy, kt = _kernels(size, frames, sigma, sigma_t)
         self.size, self.frames = size, frames
         self.kxy2 = kxy.repeat(2, 2).to(device)
@@ -324,9 +328,9 @@ def _rank_slices(
             picks[t][r] = flat
             splat(score, t, flat, 1.0)
             score[t].view(-1)[flat] = math.inf
-    picks = torch.tensor(picks, dtype=torch.int64, device=ones.device)
+    picked = torch.tensor(picks, dtype=torch.int64, device=ones.device)
     ranks = torch.arange(size * size, device=ones.device).expand(frames, -1)
-    return torch.empty_like(picks).scatter_(1, picks, ranks)
+    return torch.empty_like(picked).scatter_(1, picked, ranks)
 
 
 def stbn_scalar(
@@ -520,8 +524,14 @@ def _independent(
     count.index_put_((pix,), torch.ones_like(pix, dtype=torch.int32), accumulate=True)
     count = count.view(frames, size, size)
     reach = window.reach
-    rows = sum(torch.roll(count, d, dims=1) for d in range(-reach, reach + 1))
-    near = sum(torch.roll(rows, d, dims=2) for d in range(-reach, reach + 1))
+    # Integer sums, so the order of the additions does not matter (reduce, not sum: sum's start 0
+    # would type the result as int | Tensor).
+    rows: torch.Tensor = functools.reduce(
+        operator.add, (torch.roll(count, d, dims=1) for d in range(-reach, reach + 1))
+    )
+    near: torch.Tensor = functools.reduce(
+        operator.add, (torch.roll(rows, d, dims=2) for d in range(-reach, reach + 1))
+    )
     for r in window.temporal.tolist():
         near = near + torch.roll(count, r, dims=0)
     k = p.shape[0]
@@ -532,11 +542,13 @@ def _independent(
     return (others[:k] == 0) & (others[k:] == 0)
 
 
-def _check_vector_args(dims, sigma_s, iterations, radius, size, sigma) -> float:
-    check_positive_int(dims, "dims", minimum=2)
+def _check_vector_args(
+    dims: object, sigma_s: object, iterations: object, radius: object, size: int, sigma: float
+) -> float:
+    dims = check_positive_int(dims, "dims", minimum=2)
     if dims > _MAX_DIMS:
         raise ValueRangeError(f"dims: expected an integer in [2, {_MAX_DIMS}], got {dims}")
-    check_positive_int(iterations, "iterations")
+    iterations = check_positive_int(iterations, "iterations")
     if iterations > 100_000:
         raise ValueRangeError(f"iterations: expected an integer in [1, 100000], got {iterations}")
     check_range(sigma_s, "sigma_s", 0.01, 100.0)

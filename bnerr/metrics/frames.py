@@ -111,8 +111,9 @@ class FrameMetrics:
         for name in chosen:
             check_name(name, tuple(table), "metric")
         for name in chosen:
-            if table[name].require is not None:
-                table[name].require()  # before any frame: a run fails before it starts
+            require = table[name].require
+            if require is not None:
+                require()  # before any frame: a run fails before it starts
         self.names = chosen
         self.tile = check_positive_int(tile, "tile", minimum=2)
         self._updates = {name: table[name].update for name in chosen}

@@ -97,9 +97,11 @@ def _check_pair(
 ) -> dict[str, int]:
     """Check ``pred``, ``ref`` ([C, H, W], same shape, floating, finite), ``mask`` ([H, W] bool);
     a ``prepared`` reference's own checks were done when it was prepared."""
-    size = check_shape(check_tensor(pred, "pred"), "C H W", "pred")
+    pred = check_tensor(pred, "pred")
+    ref = check_tensor(ref, "ref")
+    size = check_shape(pred, "C H W", "pred")
     if prepared is None:
-        check_shape(check_tensor(ref, "ref"), "C H W", "ref")
+        check_shape(ref, "C H W", "ref")
     if pred.shape != ref.shape:
         raise ShapeError(
             f"pred: expected the shape of ref {list(ref.shape)}, got {list(pred.shape)}"
@@ -111,7 +113,8 @@ def _check_pair(
     if prepared is None:
         check_finite(ref, "ref")
     if mask is not None:
-        check_shape(check_tensor(mask, "mask"), f"{size['H']} {size['W']}", "mask")
+        mask = check_tensor(mask, "mask")
+        check_shape(mask, f"{size['H']} {size['W']}", "mask")
         check_dtype(mask, torch.bool, "mask")
         if not bool(mask.any()):
             raise ValueRangeError("mask: expected at least one selected pixel, got none")
@@ -326,7 +329,7 @@ def _flip_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
     import flip_evaluator
 
     # HDR-FLIP reads HxWxC linear RGB with non-negative values; a denoiser may undershoot below 0.
-    def hwc(x: torch.Tensor):
+    def hwc(x: torch.Tensor) -> np.ndarray:
         return (
             x.detach().to("cpu", torch.float32).clamp_min(0.0).permute(1, 2, 0).contiguous().numpy()
         )
@@ -402,7 +405,10 @@ class ImagePair:
         prepared = ref if isinstance(ref, PreparedReference) else None
         self.size = _check_pair(pred, ref if prepared is None else prepared.color, mask, prepared)
         self.tile = check_positive_int(tile, "tile", minimum=2)
-        self.pred, self.ref, self.mask = pred, prepared or PreparedReference(ref), mask
+        if prepared is None:
+            assert isinstance(ref, torch.Tensor)  # _check_pair checked it
+            prepared = PreparedReference(ref)
+        self.pred, self.ref, self.mask = pred, prepared, mask
 
     @functools.cached_property
     def err(self) -> torch.Tensor:

@@ -132,5 +132,6 @@ def low_frequency_fraction(image: torch.Tensor, tile: int = 64, cutoff: float = 
     total = float(fixed_sum(power2d))
     if total == 0.0:
         return 0.0
-    radius = _radial_frequency(*power2d.shape, device=power2d.device)
+    th, tw = power2d.shape
+    radius = _radial_frequency(th, tw, device=power2d.device)
     return float(fixed_sum(power2d[radius < cutoff])) / total

@@ -177,7 +177,9 @@ def bootstrap_interval(
     """
     check_bootstrap(level, resamples)
     stats = as_stats(values, "values")
-    samples = resampled_values(stats, resample_weights(stats.shape[:2], resamples, seed))
+    samples = resampled_values(
+        stats, resample_weights((stats.shape[0], stats.shape[1]), resamples, seed)
+    )
     lo, hi = percentile_interval(samples, level)
     return Estimate(float(pooled_mean(stats)), lo, hi, stats.shape[0] * stats.shape[1], level)
 
@@ -210,7 +212,7 @@ def paired_ratio(
             f"values: expected the shape of baseline {list(b.shape)} (the same frames), "
             f"got {list(a.shape)}"
         )
-    weights = resample_weights(a.shape[:2], resamples, seed)
+    weights = resample_weights((a.shape[0], a.shape[1]), resamples, seed)
     samples = resampled_values(a, weights) / resampled_values(b, weights)
     lo, hi = percentile_interval(samples, level)
     return Estimate(float(pooled_mean(a) / pooled_mean(b)), lo, hi, a.shape[0] * a.shape[1], level)

@@ -42,6 +42,7 @@ import threading
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Generic, TypeVar, cast
 
 import torch
 
@@ -70,13 +71,16 @@ TORCH_PATH_COST = (
 )
 _SYMBOLS = ("bnerr_sort_pass", "bnerr_retarget")
 
+#: The bound kernels of one library (what its ``bind`` returns: :class:`Kernels` here).
+K = TypeVar("K")
+
 
 @dataclass(frozen=True)
 class Kernels:
     """The bound C functions of one loaded library (``why`` says where it came from)."""
 
-    sort_pass: ctypes._CFuncPtr
-    retarget: ctypes._CFuncPtr
+    sort_pass: Callable[..., int]
+    retarget: Callable[..., int]
     why: str
 
 
@@ -93,7 +97,18 @@ def _bind(library: ctypes.CDLL, why: str) -> Kernels:
     return Kernels(sort, gather, why)
 
 
-class Library:
+@dataclass(frozen=True)
+class _State(Generic[K]):
+    """What a :class:`Library`'s first load decided, replaced as a whole (so that a reader
+    outside the lock sees either the old state or the new one)."""
+
+    loaded: bool
+    kernels: K | None
+    why: str
+    cc: str
+
+
+class Library(Generic[K]):
     """One C source's library: built, cached and bound on first use, once per process.
 
     ``package``: the dotted name of the package whose data holds the source (``"bnerr.native"``
@@ -108,17 +123,16 @@ class Library:
         self,
         package: str,
         source: str,
-        bind: Callable[[ctypes.CDLL, str], object],
+        bind: Callable[[ctypes.CDLL, str], K],
         symbols: tuple[str, ...],
         cost: str,
     ) -> None:
         self.package, self.source = package, source
         self._bind, self.symbols, self.cost = bind, symbols, cost
         self._lock = threading.Lock()
-        self._state: dict[str, object] = {}
-        self.reset()
+        self._state: _State[K] = _State(False, None, "not loaded yet", "")
 
-    def _obtain(self) -> tuple[object | None, str, str | None, str]:
+    def _obtain(self) -> tuple[K | None, str, str | None, str]:
         """``(kernels, why, warning, compiler stderr)``, building the library if needed."""
         if os.environ.get("BNERR_NATIVE", "1") == "0":
             return None, "disabled by BNERR_NATIVE=0", None, ""
@@ -134,44 +148,44 @@ class Library:
             return None, why, warning, outcome.compiler_output
         return kernels, outcome.why, outcome.warning, outcome.compiler_output
 
-    def load(self):
+    def load(self) -> K | None:
         """The bound kernels, building them on first use; None when unavailable."""
-        if self._state["loaded"]:
-            return self._state["kernels"]
+        if self._state.loaded:
+            return self._state.kernels
         with self._lock:
-            if not self._state["loaded"]:
+            if not self._state.loaded:
                 kernels, why, warning, stderr = self._obtain()
-                self._state.update(loaded=True, kernels=kernels, why=why, cc=stderr)
+                self._state = _State(True, kernels, why, stderr)
                 if warning:
                     warnings.warn(warning, RuntimeWarning, stacklevel=3)
-        return self._state["kernels"]
+        return self._state.kernels
 
     def reset(self) -> None:
         """Forget the loaded kernels, so that the next :meth:`load` looks again."""
         with self._lock:
-            self._state.update(loaded=False, kernels=None, why="not loaded yet", cc="")
+            self._state = _State(False, None, "not loaded yet", "")
 
     def status(self) -> str:
         """What happened: where the library came from, or why it is not used."""
         self.load()
-        return str(self._state["why"])
+        return self._state.why
 
     def compiler_output(self) -> str:
         """The compiler's stderr of this process's last build ("" after a cache hit)."""
         self.load()
-        return str(self._state["cc"])
+        return self._state.cc
 
 
-_LIBRARIES: list[Library] = []
+_LIBRARIES: list[Library[Any]] = []
 
 
 def library(
     package: str,
     source: str,
-    bind: Callable[[ctypes.CDLL, str], object],
+    bind: Callable[[ctypes.CDLL, str], K],
     symbols: tuple[str, ...],
     cost: str,
-) -> Library:
+) -> Library[K]:
     """A :class:`Library` of the C source ``source`` (package data of ``package``), registered so
     that :func:`reset` forgets it too. Create one per source, at import time of the module that
     binds its kernels (:mod:`denoisers.native` for its own sources: the denoisers' kernels ship
@@ -191,7 +205,7 @@ def load() -> Kernels | None:
     return _PERMUTE.load()
 
 
-class SelfCheckedKernels:
+class SelfCheckedKernels(Generic[K]):
     """The loaded kernels, handed out only once they pass a caller's self-check.
 
     Each op that has a native path (the sort pass, the retargeting pass, a filter) owns one of
@@ -202,14 +216,15 @@ class SelfCheckedKernels:
     """
 
     def __init__(
-        self, check: Callable[[object], bool], what: str, source: Library | None = None
+        self, check: Callable[[K], bool], what: str, source: Library[K] | None = None
     ) -> None:
         self._check, self._what = check, what
-        self._source = _PERMUTE if source is None else source
-        self._checked: tuple[object | None, bool] = (None, False)
+        # Without a source, K is Kernels: the check is one of the permutation kernels'.
+        self._source = cast("Library[K]", _PERMUTE) if source is None else source
+        self._checked: tuple[K | None, bool] = (None, False)
         self._lock = threading.Lock()
 
-    def __call__(self):
+    def __call__(self) -> K | None:
         kernels = self._source.load()
         if kernels is None:
             return None
@@ -299,6 +314,7 @@ def native_sort_blocks(
     seeds, values, order = seeds.contiguous(), values.contiguous(), order.contiguous()
     out = torch.empty_like(seeds)
     h, w = seeds.shape
+    planes: list[int | None]
     if values.ndim == 3:
         planes = [values[c].data_ptr() for c in range(3)]
         floats = _float32(tuple(weights))

@@ -288,7 +288,7 @@ def _recorded(folder: Path, stem: str, key: str) -> tuple[Path, str] | None:
 
 def _store(
     folder: Path, stem: str, key: str, data: bytes, compiler: Compiler, flags: tuple[str, ...]
-):
+) -> tuple[Path, str]:
     """Write a built library and its sidecar (sidecar last); return ``(path, sha256)``."""
     sha = hashlib.sha256(data).hexdigest()
     path = folder / f"{stem}_{key}_{sha[:16]}.so"
@@ -315,7 +315,7 @@ def _from_cache(folder: Path, stem: str, key: str) -> tuple[ctypes.CDLL | None, 
 
 def _attempt(
     compiler: Compiler, flags: tuple[str, ...], source: str, folder: Path | None, name: str
-):
+) -> tuple[ctypes.CDLL | None, str, str, str, str | None]:
     """One build-or-reuse of the source file ``name`` (text ``source``) with ``flags``;
     ``(library, where, stderr, quote, note)``."""
     key, stem = library_key(source, flags, compiler), _stem(name)
@@ -343,8 +343,9 @@ def obtain(cost: str, package: str, name: str) -> Outcome:
     if compiler is None:
         return Outcome(None, missing, f"bnerr: {missing}; the torch path is used ({cost})")
     source = source_text(package, name)
-    folder: Path | None = cache_dir()
-    unsafe = secure_dir(folder)
+    cached = cache_dir()
+    unsafe = secure_dir(cached)
+    folder: Path | None = cached
     notes = [] if unsafe is None else [f"{unsafe}; building in a private temporary folder"]
     if unsafe is not None:
         folder = None

@@ -82,7 +82,7 @@ SAMPLERS: dict[str, type[Sampler]] = {
 }
 
 
-def make_sampler(name: str, **options) -> Sampler:
+def make_sampler(name: str, **options: object) -> Sampler:
     """Build the sampler registered as ``name`` with its options.
 
     Names and options: ``white``, ``owen_sobol`` (none); ``bnds`` (``mask [D, T, T]``,

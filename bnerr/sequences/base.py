@@ -19,6 +19,8 @@ tensors the same way (:mod:`bnerr.sequences.zsobol`).
 
 from __future__ import annotations
 
+from typing import overload
+
 import torch
 
 from bnerr.errors import (
@@ -42,6 +44,12 @@ ONE_MINUS_EPS = 1.0 - 2.0**-24
 # 32-bit word helpers (int32 tensors read as unsigned; Python ints in [0, 2^32) on the host)
 
 
+@overload
+def _words(x: int, device: torch.device) -> int: ...
+@overload
+def _words(x: torch.Tensor, device: torch.device) -> torch.Tensor: ...
+@overload
+def _words(x: torch.Tensor | int, device: torch.device) -> torch.Tensor | int: ...
 def _words(x: torch.Tensor | int, device: torch.device) -> torch.Tensor | int:
     """Low 32 bits of an int64 tensor (or int) as int32 (an int stays a host int in [0, 2^32))."""
     if isinstance(x, int):
@@ -78,17 +86,18 @@ def _columns(n: int, count: int, device: torch.device) -> torch.Tensor:
 # Input checks of the elementwise functions
 
 
-def _check_words(name: str, value: object) -> None:
-    """An int64 tensor, or (for dimensions) a non-negative Python int."""
+def _check_words(name: str, value: object) -> torch.Tensor | int:
+    """An int64 tensor, or (for dimensions) a non-negative Python int; returned."""
     if isinstance(value, int) and not isinstance(value, bool):
         if value < 0:
             raise ValueRangeError(f"{name}: expected an integer >= 0, got {value}")
-        return
-    check_tensor(value, name)
+        return value
+    value = check_tensor(value, name)
     check_dtype(value, torch.int64, name)
+    return value
 
 
-def _broadcast(names: str, *values) -> torch.Size:
+def _broadcast(names: str, *values: object) -> torch.Size:
     """The broadcast shape of the tensors among ``values`` (``names`` lists them for errors)."""
     shapes = [x.shape for x in values if isinstance(x, torch.Tensor)]
     try:
@@ -99,13 +108,15 @@ def _broadcast(names: str, *values) -> torch.Size:
         ) from None
 
 
-def _prepare(seed, index, dim):
+def _prepare(
+    seed: object, index: object, dim: object
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor | int]:
     """Check the elementwise functions' input; return their broadcast int32 words."""
-    check_tensor(seed, "seed")
+    seed = check_tensor(seed, "seed")
     check_dtype(seed, torch.int64, "seed")
-    check_tensor(index, "index")
+    index = check_tensor(index, "index")
     check_dtype(index, torch.int64, "index")
-    _check_words("dim", dim)
+    dim = _check_words("dim", dim)
     shape = _broadcast("seed, index, dim", seed, index, dim)
     device = seed.device
     seed, index = (_words(x, device).expand(shape) for x in (seed, index))

@@ -118,7 +118,7 @@ class _CyclesSampler(Sampler):
             raise DtypeError(f"seed0: expected an int, got {type(seed0).__name__} {seed0!r}")
         self.seed0 = seed0
 
-    def _indices(self, key: torch.Tensor, index: torch.Tensor):
+    def _indices(self, key: torch.Tensor, index: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
         """Per lane: (sequence seed, index in that sequence), int64 ``[N]`` each."""
         seed = torch.full_like(key, self.seed0 & MASK32)
         if not self.first:

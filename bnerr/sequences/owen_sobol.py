@@ -108,7 +108,9 @@ def owen_sobol(seed: torch.Tensor, index: torch.Tensor, dim: torch.Tensor | int)
     return _to_unit(_owen_coordinate(tables, seed_hash, y, pair, dim & 1))
 
 
-def _owen_sobol_columns(seed: torch.Tensor, index: torch.Tensor, dim: int, out: torch.Tensor):
+def _owen_sobol_columns(
+    seed: torch.Tensor, index: torch.Tensor, dim: int, out: torch.Tensor
+) -> None:
     """Write :func:`owen_sobol` of dims ``dim .. dim + len(out) - 1`` into the rows of ``out``.
 
     ``seed`` may be ``[N]`` or a 0-dim tensor (one seed for every lane, as in BNDS). The seed

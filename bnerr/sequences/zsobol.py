@@ -124,8 +124,8 @@ def _scramble_seeds(e: torch.Tensor | int, seed: int) -> tuple:
     if isinstance(e, int):
         h = _murmur_host(e, seed)
         return h & MASK32, h >> 32
-    h = _murmur(e, seed)
-    return h.to(torch.int32), (h >> 32).to(torch.int32)
+    words = _murmur(e, seed)
+    return words.to(torch.int32), (words >> 32).to(torch.int32)
 
 
 def _spread2(v: torch.Tensor) -> torch.Tensor:

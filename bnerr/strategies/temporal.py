@@ -208,6 +208,7 @@ def _passes(name: str, build: BuildOptions, options: TemporalOptions) -> dict:
     """The passes' arguments of ``name`` (the base): the shipped scalar mask and retargeting field
     of size T (with ``fast``, the shipped FAST mask of size T and its field; no field for
     temporal_sort)."""
+    field: torch.Tensor | None
     if options.fast:
         mask, field = load_fast_mask(build.mask_size), load_fast_retarget(build.mask_size)
     else:

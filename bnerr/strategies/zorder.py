@@ -22,7 +22,7 @@ import torch
 
 from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.frame import Frame
-from bnerr.sequences import cycles_keys, make_sampler, zsobol_keys
+from bnerr.sequences import ZSobolTSampler, cycles_keys, make_sampler, zsobol_keys
 from bnerr.strategies.base import BuildOptions, RenderFn, Strategy, power_of_two_spp, stream_key
 from bnerr.strategies.variants import TemporalOptions
 
@@ -137,7 +137,8 @@ class ZSobolTStrategy(_SppStrategy):
         self.spp = power_of_two_spp(spp, self.name)
         super().__init__(height, width, seed=seed, device=device)
         key = stream_key(self.seed, 0, self.stream)
-        self.sampler = make_sampler("zsobol_t", width=width, height=height, spp=self.spp, seed=key)
+        # The class itself (what make_sampler("zsobol_t") builds): _frame needs its at_frame.
+        self.sampler = ZSobolTSampler(width=width, height=height, spp=self.spp, seed=key)
         self.keys = zsobol_keys(height, width, self.device)
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
