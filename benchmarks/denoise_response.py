@@ -41,7 +41,7 @@ from pathlib import Path
 
 from benchmarks.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.markdown import table_lines
-from benchmarks.records import Record
+from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import paired_ratio
 
@@ -594,7 +594,7 @@ def write_denoise_tables(
 
     Args:
         out_dir: the results folder.
-        records: the runner's records (:func:`benchmarks.records.load_records`).
+        records: the runner's records (:func:`benchmarks.sweep.records.load_records`).
         rows: :func:`benchmarks.report.summarize` of the same records.
     """
     text = denoise_markdown(list(records), list(rows))

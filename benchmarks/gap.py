@@ -36,7 +36,7 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.records import Record
+from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import _as_stats, _check_level, _interval, _resample, _resampled_values
 
@@ -135,7 +135,7 @@ def gap_shares(
     """Every strategy's share of the white-to-oracle distance, per cell and measure.
 
     Args:
-        records: benchmark records (:func:`benchmarks.records.load_records`).
+        records: benchmark records (:func:`benchmarks.sweep.records.load_records`).
         level: the intervals' confidence level in [0.5, 0.999].
         resamples: bootstrap resamples (>= 100).
 

@@ -1,7 +1,8 @@
 """Tables and charts from the runner's records: ``table.csv``, ``table.md`` and PNG charts.
 
-Everything here is derived from ``<out>/cells.jsonl`` (:func:`benchmarks.records.load_records`), so
-a report can be rebuilt without rendering anything (``python -m benchmarks.report DIR``).
+Everything here is derived from ``<out>/cells.jsonl``
+(:func:`benchmarks.sweep.records.load_records`), so a report can be rebuilt without rendering
+anything (``python -m benchmarks.report DIR``).
 
 - ``table.csv``: one row per cell (scene, strategy, spp, denoiser, condition) with the raw and
   denoised MSE and their 95% bootstrap intervals, relMSE, PSNR, SSIM, the blurred MSEs, the error's
@@ -43,7 +44,7 @@ from benchmarks.denoise_response import write_denoise_tables
 from benchmarks.gap import write_gap_tables
 from benchmarks.groups import group_key, group_order, group_slug, group_title, strategy_order
 from benchmarks.markdown import table_lines
-from benchmarks.records import Record, load_records
+from benchmarks.sweep.records import Record, load_records
 from bnerr.io import atomic_write
 from bnerr.metrics import bootstrap_interval, paired_ratio
 

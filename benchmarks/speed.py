@@ -17,7 +17,7 @@ each figure with its unit and its ratio to the part's anchor:
 A script without a table here is listed figure by figure under its path. A figure the JSON lacks
 (a script older than its table, a failed or missing renderer) shows as "-" with a note.
 
-Not for: the per-cell sweeps (:mod:`benchmarks.runner`).
+Not for: the per-cell sweeps (:mod:`benchmarks.sweep.runner`).
 """
 
 from __future__ import annotations

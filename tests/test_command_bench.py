@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.records import RESULTS_FILE, load_records
+from benchmarks.sweep.records import RESULTS_FILE, load_records
 from bnerr.outputs import output_lock
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -132,13 +132,13 @@ def test_a_second_render_into_the_same_folder_refuses(tmp_path, capsys):
 
 def _benchmark_frames(strategy, seed_set, frames, warmup=0, res=(16, 12), spp=1):
     """The frames ``bnerr bench`` renders for one seed set: t -> Frame, captured from the strategy
-    the runner builds (:func:`benchmarks.measure.measure_seed_set`)."""
+    the runner builds (:func:`benchmarks.sweep.measure.measure_seed_set`)."""
     import dataclasses
 
-    from benchmarks.measure import measure_seed_set
-    from benchmarks.parts import real_parts
-    from benchmarks.plan import plan
     from benchmarks.suites import Suite, Sweep
+    from benchmarks.sweep.measure import measure_seed_set
+    from benchmarks.sweep.parts import real_parts
+    from benchmarks.sweep.plan import plan
 
     base, seen = real_parts(), {}
 

@@ -10,8 +10,9 @@ import pytest
 
 from benchmarks import report
 from benchmarks.groups import group_key
-from benchmarks.plan import Cell
-from benchmarks.records import (
+from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import (
     Record,
     ReferenceInfo,
     Spectrum,
@@ -19,7 +20,6 @@ from benchmarks.records import (
     load_records,
     write_records,
 )
-from benchmarks.report import COLUMNS, markdown_table, summarize, write_report
 from bnerr.metrics import paired_ratio
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")

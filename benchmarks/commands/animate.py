@@ -78,7 +78,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _specs(args: argparse.Namespace) -> list:
     from benchmarks.animate import Animation, default_strategies
     from benchmarks.commands.render import parse_resolution
-    from benchmarks.parts import known_names
+    from benchmarks.sweep.parts import known_names
 
     width, height = parse_resolution(args.res)
     strategies = tuple(_names(args.strategies) or default_strategies())

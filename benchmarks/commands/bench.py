@@ -15,11 +15,12 @@ finished cells is refused unless ``--overwrite`` says to discard them. The comma
 output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a second
 ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
-``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks (:mod:`benchmarks.ray_runner`;
-the ``cluster`` extra): ``auto`` (the default when the flag has no value) joins the cluster this
-machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else starts a local instance;
-``HOST:PORT`` joins a head node. The records are the serial runner's bit for bit (timings aside);
-``--resume`` works the same. ``--ray-cpus`` sets the CPUs (and torch threads) of each task.
+``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
+(:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
+no value) joins the cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else
+starts a local instance; ``HOST:PORT`` joins a head node. The records are the serial runner's bit
+for bit (timings aside); ``--resume`` works the same. ``--ray-cpus`` sets the CPUs (and torch
+threads) of each task.
 """
 
 from __future__ import annotations
@@ -154,7 +155,7 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
 
 def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
     from benchmarks import report
-    from benchmarks.records import load_records
+    from benchmarks.sweep.records import load_records
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += ["--ray"] if args.ray is not None else []
@@ -171,8 +172,9 @@ def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
 
 
 def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks import report, runner, suites
-    from benchmarks.parts import known_names
+    from benchmarks import report, suites
+    from benchmarks.sweep import runner
+    from benchmarks.sweep.parts import known_names
 
     if args.report_only:
         return _report_only(args, suite, out)
@@ -194,7 +196,7 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
         cache_dir=args.cache, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet
     )
     if args.ray is not None:
-        from benchmarks.ray_runner import run_suite_ray
+        from benchmarks.sweep.ray_runner import run_suite_ray
 
         records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)
     else:
@@ -213,7 +215,7 @@ def run(args: argparse.Namespace) -> int:
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     if args.ray is not None:  # before any work: say how to install it
-        from benchmarks.ray_runner import require_ray
+        from benchmarks.sweep.ray_runner import require_ray
 
         require_ray()
         check_positive_int(args.ray_cpus, "--ray-cpus")

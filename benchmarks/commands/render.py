@@ -152,7 +152,7 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
 
 def _strategy_frames(args: argparse.Namespace, strategy, scene):
     """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, as the benchmark renders
-    them (:func:`benchmarks.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
+    them (:func:`benchmarks.sweep.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
     renderer's frame t; a stateful strategy's earlier frames are rendered, not yielded."""
     from renderers import render
 

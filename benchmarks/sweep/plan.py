@@ -7,7 +7,7 @@ seed sets; its cells share its renders and differ only in denoiser and pixel reg
 turns a :class:`benchmarks.suites.Suite` into its runs, merging runs that two sweeps both ask for;
 :func:`pending` narrows them to the cells not yet measured.
 
-Not for: rendering or measuring (:mod:`benchmarks.measure`).
+Not for: rendering or measuring (:mod:`benchmarks.sweep.measure`).
 """
 
 from __future__ import annotations

@@ -2,17 +2,17 @@
 a cluster.
 
 The unit of work is the serial runner's: one seed set of a run (scene, strategy, spp, condition,
-seed set), computed by :func:`benchmarks.measure.measure_seed_set` in a Ray task and merged by
-:func:`benchmarks.measure.finish_run` on the driver once every seed set of the run is back, so
+seed set), computed by :func:`benchmarks.sweep.measure.measure_seed_set` in a Ray task and merged by
+:func:`benchmarks.sweep.measure.finish_run` on the driver once every seed set of the run is back, so
 the records are the serial runner's bit for bit (timings aside). Three kinds of task:
 
 - **references**: one task per distinct reference (scene, condition, frame, resolution, spp; the
-  cache file name, :meth:`benchmarks.references.ReferenceCache.path`), so no two tasks render the
-  same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
+  cache file name, :meth:`benchmarks.sweep.references.ReferenceCache.path`), so no two tasks render
+  the same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
   storage) and writes it otherwise (atomically); the frame itself travels to the tasks that need
   it through the object store, so nodes need not share the cache folder.
 - **tuning**: one task per (scene, condition, resolution, spp, frames' strategy) whose
-  denoisers are not in ``tuned_params.json`` yet (:func:`benchmarks.measure.tune_missing`, the
+  denoisers are not in ``tuned_params.json`` yet (:func:`benchmarks.sweep.tuning.tune_missing`, the
   tuning seed set; white noise for the fair column, the run's strategy for ``NAME:own``). The
   driver stores the parameters and saves the file when it returns, and only then
   submits the measuring tasks that need them.
@@ -23,11 +23,11 @@ comes back, in plan order whatever the order runs finish in; an interrupted swee
 failed task, a lost node) loses the runs in progress, and ``--resume`` measures only the missing
 cells. A failed task cancels the others and its error is raised on the driver. Every task
 checks that its node runs the driver's renderer and sampler code
-(:func:`benchmarks.references.code_version`) and refuses otherwise. Each task sets
+(:func:`benchmarks.sweep.references.code_version`) and refuses otherwise. Each task sets
 torch's threads to the CPUs Ray gave it (``cpus_per_task``). The progress bar counts finished
 tasks.
 
-Not for: choosing what to measure (:mod:`benchmarks.plan`), or the speed suite.
+Not for: choosing what to measure (:mod:`benchmarks.sweep.plan`), or the speed suite.
 """
 
 from __future__ import annotations
@@ -39,25 +39,28 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from benchmarks.measure import (
+from benchmarks.suites import Suite
+from benchmarks.sweep.measure import (
     SeedSetResult,
-    _t_reference,
     finish_run,
-    make_denoisers,
     measure_seed_set,
-    missing_tuning,
     scene_for,
+    t_reference,
+)
+from benchmarks.sweep.parts import Parts
+from benchmarks.sweep.plan import Run
+from benchmarks.sweep.records import Record
+from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.runner import SweepState, start_sweep
+from benchmarks.sweep.tuning import (
+    make_denoisers,
+    missing_tuning,
     store_tuned,
     tune_missing,
     tuned_params,
     tuning_key,
 )
-from benchmarks.parts import Parts
-from benchmarks.plan import Run
-from benchmarks.records import Record
-from benchmarks.references import ReferenceCache, code_version
-from benchmarks.runner import SweepState, start_sweep
-from benchmarks.suites import Suite
+from benchmarks.sweep.version import code_version
 from bnerr.errors import BnerrError, check_positive_int
 from bnerr.frame import Frame
 
@@ -156,7 +159,7 @@ def _tune_task(
     t_refs: list[int],
     *frames: Frame,
 ) -> dict[str, Any]:
-    """:func:`benchmarks.measure.tune_missing` against the references handed in."""
+    """:func:`benchmarks.sweep.tuning.tune_missing` against the references handed in."""
     _task_setup(version)
     return tune_missing(run, parts, _GivenReferences(t_refs, frames), names, source)
 
@@ -170,7 +173,7 @@ def _measure_task(
     t_refs: list[int],
     *frames: Frame,
 ) -> SeedSetResult:
-    """:func:`benchmarks.measure.measure_seed_set` with denoisers built from ``params``."""
+    """:func:`benchmarks.sweep.measure.measure_seed_set` with denoisers built from ``params``."""
     _task_setup(version)
     denoisers = make_denoisers(parts, params)
     return measure_seed_set(run, parts, _GivenReferences(t_refs, frames), denoisers, group)
@@ -184,7 +187,7 @@ def _measured_refs(run: Run, count: int | None = None) -> list[int]:
     """The renderer frames of the references of ``run``'s measured frames (the first ``count``),
     without repeats (a static scene has one)."""
     frames = range(run.warmup, run.warmup + (run.frames if count is None else count))
-    return list(dict.fromkeys(_t_reference(run, t) for t in frames))
+    return list(dict.fromkeys(t_reference(run, t) for t in frames))
 
 
 #: A tuning task: (tuning key, spp, the strategy whose frames it tunes on).
@@ -341,7 +344,7 @@ def run_suite_ray(
     progress: bool = True,
     cpus_per_task: int = 1,
 ) -> list[Record]:
-    """:func:`benchmarks.runner.run_suite` with every seed set of every run a Ray task.
+    """:func:`benchmarks.sweep.runner.run_suite` with every seed set of every run a Ray task.
 
     Args:
         address: the Ray cluster: ``auto`` (the one ``ray start`` made on this machine, or
