@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from benchmarks.markdown import table_lines
+from benchmarks.reports.markdown import table_lines
 from benchmarks.suites import Suite
 from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write

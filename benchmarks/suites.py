@@ -36,8 +36,8 @@ The four suites (issue 6):
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
   (:data:`GAP_BEST`), next to white, temporal and the oracle, so that
-  :func:`benchmarks.gap.gap_shares` gives each one's share of the white-to-oracle distance after
-  the sigma-1 and sigma-2 blurs and after each denoiser. Every scene at 1 and 4 spp with the
+  :func:`benchmarks.reports.gap.gap_shares` gives each one's share of the white-to-oracle distance
+  after the sigma-1 and sigma-2 blurs and after each denoiser. Every scene at 1 and 4 spp with the
   scene's animation (all pixels and object edges: one render serves both regions), at 16 spp the
   same with the best combinations only (white, temporal, :data:`GAP_BEST` but the reprojecting
   one, oracle), then at 4 spp:

@@ -8,7 +8,7 @@ Examples::
     bnerr bench --suite quality --ray HEAD:6379      # every seed set a task on a Ray cluster
 
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
-records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.report`). References are
+records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.reports`). References are
 cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the results already in
 the output folder and measures only the missing cells; without it, a folder that already holds
 finished cells is refused unless ``--overwrite`` says to discard them. The command holds the
@@ -154,7 +154,7 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
 
 
 def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks import report
+    from benchmarks.reports import write_report
     from benchmarks.sweep.records import load_records
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
@@ -168,11 +168,12 @@ def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
     if not records:
         raise ValueRangeError(f"--report-only: expected finished cells in {out}, got none")
     title = f"bnerr bench --suite {suite.name}"
-    return report.write_report(out, records, title=title, charts=not args.no_charts)
+    return write_report(out, records, title=title, charts=not args.no_charts)
 
 
 def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks import report, suites
+    from benchmarks import suites
+    from benchmarks.reports import write_report
     from benchmarks.sweep import runner
     from benchmarks.sweep.parts import known_names
 
@@ -202,7 +203,7 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
     else:
         records = runner.run_suite(suite, out, **common)
     title = f"bnerr bench --suite {suite.name}"
-    return report.write_report(out, records, title=title, charts=not args.no_charts)
+    return write_report(out, records, title=title, charts=not args.no_charts)
 
 
 def run(args: argparse.Namespace) -> int:

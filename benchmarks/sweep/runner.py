@@ -19,7 +19,7 @@ output folder is the caller's job (``bnerr bench`` holds :func:`bnerr.outputs.ou
 ``--out`` for the whole run).
 
 Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
-(:mod:`benchmarks.report`).
+(:mod:`benchmarks.reports`).
 """
 
 from __future__ import annotations
