@@ -32,7 +32,7 @@ The four suites (issue 6):
   stays outside the denoisers is mostly rendering: by the committed records' timings about 105
   core-minutes (the oracle's 61, two thirds of it at 16 spp), against 28 for the denoisers
   (tuning included) and about 14 for the metrics.
-- ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
+- ``speed``: the throughput and timing scripts (``benchmarks/speed/``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
   (:data:`GAP_BEST`), next to white, temporal and the oracle, so that
@@ -186,8 +186,8 @@ class Suite:
         name: the suite's name, also the folder under ``results/``.
         description: one line for ``bnerr bench --help`` and the report.
         sweeps: the cell sweeps.
-        scripts: for the speed suite, module names under :mod:`benchmarks` whose measuring
-            function the runner calls.
+        scripts: for the speed suite, module names under :mod:`benchmarks` (``speed.permute``)
+            whose measuring function the runner calls.
         crops: whether the runner saves side-by-side crops for the report.
     """
 
@@ -361,7 +361,13 @@ SUITES: dict[str, Suite] = {
         description=(
             "renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p"
         ),
-        scripts=("throughput", "speed_permute", "speed_denoise", "speed_masks", "speed_sequences"),
+        scripts=(
+            "speed.tracer",
+            "speed.permute",
+            "speed.denoise",
+            "speed.masks",
+            "speed.sequences",
+        ),
         crops=False,
     ),
     "stability": Suite(
