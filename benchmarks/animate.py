@@ -39,8 +39,9 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from benchmarks.suites import get_suite
 from benchmarks.sweep.measure import scene_for, t_reference, t_render
-from benchmarks.sweep.parts import BoundRender, Denoiser, Parts
+from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, known_names, real_parts
 from benchmarks.sweep.plan import Run
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.tuning import stored_params, tuning_key
@@ -49,6 +50,8 @@ from bnerr.errors import DtypeError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
+from bnerr.strategies import STRATEGIES, make_strategy
+from denoisers.tuning import ParamStore
 
 __all__ = [
     "MANIFEST",
@@ -83,7 +86,6 @@ _BLOCK = 16  # the MP4 frame is padded to a multiple of this (libx264's macro bl
 def default_strategies() -> tuple[str, ...]:
     """``white``, ``temporal`` and the registered :data:`SHOWN_RIVALS` (a variant name counts as
     registered when :mod:`bnerr.strategies` builds it)."""
-    from bnerr.strategies import STRATEGIES
 
     return ("white", "temporal") + tuple(s for s in SHOWN_RIVALS if s in STRATEGIES)
 
@@ -194,11 +196,10 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
     A stateful strategy (``parts.stateful``) renders the warmup frames first; a stateless one
     starts at the first shown frame (its frame t does not depend on earlier frames).
     """
-    from bnerr import strategies
 
     run = spec.run()
     scene = scene_for(run, parts)
-    strategy = strategies.make_strategy(
+    strategy = make_strategy(
         name,
         spec.height,
         spec.width,
@@ -280,6 +281,7 @@ def text_strip(
     Drawn with matplotlib's Agg renderer and its bundled DejaVu Sans at ``size_px`` pixels, so it
     is the same on every machine with the same matplotlib; ``rotate`` writes upwards.
     """
+    # matplotlib (2 s to import) and imageio are needed only once frames are drawn and written
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -366,7 +368,7 @@ def write_mp4(path: str | Path, frames: Sequence[np.ndarray], fps: int, quality:
     Frames are padded with black to a multiple of 16 pixels (so ffmpeg does not resize them);
     libx264 runs on one thread, yuv420p, imageio's ``quality`` scale (0-10).
     """
-    import imageio.v2 as imageio
+    import imageio.v2 as imageio  # see text_strip: imported where the files are written
 
     path = Path(path)
     with atomic_write(path) as tmp:
@@ -397,7 +399,7 @@ def write_gif(path: str | Path, frames: Sequence[np.ndarray], fps: int) -> Path:
     used for every frame, without dithering (noise dithered compresses badly); the same frames
     give the same bytes.
     """
-    import imageio.v3 as iio
+    import imageio.v3 as iio  # see text_strip: imported where the files are written
     from PIL import Image
 
     first = Image.fromarray(frames[0])
@@ -456,7 +458,6 @@ def animate_scene(
 def load_store(path: str | Path | None):
     """The tuned parameters at ``path`` (:class:`denoisers.tuning.ParamStore`), or None when
     ``path`` is None or no such file exists (the denoiser then runs with its defaults)."""
-    from denoisers.tuning import ParamStore
 
     if path is None or not Path(path).is_file():
         return None
@@ -486,8 +487,6 @@ def write_animations(
     Returns:
         :func:`animate_scene`'s result per scene.
     """
-    from benchmarks.suites import get_suite
-    from benchmarks.sweep.parts import known_names
 
     sweep = (get_suite(suite) if isinstance(suite, str) else suite).sweeps[0]
     fields = dict(
@@ -518,7 +517,6 @@ def animate(
     the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout (the temporaries a
     killed run left for these files are removed first). ``on_scene`` is called with each scene's
     result."""
-    from benchmarks.sweep.parts import real_parts
 
     out = check_output(out_dir, "dir", need_bytes=2**20 * len(specs))
     store = load_store(params)

@@ -65,6 +65,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
+from bnerr.strategies import check_strategy_name
 
 __all__ = [
     "GAP_BEST",
@@ -467,7 +468,6 @@ def _known_strategies(
     (:func:`bnerr.strategies.check_strategy_name`), registered or not."""
     if values is None or known is None:
         return _known(values, known, "strategy")
-    from bnerr.strategies import check_strategy_name
 
     return tuple(
         check_strategy_name(v) if "+" in v and v not in known else check_name(v, known, "strategy")

@@ -12,6 +12,7 @@ Matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state; on
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections import defaultdict
 from collections.abc import Sequence
@@ -155,7 +156,7 @@ def write_charts(
     for rec in records:
         c = rec.cell
         if c.region == "all":
-            slug = group_slug((c.scene, c.motion, c.depth, c.region, c.sampler))
+            slug = group_slug(group_key(dataclasses.asdict(c)))
             lookup[(slug, c.strategy, c.spp, c.denoiser)] = rec
     written = []
     for slug, group in sorted(by_slug.items()):

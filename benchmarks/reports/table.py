@@ -27,6 +27,7 @@ import numpy as np
 
 from benchmarks.reports.groups import group_key, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
+from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record
 from bnerr.metrics import bootstrap_interval, paired_ratio
 from bnerr.strategies import OWN_SAMPLERS
@@ -41,20 +42,14 @@ __all__ = [
     "summarize",
 ]
 
-_CELL = (
-    "scene",
-    "strategy",
-    "spp",
-    "denoiser",
-    "motion",
-    "depth",
-    "region",
-    "sampler",
-    "width",
-    "height",
-    "frames",
-    "warmup",
-    "seed_sets",
+#: The cell's columns of ``table.csv``, from :class:`benchmarks.sweep.plan.Cell`'s fields: its
+#: identity first (scene, strategy, spp, denoiser and the condition), then the rest in the order
+#: the cell declares them; ``reference_spp`` sits with the reference's columns.
+_IDENTITY = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "sampler")
+_CELL = _IDENTITY + tuple(
+    f.name
+    for f in dataclasses.fields(Cell)
+    if f.name not in _IDENTITY and f.name != "reference_spp"
 )
 _RATIO = ("den_mse", "raw_mse", "raw_mse_blur1", "raw_mse_blur2", "den_mse_blur1", "den_mse_blur2")
 _INTERVAL = ("raw_mse", "den_mse")

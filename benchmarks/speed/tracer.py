@@ -38,8 +38,10 @@ from typing import Any
 
 import torch
 
+from benchmarks.commands._args import parse_resolution
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import DASH, fmt, number
+from bnerr.io import atomic_write
 from bnerr.sequences import make_sampler
 from bnerr.strategies import pixel_seeds
 from renderers import get_scene, render
@@ -400,8 +402,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])
     p.add_argument("--json", metavar="PATH", help="also write the figures as JSON")
     args = p.parse_args(argv)
-    from benchmarks.commands.render import parse_resolution
-
     width, height = parse_resolution(args.res)
     result = measure(
         args.scenes,
@@ -415,8 +415,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     _print(result)
     if args.json:
-        from bnerr.io import atomic_write
-
         with atomic_write(args.json) as tmp:
             Path(tmp).write_text(json.dumps(result, indent=1) + "\n")
     return 0

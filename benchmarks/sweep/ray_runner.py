@@ -18,12 +18,13 @@ the records are the serial runner's bit for bit (timings aside). Three kinds of 
   submits the measuring tasks that need them.
 - **measuring**: one task per seed set of each pending run.
 
-As in the serial runner, ``cells.jsonl`` is rewritten atomically each time a run's last seed set
-comes back, in plan order whatever the order runs finish in; an interrupted sweep (Ctrl-C, a
-failed task, a lost node) loses the runs in progress, and ``--resume`` measures only the missing
-cells. A failed task cancels the others and its error is raised on the driver. Every task
-checks that its node runs the driver's renderer and sampler code
-(:func:`benchmarks.sweep.references.code_version`) and refuses otherwise. Each task sets
+As in the serial runner, each run's lines are appended to ``cells.jsonl`` when its last seed set
+comes back (the first write replaces the file atomically), and the sweep ends with the file in
+plan order whatever the order runs finished in (:class:`benchmarks.sweep.runner.SweepState`); an
+interrupted sweep (Ctrl-C, a failed task, a lost node) loses the runs in progress, and ``--resume``
+measures only the missing cells. A failed task cancels the others and its error is raised on the
+driver. Every task checks that its node runs the driver's renderer and sampler code
+(:func:`benchmarks.sweep.version.code_version`) and refuses otherwise. Each task sets
 torch's threads to the CPUs Ray gave it (``cpus_per_task``). The progress bar counts finished
 tasks.
 
@@ -33,11 +34,15 @@ Not for: choosing what to measure (:mod:`benchmarks.sweep.plan`), or the speed s
 from __future__ import annotations
 
 import functools
+import socket
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
+
+import torch
+from tqdm import tqdm
 
 from benchmarks.suites import Suite
 from benchmarks.sweep.measure import (
@@ -83,7 +88,7 @@ class RayUnavailableError(BnerrError, ImportError):
 def require_ray() -> ModuleType:
     """Import ``ray``, or raise :class:`RayUnavailableError` saying how to install it."""
     try:
-        import ray
+        import ray  # the optional cluster extra: a missing one is this typed error
     except ImportError as err:
         raise RayUnavailableError(
             f"--ray: expected the optional extra 'cluster' ({INSTALL_HINT}, which provides "
@@ -98,8 +103,7 @@ def require_ray() -> ModuleType:
 
 def _use_task_cpus() -> None:
     """Set torch's intra-op threads to the CPUs Ray assigned to the running task (at least 1)."""
-    import ray
-    import torch
+    import ray  # runs inside a Ray task: the extra is there
 
     cpus = ray.get_runtime_context().get_assigned_resources().get("CPU", 1.0)
     torch.set_num_threads(max(1, int(cpus)))
@@ -120,8 +124,6 @@ def _task_setup(expected_version: str) -> None:
     _use_task_cpus()
     here = _node_code_version()
     if here != expected_version:
-        import socket
-
         raise CodeVersionError(
             f"node {socket.gethostname()}: expected the driver's code version "
             f"{expected_version}, got {here}; install the same bnerr commit on every node"
@@ -358,7 +360,6 @@ def run_suite_ray(
         ResultsExistError, FileFormatError: as ``run_suite``.
         Any error of a task, on the driver, after the others are cancelled.
     """
-    from tqdm import tqdm
 
     ray = require_ray()
     cpus = check_positive_int(cpus_per_task, "cpus_per_task")

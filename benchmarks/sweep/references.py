@@ -11,10 +11,10 @@ file name, :meth:`ReferenceCache.path`) holds every input of the render:
 - the reference sampler's name and the seed salt (the seed image of frame t is a fixed function of
   the salt and t), plus :data:`REFERENCE_FORMAT`, bumped by hand when the seed scheme or the file
   layout changes;
-- :func:`code_version`: the renderer's declared ``RENDERER_VERSION`` and a hash of the source files
-  a reference's pixels depend on (:func:`reference_sources`): every ``.py`` of ``renderers``, of
-  the ``bnerr.sequences`` module (its file, or every ``.py`` under its package directory) and
-  ``bnerr/hashing.py``. A change to the tracer or to a sampler never reuses a stale reference.
+- the code version (``Parts.code_version``, :func:`benchmarks.sweep.version.code_version`): a hash
+  of the source files a reference's pixels depend on (every ``.py`` of ``renderers``, of the
+  ``bnerr.sequences`` module and ``bnerr/hashing.py``). A change to the tracer or to a sampler
+  never reuses a stale reference.
 
 **Compiled references.** A reference is rendered with ``compile=True`` exactly when it traces at
 least ``2^22`` paths (``H * W * spp >= REFERENCE_COMPILE_PATHS``; :func:`reference_compile`), and

@@ -1,7 +1,6 @@
 """The code version of the references: a hash of the source files a reference's pixels depend on.
 
-:func:`code_version` is ``<RENDERER_VERSION>-<source hash>``: the renderer's declared
-``RENDERER_VERSION`` and 12 hex digits of SHA-256 over the source files of
+:func:`code_version` is ``0-<source hash>``: 12 hex digits of SHA-256 over the source files of
 :func:`reference_sources`: every ``.py`` of ``renderers``, of the ``bnerr.sequences`` module (its
 file, or every ``.py`` under its package directory) and ``bnerr/hashing.py``. It enters every
 reference's cache key (:class:`benchmarks.sweep.references.ReferenceCache`), every record
@@ -16,8 +15,6 @@ from __future__ import annotations
 import hashlib
 import importlib
 from pathlib import Path
-
-import renderers
 
 __all__ = ["code_version", "reference_sources", "source_hash"]
 
@@ -53,7 +50,11 @@ def source_hash(sources: dict[str, Path]) -> str:
 
 
 def code_version(sources: dict[str, Path] | None = None) -> str:
-    """``<RENDERER_VERSION>-<source hash>`` of the references' code (default
-    :func:`reference_sources`); ``RENDERER_VERSION`` is ``0`` when ``renderers`` declares none."""
+    """``0-<source hash>`` of the references' code (default :func:`reference_sources`).
+
+    The ``0-`` is what a ``renderers.RENDERER_VERSION`` hook gave when none was declared, and none
+    ever was; the hook is gone (the source hash covers every change it could have announced), the
+    prefix stays so that cached references and recorded versions keep their keys.
+    """
     files = reference_sources() if sources is None else sources
-    return f"{getattr(renderers, 'RENDERER_VERSION', '0')}-{source_hash(files)}"
+    return f"0-{source_hash(files)}"
