@@ -41,7 +41,13 @@ from benchmarks.suites import Suite
 from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
 
-__all__ = ["ANCHOR_SCRIPTS", "rewrite_speed_report", "run_speed", "speed_markdown"]
+__all__ = [
+    "ANCHOR_SCRIPTS",
+    "SECTION_ORDER",
+    "rewrite_speed_report",
+    "run_speed",
+    "speed_markdown",
+]
 
 #: Script -> the script that measures its anchor, run right after it by :func:`run_speed` (when
 #: the suite does not list it itself), so that both are measured in the same run.
