@@ -6,14 +6,15 @@ the project's one tone map (:func:`bnerr.color.preview_u8`) and labelled on the 
 with matplotlib's Agg renderer, no other font dependency).
 
 **What the animation shows is what the tables measure.** A strategy's frames are rendered the
-way a benchmark run renders them (:mod:`benchmarks.measure`): the strategy is built for seed set
-``seed_set`` with the run's per-pixel sampler, a temporal (stateful) strategy renders the
+way a benchmark run renders them (:mod:`benchmarks.sweep.measure`): the strategy is built for seed
+set ``seed_set`` with the run's per-pixel sampler, a temporal (stateful) strategy renders the
 ``warmup`` frames before the first frame shown and a stateless one skips them, the renderer sees
 frame ``t * motion``, and the shown frames are ``t = warmup .. warmup + frames - 1``. The
-references come from the benchmark's reference cache (:class:`benchmarks.references.ReferenceCache`,
-the same seeds, sampler and files). The denoiser takes the parameters the benchmark tuned on
-white noise for that scene, condition, resolution and spp when a tuned-parameters file holds
-them (``results/quality/tuned_params.json``), else its defaults; the caption says which.
+references come from the benchmark's reference cache
+(:class:`benchmarks.sweep.references.ReferenceCache`, the same seeds, sampler and files). The
+denoiser takes the parameters the benchmark tuned on white noise for that scene, condition,
+resolution and spp when a tuned-parameters file holds them (``results/quality/tuned_params.json``),
+else its defaults; the caption says which.
 
 - :func:`render_tiles`: the linear ``[3, H, W]`` tiles of every column and row, frame by frame.
 - :func:`compose_frame`: one labelled grid frame ``[H, W, 3]`` uint8 from them.
@@ -24,7 +25,7 @@ The MP4 goes through imageio's ffmpeg plugin (libx264, yuv420p, one encoder thre
 through imageio's pillow plugin, from a centre crop of each tile and the first few frames, to stay
 small. Both are written atomically (:func:`bnerr.io.atomic_write`).
 
-Not for: measuring (:mod:`benchmarks.measure`), or single frames (``bnerr render``).
+Not for: measuring (:mod:`benchmarks.sweep.measure`), or single frames (``bnerr render``).
 """
 
 from __future__ import annotations
@@ -38,15 +39,19 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from benchmarks.measure import _BoundRender, _stored, _t_reference, _t_render, scene_for, tuning_key
-from benchmarks.parts import Denoiser, Parts
-from benchmarks.plan import Run
-from benchmarks.references import ReferenceCache
+from benchmarks.suites import get_suite
+from benchmarks.sweep.measure import scene_for, t_reference, t_render
+from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, known_names, real_parts
+from benchmarks.sweep.plan import Run
+from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.tuning import stored_params, tuning_key
 from bnerr.color import preview_u8
 from bnerr.errors import DtypeError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
+from bnerr.strategies import STRATEGIES, make_strategy
+from denoisers.tuning import ParamStore
 
 __all__ = [
     "MANIFEST",
@@ -81,7 +86,6 @@ _BLOCK = 16  # the MP4 frame is padded to a multiple of this (libx264's macro bl
 def default_strategies() -> tuple[str, ...]:
     """``white``, ``temporal`` and the registered :data:`SHOWN_RIVALS` (a variant name counts as
     registered when :mod:`bnerr.strategies` builds it)."""
-    from bnerr.strategies import STRATEGIES
 
     return ("white", "temporal") + tuple(s for s in SHOWN_RIVALS if s in STRATEGIES)
 
@@ -122,7 +126,7 @@ class Animation:
     gif_frames: int = 8
 
     def check(self, known: dict[str, tuple[str, ...]]) -> Animation:
-        """Check names against ``known`` (:func:`benchmarks.parts.known_names`) and sizes.
+        """Check names against ``known`` (:func:`benchmarks.sweep.parts.known_names`) and sizes.
 
         Raises:
             UnknownNameError: an unknown scene, strategy or denoiser.
@@ -192,11 +196,10 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
     A stateful strategy (``parts.stateful``) renders the warmup frames first; a stateless one
     starts at the first shown frame (its frame t does not depend on earlier frames).
     """
-    from bnerr import strategies
 
     run = spec.run()
     scene = scene_for(run, parts)
-    strategy = strategies.make_strategy(
+    strategy = make_strategy(
         name,
         spec.height,
         spec.width,
@@ -205,11 +208,11 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
         spp=spec.spp,
         dimensions=scene.dimensions,
     )
-    render = _BoundRender(parts, scene, spec.spp)
+    render = BoundRender(parts, scene, spec.spp)
     first = 0 if parts.stateful(strategy) else spec.warmup
     frames = []
     for t in range(first, spec.warmup + spec.frames):
-        render.t_render = _t_render(run, t)
+        render.t_render = t_render(run, t)
         frame = strategy.frame(t, render)
         if t >= spec.warmup:
             frames.append(frame)
@@ -220,7 +223,7 @@ def render_references(parts: Parts, references: ReferenceCache, spec: Animation)
     """The reference frames at ``spec.times`` (from the benchmark's cache, rendered if missing)."""
     run = spec.run()
     scene = scene_for(run, parts)
-    return [references.get(run, scene, _t_reference(run, t)) for t in spec.times]
+    return [references.get(run, scene, t_reference(run, t)) for t in spec.times]
 
 
 def _format_params(params: dict) -> str:
@@ -232,7 +235,9 @@ def tuned_denoiser(parts: Parts, spec: Animation, store) -> tuple[Denoiser, str]
     resolution and spp in ``store`` (a :class:`denoisers.tuning.ParamStore`, or None), else its
     defaults; and a label saying which."""
     stored = (
-        None if store is None else _stored(store, spec.denoiser, tuning_key(spec.run()), spec.spp)
+        None
+        if store is None
+        else stored_params(store, spec.denoiser, tuning_key(spec.run()), spec.spp)
     )
     denoiser = parts.make_denoiser(spec.denoiser, stored)
     params = getattr(denoiser, "params", None)
@@ -276,6 +281,7 @@ def text_strip(
     Drawn with matplotlib's Agg renderer and its bundled DejaVu Sans at ``size_px`` pixels, so it
     is the same on every machine with the same matplotlib; ``rotate`` writes upwards.
     """
+    # matplotlib (2 s to import) and imageio are needed only once frames are drawn and written
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -362,7 +368,7 @@ def write_mp4(path: str | Path, frames: Sequence[np.ndarray], fps: int, quality:
     Frames are padded with black to a multiple of 16 pixels (so ffmpeg does not resize them);
     libx264 runs on one thread, yuv420p, imageio's ``quality`` scale (0-10).
     """
-    import imageio.v2 as imageio
+    import imageio.v2 as imageio  # see text_strip: imported where the files are written
 
     path = Path(path)
     with atomic_write(path) as tmp:
@@ -393,7 +399,7 @@ def write_gif(path: str | Path, frames: Sequence[np.ndarray], fps: int) -> Path:
     used for every frame, without dithering (noise dithered compresses badly); the same frames
     give the same bytes.
     """
-    import imageio.v3 as iio
+    import imageio.v3 as iio  # see text_strip: imported where the files are written
     from PIL import Image
 
     first = Image.fromarray(frames[0])
@@ -452,7 +458,6 @@ def animate_scene(
 def load_store(path: str | Path | None):
     """The tuned parameters at ``path`` (:class:`denoisers.tuning.ParamStore`), or None when
     ``path`` is None or no such file exists (the denoiser then runs with its defaults)."""
-    from denoisers.tuning import ParamStore
 
     if path is None or not Path(path).is_file():
         return None
@@ -482,8 +487,6 @@ def write_animations(
     Returns:
         :func:`animate_scene`'s result per scene.
     """
-    from benchmarks.parts import known_names
-    from benchmarks.suites import get_suite
 
     sweep = (get_suite(suite) if isinstance(suite, str) else suite).sweeps[0]
     fields = dict(
@@ -514,7 +517,6 @@ def animate(
     the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout (the temporaries a
     killed run left for these files are removed first). ``on_scene`` is called with each scene's
     result."""
-    from benchmarks.parts import real_parts
 
     out = check_output(out_dir, "dir", need_bytes=2**20 * len(specs))
     store = load_store(params)

@@ -14,13 +14,13 @@ import importlib
 import pkgutil
 import sys
 
+import benchmarks.commands as commands
 from bnerr.errors import BnerrError
 
 __all__ = ["build_parser", "main"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    import benchmarks.commands as commands
 
     parser = argparse.ArgumentParser(
         prog="bnerr",

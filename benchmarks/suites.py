@@ -32,12 +32,12 @@ The four suites (issue 6):
   stays outside the denoisers is mostly rendering: by the committed records' timings about 105
   core-minutes (the oracle's 61, two thirds of it at 16 spp), against 28 for the denoisers
   (tuning included) and about 14 for the metrics.
-- ``speed``: the throughput and timing scripts (``benchmarks/speed_*.py``, ``throughput.py``).
+- ``speed``: the throughput and timing scripts (``benchmarks/speed/``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
   (:data:`GAP_BEST`), next to white, temporal and the oracle, so that
-  :func:`benchmarks.gap.gap_shares` gives each one's share of the white-to-oracle distance after
-  the sigma-1 and sigma-2 blurs and after each denoiser. Every scene at 1 and 4 spp with the
+  :func:`benchmarks.reports.gap.gap_shares` gives each one's share of the white-to-oracle distance
+  after the sigma-1 and sigma-2 blurs and after each denoiser. Every scene at 1 and 4 spp with the
   scene's animation (all pixels and object edges: one render serves both regions), at 16 spp the
   same with the best combinations only (white, temporal, :data:`GAP_BEST` but the reprojecting
   one, oracle), then at 4 spp:
@@ -65,6 +65,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
+from bnerr.strategies import check_strategy_name
 
 __all__ = [
     "GAP_BEST",
@@ -186,8 +187,8 @@ class Suite:
         name: the suite's name, also the folder under ``results/``.
         description: one line for ``bnerr bench --help`` and the report.
         sweeps: the cell sweeps.
-        scripts: for the speed suite, module names under :mod:`benchmarks` whose measuring
-            function the runner calls.
+        scripts: for the speed suite, module names under :mod:`benchmarks` (``speed.permute``)
+            whose measuring function the runner calls.
         crops: whether the runner saves side-by-side crops for the report.
     """
 
@@ -361,7 +362,13 @@ SUITES: dict[str, Suite] = {
         description=(
             "renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p"
         ),
-        scripts=("throughput", "speed_permute", "speed_denoise", "speed_masks", "speed_sequences"),
+        scripts=(
+            "speed.tracer",
+            "speed.permute",
+            "speed.denoise",
+            "speed.masks",
+            "speed.sequences",
+        ),
         crops=False,
     ),
     "stability": Suite(
@@ -461,7 +468,6 @@ def _known_strategies(
     (:func:`bnerr.strategies.check_strategy_name`), registered or not."""
     if values is None or known is None:
         return _known(values, known, "strategy")
-    from bnerr.strategies import check_strategy_name
 
     return tuple(
         check_strategy_name(v) if "+" in v and v not in known else check_name(v, known, "strategy")

@@ -32,9 +32,14 @@ from dataclasses import dataclass
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
+import renderers
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 from bnerr.frame import Frame
+from bnerr.sequences import make_sampler
+from bnerr.strategies import make_strategy
+from renderers.memory import render_bytes
 from renderers.scene import (
     Box,
     Camera,
@@ -122,8 +127,6 @@ def training_set_bytes(spec: TrainingSpec, stored: bool = False) -> int:
     and targets, 12 float32 channels per pixel, as in the ``OUT.data`` cache), or the peak while
     it is made (every pair's frame, 16 float32 buffers, and reference, the stacked set, and one
     render's working set)."""
-    from benchmarks.commands.render import render_bytes
-
     pixels = spec.size * spec.size
     kept = spec.scenes * pixels * 12 * 4
     if stored:
@@ -370,8 +373,6 @@ def blue_input(scene: Scene, size: int, spp: int, key: int, strategy: str, sampl
     ``cycles_blue``, which dictate their own sampler) returns its frame ``t = 0``. The scene is
     static, so every frame renders the same image with other samples.
     """
-    import renderers
-    from bnerr.strategies import make_strategy
 
     name = check_name(strategy, BLUE_STRATEGIES, "blue training strategy")
     made = make_strategy(
@@ -405,8 +406,6 @@ def render_pair(
     ``blue_input(scene, size, spp, key, blue, sampler)``; the reference uses
     ``pixel_seeds(.., 2 key + 1)`` and the white sampler, whatever the input.
     """
-    import renderers
-    from bnerr.sequences import make_sampler
 
     sampler = check_name(sampler, SAMPLERS, "training sampler")
     if blue is None:
@@ -435,9 +434,6 @@ def make_pairs(spec: TrainingSpec, progress: bool = True) -> list[tuple[Frame, t
     ``BLUE_STRATEGIES[(i // 2) % 4]`` (:func:`blue_input`). The even pairs of a ``white+blue``
     set, and every reference, equal the ``white`` set's bit for bit.
     """
-    from tqdm.auto import tqdm
-
-    import renderers
 
     pairs = []
     scenes = [random_scene(spec.seed + i) for i in range(spec.scenes)]

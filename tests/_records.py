@@ -1,7 +1,7 @@
 """A small benchmark record for report tests: 16x16 frames, metrics given as per-frame pairs."""
 
-from benchmarks.plan import Cell
-from benchmarks.records import Record, ReferenceInfo, Spectrum, Timings
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import Record, ReferenceInfo, Spectrum, Timings
 
 
 def small_record(

@@ -25,8 +25,8 @@ from benchmarks.animate import (
     write_gif,
     write_mp4,
 )
-from benchmarks.parts import known_names, real_parts
-from benchmarks.references import ReferenceCache, reference_seeds
+from benchmarks.sweep.parts import known_names, real_parts
+from benchmarks.sweep.references import ReferenceCache, reference_seeds
 from bnerr import sequences, strategies
 from bnerr.errors import UnknownNameError, ValueRangeError
 from bnerr.frame import Frame

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.records import RESULTS_FILE, load_records
+from benchmarks.sweep.records import RESULTS_FILE, load_records
 from bnerr.outputs import output_lock
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -58,7 +58,7 @@ def test_bench_resume_keeps_the_results(tmp_path):
 @pytest.mark.parametrize(
     ("flag", "value", "message"),
     [
-        ("--res", "16", "--res: expected WIDTHxHEIGHT such as 128x128, got '16'"),
+        ("--res", "16", "--res: expected WxH with integers (e.g. 320x240), got '16'"),
         ("--spp", "0", "--spp: expected an integer >= 1, got 0"),
         ("--scenes", "nowhere", "unknown scene 'nowhere'"),
         ("--strategies", "blue", "unknown strategy 'blue'"),

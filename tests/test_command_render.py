@@ -4,7 +4,7 @@ import pytest
 import torch
 
 from benchmarks.cli import main
-from benchmarks.commands.render import parse_resolution
+from benchmarks.commands._args import parse_resolution
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.io import read_frame
 
@@ -91,9 +91,9 @@ def test_parse_resolution():
 
 
 def test_an_absurd_resolution_is_refused_before_allocating(tmp_path, capsys, monkeypatch):
-    import renderers
+    import benchmarks.commands.render as command
 
-    monkeypatch.setattr(renderers, "render", lambda *a, **k: pytest.fail("rendered"))
+    monkeypatch.setattr(command, "render", lambda *a, **k: pytest.fail("rendered"))
     args = ["render", "--scene", "direct", "--res", "40000x40000", "--out", str(tmp_path / "o")]
     assert main(args) == 2
     err = capsys.readouterr().err
@@ -132,13 +132,13 @@ def test_a_second_render_into_the_same_folder_refuses(tmp_path, capsys):
 
 def _benchmark_frames(strategy, seed_set, frames, warmup=0, res=(16, 12), spp=1):
     """The frames ``bnerr bench`` renders for one seed set: t -> Frame, captured from the strategy
-    the runner builds (:func:`benchmarks.measure.measure_seed_set`)."""
+    the runner builds (:func:`benchmarks.sweep.measure.measure_seed_set`)."""
     import dataclasses
 
-    from benchmarks.measure import measure_seed_set
-    from benchmarks.parts import real_parts
-    from benchmarks.plan import plan
     from benchmarks.suites import Suite, Sweep
+    from benchmarks.sweep.measure import measure_seed_set
+    from benchmarks.sweep.parts import real_parts
+    from benchmarks.sweep.plan import plan
 
     base, seen = real_parts(), {}
 
@@ -237,7 +237,7 @@ def test_strategy_errors_are_one_line_before_anything_is_written(tmp_path, capsy
 def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders(
     tmp_path, capsys, monkeypatch, extra, compiled
 ):
-    import renderers
+    import benchmarks.commands.render as command
 
     seen = []
 
@@ -245,7 +245,7 @@ def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders(
         seen.append(compile)
         raise SystemExit(0)  # stop before rendering anything
 
-    monkeypatch.setattr(renderers, "render", fake_render)
+    monkeypatch.setattr(command, "render", fake_render)
     with pytest.raises(SystemExit):
         main(["render", "--scene", "direct", *extra, "--out", str(tmp_path)])
     assert seen == [compiled]

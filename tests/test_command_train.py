@@ -106,9 +106,9 @@ def test_cli_choices_are_the_libraries_names():
 def _no_work(monkeypatch):
     import pytest
 
-    from benchmarks import training_data
+    from benchmarks.commands import train as command
 
-    monkeypatch.setattr(training_data, "make_pairs", lambda *a, **k: pytest.fail("rendered"))
+    monkeypatch.setattr(command, "make_pairs", lambda *a, **k: pytest.fail("rendered"))
 
 
 def test_out_naming_an_existing_folder_fails_before_training(tmp_path, capsys, monkeypatch):

@@ -1,11 +1,12 @@
-"""Tests for benchmarks.denoise_response: denoisers.md's four sections on synthetic records whose
+"""Tests for benchmarks.reports.denoisers: denoisers.md's four sections on synthetic records whose
 figures are computed by hand here."""
 
 import pytest
 from _records import small_record
 
-from benchmarks import denoise_response as dr
-from benchmarks.report import summarize, write_report
+from benchmarks.reports import denoisers as dr
+from benchmarks.reports import write_report
+from benchmarks.reports.table import summarize
 from bnerr.metrics import paired_ratio
 
 _SETS, _FRAMES = 2, 3

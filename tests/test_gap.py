@@ -1,4 +1,5 @@
-"""Tests for benchmarks.gap: the share of the white-to-oracle distance, on synthetic records."""
+"""Tests for benchmarks.reports.gap: the share of the white-to-oracle distance, on synthetic
+records."""
 
 import csv
 import io
@@ -7,7 +8,7 @@ import math
 import pytest
 from _records import small_record
 
-from benchmarks.gap import (
+from benchmarks.reports.gap import (
     GAP_CSV,
     GAP_MD,
     gap_csv,

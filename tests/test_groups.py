@@ -1,6 +1,7 @@
-"""Tests of benchmarks.groups: group keys, titles, file-name slugs and the strategy order."""
+"""Tests of benchmarks.reports.groups: group keys, titles, file-name slugs and the strategy
+order."""
 
-from benchmarks.groups import (
+from benchmarks.reports.groups import (
     STRATEGY_ORDER,
     group_key,
     group_order,

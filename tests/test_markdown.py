@@ -1,6 +1,6 @@
-"""Tests of benchmarks.markdown."""
+"""Tests of benchmarks.reports.markdown."""
 
-from benchmarks.markdown import table_lines
+from benchmarks.reports.markdown import table_lines
 
 
 def test_a_table_is_header_rule_and_one_line_per_row():

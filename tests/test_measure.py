@@ -1,6 +1,6 @@
-"""Tests of benchmarks.measure with stand-in parts: the timings come from the frame's own clock
-(one stopwatch per render), stateless strategies skip the warmup, crops are sRGB previews, and the
-denoisers are tuned once on white noise."""
+"""Tests of benchmarks.sweep.measure with stand-in parts: the timings come from the frame's own
+clock (one stopwatch per render), stateless strategies skip the warmup, crops are sRGB previews, and
+the denoisers are tuned once on white noise."""
 
 import dataclasses
 
@@ -8,11 +8,12 @@ import numpy as np
 import pytest
 import torch
 
-from benchmarks.measure import TUNING_SEED_SET, measure_run, tune_denoisers
-from benchmarks.parts import Parts
-from benchmarks.plan import plan
-from benchmarks.references import ReferenceCache
 from benchmarks.suites import Suite, Sweep
+from benchmarks.sweep.measure import measure_run
+from benchmarks.sweep.parts import Parts
+from benchmarks.sweep.plan import plan
+from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.tuning import TUNING_SEED_SET, tune_denoisers
 from bnerr import strategies
 from bnerr.color import preview_u8
 from bnerr.frame import Frame
@@ -262,7 +263,7 @@ def test_on_white_the_fair_and_own_tunings_are_one_search_stored_under_both_name
 
 
 def test_split_own_names():
-    from benchmarks.measure import split_own, tuning_source
+    from benchmarks.sweep.tuning import split_own, tuning_source
 
     assert split_own("gaussian:own") == ("gaussian", True)
     assert split_own("gaussian") == ("gaussian", False)

@@ -33,8 +33,8 @@ Expected orderings that do not hold are marked ``xfail(strict=True)`` with the m
 import numpy as np
 import pytest
 
-from benchmarks.runner import run_suite
 from benchmarks.suites import Condition, Suite, Sweep
+from benchmarks.sweep.runner import run_suite
 from bnerr.metrics import paired_ratio
 
 SCENES = ("direct", "indirect")
@@ -83,8 +83,8 @@ def _cells(strategy):
 
 
 def _index(records):
-    """The runner's :class:`benchmarks.records.Record` s keyed by scene, spp, denoiser, strategy,
-    motion and region."""
+    """The runner's :class:`benchmarks.sweep.records.Record` s keyed by scene, spp, denoiser,
+    strategy, motion and region."""
     return {
         (
             r.cell.scene,

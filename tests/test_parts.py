@@ -1,10 +1,10 @@
-"""Tests of benchmarks.parts: the project's own parts and registries."""
+"""Tests of benchmarks.sweep.parts: the project's own parts and registries."""
 
 import pytest
 import torch
 
-from benchmarks.parts import known_names, real_parts
-from benchmarks.references import code_version
+from benchmarks.sweep.parts import known_names, real_parts
+from benchmarks.sweep.version import code_version
 from bnerr.strategies import STRATEGIES
 
 pytestmark = pytest.mark.usefixtures("one_thread")

@@ -1,10 +1,11 @@
-"""Tests of benchmarks.plan: runs shared between denoisers, regions and sweeps; pending cells."""
+"""Tests of benchmarks.sweep.plan: runs shared between denoisers, regions and sweeps; pending
+cells."""
 
 import dataclasses
 import json
 
-from benchmarks.plan import Cell, pending, plan
 from benchmarks.suites import Condition, Suite, Sweep
+from benchmarks.sweep.plan import Cell, pending, plan
 
 
 def _suite() -> Suite:

@@ -1,4 +1,4 @@
-"""Tests of benchmarks.ray_runner on a local 2-CPU Ray instance: a tiny suite (a fair and an
+"""Tests of benchmarks.sweep.ray_runner on a local 2-CPU Ray instance: a tiny suite (a fair and an
 own-tuned denoiser column) gives the serial runner's records bit for bit (timings aside), a failed
 task stops the sweep with its own error and ``resume`` completes it, and tasks set torch's threads
 from the CPUs Ray gave them.
@@ -15,11 +15,11 @@ import pytest
 
 ray = pytest.importorskip("ray", reason="ray is not installed (pip install '.[cluster]')")
 
-from benchmarks import ray_runner  # noqa: E402
-from benchmarks.parts import real_parts  # noqa: E402
-from benchmarks.records import RESULTS_FILE, load_records  # noqa: E402
-from benchmarks.runner import TUNED_PARAMS_FILE, run_suite  # noqa: E402
 from benchmarks.suites import Suite, Sweep  # noqa: E402
+from benchmarks.sweep import ray_runner  # noqa: E402
+from benchmarks.sweep.parts import real_parts  # noqa: E402
+from benchmarks.sweep.records import RESULTS_FILE, load_records  # noqa: E402
+from benchmarks.sweep.runner import TUNED_PARAMS_FILE, run_suite  # noqa: E402
 from bnerr.errors import ValueRangeError  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("one_thread")

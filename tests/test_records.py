@@ -1,13 +1,13 @@
-"""Tests of benchmarks.records: the typed record's JSON round trip, the committed results files,
-and typed errors (naming file and line) for garbled, truncated or foreign lines."""
+"""Tests of benchmarks.sweep.records: the typed record's JSON round trip, the committed results
+files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
 
 import json
 from pathlib import Path
 
 import pytest
 
-from benchmarks.plan import Cell
-from benchmarks.records import (
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import (
     RESULTS_FILE,
     Record,
     ReferenceInfo,

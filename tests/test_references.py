@@ -1,5 +1,5 @@
-"""Tests of benchmarks.references: reference seeds, the cache's round trip, and a cache key that
-follows every input of a reference (the tracer's and the samplers' code among them)."""
+"""Tests of benchmarks.sweep.references: reference seeds, the cache's round trip, and a cache key
+that follows every input of a reference (the tracer's and the samplers' code among them)."""
 
 import dataclasses
 import shutil
@@ -7,19 +7,17 @@ import shutil
 import pytest
 import torch
 
-from benchmarks import references
-from benchmarks.parts import real_parts
-from benchmarks.plan import plan
-from benchmarks.references import (
+from benchmarks.suites import Suite, Sweep
+from benchmarks.sweep import version
+from benchmarks.sweep.parts import real_parts
+from benchmarks.sweep.plan import plan
+from benchmarks.sweep.references import (
     REFERENCE_COMPILE_PATHS,
     ReferenceCache,
-    code_version,
     reference_compile,
     reference_seeds,
-    reference_sources,
-    source_hash,
 )
-from benchmarks.suites import Suite, Sweep
+from benchmarks.sweep.version import code_version, reference_sources, source_hash
 from bnerr.frame import Frame
 from bnerr.io import read_frame
 
@@ -106,7 +104,7 @@ def test_changing_a_samplers_code_invalidates_the_cache(tmp_path, monkeypatch):
     sampler_label = next(label for label in sorted(sources) if label.startswith("bnerr/sequences"))
     copy = tmp_path / "copy.py"
     shutil.copy(sources[sampler_label], copy)
-    monkeypatch.setattr(references, "reference_sources", lambda: {**sources, sampler_label: copy})
+    monkeypatch.setattr(version, "reference_sources", lambda: {**sources, sampler_label: copy})
     before = real_parts()
     assert before.code_version == code_version(sources)  # same bytes, same key
     with copy.open("a") as handle:

@@ -1,4 +1,4 @@
-"""Tests of benchmarks.report: rows, ratios to white, flags, CSV, Markdown and charts."""
+"""Tests of benchmarks.reports: rows, ratios to white, flags, CSV, Markdown and charts."""
 
 import csv
 import dataclasses
@@ -9,10 +9,11 @@ import numpy as np
 import pytest
 import torch
 
-from benchmarks import report
-from benchmarks.groups import group_key
-from benchmarks.plan import Cell
-from benchmarks.records import (
+from benchmarks.reports import decision, table, write_report
+from benchmarks.reports.groups import group_key
+from benchmarks.reports.table import COLUMNS, markdown_table, summarize, table_columns
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import (
     Record,
     ReferenceInfo,
     Spectrum,
@@ -20,7 +21,6 @@ from benchmarks.records import (
     load_records,
     write_records,
 )
-from benchmarks.report import COLUMNS, markdown_table, summarize, table_columns, write_report
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
@@ -182,7 +182,7 @@ def test_conditions_get_their_own_sections_and_charts(tmp_path):
     assert "### direct (static camera)" in text and "### direct (object edges only)" in text
     assert (tmp_path / "error_vs_time_direct_m0.png").exists()
     assert not (tmp_path / "error_vs_time_direct_edges.png").exists()  # charts: whole image only
-    assert report.summarize(records)[-1]["worse_than_white"] is True
+    assert table.summarize(records)[-1]["worse_than_white"] is True
 
 
 def test_raw_mse_differences_from_white_are_listed_once_per_run():
@@ -201,13 +201,13 @@ def test_raw_mse_differences_from_white_are_listed_once_per_run():
         section.count("| direct | direct | bnds | 1 |") == 1
         and section.count("| direct | direct | bnds | 4 |") == 1
     )
-    assert f"- bnds: {report.RAW_CAUSES['bnds']}" in section  # the measured cause, once
+    assert f"- bnds: {table.RAW_CAUSES['bnds']}" in section  # the measured cause, once
 
 
 def test_a_raw_difference_without_a_known_cause_says_so():
-    assert report._raw_causes(["temporal+groups", "zsobol_t"]) == [
+    assert table._raw_causes(["temporal+groups", "zsobol_t"]) == [
         "- temporal+groups: cause not established.",
-        f"- zsobol_t: {report.RAW_CAUSES['zsobol_t']}",
+        f"- zsobol_t: {table.RAW_CAUSES['zsobol_t']}",
         "",
     ]
 
@@ -308,7 +308,7 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
     if not (folder / "cells.jsonl").exists():
         pytest.skip(f"no committed results in {folder.name}")
     rows = summarize(load_records(folder), resamples=200)
-    best = report.best_rows(rows)
+    best = decision.best_rows(rows)
     cells = {(r["scene"], r["spp"], r["denoiser"]) for r in rows if r["region"] == "all"}
     assert {(k[0][0], k[1], k[2]) for k in best} == cells
     for (group, spp, denoiser), row in best.items():
@@ -317,14 +317,14 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
             for r in rows
             if group_key(r) == group
             and (r["spp"], r["denoiser"]) == (spp, denoiser)
-            and r["strategy"] not in report.DECISION_EXCLUDES
+            and r["strategy"] not in decision.DECISION_EXCLUDES
         ]
         assert row["den_mse"] == min(r["den_mse"] for r in same) and row["strategy"] != "oracle"
-    text = report.decision_table(rows)
+    text = decision.decision_table(rows)
     lines = [line for line in text.splitlines() if line.startswith("| ")][1:]
     assert len(lines) == len({(k[0], k[1]) for k in best})
     for row in best.values():
-        cell = report._decision_cell(row)
+        cell = decision._decision_cell(row)
         assert f"({row['render_ms']:.0f} + {row['perm_ms']:.1f} ms)" in cell
         if row["strategy"] != "white":
             assert f"{row['den_mse_ratio']:.2f} [" in cell
@@ -333,12 +333,12 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
 
 def test_the_decision_table_bolds_only_an_established_winner():
     rows = summarize(_records(), resamples=200)
-    text = report.decision_table(rows, title="T")
+    text = decision.decision_table(rows, title="T")
     assert text.startswith("# T\n")
     (line1,) = [line for line in text.splitlines() if line.startswith("| direct | 1 |")]
     assert "**temporal** " in line1  # temporal below white beyond the interval at 1 spp
     assert "Left out: oracle (it renders K candidates per frame" in text
-    with_oracle = report.best_rows(rows, exclude=())
+    with_oracle = decision.best_rows(rows, exclude=())
     assert {r["strategy"] for r in with_oracle.values()} <= {"white", "temporal", "oracle"}
     assert "| direct | 4 |" in text
 
@@ -358,5 +358,5 @@ def test_a_strategy_with_its_own_sampler_is_named_in_its_section():
     )
     assert "(zsobol: zsobol)" in text
     old = dataclasses.replace(records[-1], render_sampler=None)
-    assert report.render_sampler(old) == "zsobol"  # files from before: the strategy's own
+    assert table.render_sampler(old) == "zsobol"  # files from before: the strategy's own
     assert "Samplers:" not in markdown_table(summarize(_records(), resamples=200))

@@ -1,5 +1,5 @@
-"""Tests of benchmarks.runner: the whole sweep end to end (tuning, timings, references, resume,
-refusing to discard finished cells).
+"""Tests of benchmarks.sweep.runner: the whole sweep end to end (tuning, timings, references,
+resume, refusing to discard finished cells).
 
 Everything renders with the real path tracer and denoisers at 16x12 so that the whole file runs
 in seconds.
@@ -11,12 +11,12 @@ import json
 import pytest
 import torch
 
-from benchmarks import runner
-from benchmarks.parts import real_parts
-from benchmarks.plan import Cell
-from benchmarks.records import RESULTS_FILE, Record, ResultsExistError, load_records
-from benchmarks.runner import run_suite
 from benchmarks.suites import Condition, Suite, Sweep
+from benchmarks.sweep import runner
+from benchmarks.sweep.parts import real_parts
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import RESULTS_FILE, Record, ResultsExistError, load_records
+from benchmarks.sweep.runner import run_suite
 from bnerr.errors import FileFormatError
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -148,7 +148,7 @@ def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):
 
 
 def test_the_appended_results_file_is_the_one_a_full_rewrite_gives(tiny, tmp_path):
-    from benchmarks.records import write_records
+    from benchmarks.sweep.records import write_records
 
     out, _, records, _ = tiny
     write_records(tmp_path, records)
@@ -230,7 +230,7 @@ def test_stateful_denoisers_run_end_to_end_and_resume_to_the_same_output(tmp_pat
     # a second sweep whose first pass died resumes to the same output (reset per seed set)
     (tmp_path / "b").mkdir()
     only_gauss = [r for r in records if r.cell.denoiser == "gaussian"]
-    from benchmarks.records import write_records
+    from benchmarks.sweep.records import write_records
 
     write_records(tmp_path / "b", only_gauss)
     again = run_suite(

@@ -7,9 +7,11 @@ from pathlib import Path
 import pytest
 import torch
 
-from benchmarks.speed import WHITE_LOW_FREQUENCY, _fmt, _ratio, run_speed, speed_markdown
-from benchmarks.speed_copy import JOB_BYTES, PASS_JOBS
-from benchmarks.speed_copy import measure as measure_copy
+from benchmarks.speed import run_speed, speed_markdown
+from benchmarks.speed.copy import JOB_BYTES, PASS_JOBS
+from benchmarks.speed.copy import measure as measure_copy
+from benchmarks.speed.formatting import fmt, ratio
+from benchmarks.speed.masks import WHITE_LOW_FREQUENCY
 from benchmarks.suites import Suite, get_suite
 
 SHIPPED = Path(__file__).resolve().parents[1] / "results" / "speed" / "speed.json"
@@ -18,18 +20,18 @@ SHIPPED = Path(__file__).resolve().parents[1] / "results" / "speed" / "speed.jso
 def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):
     # The speed scripts time 1080p work for minutes; their own tests cover them. Here only the
     # plumbing: every script's measure() is called and its figures land in JSON and Markdown.
-    import benchmarks.speed_masks as speed_masks
+    import benchmarks.speed.masks as speed_masks
 
     def measure():
         """Seconds per mask."""
         return {"scalar_64": {"seconds": 0.5, "low_frequency_fraction": torch.tensor(0.01)}}
 
     monkeypatch.setattr(speed_masks, "measure", measure)
-    suite = Suite("speed", "timings", scripts=("speed_masks",))
+    suite = Suite("speed", "timings", scripts=("speed.masks",))
     text = run_speed(suite, tmp_path, progress=False)
     stored = json.loads((tmp_path / "speed.json").read_text())
     assert stored == {
-        "speed_masks": {
+        "speed.masks": {
             "scalar_64": {"seconds": 0.5, "low_frequency_fraction": pytest.approx(0.01)}
         }
     }
@@ -38,8 +40,8 @@ def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):
 
 
 def test_the_permutation_anchor_is_measured_right_after_it(tmp_path, monkeypatch):
-    import benchmarks.speed_copy as speed_copy
-    import benchmarks.speed_permute as speed_permute
+    import benchmarks.speed.copy as speed_copy
+    import benchmarks.speed.permute as speed_permute
 
     calls = []
 
@@ -53,13 +55,13 @@ def test_the_permutation_anchor_is_measured_right_after_it(tmp_path, monkeypatch
 
     monkeypatch.setattr(speed_permute, "measure", permute)
     monkeypatch.setattr(speed_copy, "measure", copy)
-    text = run_speed(Suite("speed", "t", scripts=("speed_permute",)), tmp_path, progress=False)
+    text = run_speed(Suite("speed", "t", scripts=("speed.permute",)), tmp_path, progress=False)
     assert calls == ["permute", "copy"]
-    assert set(json.loads((tmp_path / "speed.json").read_text())) == {"speed_permute", "speed_copy"}
+    assert set(json.loads((tmp_path / "speed.json").read_text())) == {"speed.permute", "speed.copy"}
     # 8400 bytes in 4 ms: 0.0021 GB/s; twice the copy's 2 ms.
     assert "| sort pass, luminance key | 4.00 | 0.00840 | 0.00210 | 2.00 | 2.00x |" in text
     assert "| retargeting pass | 3.00 | 0.00640 | 0.00213 | - | - |" in text
-    assert "## speed_copy" not in text and "No memory-copy anchor" not in text
+    assert "## speed.copy" not in text and "No memory-copy anchor" not in text
 
 
 def test_the_shipped_figures_give_one_table_per_part():
@@ -76,22 +78,21 @@ def test_the_shipped_figures_give_one_table_per_part():
         "## Denoisers against OIDN",
     ]
     # every figure of the shipped file lands in its table, formatted, with its ratio to its anchor
-    oidn = figures["speed_denoise"]["oidn"]
-    assert f"| oidn | {_fmt(oidn)} | {_fmt(1 / oidn)} | 1 (anchor) |" in text
-    for name, seconds in figures["speed_denoise"].items():
+    oidn = figures["speed.denoise"]["oidn"]
+    assert f"| oidn | {fmt(oidn)} | {fmt(1 / oidn)} | 1 (anchor) |" in text
+    for name, seconds in figures["speed.denoise"].items():
         if name != "oidn":
             assert (
-                f"| {name} | {_fmt(seconds)} | {_fmt(1 / seconds)} | {_ratio(seconds, oidn)} |"
-                in text
+                f"| {name} | {fmt(seconds)} | {fmt(1 / seconds)} | {ratio(seconds, oidn)} |" in text
             )
-    llvm = figures["throughput"]["direct"]["ratio_llvm_ad_rgb"]
-    assert "| direct | Mitsuba llvm_ad_rgb |" in text and f"| {_fmt(1 / llvm)}x |" in text
+    llvm = figures["speed.tracer"]["direct"]["ratio_llvm_ad_rgb"]
+    assert "| direct | Mitsuba llvm_ad_rgb |" in text and f"| {fmt(1 / llvm)}x |" in text
     assert "No memory-copy anchor in these figures" not in text  # this run measured the copy
 
 
 def test_failures_gaps_and_unknown_scripts():
     figures = {
-        "throughput": {
+        "speed.tracer": {
             "settings": {"width": 8},
             "direct": {
                 "bnerr": {"best_s": 1.0, "median_s": 1.0, "warmup_s": 2.0, "samples_per_s": 5e6},
@@ -100,8 +101,8 @@ def test_failures_gaps_and_unknown_scripts():
                 "ratio_scalar_rgb": None,
             },
         },
-        "speed_permute": {"sort_pass_lum_ms": 2.0, "gap": {"groups_ms": 3.0}, "size": "?"},
-        "speed_denoise": {"oidn": None, "gaussian": 0.5},
+        "speed.permute": {"sort_pass_lum_ms": 2.0, "gap": {"groups_ms": 3.0}, "size": "?"},
+        "speed.denoise": {"oidn": None, "gaussian": 0.5},
         "other": {"x": {"y": 1.23456789}},
     }
     text = speed_markdown(Suite("speed", "d", scripts=()), figures, {"other": "What x is."})
@@ -120,11 +121,11 @@ def test_failures_gaps_and_unknown_scripts():
     + [(0, "0"), (None, "-"), ("error", "-"), (float("nan"), "-"), (True, "-")],
 )
 def test_numbers_keep_three_significant_digits(value, shown):
-    assert _fmt(value) == shown
+    assert fmt(value) == shown
 
 
 def test_ratios_and_the_white_noise_fraction():
-    assert _ratio(3.0, 1.5) == "2.00x" and _ratio(1.0, 0) == "-" and _ratio(None, 1.0) == "-"
+    assert ratio(3.0, 1.5) == "2.00x" and ratio(1.0, 0) == "-" and ratio(None, 1.0) == "-"
     assert WHITE_LOW_FREQUENCY == pytest.approx(0.0490874)
 
 

@@ -640,7 +640,7 @@ _BNDS_RAW = (
 def real_raw_errors(one_thread):
     """Per-tile raw MSE of white and the rivals on small real renders: name -> ``[tiles]``."""
     import renderers
-    from benchmarks.references import reference_seeds
+    from benchmarks.sweep.references import reference_seeds
     from bnerr.sequences import make_sampler
 
     n, spp, frames, tile = (_REAL[k] for k in ("size", "spp", "frames", "tile"))
@@ -877,7 +877,7 @@ def variant_raw_errors(one_thread):
     """Per-tile raw MSE of white, temporal and every registered variant on a small real render
     (direct, animated, 48x48, 4 spp, 8 frames, 256-spp references): name -> ``[tiles]``."""
     import renderers
-    from benchmarks.references import reference_seeds
+    from benchmarks.sweep.references import reference_seeds
     from bnerr.sequences import make_sampler
 
     n, spp, frames, tile = (_REAL[k] for k in ("size", "spp", "frames", "tile"))

@@ -148,8 +148,8 @@ def test_every_planned_run_builds_its_strategy(name):
     # The suites' plans still work with the rivals: every run's strategy can be built for its
     # scene, depth and spp (the Z-order ones need spp a power of two), and no run is planned twice.
     import renderers
-    from benchmarks.parts import real_parts
-    from benchmarks.plan import plan
+    from benchmarks.sweep.parts import real_parts
+    from benchmarks.sweep.plan import plan
 
     parts = real_parts()
     runs = plan(get_suite(name))
@@ -212,7 +212,7 @@ def test_gap_renders_fit_in_an_hour():
     # Renders dominate (the oracle's 32 per frame among them); references at 256 spp count once
     # per scene, condition and frame. The budget leaves a quarter of the hour for the denoisers'
     # tuning and the metrics.
-    from benchmarks.plan import plan
+    from benchmarks.sweep.plan import plan
 
     seconds = 0.0
     for run in plan(get_suite("gap")):

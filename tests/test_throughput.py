@@ -1,8 +1,9 @@
-"""Tests for benchmarks.throughput: figures for both renderers, graceful without LLVM or Mitsuba."""
+"""Tests for benchmarks.speed.tracer: figures for both renderers, graceful without LLVM or
+Mitsuba."""
 
 import pytest
 
-from benchmarks import throughput
+from benchmarks.speed import tracer as throughput
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -37,7 +38,5 @@ def test_missing_llvm_or_broken_variant_is_an_error_string(monkeypatch):
 
 
 def test_without_mitsuba(monkeypatch):
-    import renderers.mitsuba
-
-    monkeypatch.setattr(renderers.mitsuba, "mitsuba_available", lambda: False)
+    monkeypatch.setattr(throughput, "mitsuba_available", lambda: False)
     assert "not installed" in throughput.measure_mitsuba("scalar_rgb", "direct", 8, 8, 1)

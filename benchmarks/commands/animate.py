@@ -23,16 +23,14 @@ import argparse
 import time
 from pathlib import Path
 
+import torch
+
+from benchmarks.animate import Animation, animate, default_strategies
+from benchmarks.commands._args import names, parse_resolution
+from benchmarks.sweep.parts import known_names
 from bnerr.errors import check_positive_int
 
 __all__ = ["register", "run"]
-
-
-def _names(values: list[str] | None) -> list[str] | None:
-    """Accept both ``--scenes a b`` and ``--scenes a,b``."""
-    if values is None:
-        return None
-    return [v for item in values for v in item.split(",") if v]
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -76,12 +74,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _specs(args: argparse.Namespace) -> list:
-    from benchmarks.animate import Animation, default_strategies
-    from benchmarks.commands.render import parse_resolution
-    from benchmarks.parts import known_names
 
     width, height = parse_resolution(args.res)
-    strategies = tuple(_names(args.strategies) or default_strategies())
+    strategies = tuple(names(args.strategies) or default_strategies())
     known = known_names()
     return [
         Animation(
@@ -99,15 +94,12 @@ def _specs(args: argparse.Namespace) -> list:
             gif_crop=args.gif_crop,
             gif_frames=args.gif_frames,
         ).check(known)
-        for scene in _names(args.scenes)
+        for scene in names(args.scenes)
     ]
 
 
 def run(args: argparse.Namespace) -> int:
     """Check everything, then render and write each scene, printing its files and timings."""
-    import torch
-
-    from benchmarks.animate import animate
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))

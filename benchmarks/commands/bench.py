@@ -8,18 +8,19 @@ Examples::
     bnerr bench --suite quality --ray HEAD:6379      # every seed set a task on a Ray cluster
 
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
-records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.report`). References are
+records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.reports`). References are
 cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the results already in
 the output folder and measures only the missing cells; without it, a folder that already holds
 finished cells is refused unless ``--overwrite`` says to discard them. The command holds the
 output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a second
 ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
-``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks (:mod:`benchmarks.ray_runner`;
-the ``cluster`` extra): ``auto`` (the default when the flag has no value) joins the cluster this
-machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else starts a local instance;
-``HOST:PORT`` joins a head node. The records are the serial runner's bit for bit (timings aside);
-``--resume`` works the same. ``--ray-cpus`` sets the CPUs (and torch threads) of each task.
+``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
+(:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
+no value) joins the cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else
+starts a local instance; ``HOST:PORT`` joins a head node. The records are the serial runner's bit
+for bit (timings aside); ``--resume`` works the same. ``--ray-cpus`` sets the CPUs (and torch
+threads) of each task.
 """
 
 from __future__ import annotations
@@ -27,7 +28,19 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import torch
+
+from benchmarks import suites
+from benchmarks.commands._args import names, parse_resolution
+from benchmarks.reports import write_report
+from benchmarks.speed import rewrite_speed_report, run_speed
+from benchmarks.suites import SUITES
+from benchmarks.sweep import runner
+from benchmarks.sweep.parts import known_names
+from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
+from benchmarks.sweep.records import load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
+from bnerr.outputs import output_lock
 
 __all__ = ["register"]
 
@@ -44,19 +57,12 @@ _OVERRIDES = (
 )
 
 
-def _names(values: list[str] | None) -> list[str] | None:
-    """Accept both ``--scenes a b`` and ``--scenes a,b``."""
-    if values is None:
-        return None
-    return [v for item in values for v in item.split(",") if v]
-
-
 def _ints(values: list[str] | None, flag: str) -> list[int] | None:
-    names = _names(values)
-    if names is None:
+    given = names(values)
+    if given is None:
         return None
     try:
-        numbers = [int(v) for v in names]
+        numbers = [int(v) for v in given]
     except ValueError as err:
         raise DtypeError(f"{flag}: expected positive integers, got {values!r}") from err
     return [check_positive_int(n, flag) for n in numbers]
@@ -67,17 +73,10 @@ def _count(value: int | None, flag: str, minimum: int = 1) -> int | None:
 
 
 def _res(text: str | None) -> tuple[int, int] | None:
-    if text is None:
-        return None
-    try:
-        width, height = (int(v) for v in text.lower().split("x"))
-    except ValueError as err:
-        raise DtypeError(f"--res: expected WIDTHxHEIGHT such as 128x128, got {text!r}") from err
-    return check_positive_int(width, "--res width"), check_positive_int(height, "--res height")
+    return None if text is None else parse_resolution(text)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    from benchmarks.suites import SUITES
 
     parser = subparsers.add_parser(
         "bench",
@@ -137,7 +136,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks.speed import rewrite_speed_report, run_speed
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
@@ -153,8 +151,6 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
 
 
 def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks import report
-    from benchmarks.records import load_records
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += ["--ray"] if args.ray is not None else []
@@ -167,22 +163,20 @@ def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
     if not records:
         raise ValueRangeError(f"--report-only: expected finished cells in {out}, got none")
     title = f"bnerr bench --suite {suite.name}"
-    return report.write_report(out, records, title=title, charts=not args.no_charts)
+    return write_report(out, records, title=title, charts=not args.no_charts)
 
 
 def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
-    from benchmarks import report, runner, suites
-    from benchmarks.parts import known_names
 
     if args.report_only:
         return _report_only(args, suite, out)
 
     suite = suites.resolve(
         suite,
-        scenes=_names(args.scenes),
-        strategies=_names(args.strategies),
+        scenes=names(args.scenes),
+        strategies=names(args.strategies),
         spp=_ints(args.spp, "--spp"),
-        denoisers=_names(args.denoisers),
+        denoisers=names(args.denoisers),
         frames=_count(args.frames, "--frames"),
         warmup=_count(args.warmup, "--warmup", minimum=0),
         res=_res(args.res),
@@ -194,27 +188,19 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
         cache_dir=args.cache, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet
     )
     if args.ray is not None:
-        from benchmarks.ray_runner import run_suite_ray
-
         records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)
     else:
         records = runner.run_suite(suite, out, **common)
     title = f"bnerr bench --suite {suite.name}"
-    return report.write_report(out, records, title=title, charts=not args.no_charts)
+    return write_report(out, records, title=title, charts=not args.no_charts)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the suite while holding ``--out``'s write lock; print the table unless ``--quiet``."""
-    import torch
-
-    from benchmarks import suites
-    from bnerr.outputs import output_lock
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     if args.ray is not None:  # before any work: say how to install it
-        from benchmarks.ray_runner import require_ray
-
         require_ray()
         check_positive_int(args.ray_cpus, "--ray-cpus")
     suite = suites.get_suite(args.suite)

@@ -20,6 +20,10 @@ from pathlib import Path
 
 from bnerr.errors import DtypeError
 from bnerr.frame import Frame
+from bnerr.io import read_frame, write_frame
+from bnerr.outputs import check_output
+from denoisers import get_denoiser
+from denoisers.tuning import ParamStore
 
 __all__ = ["parse_params", "register", "run"]
 
@@ -43,7 +47,6 @@ def parse_params(items: list[str]) -> dict[str, object]:
 
 def _params(args: argparse.Namespace) -> dict[str, object]:
     """``--params``, over the ``--tuned`` entry of ``--scene`` (and ``--spp``) when given."""
-    from denoisers.tuning import ParamStore
 
     params = parse_params(args.params)
     if args.tuned is None:
@@ -56,9 +59,6 @@ def _params(args: argparse.Namespace) -> dict[str, object]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from bnerr.io import read_frame, write_frame
-    from bnerr.outputs import check_output
-    from denoisers import get_denoiser
 
     source = Path(args.input)
     # The output is about as large as the input (same buffers, new color): check the folder

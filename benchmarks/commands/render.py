@@ -36,16 +36,16 @@ import argparse
 import time
 from pathlib import Path
 
-from bnerr.errors import DtypeError, ValueRangeError
+from benchmarks.commands._args import parse_resolution
+from bnerr.errors import ValueRangeError, check_memory, check_positive_int
+from bnerr.io import write_frame, write_png
+from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
+from bnerr.sequences import make_sampler
+from bnerr.strategies import make_strategy, pixel_seeds
+from renderers import get_scene, render
+from renderers.memory import render_bytes
 
-__all__ = [
-    "AUTO_COMPILE_PATHS",
-    "compile_choice",
-    "parse_resolution",
-    "register",
-    "render_bytes",
-    "run",
-]
+__all__ = ["AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
 
 SAMPLER_NAMES = ("white", "owen_sobol")
 #: Fixed-seed renders of at least this many paths in all run the compiled tracer by default:
@@ -53,47 +53,13 @@ SAMPLER_NAMES = ("white", "owen_sobol")
 AUTO_COMPILE_PATHS = 1 << 21
 
 
-def parse_resolution(text: str) -> tuple[int, int]:
-    """``"320x240"`` -> ``(320, 240)`` (width, height), both >= 1.
-
-    Raises:
-        DtypeError: not of the form ``WxH`` with integers.
-        ValueRangeError: a size < 1.
-    """
-    w, sep, h = str(text).lower().partition("x")
-    try:
-        width, height = int(w), int(h)
-    except ValueError:
-        raise DtypeError(
-            f"--res: expected WxH with integers (e.g. 320x240), got {text!r}"
-        ) from None
-    if not sep:
-        raise DtypeError(f"--res: expected WxH with integers (e.g. 320x240), got {text!r}")
-    if width < 1 or height < 1:
-        raise ValueRangeError(f"--res: expected width and height >= 1, got {width}x{height}")
-    return width, height
-
-
-#: Rough peak memory of one frame per pixel: the seeds, the tracer's per-pixel sums and guide
-#: buffers, the Frame, and the EXR and PNG writers' copies. Measured at 1024 x 1024 (cornell):
-#: 270 B/px at 1 spp, 430 B/px at 4 spp, including the chunks' fixed working set.
-RENDER_BYTES_PER_PIXEL = 448
-#: The tracer's working set for its chunks of paths, whatever the resolution (rough).
-RENDER_FIXED_BYTES = 256 * 2**20
 #: Disk bytes per pixel and frame at most: 16 float32 EXR channels (ZIP never grows them much)
 #: and the 8-bit RGB preview.
 OUTPUT_BYTES_PER_PIXEL = 16 * 4 + 3
 
 
-def render_bytes(width: int, height: int) -> int:
-    """Rough peak memory of rendering and writing one ``width x height`` frame."""
-    return RENDER_FIXED_BYTES + RENDER_BYTES_PER_PIXEL * width * height
-
-
 def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
     """Every check of ``bnerr render`` that needs no rendering: numbers, memory, output folder."""
-    from bnerr.errors import check_memory, check_positive_int
-    from bnerr.outputs import check_output
 
     width, height = parse_resolution(args.res)
     check_positive_int(args.spp, "--spp")
@@ -137,9 +103,6 @@ def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, scene
 
 def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int):
     """``(t, frame, seconds)`` of the fixed-seed renders: every frame its own seed image."""
-    from bnerr.sequences import make_sampler
-    from bnerr.strategies import pixel_seeds
-    from renderers import render
 
     sampler = make_sampler(args.sampler or "white")
     seed = args.seed or 0
@@ -152,9 +115,8 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
 
 def _strategy_frames(args: argparse.Namespace, strategy, scene):
     """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, as the benchmark renders
-    them (:func:`benchmarks.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
+    them (:func:`benchmarks.sweep.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
     renderer's frame t; a stateful strategy's earlier frames are rendered, not yielded."""
-    from renderers import render
 
     first = 0 if getattr(strategy, "stateful", False) else args.start
     for t in range(first, args.start + args.frames):
@@ -169,10 +131,6 @@ def _strategy_frames(args: argparse.Namespace, strategy, scene):
 
 
 def run(args: argparse.Namespace) -> int:
-    from bnerr.io import write_frame, write_png
-    from bnerr.outputs import clean_stale_temporaries, output_lock
-    from bnerr.strategies import make_strategy
-    from renderers import get_scene
 
     width, height, out = _check_args(args)
     args.compile_now = compile_choice(args, width, height)

@@ -8,12 +8,13 @@ from __future__ import annotations
 
 import argparse
 
+from renderers import SCENES, get_scene
+
 __all__ = ["register", "run", "table"]
 
 
 def table() -> list[dict[str, object]]:
     """One row per named scene: name, D, depth, lights, objects, medium, animated, description."""
-    from renderers import SCENES, get_scene
 
     rows = []
     for name in SCENES:
@@ -33,7 +34,6 @@ def table() -> list[dict[str, object]]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from renderers import get_scene
 
     if args.layout:
         scene = get_scene(args.layout)

@@ -24,6 +24,14 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
+import torch
+
+from benchmarks.training_data import TrainingSpec, make_pairs, training_set_bytes
+from bnerr.errors import ValueRangeError, check_memory
+from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
+from denoisers.train import TrainConfig, TrainingSet, make_training_set, step_bytes, train
+from denoisers.unet import atomic_torch_save, check_parameter_count, parameter_count, save_weights
+
 __all__ = ["canonical_command", "load_or_render", "register", "run"]
 
 #: v2: the ``white+blue`` mix makes its blue inputs with the benchmark's strategies
@@ -34,11 +42,6 @@ DATA_FORMAT = "bnerr-training-set-v2"
 def load_or_render(spec, path: Path, progress: bool):
     """The :class:`~denoisers.train.TrainingSet` of ``spec``: read from ``path`` if it holds
     that spec's data, else rendered and written there (atomically)."""
-    import torch
-
-    from benchmarks.training_data import make_pairs
-    from denoisers.train import TrainingSet, make_training_set
-    from denoisers.unet import atomic_torch_save
 
     if path.exists():
         try:
@@ -77,7 +80,6 @@ def canonical_command(args: argparse.Namespace) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    import torch
 
     before = torch.get_num_threads()
     torch.set_num_threads(args.threads)
@@ -90,11 +92,6 @@ def run(args: argparse.Namespace) -> int:
 def _settings(args: argparse.Namespace):
     """The run's :class:`TrainingSpec` and :class:`TrainConfig`, checked before any work: the
     network's size, the memory the training set and a batch need, and the output files."""
-    from benchmarks.training_data import TrainingSpec, training_set_bytes
-    from bnerr.errors import ValueRangeError, check_memory
-    from bnerr.outputs import check_output
-    from denoisers.train import TrainConfig, step_bytes
-    from denoisers.unet import check_parameter_count, parameter_count
 
     spec = TrainingSpec(
         scenes=args.scenes,
@@ -142,7 +139,6 @@ def _ckpt(out: Path) -> Path:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from bnerr.outputs import clean_stale_temporaries, output_lock
 
     start = time.perf_counter()
     spec, config = _settings(args)
@@ -155,8 +151,6 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _train(args: argparse.Namespace, spec, config, out: Path, start: float) -> int:
-    from denoisers.train import train
-    from denoisers.unet import save_weights
 
     data = load_or_render(spec, _data_path(out), progress=not args.no_progress)
     render_s = time.perf_counter() - start

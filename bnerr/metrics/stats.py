@@ -12,8 +12,8 @@ image carries over), so the frame-level bootstrap is a within-run estimate; inde
 are the unit that makes it honest, and the suites use them where the budget allows.
 
 **Building blocks.** A statistic that is neither a mean nor a ratio of two means (the share of a
-gap, :mod:`benchmarks.gap`) is built from the same pieces, so that its interval resamples the
-frames exactly as the others do: :func:`as_stats` (values to ``[S, F, 2]`` pairs),
+gap, :mod:`benchmarks.reports.gap`) is built from the same pieces, so that its interval
+resamples the frames exactly as the others do: :func:`as_stats` (values to ``[S, F, 2]`` pairs),
 :func:`resample_weights` (the two-stage draws, shared by every quantity of one comparison),
 :func:`resampled_values` (a pooled mean per resample), :func:`percentile_interval` and
 :func:`check_bootstrap` (the arguments' checks).

@@ -4,10 +4,11 @@ a fixed order from the baseline to the bound.
 A **group** is a scene with its condition (camera motion, path depth, pixel region, per-pixel
 sampler): the rows the report compares strategy against strategy, ``(scene, motion, depth,
 region, sampler)`` as :func:`group_key` gives it from a ``table.csv`` row. Every report module
-(:mod:`benchmarks.report`, :mod:`benchmarks.denoise_response`) titles, orders and names groups
+(:mod:`benchmarks.reports`, :mod:`benchmarks.reports.denoisers`) titles, orders and names groups
 through these functions, so that their tables line up.
 
-Not for: grouping records for statistics (:mod:`benchmarks.gap` pairs records by their whole cell).
+Not for: grouping records for statistics (:mod:`benchmarks.reports.gap` pairs records by their whole
+cell).
 """
 
 from __future__ import annotations

@@ -1,11 +1,12 @@
 """Measuring one run: render through the strategy, denoise, compare with the references.
 
-For each seed set of a :class:`benchmarks.plan.Run`, :func:`measure_run` builds the strategy, lets
-it drive the renderer for ``warmup + frames`` frames (the warmup frames are rendered but not
+For each seed set of a :class:`benchmarks.sweep.plan.Run`, :func:`measure_run` builds the strategy,
+lets it drive the renderer for ``warmup + frames`` frames (the warmup frames are rendered but not
 measured, so that the temporal strategies have converged; stateless strategies skip them, see
-:class:`benchmarks.parts.Parts`), and, for each measured frame, compares the raw frame and every
-denoiser's output with the reference of that frame (:class:`bnerr.metrics.FrameMetrics`), once per
-pixel region. One run yields one :class:`benchmarks.records.Record` per cell (denoiser x region).
+:class:`benchmarks.sweep.parts.Parts`), and, for each measured frame, compares the raw frame and
+every denoiser's output with the reference of that frame (:class:`bnerr.metrics.FrameMetrics`), once
+per pixel region. One run yields one :class:`benchmarks.sweep.records.Record` per cell (denoiser x
+region).
 
 - **Timings** per measured frame, one stopwatch each: ``render_ms`` is the frame's
   ``timings["render"]`` (the renderer's own clock, summed over the strategy's renders: the oracle
@@ -19,13 +20,8 @@ pixel region. One run yields one :class:`benchmarks.records.Record` per cell (de
   seed set (a sequence) and fed every frame in order, warmup frames included, as
   ``denoiser(frame, t=t)``; a run with one renders the warmup frames of a stateless strategy
   too. Only the measured frames' outputs are measured and timed.
-- **Fair denoisers** (:func:`tune_denoisers`): each filter's parameters are tuned once per scene,
-  condition and spp on white-noise frames (:mod:`denoisers.tuning`) and used unchanged for every
-  strategy: the conservative column.
-- **Own tuning** (``NAME:own``, e.g. ``gaussian:own``): the same filter and grid tuned on the
-  run's strategy's own frames, as a team that adopts the strategy would re-tune; the tuning seed
-  set is held out of the measured ones, so tuning cannot fit the measured noise. Both columns sit
-  in one table under their names.
+- **Denoisers** come tuned (:mod:`benchmarks.sweep.tuning`: fair on white noise, or
+  ``NAME:own`` on the strategy's own frames).
 - **Crops**: a centre crop of the reference, the raw frame and every denoised frame of the first
   measured frame, as 8-bit sRGB previews (:func:`bnerr.color.preview_u8`), saved per run.
 
@@ -34,18 +30,17 @@ Not for: timing the parts in isolation at 1080p (the ``speed`` suite, :mod:`benc
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 import torch
 
-from benchmarks.parts import Denoiser, Parts, Scene
-from benchmarks.plan import Run
-from benchmarks.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
+from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, Scene
+from benchmarks.sweep.plan import Run
+from benchmarks.sweep.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
 from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
@@ -55,81 +50,26 @@ from bnerr.spectrum import radial_power_spectrum
 from bnerr.timing import Stopwatch
 
 __all__ = [
-    "OWN_SUFFIX",
-    "TUNING_SEED_SET",
-    "ParamStore",
     "References",
     "SeedSetResult",
     "finish_run",
-    "make_denoisers",
     "measure_run",
     "measure_seed_set",
     "merge_seed_sets",
-    "missing_tuning",
-    "store_tuned",
     "scene_for",
-    "split_own",
-    "tune_denoisers",
-    "tune_missing",
-    "tuned_params",
-    "tuning_key",
-    "tuning_source",
+    "t_reference",
+    "t_render",
 ]
 
-#: The seed set of the white frames the denoisers are tuned on: no measured run uses it.
-TUNING_SEED_SET = 1_000_003
 _SPECTRUM_TILE = 64
 _CROP = 64
 
 
-class ParamStore(Protocol):
-    """The tuned parameters (:class:`denoisers.tuning.ParamStore`), as :func:`tune_denoisers`
-    uses them."""
-
-    entries: dict
-
-    def put(self, result: Any, scene: str, spp: int) -> None: ...
-
-    def params(self, denoiser: str, scene: str, spp: int) -> dict: ...
-
-
 class References(Protocol):
-    """The references as measuring reads them (:class:`benchmarks.references.ReferenceCache`, or
-    the frames a Ray task was handed)."""
+    """The references as measuring reads them (:class:`benchmarks.sweep.references.ReferenceCache`,
+    or the frames a Ray task was handed)."""
 
     def get(self, run: Run, scene: Scene, t_render: int) -> Frame: ...
-
-
-class _BoundRender:
-    """The ``render(seeds, sampler)`` a strategy calls, with scene, t and spp bound (no clock:
-    the frame carries the renderer's own time).
-
-    ``motion_scale``: a run whose animation is ``k`` times faster shows the strategy the
-    renderer's frames ``k t``, whose motion buffers say how far a pixel moved since frame
-    ``k t - 1``; the strategy's previous frame is ``k (t - 1)``, so the motion it sees is scaled
-    by ``k`` (exact for linear motion, a first-order estimate for orbits). Strategies that
-    reproject seeds and temporal denoisers read it.
-    """
-
-    def __init__(self, parts: Parts, scene: Scene, spp: int, motion_scale: int = 1) -> None:
-        self.parts, self.scene, self.spp = parts, scene, spp
-        self.motion_scale = motion_scale
-        self.t_render = 0
-        if parts.render_batch is not None:
-            self.batch = self._batch
-
-    def _scaled(self, frame: Frame) -> Frame:
-        if self.motion_scale != 1 and frame.motion is not None:
-            frame.motion = frame.motion * self.motion_scale
-        return frame
-
-    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
-        return self._scaled(self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp))
-
-    def _batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
-        """The renders of ``seeds [K, H, W]`` at once (``render.batch``, for the oracle)."""
-        frames = self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
-        return [self._scaled(frame) for frame in frames]
 
 
 def _center_crop(x: torch.Tensor, size: int) -> torch.Tensor:
@@ -147,14 +87,14 @@ def scene_for(run: Run, parts: Parts) -> Scene:
     return scene
 
 
-def _t_render(run: Run, t: int) -> int:
+def t_render(run: Run, t: int) -> int:
     """The frame the renderer sees: ``motion`` times faster; a static scene ignores it."""
     return t * max(run.motion, 1)
 
 
-def _t_reference(run: Run, t: int) -> int:
+def t_reference(run: Run, t: int) -> int:
     """Static scenes (motion 0) look the same at every t: one reference serves every frame."""
-    return _t_render(run, t) if run.motion else 0
+    return t_render(run, t) if run.motion else 0
 
 
 def _region_masks(run: Run, ref: Frame) -> dict[str, torch.Tensor | None]:
@@ -385,13 +325,13 @@ def measure_seed_set(
     on_frame: Callable[[], None] | None = None,
 ) -> SeedSetResult:
     """Render, denoise and measure seed set ``group`` of ``run``: the unit of work of both the
-    serial loop (:func:`measure_run`) and the Ray tasks (:mod:`benchmarks.ray_runner`).
+    serial loop (:func:`measure_run`) and the Ray tasks (:mod:`benchmarks.sweep.ray_runner`).
 
     Args:
-        run: what to measure (:func:`benchmarks.plan.plan`).
+        run: what to measure (:func:`benchmarks.sweep.plan.plan`).
         parts: the parts that render and permute.
-        references: the references (:class:`~benchmarks.references.ReferenceCache`, or anything
-            with its ``get(run, scene, t_render)``).
+        references: the references (:class:`~benchmarks.sweep.references.ReferenceCache`, or
+            anything with its ``get(run, scene, t_render)``).
         denoisers: name -> denoiser (with its tuned parameters) for every name in
             ``run.denoisers``.
         group: the seed set, ``0 <= group < run.seed_sets`` (the strategy's seed).
@@ -404,7 +344,7 @@ def measure_seed_set(
     scene = scene_for(run, parts)
     chosen = {name: denoisers[name] for name in run.denoisers}
     measurement = _SeedSetMeasurement(run, group, chosen)
-    render = _BoundRender(parts, scene, run.spp, max(run.motion, 1))
+    render = BoundRender(parts, scene, run.spp, max(run.motion, 1))
     tick = on_frame if on_frame is not None else (lambda: None)
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
@@ -416,11 +356,11 @@ def measure_seed_set(
         tick()
     measurement.reset()
     for t in range(first, run.warmup + run.frames):
-        render.t_render = _t_render(run, t)
+        render.t_render = t_render(run, t)
         frame = strategy.frame(t, render)
         tick()
         if t >= run.warmup:
-            measurement.add(t, frame, references.get(run, scene, _t_reference(run, t)))
+            measurement.add(t, frame, references.get(run, scene, t_reference(run, t)))
         else:
             measurement.feed_warmup(t, frame)
     sampler = getattr(strategy, "sampler_name", "") or run.sampler
@@ -452,7 +392,7 @@ def measure_run(
         crops_dir: where to save the side-by-side crops (if ``run.crops``), or None.
 
     Returns:
-        One :class:`~benchmarks.records.Record` per cell of ``run.cells()``, in that order.
+        One :class:`~benchmarks.sweep.records.Record` per cell of ``run.cells()``, in that order.
     """
     results = [
         measure_seed_set(run, parts, references, denoisers, group, on_frame=on_frame)
@@ -471,129 +411,3 @@ def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
         with open(tmp, "wb") as handle:
             np.savez_compressed(handle, **{k.replace("/", "__"): v for k, v in crop.items()})
     return f"{crops_dir.name}/{name}"
-
-
-# --------------------------------------------------------------------------------------------------
-# Tuned denoiser parameters: fair (on white noise) and own (on the strategy's noise)
-
-#: A denoiser name ending in this (``gaussian:own``) is tuned on the run's strategy's own frames.
-OWN_SUFFIX = ":own"
-
-
-def split_own(name: str) -> tuple[str, bool]:
-    """``"gaussian:own"`` -> ``("gaussian", True)``; ``"gaussian"`` -> ``("gaussian", False)``."""
-    if name.endswith(OWN_SUFFIX):
-        return name[: -len(OWN_SUFFIX)], True
-    return name, False
-
-
-def tuning_key(run: Run) -> str:
-    """What the tuned parameters depend on besides spp: scene, condition, sampler and resolution."""
-    depth = "" if run.depth is None else f"/d{run.depth}"
-    return f"{run.scene}/m{run.motion}{depth}/{run.sampler}/{run.width}x{run.height}"
-
-
-def tuning_source(run: Run, name: str) -> str:
-    """The strategy whose frames ``name`` is tuned on: ``white``, or the run's own for
-    ``NAME:own``."""
-    return run.strategy if split_own(name)[1] else "white"
-
-
-def _store_key(run: Run, name: str) -> str:
-    """The store's key of ``name``'s parameters for ``run``: :func:`tuning_key`, plus the
-    strategy for ``NAME:own`` (stored under its own name, ``gaussian:own``)."""
-    key = tuning_key(run)
-    return f"{key}/{run.strategy}" if split_own(name)[1] else key
-
-
-def _stored(store: ParamStore, name: str, key: str, spp: int) -> dict | None:
-    """The stored parameters, or None for a denoiser without any (nothing to tune)."""
-    if str(spp) in store.entries.get(name, {}).get(key, {}):
-        return store.params(name, key, spp)
-    return None
-
-
-def missing_tuning(run: Run, store: ParamStore) -> dict[str, list[str]]:
-    """The run's denoisers with no parameters in ``store`` for its scene, condition and spp, by
-    :func:`tuning_source` (those without a grid among them: they are never stored)."""
-    missing: dict[str, list[str]] = {}
-    for name in run.denoisers:
-        if _stored(store, name, _store_key(run, name), run.spp) is None:
-            missing.setdefault(tuning_source(run, name), []).append(name)
-    return missing
-
-
-def tune_missing(
-    run: Run, parts: Parts, references: References, names: list[str], source: str = "white"
-) -> dict[str, Any]:
-    """Tune ``names`` for ``run``'s scene, condition and spp on the frames of strategy
-    ``source``: name -> TuneResult, or None for a denoiser with nothing to tune.
-
-    The frames are ``min(frames, 4)`` measured frames (a stateful ``source`` renders its warmup
-    frames first) from a seed set no measured run uses (:data:`TUNING_SEED_SET`: held out, so
-    that tuning cannot fit the measured noise), against the same references. Nothing is rendered
-    when ``names`` is empty. ``NAME`` and ``NAME:own`` among ``names`` share one search (the
-    same frames give the same result).
-    """
-    if not names:
-        return {}
-    scene = scene_for(run, parts)
-    render = _BoundRender(parts, scene, run.spp, max(run.motion, 1))
-    strategy = parts.make_strategy(
-        source, scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
-    )
-    first = 0 if parts.stateful(strategy) else run.warmup
-    frames, refs = [], []
-    for t in range(first, run.warmup + min(run.frames, 4)):
-        render.t_render = _t_render(run, t)
-        frame = strategy.frame(t, render)
-        if t >= run.warmup:
-            frames.append(frame)
-            refs.append(references.get(run, scene, _t_reference(run, t)).color)
-    # ``NAME`` and ``NAME:own`` on the same frames (the white run) are one grid search
-    tuned: dict[str, Any] = {}
-    for base in dict.fromkeys(split_own(name)[0] for name in names):
-        tuned[base] = parts.tune_denoiser(base, frames, refs)
-    return {name: tuned[split_own(name)[0]] for name in names}
-
-
-def store_tuned(
-    run: Run, store: ParamStore, results: dict[str, Any], source: str = "white"
-) -> None:
-    """Put the results of :func:`tune_missing` on ``source``'s frames (those not None) in
-    ``store`` under ``run``'s key and spp; ``NAME:own`` under its own name, its key naming
-    ``source`` (the strategy it was tuned on, whichever run asked)."""
-    for name, result in results.items():
-        if result is None:
-            continue
-        key = tuning_key(run)
-        if split_own(name)[1]:
-            key = f"{key}/{source}"
-            if dataclasses.is_dataclass(result):
-                result = dataclasses.replace(result, denoiser=name)
-        store.put(result, key, run.spp)
-
-
-def tuned_params(run: Run, store: ParamStore) -> dict[str, dict | None]:
-    """Name -> the stored parameters of each of the run's denoisers (None: nothing to tune)."""
-    return {name: _stored(store, name, _store_key(run, name), run.spp) for name in run.denoisers}
-
-
-def make_denoisers(parts: Parts, params: dict[str, dict | None]) -> dict[str, Denoiser]:
-    """Name -> denoiser built with its parameters (:func:`tuned_params`); ``NAME:own`` is
-    ``NAME`` with its own parameters."""
-    return {name: parts.make_denoiser(split_own(name)[0], p) for name, p in params.items()}
-
-
-def tune_denoisers(
-    run: Run, parts: Parts, references: References, store: ParamStore
-) -> dict[str, Denoiser]:
-    """The run's denoisers with their tuned parameters for its scene, condition and spp.
-
-    Parameters missing from ``store`` are tuned now (:func:`tune_missing`, per
-    :func:`tuning_source`) and put in the store; the fair ones (tuned on white noise) are then
-    used unchanged for every strategy, the ``NAME:own`` ones for the strategy they were tuned on.
-    """
-    for source, names in missing_tuning(run, store).items():
-        store_tuned(run, store, tune_missing(run, parts, references, names, source), source)
-    return make_denoisers(parts, tuned_params(run, store))

@@ -1,44 +1,48 @@
 """The sweep behind ``bnerr bench``: measure every cell of a suite and keep the results file.
 
-:func:`run_suite` plans the suite (:mod:`benchmarks.plan`), skips the cells already in the output
-folder when resuming, tunes the denoisers once per scene, condition and spp on white noise
-(:func:`benchmarks.measure.tune_denoisers`, saved in ``<out>/tuned_params.json``), measures each
-pending run (:func:`benchmarks.measure.measure_run`) against cached references
-(:mod:`benchmarks.references`), and writes ``<out>/cells.jsonl`` after every run
-(:mod:`benchmarks.records`: whole and atomically the first time, then each run's lines appended),
-so an interrupted sweep loses at most the run in progress.
+:func:`run_suite` plans the suite (:mod:`benchmarks.sweep.plan`), skips the cells already in the
+output folder when resuming, tunes the denoisers once per scene, condition and spp on white noise
+(:func:`benchmarks.sweep.tuning.tune_denoisers`, saved in ``<out>/tuned_params.json``), measures
+each pending run (:func:`benchmarks.sweep.measure.measure_run`) against cached references
+(:mod:`benchmarks.sweep.references`), and writes ``<out>/cells.jsonl`` after every run
+(:mod:`benchmarks.sweep.records`: whole and atomically the first time, then each run's lines
+appended), so an interrupted sweep loses at most the run in progress.
 
-The unit of work is one seed set of a run (:func:`benchmarks.measure.measure_seed_set`); the
-serial loop here and the Ray tasks of :mod:`benchmarks.ray_runner` both compute it and merge a
+The unit of work is one seed set of a run (:func:`benchmarks.sweep.measure.measure_seed_set`); the
+serial loop here and the Ray tasks of :mod:`benchmarks.sweep.ray_runner` both compute it and merge a
 run's seed sets the same way, so their records are the same bit for bit (timings aside); both
 start from :func:`start_sweep` and write through :meth:`SweepState.add`.
 
-The parts (scenes, renderer, strategies, denoisers) come through :class:`benchmarks.parts.Parts`,
-so the runner can be tested with stand-ins. One writer per output folder is the caller's job
-(``bnerr bench`` holds :func:`bnerr.outputs.output_lock` on ``--out`` for the whole run).
+The parts (scenes, renderer, strategies, denoisers) come through
+:class:`benchmarks.sweep.parts.Parts`, so the runner can be tested with stand-ins. One writer per
+output folder is the caller's job (``bnerr bench`` holds :func:`bnerr.outputs.output_lock` on
+``--out`` for the whole run).
 
 Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
-(:mod:`benchmarks.report`).
+(:mod:`benchmarks.reports`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
-from benchmarks.measure import measure_run, tune_denoisers
-from benchmarks.parts import Parts, real_parts
-from benchmarks.plan import Run, pending
-from benchmarks.records import (
+from tqdm import tqdm
+
+from benchmarks.suites import Suite
+from benchmarks.sweep.measure import measure_run
+from benchmarks.sweep.parts import Parts, real_parts
+from benchmarks.sweep.plan import Run, pending
+from benchmarks.sweep.records import (
     Record,
     append_records,
     check_no_results,
     load_records,
     write_records,
 )
-from benchmarks.references import ReferenceCache
-from benchmarks.suites import Suite
+from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.tuning import TuningStore, tune_denoisers
+from denoisers.tuning import ParamStore
 
 __all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
 
@@ -60,7 +64,7 @@ class SweepState:
     out: Path
     parts: Parts
     records: dict[str, Record]
-    store: Any
+    store: TuningStore
     todo: list[Run]
     order: list[str] = field(default_factory=list)
     written: list[str] | None = None  # the keys in the file, in file order; None: not written yet
@@ -111,8 +115,6 @@ def start_sweep(
             ``overwrite``; nothing is written.
         FileFormatError: with ``resume``, a results or tuned-parameters file that is not valid.
     """
-    from denoisers.tuning import ParamStore
-
     out = Path(out_dir)
     if not resume and not overwrite:
         check_no_results(out)
@@ -150,8 +152,6 @@ def run_suite(
         FileFormatError: with ``resume``, a results file that is not valid (the message names
             the file and line).
     """
-    from tqdm import tqdm
-
     sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite)
     references = ReferenceCache(cache_dir, sweep.parts)
     total = sum(r.seed_sets * (r.warmup + r.frames) for r in sweep.todo)

@@ -12,7 +12,7 @@ JSON or not a record raises :class:`~bnerr.errors.FileFormatError` naming the fi
 The schema is the dataclasses below. Arrays are nested lists (JSON numbers); ``[S][F]`` is
 seed set x measured frame:
 
-- :class:`Record`: ``cell`` (:class:`benchmarks.plan.Cell`), ``dimensions`` (the scene's D),
+- :class:`Record`: ``cell`` (:class:`benchmarks.sweep.plan.Cell`), ``dimensions`` (the scene's D),
   ``t`` (the measured frame indices ``[F]``), ``raw`` and ``den`` (metric name -> per-frame pairs
   ``[S][F][2]`` of :class:`bnerr.metrics.FrameMetrics`, before and after denoising),
   ``denoiser_params``, ``timings``, ``reference``, ``spectrum`` (``"raw"`` and ``"den"``) and
@@ -41,7 +41,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from benchmarks.plan import Cell
+from benchmarks.sweep.plan import Cell
 from bnerr.errors import BnerrError, FileFormatError
 from bnerr.io import atomic_write
 
@@ -114,7 +114,7 @@ class Record:
 
     @property
     def key(self) -> str:
-        """The cell's key (:meth:`benchmarks.plan.Cell.key`)."""
+        """The cell's key (:meth:`benchmarks.sweep.plan.Cell.key`)."""
         return self.cell.key()
 
     def to_json(self) -> dict[str, Any]:

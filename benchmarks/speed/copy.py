@@ -11,11 +11,11 @@ pixel (at 1080p a T x T mask, field or plan header is negligible next to them):
 
 The copy of a job is ``dst.copy_(src)`` of two uint8 buffers of half its bytes, so that the copy
 reads and writes as many bytes in all as the job. :func:`measure` times the three copies in
-interleaved rounds (median), at the size and thread count of ``benchmarks.speed_permute``'s
+interleaved rounds (median), at the size and thread count of ``benchmarks.speed.permute``'s
 defaults; ``bnerr bench --suite speed`` runs it right after that script, so that both are measured
 in the same run under the same load (:func:`benchmarks.speed.run_speed`).
 
-Run: ``python -m benchmarks.speed_copy``.
+Run: ``python -m benchmarks.speed.copy``.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ __all__ = ["JOB_BYTES", "PASS_JOBS", "measure"]
 
 #: Bytes per pixel each job reads and writes (module docstring).
 JOB_BYTES: dict[str, int] = {"sort_lum": 21, "sort_rgb": 29, "retarget": 16}
-#: ``benchmarks.speed_permute`` figure -> the job it does (the baselines and fallbacks do the same
+#: ``benchmarks.speed.permute`` figure -> the job it does (the baselines and fallbacks do the same
 #: job as the pass they stand in for, so they share its anchor).
 PASS_JOBS: dict[str, str] = {
     "sort_pass_lum_ms": "sort_lum",
@@ -102,7 +102,7 @@ def _interleaved_copies(
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.speed_copy", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.copy", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--height", type=int, default=1080)

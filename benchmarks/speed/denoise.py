@@ -1,4 +1,4 @@
-"""Time each denoiser on a 1920 x 1080 frame: ``python -m benchmarks.speed_denoise``.
+"""Time each denoiser on a 1920 x 1080 frame: ``python -m benchmarks.speed.denoise``.
 
 The frame is synthetic (random color, albedo, normal, depth, motion, object id): the filters' and
 networks' cost does not depend on the image content. Each denoiser runs once to warm up
@@ -13,16 +13,23 @@ Timings depend on the machine and on what else runs on it; report them with the 
 from __future__ import annotations
 
 import argparse
+import inspect
+import math
 import statistics
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import torch
 
+from benchmarks.reports.markdown import table_lines
+from benchmarks.speed.formatting import fmt, number, ratio
+from bnerr.errors import FileFormatError
 from bnerr.frame import Frame
 from bnerr.timing import Stopwatch
+from denoisers import DENOISERS, MissingExtraError, get_denoiser
 
-__all__ = ["main", "measure", "synthetic_frame"]
+__all__ = ["table", "main", "measure", "synthetic_frame"]
 
 
 def synthetic_frame(height: int = 1080, width: int = 1920, seed: int = 0) -> Frame:
@@ -50,9 +57,6 @@ def measure(
     Returns ``{name: seconds}``; None for a denoiser that could not be built here (a missing extra
     or missing weights).
     """
-    from bnerr.errors import FileFormatError
-    from denoisers import DENOISERS, MissingExtraError, get_denoiser
-
     frame = synthetic_frame(height, width)
     results: dict[str, float | None] = {}
     for name in names if names is not None else list(DENOISERS):
@@ -72,9 +76,33 @@ def measure(
     return results
 
 
+def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
+    """The denoisers against OIDN."""
+    defaults = inspect.signature(measure).parameters
+    height, width = defaults["height"].default, defaults["width"].default
+    anchor = values.get("oidn")
+    lines = [
+        "## Denoisers against OIDN (`speed.denoise`)",
+        "",
+        f"Median seconds per {width} x {height} frame of each denoiser with its default "
+        "parameters (a stateful one with its history); ratio: over OIDN's time in the same run "
+        '(below 1: faster than OIDN). "-": not available on the machine that ran it.',
+        "",
+    ]
+    rows = []
+    for name, seconds in sorted(values.items(), key=lambda kv: number(kv[1]) or math.inf):
+        s = number(seconds)
+        rows.append(
+            [name, fmt(s), fmt(None if s is None else 1 / s), ratio(s, anchor)]
+            if name != "oidn"
+            else [name, fmt(s), fmt(None if s is None else 1 / s), "1 (anchor)"]
+        )
+    return lines + table_lines(["denoiser", "s / frame", "frames / s", "/ OIDN"], rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.speed_denoise", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.denoise", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--size", nargs=2, type=int, default=(1920, 1080), metavar=("W", "H"))
     parser.add_argument("--repeats", type=int, default=3)

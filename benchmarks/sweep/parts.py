@@ -16,17 +16,23 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import torch
 
+import denoisers
+import renderers
+from benchmarks.sweep.version import code_version
+from bnerr import sequences, strategies
 from bnerr.frame import Frame
+from denoisers import tuning
 
 if TYPE_CHECKING:
     from bnerr.sequences import Sampler
     from denoisers.tuning import TuneResult
 
 __all__ = [
+    "BoundRender",
     "Denoiser",
     "Parts",
     "Renderer",
@@ -50,7 +56,7 @@ class Renderer(Protocol):
     The frame reports the render's wall time in ``timings["render"]`` (milliseconds). ``compile``
     is the tracer's (:func:`renderers.render`): None is eager unless the environment says
     otherwise, True runs its per-vertex stage through ``torch.compile``. The strategies' renders
-    pass nothing; the references pass :func:`benchmarks.references.reference_compile`.
+    pass nothing; the references pass :func:`benchmarks.sweep.references.reference_compile`.
     """
 
     def __call__(
@@ -110,10 +116,10 @@ class Parts:
         reference_sampler: ``() -> Sampler`` used for the references.
         with_depth: ``(scene, depth) -> scene`` with its maximum path depth replaced.
         code_version: a string that changes whenever a reference's pixels could change: the
-            renderer's and the samplers' source code (:func:`benchmarks.references.code_version`).
-        render_batch: ``(scene, t, seeds [K, H, W], sampler, spp) -> list[Frame]``, the K
-            renders of :attr:`render` at once and bit-identical to them (the oracle's
-            candidates), or None to render them one by one.
+            renderer's and the samplers' source code
+        (:func:`benchmarks.sweep.version.code_version`). render_batch: ``(scene, t, seeds [K, H, W],
+            sampler, spp) -> list[Frame]``, the K renders of :attr:`render` at once and
+            bit-identical to them (the oracle's candidates), or None to render them one by one.
     """
 
     get_scene: Callable[[str, bool], Scene]
@@ -128,13 +134,40 @@ class Parts:
     render_batch: Callable[..., list[Frame]] | None = None
 
 
+class BoundRender:
+    """The ``render(seeds, sampler)`` a strategy calls, with scene, t and spp bound (no clock:
+    the frame carries the renderer's own time).
+
+    ``motion_scale``: a run whose animation is ``k`` times faster shows the strategy the
+    renderer's frames ``k t``, whose motion buffers say how far a pixel moved since frame
+    ``k t - 1``; the strategy's previous frame is ``k (t - 1)``, so the motion it sees is scaled
+    by ``k`` (exact for linear motion, a first-order estimate for orbits). Strategies that
+    reproject seeds and temporal denoisers read it.
+    """
+
+    def __init__(self, parts: Parts, scene: Scene, spp: int, motion_scale: int = 1) -> None:
+        self.parts, self.scene, self.spp = parts, scene, spp
+        self.motion_scale = motion_scale
+        self.t_render = 0
+        if parts.render_batch is not None:
+            self.batch = self._batch
+
+    def _scaled(self, frame: Frame) -> Frame:
+        if self.motion_scale != 1 and frame.motion is not None:
+            frame.motion = frame.motion * self.motion_scale
+        return frame
+
+    def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
+        return self._scaled(self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp))
+
+    def _batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
+        """The renders of ``seeds [K, H, W]`` at once (``render.batch``, for the oracle)."""
+        frames = self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
+        return [self._scaled(frame) for frame in frames]
+
+
 def real_parts() -> Parts:
     """The project's own parts: ``renderers``, :mod:`bnerr.strategies` and ``denoisers``."""
-    import denoisers
-    import renderers
-    from benchmarks.references import code_version
-    from bnerr import sequences, strategies
-    from denoisers import tuning
 
     def make_denoiser(name: str, params: dict | None) -> Denoiser:
         return denoisers.get_denoiser(name, **(params or {}))
@@ -172,13 +205,8 @@ def known_names() -> dict[str, tuple[str, ...]]:
     """The installed registries, for checking ``--scenes``, ``--strategies``, ``--denoisers``.
 
     The denoisers include ``NAME:own`` for every one with a tuning grid (tuned on the strategy's
-    own frames, :mod:`benchmarks.measure`).
+    own frames, :mod:`benchmarks.sweep.measure`).
     """
-    import denoisers
-    import renderers
-    from bnerr import strategies
-    from denoisers import tuning
-
     own = tuple(f"{name}:own" for name in denoisers.DENOISERS if name in tuning.GRIDS)
     return {
         "known_scenes": tuple(renderers.SCENES),

@@ -2,62 +2,70 @@
 a cluster.
 
 The unit of work is the serial runner's: one seed set of a run (scene, strategy, spp, condition,
-seed set), computed by :func:`benchmarks.measure.measure_seed_set` in a Ray task and merged by
-:func:`benchmarks.measure.finish_run` on the driver once every seed set of the run is back, so
+seed set), computed by :func:`benchmarks.sweep.measure.measure_seed_set` in a Ray task and merged by
+:func:`benchmarks.sweep.measure.finish_run` on the driver once every seed set of the run is back, so
 the records are the serial runner's bit for bit (timings aside). Three kinds of task:
 
 - **references**: one task per distinct reference (scene, condition, frame, resolution, spp; the
-  cache file name, :meth:`benchmarks.references.ReferenceCache.path`), so no two tasks render the
-  same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
+  cache file name, :meth:`benchmarks.sweep.references.ReferenceCache.path`), so no two tasks render
+  the same reference. The task reads the cache folder if the file is there (a resumed sweep, shared
   storage) and writes it otherwise (atomically); the frame itself travels to the tasks that need
   it through the object store, so nodes need not share the cache folder.
 - **tuning**: one task per (scene, condition, resolution, spp, frames' strategy) whose
-  denoisers are not in ``tuned_params.json`` yet (:func:`benchmarks.measure.tune_missing`, the
+  denoisers are not in ``tuned_params.json`` yet (:func:`benchmarks.sweep.tuning.tune_missing`, the
   tuning seed set; white noise for the fair column, the run's strategy for ``NAME:own``). The
   driver stores the parameters and saves the file when it returns, and only then
   submits the measuring tasks that need them.
 - **measuring**: one task per seed set of each pending run.
 
-As in the serial runner, ``cells.jsonl`` is rewritten atomically each time a run's last seed set
-comes back, in plan order whatever the order runs finish in; an interrupted sweep (Ctrl-C, a
-failed task, a lost node) loses the runs in progress, and ``--resume`` measures only the missing
-cells. A failed task cancels the others and its error is raised on the driver. Every task
-checks that its node runs the driver's renderer and sampler code
-(:func:`benchmarks.references.code_version`) and refuses otherwise. Each task sets
+As in the serial runner, each run's lines are appended to ``cells.jsonl`` when its last seed set
+comes back (the first write replaces the file atomically), and the sweep ends with the file in
+plan order whatever the order runs finished in (:class:`benchmarks.sweep.runner.SweepState`); an
+interrupted sweep (Ctrl-C, a failed task, a lost node) loses the runs in progress, and ``--resume``
+measures only the missing cells. A failed task cancels the others and its error is raised on the
+driver. Every task checks that its node runs the driver's renderer and sampler code
+(:func:`benchmarks.sweep.version.code_version`) and refuses otherwise. Each task sets
 torch's threads to the CPUs Ray gave it (``cpus_per_task``). The progress bar counts finished
 tasks.
 
-Not for: choosing what to measure (:mod:`benchmarks.plan`), or the speed suite.
+Not for: choosing what to measure (:mod:`benchmarks.sweep.plan`), or the speed suite.
 """
 
 from __future__ import annotations
 
 import functools
+import socket
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
 from typing import Any
 
-from benchmarks.measure import (
+import torch
+from tqdm import tqdm
+
+from benchmarks.suites import Suite
+from benchmarks.sweep.measure import (
     SeedSetResult,
-    _t_reference,
     finish_run,
-    make_denoisers,
     measure_seed_set,
-    missing_tuning,
     scene_for,
+    t_reference,
+)
+from benchmarks.sweep.parts import Parts
+from benchmarks.sweep.plan import Run
+from benchmarks.sweep.records import Record
+from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.runner import SweepState, start_sweep
+from benchmarks.sweep.tuning import (
+    make_denoisers,
+    missing_tuning,
     store_tuned,
     tune_missing,
     tuned_params,
     tuning_key,
 )
-from benchmarks.parts import Parts
-from benchmarks.plan import Run
-from benchmarks.records import Record
-from benchmarks.references import ReferenceCache, code_version
-from benchmarks.runner import SweepState, start_sweep
-from benchmarks.suites import Suite
+from benchmarks.sweep.version import code_version
 from bnerr.errors import BnerrError, check_positive_int
 from bnerr.frame import Frame
 
@@ -80,7 +88,7 @@ class RayUnavailableError(BnerrError, ImportError):
 def require_ray() -> ModuleType:
     """Import ``ray``, or raise :class:`RayUnavailableError` saying how to install it."""
     try:
-        import ray
+        import ray  # the optional cluster extra: a missing one is this typed error
     except ImportError as err:
         raise RayUnavailableError(
             f"--ray: expected the optional extra 'cluster' ({INSTALL_HINT}, which provides "
@@ -95,8 +103,7 @@ def require_ray() -> ModuleType:
 
 def _use_task_cpus() -> None:
     """Set torch's intra-op threads to the CPUs Ray assigned to the running task (at least 1)."""
-    import ray
-    import torch
+    import ray  # runs inside a Ray task: the extra is there
 
     cpus = ray.get_runtime_context().get_assigned_resources().get("CPU", 1.0)
     torch.set_num_threads(max(1, int(cpus)))
@@ -117,8 +124,6 @@ def _task_setup(expected_version: str) -> None:
     _use_task_cpus()
     here = _node_code_version()
     if here != expected_version:
-        import socket
-
         raise CodeVersionError(
             f"node {socket.gethostname()}: expected the driver's code version "
             f"{expected_version}, got {here}; install the same bnerr commit on every node"
@@ -156,7 +161,7 @@ def _tune_task(
     t_refs: list[int],
     *frames: Frame,
 ) -> dict[str, Any]:
-    """:func:`benchmarks.measure.tune_missing` against the references handed in."""
+    """:func:`benchmarks.sweep.tuning.tune_missing` against the references handed in."""
     _task_setup(version)
     return tune_missing(run, parts, _GivenReferences(t_refs, frames), names, source)
 
@@ -170,7 +175,7 @@ def _measure_task(
     t_refs: list[int],
     *frames: Frame,
 ) -> SeedSetResult:
-    """:func:`benchmarks.measure.measure_seed_set` with denoisers built from ``params``."""
+    """:func:`benchmarks.sweep.measure.measure_seed_set` with denoisers built from ``params``."""
     _task_setup(version)
     denoisers = make_denoisers(parts, params)
     return measure_seed_set(run, parts, _GivenReferences(t_refs, frames), denoisers, group)
@@ -184,7 +189,7 @@ def _measured_refs(run: Run, count: int | None = None) -> list[int]:
     """The renderer frames of the references of ``run``'s measured frames (the first ``count``),
     without repeats (a static scene has one)."""
     frames = range(run.warmup, run.warmup + (run.frames if count is None else count))
-    return list(dict.fromkeys(_t_reference(run, t) for t in frames))
+    return list(dict.fromkeys(t_reference(run, t) for t in frames))
 
 
 #: A tuning task: (tuning key, spp, the strategy whose frames it tunes on).
@@ -341,7 +346,7 @@ def run_suite_ray(
     progress: bool = True,
     cpus_per_task: int = 1,
 ) -> list[Record]:
-    """:func:`benchmarks.runner.run_suite` with every seed set of every run a Ray task.
+    """:func:`benchmarks.sweep.runner.run_suite` with every seed set of every run a Ray task.
 
     Args:
         address: the Ray cluster: ``auto`` (the one ``ray start`` made on this machine, or
@@ -355,7 +360,6 @@ def run_suite_ray(
         ResultsExistError, FileFormatError: as ``run_suite``.
         Any error of a task, on the driver, after the others are cancelled.
     """
-    from tqdm import tqdm
 
     ray = require_ray()
     cpus = check_positive_int(cpus_per_task, "cpus_per_task")

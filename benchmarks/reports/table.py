@@ -1,31 +1,18 @@
-"""Tables and charts from the runner's records: ``table.csv``, ``table.md`` and PNG charts.
+"""``table.csv`` and ``table.md`` from the runner's records.
 
-Everything here is derived from ``<out>/cells.jsonl`` (:func:`benchmarks.records.load_records`), so
-a report can be rebuilt without rendering anything (``python -m benchmarks.report DIR``).
+- ``table.csv`` (:func:`summarize`, :func:`csv_text`): one row per cell (scene, strategy, spp,
+  denoiser, condition) with the raw and denoised MSE and their 95% bootstrap intervals, relMSE,
+  PSNR, SSIM, the blurred MSEs, the error's low-frequency fraction, the ratio of each strategy to
+  white noise on the same frames (paired bootstrap interval, :func:`bnerr.metrics.paired_ratio`),
+  and the render, permutation and denoise milliseconds per frame. The metric columns come from
+  :data:`bnerr.metrics.METRIC_TABLE` (:func:`table_columns`): a metric added there reaches the
+  table with no change here. The other reports read these rows too.
+- ``table.md`` (:func:`markdown_table`): the headline (temporal and oracle against white, per
+  scene, spp and denoiser); per scene and condition, each strategy's post-denoise MSE as a
+  fraction of white's, the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time
+  per frame; and the list of cells where a strategy is worse than white beyond its interval.
 
-- ``table.csv``: one row per cell (scene, strategy, spp, denoiser, condition) with the raw and
-  denoised MSE and their 95% bootstrap intervals, relMSE, PSNR, SSIM, the blurred MSEs, the error's
-  low-frequency fraction, the ratio of each strategy to white noise on the same frames (paired
-  bootstrap interval, :func:`bnerr.metrics.paired_ratio`), and the render, permutation and denoise
-  milliseconds per frame. The metric columns come from :data:`bnerr.metrics.METRIC_TABLE`
-  (:func:`table_columns`): a metric added there reaches the table with no change here.
-- ``table.md``: the headline (temporal and oracle against white, per scene, spp and denoiser); per
-  scene and condition, each strategy's post-denoise MSE as a fraction of white's,
-  the raw error's ratios (MSE, blurred MSEs) and spectrum summary, the time per frame; and the list
-  of cells where a strategy is worse than white beyond its interval.
-- ``decision.md`` (:func:`decision_table`): for each scene, condition, spp and denoiser, the
-  strategy with the lowest post-denoise MSE, its ratio to white with the interval, and its cost
-  per frame (render + permutation ms): the table a renderer team choosing a strategy reads.
-- ``denoisers.md`` (:mod:`benchmarks.denoise_response`, when the records hold taa/svgf, oidn, a
-  ``NAME:own`` filter or unet_blue): how each denoiser responds to each strategy's noise.
-- Charts (matplotlib, drawn on ``Figure`` objects with the Agg canvas, no pyplot state):
-  ``error_vs_time_<group>.png`` (post-denoise MSE against render + permutation + denoise time per
-  frame, one line per strategy through its spp values, one panel per denoiser),
-  ``spectra_<group>.png`` (radially averaged power spectrum of the raw and denoised error per
-  strategy), ``crops_<group>.png`` (reference, raw and denoised crops side by side).
-
-Not for: deciding anything. The report states the measured ratios and their intervals; a cell is
-flagged "worse than white" only when the whole interval lies above 1.
+Not for: deciding anything (:mod:`benchmarks.reports`).
 """
 
 from __future__ import annotations
@@ -36,47 +23,35 @@ import io
 import math
 from collections import defaultdict
 from collections.abc import Iterable, Sequence
-from pathlib import Path
 
 import numpy as np
 
-from benchmarks.denoise_response import write_denoise_tables
-from benchmarks.gap import write_gap_tables
-from benchmarks.groups import group_key, group_order, group_slug, group_title, strategy_order
-from benchmarks.markdown import table_lines
-from benchmarks.records import Record, load_records
-from bnerr.io import atomic_write
+from benchmarks.reports.groups import group_key, group_title, strategy_order
+from benchmarks.reports.markdown import table_lines
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import Record
 from bnerr.metrics import METRIC_TABLE, Metric, bootstrap_interval, paired_ratio
+from bnerr.strategies import OWN_SAMPLERS
 
 __all__ = [
     "COLUMNS",
     "HEADLINE_STRATEGIES",
     "RAW_CAUSES",
-    "DECISION_EXCLUDES",
-    "best_rows",
-    "decision_table",
+    "csv_text",
     "markdown_table",
     "render_sampler",
     "summarize",
     "table_columns",
-    "write_charts",
-    "write_report",
 ]
 
-_CELL = (
-    "scene",
-    "strategy",
-    "spp",
-    "denoiser",
-    "motion",
-    "depth",
-    "region",
-    "sampler",
-    "width",
-    "height",
-    "frames",
-    "warmup",
-    "seed_sets",
+#: The cell's columns of ``table.csv``, from :class:`benchmarks.sweep.plan.Cell`'s fields: its
+#: identity first (scene, strategy, spp, denoiser and the condition), then the rest in the order
+#: the cell declares them; ``reference_spp`` sits with the reference's columns.
+_IDENTITY = ("scene", "strategy", "spp", "denoiser", "motion", "depth", "region", "sampler")
+_CELL = _IDENTITY + tuple(
+    f.name
+    for f in dataclasses.fields(Cell)
+    if f.name not in _IDENTITY and f.name != "reference_spp"
 )
 _KINDS = ("raw", "den")
 _BOUNDS = ("", "_lo", "_hi")
@@ -211,8 +186,6 @@ def render_sampler(record: Record) -> str:
     """The sampler a record's frames were rendered with: the recorded one, or for files written
     before it was recorded the strategy's own (:data:`bnerr.strategies.OWN_SAMPLERS`), else the
     cell's per-pixel sampler condition."""
-    from bnerr.strategies import OWN_SAMPLERS
-
     if record.render_sampler:
         return record.render_sampler
     return OWN_SAMPLERS.get(record.cell.strategy, record.cell.sampler)
@@ -230,7 +203,9 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     return [_row(rec, whites.get(_baseline_key(rec)), resamples, seed, columns) for rec in records]
 
 
-def _csv_text(rows: Sequence[dict]) -> str:
+def csv_text(rows: Sequence[dict]) -> str:
+    """The text of ``table.csv``: the :data:`COLUMNS` header, one line per row, floats to 6
+    significant digits, None as an empty field."""
     buffer = io.StringIO()
     writer = csv.DictWriter(buffer, fieldnames=table_columns(), lineterminator="\n")
     writer.writeheader()
@@ -477,269 +452,3 @@ def markdown_table(rows: Sequence[dict], title: str = "Results") -> str:
         )
         lines.append("")
     return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------------------------------
-# Decision table
-
-
-#: Left out of the decision table by default: the oracle renders K candidates per frame (an
-#: upper bound on what the temporal method approximates, not a strategy to adopt).
-DECISION_EXCLUDES: tuple[str, ...] = ("oracle",)
-
-
-def best_rows(
-    rows: Sequence[dict], exclude: Sequence[str] = DECISION_EXCLUDES
-) -> dict[tuple, dict]:
-    """Per (group key, spp, denoiser): the row of the strategy with the lowest pooled post-denoise
-    MSE (white included, ``exclude`` left out; ties go to the earlier strategy in the report's
-    order)."""
-    best: dict[tuple, dict] = {}
-    order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
-    for row in rows:
-        if row.get("den_mse") is None or row["strategy"] in exclude:
-            continue
-        key = (group_key(row), row["spp"], row["denoiser"])
-        old = best.get(key)
-        rank = (row["den_mse"], order[row["strategy"]])
-        if old is None or rank < (old["den_mse"], order[old["strategy"]]):
-            best[key] = row
-    return best
-
-
-def _left_out(exclude: Sequence[str]) -> str:
-    """The decision table's note on the strategies it leaves out."""
-    why = {"oracle": "it renders K candidates per frame: an upper bound, not a strategy to adopt"}
-    return "".join(f" Left out: {s}" + (f" ({why[s]})." if s in why else ".") for s in exclude)
-
-
-def _decision_cell(row: dict) -> str:
-    cost = f"{row['render_ms']:.0f} + {row['perm_ms']:.1f} ms"
-    if row["strategy"] == "white" or row.get("den_mse_ratio") is None:
-        return f"{row['strategy']} ({cost})"
-    name = row["strategy"]
-    if row["den_mse_ratio_hi"] < 1.0:
-        name = f"**{name}**"
-    ratio = (
-        f"{row['den_mse_ratio']:.2f} [{row['den_mse_ratio_lo']:.2f}, {row['den_mse_ratio_hi']:.2f}]"
-    )
-    return f"{name} {ratio} ({cost})"
-
-
-def decision_table(
-    rows: Sequence[dict],
-    title: str = "Which strategy to use",
-    exclude: Sequence[str] = DECISION_EXCLUDES,
-) -> str:
-    """For each scene, condition and spp, per denoiser: the strategy with the lowest post-denoise
-    MSE, its MSE as a fraction of white's (95% paired interval) and its cost per frame (render +
-    permutation milliseconds, the strategy's whole overhead included); ``exclude`` left out."""
-    best = best_rows(rows, exclude)
-    groups = sorted({k[0] for k in best}, key=group_order)
-    denoisers = sorted({k[2] for k in best})
-    body = []
-    for group in groups:
-        for spp in sorted({k[1] for k in best if k[0] == group}):
-            cells = [best.get((group, spp, d)) for d in denoisers]
-            body.append(
-                [group_title(group), str(spp)]
-                + ["-" if c is None else _decision_cell(c) for c in cells]
-            )
-    lines = [
-        f"# {title}",
-        "",
-        "Per scene, condition, spp and denoiser: the strategy with the lowest post-denoise MSE, "
-        "its MSE as a fraction of white's with the 95% paired bootstrap interval, and its cost per "
-        "frame (render + permutation ms). Bold: below white beyond the interval; a strategy named "
-        "without bold is lowest by its point estimate only; white: no strategy was lower."
-        + _left_out(exclude),
-        "",
-        *table_lines(["scene", "spp", *denoisers], body),
-        "",
-    ]
-    return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------------------------------
-# Charts
-
-
-def _save(fig, path: Path) -> None:
-    with atomic_write(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=110, bbox_inches="tight")
-
-
-def _error_vs_time(slug: str, title: str, rows: list[dict], out: Path) -> Path:
-    from matplotlib.figure import Figure
-
-    denoisers = sorted({r["denoiser"] for r in rows})
-    cols = min(4, len(denoisers))
-    nrows = math.ceil(len(denoisers) / cols)
-    fig = Figure(figsize=(4.2 * cols, 3.4 * nrows))
-    for i, d in enumerate(denoisers):
-        ax = fig.add_subplot(nrows, cols, i + 1)
-        for s in strategy_order(r["strategy"] for r in rows):
-            pts = sorted(
-                (r for r in rows if r["denoiser"] == d and r["strategy"] == s),
-                key=lambda r: r["spp"],
-            )
-            if not pts:
-                continue
-            x = [r["total_ms"] for r in pts]
-            y = [r["den_mse"] for r in pts]
-            err = [
-                [r["den_mse"] - r["den_mse_lo"] for r in pts],
-                [r["den_mse_hi"] - r["den_mse"] for r in pts],
-            ]
-            ax.errorbar(x, y, yerr=err, marker="o", capsize=2, label=s)
-            for r in pts:
-                ax.annotate(
-                    f"{r['spp']}",
-                    (r["total_ms"], r["den_mse"]),
-                    fontsize=7,
-                    textcoords="offset points",
-                    xytext=(3, 3),
-                )
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_title(d, fontsize=9)
-        ax.set_xlabel("ms per frame (render + permutation + denoise)", fontsize=8)
-        ax.set_ylabel("post-denoise MSE", fontsize=8)
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    fig.suptitle(f"{title}: error after denoising against time (labels: spp)")
-    path = out / f"error_vs_time_{slug}.png"
-    _save(fig, path)
-    return path
-
-
-def _spectra(
-    slug: str, title: str, rows: list[dict], records: dict[tuple, Record], out: Path
-) -> Path | None:
-    from matplotlib.figure import Figure
-
-    spp = min(r["spp"] for r in rows)
-    denoiser = sorted({r["denoiser"] for r in rows})[0]
-    fig = Figure(figsize=(9, 3.4))
-    drawn = False
-    for j, (kind, label) in enumerate((("raw", "raw error"), ("den", f"error after {denoiser}"))):
-        ax = fig.add_subplot(1, 2, j + 1)
-        for s in strategy_order(r["strategy"] for r in rows):
-            rec = records.get((slug, s, spp, denoiser))
-            spec = None if rec is None else rec.spectrum.get(kind)
-            if spec is None or not spec.freq:
-                continue
-            freq, power = np.asarray(spec.freq)[1:], np.asarray(spec.power)[1:]
-            ax.semilogy(freq, np.maximum(power, 1e-30), label=s)
-            drawn = True
-        ax.axvline(0.125, color="gray", lw=0.8, ls="--")
-        ax.set_xlabel("cycles / pixel", fontsize=8)
-        ax.set_ylabel("power", fontsize=8)
-        ax.set_title(f"{label}, {spp} spp", fontsize=9)
-        ax.legend(fontsize=7)
-    if not drawn:
-        return None
-    fig.suptitle(f"{title}: radially averaged error spectrum")
-    path = out / f"spectra_{slug}.png"
-    _save(fig, path)
-    return path
-
-
-def _crops(
-    slug: str, title: str, rows: list[dict], records: dict[tuple, Record], out: Path
-) -> Path | None:
-    from matplotlib.figure import Figure
-
-    spp = min(r["spp"] for r in rows)
-    denoiser = sorted({r["denoiser"] for r in rows})[0]
-    images = []
-    for s in strategy_order(r["strategy"] for r in rows):
-        rec = records.get((slug, s, spp, denoiser))
-        if rec is None or not rec.crop or not (out / rec.crop).exists():
-            continue
-        with np.load(out / rec.crop) as data:
-            images.append((s, {k.replace("__", "/"): data[k] for k in data.files}))
-    if not images:
-        return None
-    columns = ["reference", "raw"] + sorted(k for k in images[0][1] if k.startswith("denoised/"))
-    fig = Figure(figsize=(1.9 * len(columns), 1.9 * len(images) + 0.4))
-    for i, (strategy, crop) in enumerate(images):
-        for j, col in enumerate(columns):
-            ax = fig.add_subplot(len(images), len(columns), i * len(columns) + j + 1)
-            if col in crop:
-                ax.imshow(crop[col], interpolation="nearest")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if i == 0:
-                ax.set_title(col.removeprefix("denoised/"), fontsize=8)
-            if j == 0:
-                ax.set_ylabel(strategy, fontsize=8)
-    fig.suptitle(f"{title}, {spp} spp: centre crops", fontsize=9)
-    path = out / f"crops_{slug}.png"
-    _save(fig, path)
-    return path
-
-
-def write_charts(
-    rows: Sequence[dict], records: Sequence[Record], out_dir: str | Path
-) -> list[Path]:
-    """Draw every chart for the rows (whole-image region only); return the files written."""
-    out = Path(out_dir)
-    by_slug: dict[str, list[dict]] = defaultdict(list)
-    for row in rows:
-        if row["region"] == "all":
-            by_slug[group_slug(group_key(row))].append(row)
-    lookup = {}
-    for rec in records:
-        c = rec.cell
-        if c.region == "all":
-            slug = group_slug((c.scene, c.motion, c.depth, c.region, c.sampler))
-            lookup[(slug, c.strategy, c.spp, c.denoiser)] = rec
-    written = []
-    for slug, group in sorted(by_slug.items()):
-        title = group_title(group_key(group[0]))
-        written.append(_error_vs_time(slug, title, group, out))
-        for chart in (_spectra, _crops):
-            path = chart(slug, title, group, lookup, out)
-            if path is not None:
-                written.append(path)
-    return written
-
-
-def write_report(
-    out_dir: str | Path,
-    records: Sequence[Record] | None = None,
-    title: str | None = None,
-    charts: bool = True,
-) -> str:
-    """Write ``table.csv``, ``table.md``, ``decision.md``, ``gap.md`` / ``gap.csv`` (when the
-    records hold white and the oracle: :mod:`benchmarks.gap`) and the charts into ``out_dir``;
-    return the Markdown of ``table.md``.
-
-    Args:
-        out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
-        records: the runner's records; read from ``out_dir`` when None.
-        title: heading of ``table.md`` (default: the folder's name).
-        charts: draw the PNG charts too.
-    """
-    out = Path(out_dir)
-    records = load_records(out) if records is None else list(records)
-    rows = summarize(records)
-    text = markdown_table(rows, title or f"bnerr bench: {out.name}")
-    with atomic_write(out / "table.csv") as tmp:
-        Path(tmp).write_text(_csv_text(rows))
-    with atomic_write(out / "table.md") as tmp:
-        Path(tmp).write_text(text)
-    with atomic_write(out / "decision.md") as tmp:
-        Path(tmp).write_text(decision_table(rows))
-    write_gap_tables(out, records)
-    write_denoise_tables(out, records, rows)
-    if charts:
-        write_charts(rows, records, out)
-    return text
-
-
-if __name__ == "__main__":
-    import sys
-
-    print(write_report(sys.argv[1]))

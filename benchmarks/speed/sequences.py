@@ -1,4 +1,4 @@
-"""Time the samplers: ``python -m benchmarks.speed_sequences``.
+"""Time the samplers: ``python -m benchmarks.speed.sequences``.
 
 Each sampler fills ``count`` dimensions for ``n`` lanes (distinct seeds, 64 sample indices, pixels
 of a 1024-wide image), the way the renderer calls it. One warm-up call (tables, allocations),
@@ -14,15 +14,19 @@ report them with the machine.
 from __future__ import annotations
 
 import argparse
+import inspect
 import statistics
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import torch
 
+from benchmarks.reports.markdown import table_lines
+from benchmarks.speed.formatting import fmt, get, number, ratio
 from bnerr.sequences import SAMPLERS, make_sampler
 from bnerr.timing import Stopwatch, sync
 
-__all__ = ["main", "measure"]
+__all__ = ["table", "main", "measure"]
 
 
 def _lanes(n: int, device: torch.device):
@@ -71,9 +75,41 @@ def measure(
     return results
 
 
+def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
+    """The samplers against independent white values."""
+    lanes = inspect.signature(measure).parameters["n"].default
+    counts = sorted(
+        {c for row in values.values() if isinstance(row, Mapping) for c in row}, key=int
+    )
+    lines = [
+        "## Samplers against independent values (`speed.sequences`)",
+        "",
+        f"Median milliseconds per `sample(seed, index, 0, count, pixel)` call for {lanes:,} "
+        "lanes (pixel samples) with `count` dimensions each; Mvalues/s = lanes x count / time; "
+        "ratio: the sampler's time over `white`'s (independent hashed values) at the same count.",
+        "",
+    ]
+    header = ["sampler"]
+    for c in counts:
+        header += [f"ms, {c} dims", f"Mvalues/s, {c} dims", f"/ white, {c} dims"]
+    white = values.get("white", {})
+    rows = []
+    for name, row in values.items():
+        cells = [name]
+        for c in counts:
+            s = number(get(row, c))
+            cells += [
+                fmt(None if s is None else s * 1e3),
+                fmt(None if s is None else lanes * int(c) / s / 1e6),
+                ratio(s, get(white, c)),
+            ]
+        rows.append(cells)
+    return lines + table_lines(header, rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.speed_sequences", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.sequences", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--n", type=int, default=1 << 20, help="lanes per call (default 2^20)")
     parser.add_argument("--count", type=int, action="append", help="dims per call (repeatable)")

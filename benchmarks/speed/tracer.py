@@ -1,4 +1,4 @@
-"""Renderer throughput against Mitsuba 3: ``python -m benchmarks.throughput``.
+"""Renderer throughput against Mitsuba 3: ``python -m benchmarks.speed.tracer``.
 
 Renders the same frame (our scene exported with :func:`renderers.mitsuba.to_mitsuba`: same
 camera, geometry, materials, lights, box filter and max depth, Russian roulette off) with our
@@ -32,12 +32,22 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import torch
 
-__all__ = ["main", "measure", "measure_mitsuba", "measure_ours"]
+from benchmarks.commands._args import parse_resolution
+from benchmarks.reports.markdown import table_lines
+from benchmarks.speed.formatting import DASH, fmt, number
+from bnerr.io import atomic_write
+from bnerr.sequences import make_sampler
+from bnerr.strategies import pixel_seeds
+from renderers import get_scene, render
+from renderers.mitsuba import mitsuba_available, to_mitsuba
+
+__all__ = ["table", "main", "measure", "measure_mitsuba", "measure_ours"]
 
 DEFAULT_LLVM = "/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 
@@ -64,10 +74,6 @@ class _Ours:
         compile: bool,
         sampler: str = "white",
     ) -> None:
-        from bnerr.sequences import make_sampler
-        from bnerr.strategies import pixel_seeds
-        from renderers import get_scene
-
         self.scene = get_scene(scene_name, animated=False)
         self.seeds = pixel_seeds(height, width, 0)
         self.sampler = make_sampler(sampler)
@@ -75,8 +81,6 @@ class _Ours:
 
     def __call__(self) -> float:
         """Seconds of one render, by the renderer's own clock (its frame's ``timings``)."""
-        from renderers import render
-
         frame = render(self.scene, 0, self.seeds, self.sampler, self.spp, compile=self.compile)
         return frame.timings["render"] / 1e3
 
@@ -98,8 +102,6 @@ class _Mitsuba:
         self.error: str | None = None
         self.proc: subprocess.Popen | None = None
         self.warmup = 0.0
-        from renderers.mitsuba import mitsuba_available
-
         if not mitsuba_available():
             self.error = "mitsuba is not installed (pip install 'bnerr[reference]')"
             return
@@ -115,7 +117,7 @@ class _Mitsuba:
         args = [
             sys.executable,
             "-m",
-            "benchmarks.throughput",
+            "benchmarks.speed.tracer",
             "--serve",
             variant,
             scene_name,
@@ -171,13 +173,10 @@ def _serve(
     variant: str, scene_name: str, width: int, height: int, spp: int, threads: int | None
 ) -> None:
     """Runs inside the subprocess: load the scene, render once, then once per ``render`` line."""
-    import drjit as dr
+    import drjit as dr  # the optional 'reference' extra, in the subprocess only
     import mitsuba as mi
 
     mi.set_variant(variant)
-    from renderers import get_scene
-    from renderers.mitsuba import to_mitsuba
-
     if threads:
         dr.set_thread_count(threads)  # Mitsuba 3 renders on drjit's thread pool in every variant
     scene = mi.load_dict(
@@ -340,6 +339,49 @@ def _print(result: dict[str, object]) -> None:
                 print(f"{name:8s} {key:22s} {value}")
 
 
+def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
+    """The tracer against Mitsuba 3's variants."""
+    s = values.get("settings", {})
+    lines = [
+        "## Tracer against Mitsuba 3 (`speed.tracer`)",
+        "",
+        f"{s.get('width')} x {s.get('height')} pixels at {s.get('spp')} spp, {s.get('repeats')} "
+        f"interleaved rounds, torch.compile {s.get('compile')}, {s.get('torch_threads')} torch "
+        f"threads on {s.get('cpu_count')} CPUs, load average {fmt(s.get('load_average'), 2)} "
+        "at the start. Times in seconds per frame; first call: the warm-up render (our "
+        "compilation, Mitsuba's kernel compilation). Ratio: our time over the variant's, the "
+        "median over rounds (below 1: ours is faster).",
+        "",
+    ]
+    rows = []
+    for scene, row in values.items():
+        if scene == "settings" or not isinstance(row, Mapping):
+            continue
+        for renderer in ("bnerr", "mitsuba_scalar_rgb", "mitsuba_llvm_ad_rgb"):
+            got = row.get(renderer)
+            ratio = row.get(f"ratio_{renderer.removeprefix('mitsuba_')}")
+            inverse = DASH if number(ratio) in (None, 0) else f"{fmt(1 / ratio)}x"
+            name = "bnerr" if renderer == "bnerr" else f"Mitsuba {renderer[8:]}"
+            if not isinstance(got, Mapping):
+                note = DASH if got is None else f"failed: {got}"
+                rows.append([scene, name, note, DASH, DASH, DASH, DASH])
+                continue
+            rate = number(got.get("samples_per_s"))
+            rows.append(
+                [
+                    scene,
+                    name,
+                    fmt(got.get("best_s")),
+                    fmt(got.get("median_s")),
+                    fmt(got.get("warmup_s")),
+                    fmt(None if rate is None else rate / 1e6),
+                    "1 (ours)" if renderer == "bnerr" else inverse,
+                ]
+            )
+    header = ["scene", "renderer", "best s", "median s", "first call s", "Msamples/s"]
+    return lines + table_lines(header + ["ours / this"], rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--serve"]:
@@ -347,7 +389,7 @@ def main(argv: list[str] | None = None) -> int:
         _serve(variant, scene, int(w), int(h), int(spp), int(threads) or None)
         return 0
     p = argparse.ArgumentParser(
-        prog="python -m benchmarks.throughput", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.tracer", description=__doc__.split("\n\n")[0]
     )
     p.add_argument("--scenes", nargs="+", default=["direct", "cornell"])
     p.add_argument("--res", default="256x256", metavar="WxH")
@@ -360,8 +402,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])
     p.add_argument("--json", metavar="PATH", help="also write the figures as JSON")
     args = p.parse_args(argv)
-    from benchmarks.commands.render import parse_resolution
-
     width, height = parse_resolution(args.res)
     result = measure(
         args.scenes,
@@ -375,8 +415,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     _print(result)
     if args.json:
-        from bnerr.io import atomic_write
-
         with atomic_write(args.json) as tmp:
             Path(tmp).write_text(json.dumps(result, indent=1) + "\n")
     return 0

@@ -11,10 +11,10 @@ file name, :meth:`ReferenceCache.path`) holds every input of the render:
 - the reference sampler's name and the seed salt (the seed image of frame t is a fixed function of
   the salt and t), plus :data:`REFERENCE_FORMAT`, bumped by hand when the seed scheme or the file
   layout changes;
-- :func:`code_version`: the renderer's declared ``RENDERER_VERSION`` and a hash of the source files
-  a reference's pixels depend on (:func:`reference_sources`): every ``.py`` of ``renderers``, of
-  the ``bnerr.sequences`` module (its file, or every ``.py`` under its package directory) and
-  ``bnerr/hashing.py``. A change to the tracer or to a sampler never reuses a stale reference.
+- the code version (``Parts.code_version``, :func:`benchmarks.sweep.version.code_version`): a hash
+  of the source files a reference's pixels depend on (every ``.py`` of ``renderers``, of the
+  ``bnerr.sequences`` module and ``bnerr/hashing.py``). A change to the tracer or to a sampler
+  never reuses a stale reference.
 
 **Compiled references.** A reference is rendered with ``compile=True`` exactly when it traces at
 least ``2^22`` paths (``H * W * spp >= REFERENCE_COMPILE_PATHS``; :func:`reference_compile`), and
@@ -33,31 +33,23 @@ Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
 
 from __future__ import annotations
 
-import hashlib
-import importlib
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import torch
 
-from benchmarks.plan import Run
+from benchmarks.sweep.parts import Parts, Scene
+from benchmarks.sweep.plan import Run
 from bnerr.errors import FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
 
-if TYPE_CHECKING:  # parts imports this module (code_version): types only, no import cycle
-    from benchmarks.parts import Parts, Scene
-
 __all__ = [
     "REFERENCE_COMPILE_PATHS",
     "REFERENCE_FORMAT",
     "ReferenceCache",
-    "code_version",
     "reference_compile",
     "reference_seeds",
-    "reference_sources",
-    "source_hash",
 ]
 
 #: Bumped by hand when the reference seeds' scheme, the compile rule (:func:`reference_compile`) or
@@ -67,8 +59,6 @@ REFERENCE_FORMAT = "r3"
 REFERENCE_COMPILE_PATHS = 1 << 22
 _REFERENCE_SALT = 0x5EED_BA5E  # keeps reference seeds apart from every strategy's seeds
 _REFERENCES_IN_MEMORY = 16  # a run revisits its measured frames once per seed set
-# The modules whose source a reference's pixels depend on (besides its own seeds).
-_SOURCE_MODULES = ("renderers", "bnerr.sequences", "bnerr.hashing")
 
 
 def reference_seeds(height: int, width: int, t: int) -> torch.Tensor:
@@ -92,42 +82,6 @@ def reference_compile(height: int, width: int, spp: int) -> bool:
     (see the module docstring). The environment's ``BNERR_COMPILE`` does not enter.
     """
     return height * width * spp >= REFERENCE_COMPILE_PATHS
-
-
-def _module_files(name: str) -> dict[str, Path]:
-    """A module's ``.py`` files (every one under a package's directory), keyed by their path
-    relative to the top-level package's parent (``bnerr/hashing.py``)."""
-    module = importlib.import_module(name)
-    top = Path(importlib.import_module(name.split(".")[0]).__file__).parent.parent
-    file = Path(module.__file__)
-    files = sorted(file.parent.rglob("*.py")) if file.name == "__init__.py" else [file]
-    return {f.relative_to(top).as_posix(): f for f in files}
-
-
-def reference_sources() -> dict[str, Path]:
-    """The source files a reference's pixels depend on: label (``renderers/tracer.py``) -> path."""
-    sources: dict[str, Path] = {}
-    for name in _SOURCE_MODULES:
-        sources.update(_module_files(name))
-    return sources
-
-
-def source_hash(sources: dict[str, Path]) -> str:
-    """12 hex digits of SHA-256 over the files' labels and bytes, in label order."""
-    digest = hashlib.sha256()
-    for label in sorted(sources):
-        digest.update(label.encode())
-        digest.update(sources[label].read_bytes())
-    return digest.hexdigest()[:12]
-
-
-def code_version(sources: dict[str, Path] | None = None) -> str:
-    """``<RENDERER_VERSION>-<source hash>`` of the references' code (default
-    :func:`reference_sources`); ``RENDERER_VERSION`` is ``0`` when ``renderers`` declares none."""
-    import renderers
-
-    files = reference_sources() if sources is None else sources
-    return f"{getattr(renderers, 'RENDERER_VERSION', '0')}-{source_hash(files)}"
 
 
 class ReferenceCache:

@@ -7,7 +7,7 @@ seed sets; its cells share its renders and differ only in denoiser and pixel reg
 turns a :class:`benchmarks.suites.Suite` into its runs, merging runs that two sweeps both ask for;
 :func:`pending` narrows them to the cells not yet measured.
 
-Not for: rendering or measuring (:mod:`benchmarks.measure`).
+Not for: rendering or measuring (:mod:`benchmarks.sweep.measure`).
 """
 
 from __future__ import annotations
@@ -19,27 +19,37 @@ from dataclasses import dataclass
 
 from benchmarks.suites import Suite, Sweep
 
-__all__ = ["Cell", "Run", "pending", "plan"]
+__all__ = ["Cell", "Run", "RunSpec", "pending", "plan"]
 
 
 @dataclass(frozen=True)
-class Cell:
-    """One row of the results table (see :mod:`benchmarks.suites` for the axes)."""
+class RunSpec:
+    """What a run renders and how it is measured: the fields a run and each of its cells share,
+    declared once here (see :mod:`benchmarks.suites` for the axes). :class:`Cell` and
+    :class:`Run` inherit them, :meth:`Run.cells` copies them by :func:`dataclasses.fields`, and
+    ``table.csv`` takes its cell columns from them (:mod:`benchmarks.reports.table`)."""
 
     scene: str
     strategy: str
     spp: int
-    denoiser: str
     motion: int
     depth: int | None
-    region: str
     sampler: str
-    frames: int
-    warmup: int
     width: int
     height: int
+    frames: int
+    warmup: int
     seed_sets: int
     reference_spp: int
+
+
+@dataclass(frozen=True)
+class Cell(RunSpec):
+    """One row of the results table: a run's fields, one of its denoisers and one of its pixel
+    regions."""
+
+    denoiser: str
+    region: str
 
     def key(self) -> str:
         """A stable string identifying the cell in the results file (its fields as sorted JSON)."""
@@ -47,24 +57,12 @@ class Cell:
 
 
 @dataclass(frozen=True)
-class Run:
+class Run(RunSpec):
     """Everything rendered together: one strategy on one scene/spp/condition, all seed sets.
 
     The cells of a run share its renders and differ only in denoiser and pixel region.
     """
 
-    scene: str
-    strategy: str
-    spp: int
-    motion: int
-    depth: int | None
-    sampler: str
-    frames: int
-    warmup: int
-    width: int
-    height: int
-    seed_sets: int
-    reference_spp: int
     denoisers: tuple[str, ...]
     regions: tuple[str, ...]
     metrics: tuple[str, ...]
@@ -72,21 +70,8 @@ class Run:
 
     def cells(self) -> list[Cell]:
         """Its cells: every denoiser x region, in that order."""
-        common = dict(
-            scene=self.scene,
-            strategy=self.strategy,
-            spp=self.spp,
-            motion=self.motion,
-            depth=self.depth,
-            sampler=self.sampler,
-            frames=self.frames,
-            warmup=self.warmup,
-            width=self.width,
-            height=self.height,
-            seed_sets=self.seed_sets,
-            reference_spp=self.reference_spp,
-        )
-        return [Cell(denoiser=d, region=r, **common) for d in self.denoisers for r in self.regions]
+        shared = {f.name: getattr(self, f.name) for f in dataclasses.fields(RunSpec)}
+        return [Cell(denoiser=d, region=r, **shared) for d in self.denoisers for r in self.regions]
 
     @property
     def label(self) -> str:

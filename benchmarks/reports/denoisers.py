@@ -1,8 +1,8 @@
 """How the denoisers respond to each strategy's noise: ``denoisers.md`` (issue 15).
 
 The report's tables give every (strategy, denoiser) ratio to white on its own. This module reads
-the same rows (:func:`benchmarks.report.summarize`) and records across denoisers, to answer the
-questions an adopter asks of them:
+the same rows (:func:`benchmarks.reports.table.summarize`) and records across denoisers, to answer
+the questions an adopter asks of them:
 
 1. **Temporal accumulation** (:func:`accumulation`): the ratio to white after the single-frame
    Gaussian, after ``taa`` and after ``svgf``; the raw error's frame-to-frame correlation
@@ -26,9 +26,8 @@ questions an adopter asks of them:
 records; :func:`write_denoise_tables` writes ``denoisers.md`` (the one call the report makes).
 
 Not for: choosing a strategy (``decision.md``) or the white-to-oracle shares
-(:mod:`benchmarks.gap`). This module does not import :mod:`benchmarks.report` (which imports it);
-it keeps its own copy of the report's strategy order and group titles, which the tests hold equal
-to the report's.
+(:mod:`benchmarks.reports.gap`). It groups, orders and titles its rows through
+:mod:`benchmarks.reports.groups`, as the table does, so that the two line up.
 """
 
 from __future__ import annotations
@@ -39,9 +38,9 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from benchmarks.groups import group_key, group_order, group_title, strategy_order
-from benchmarks.markdown import table_lines
-from benchmarks.records import Record
+from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
+from benchmarks.reports.markdown import table_lines
+from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import paired_ratio
 
@@ -594,8 +593,8 @@ def write_denoise_tables(
 
     Args:
         out_dir: the results folder.
-        records: the runner's records (:func:`benchmarks.records.load_records`).
-        rows: :func:`benchmarks.report.summarize` of the same records.
+        records: the runner's records (:func:`benchmarks.sweep.records.load_records`).
+        rows: :func:`benchmarks.reports.table.summarize` of the same records.
     """
     text = denoise_markdown(list(records), list(rows))
     if not text:

@@ -36,7 +36,7 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.records import Record
+from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import (
     as_stats,
@@ -141,7 +141,7 @@ def gap_shares(
     """Every strategy's share of the white-to-oracle distance, per cell and measure.
 
     Args:
-        records: benchmark records (:func:`benchmarks.records.load_records`).
+        records: benchmark records (:func:`benchmarks.sweep.records.load_records`).
         level: the intervals' confidence level in [0.5, 0.999].
         resamples: bootstrap resamples (>= 100).
 

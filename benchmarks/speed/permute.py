@@ -1,4 +1,4 @@
-"""Time the seed permutation: ``python -m benchmarks.speed_permute``.
+"""Time the seed permutation: ``python -m benchmarks.speed.permute``.
 
 At 1920x1080 with 4x4 blocks (Heitz & Belcour 2019 report 1035 ms on one CPU thread, 64 ms on 16
 threads and 0.60 ms on an RTX 2080 for their 1080p sort):
@@ -26,10 +26,14 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from typing import Any
 
 import torch
 
+from benchmarks.reports.markdown import table_lines
+from benchmarks.speed.copy import JOB_BYTES, PASS_JOBS
+from benchmarks.speed.formatting import DASH, fmt, get, number, ratio
 from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.permute import luminance, plan_sort, sort_pass, sort_torch
@@ -38,7 +42,7 @@ from bnerr.retarget import Retarget, load_retarget, retarget_sources
 from bnerr.sortkeys import group_labels, sort_key
 from bnerr.timing import sync
 
-__all__ = ["argsort_sort_pass", "main", "measure"]
+__all__ = ["table", "argsort_sort_pass", "main", "measure"]
 
 
 def argsort_sort_pass(
@@ -208,9 +212,94 @@ def measure(
         torch.set_num_threads(before)
 
 
+def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
+    """The permutation passes against a memory copy of the same bytes."""
+    copy = figures.get("speed.copy")
+    width, height = _size(values.get("size"))
+    names = {
+        "sort_pass_lum_ms": "sort pass, luminance key",
+        "sort_pass_rgb_ms": "sort pass, color key",
+        "torch_path_ms": "sort pass, torch path (fallback)",
+        "argsort_ms": "sort pass, reshape + argsort baseline",
+        "retarget_ms": "retargeting pass",
+        "retarget_torch_ms": "retargeting pass, torch gather indices",
+    }
+    rows = []
+    for key, name in names.items():
+        job = PASS_JOBS[key]
+        moved = get(copy, job, "bytes")
+        if moved is None and width is not None:
+            moved = JOB_BYTES[job] * width * height
+        ms = number(values.get(key))
+        rate = None if ms is None or moved is None else moved / (ms * 1e-3) / 1e9
+        copy_ms = get(copy, job, "copy_ms")
+        rows.append(
+            [
+                name,
+                fmt(ms),
+                fmt(None if moved is None else moved / 1e6),
+                fmt(rate),
+                fmt(copy_ms),
+            ]
+            + [ratio(ms, copy_ms)]
+        )
+    rows.append(["mask plan (once per mask offset)", fmt(values.get("plan_ms"))] + [DASH] * 4)
+    lines = [
+        "## Permutation passes against a memory copy (`speed.permute`, `speed.copy`)",
+        "",
+        f"{values.get('size')}, {values.get('threads')} threads on {values.get('device')}; "
+        f"native kernels: {values.get('native')}. Median milliseconds per call over interleaved "
+        "rounds. MB moved: the bytes the job reads and writes (`benchmarks/speed/copy.py`: "
+        f"sort {JOB_BYTES['sort_lum']} bytes per pixel with a luminance key, "
+        f"{JOB_BYTES['sort_rgb']} with a color key, retarget {JOB_BYTES['retarget']}); GB/s: "
+        "those bytes over the time; copy: a memory copy of as many bytes, measured in the same "
+        "run; ratio: the pass over that copy (1 would be the memory's speed).",
+        "",
+    ]
+    header = ["pass", "ms", "MB moved", "GB/s", "copy ms", "pass / copy"]
+    lines += table_lines(header, rows) + [""]
+    if copy is None:
+        lines += [
+            "No memory-copy anchor in these figures: they predate `speed.copy`; the next "
+            "`bnerr bench --suite speed` measures it in the same run.",
+            "",
+        ]
+    return lines + _gap(values)
+
+
+def _size(size: Any) -> tuple[int | None, int | None]:
+    """``(width, height)`` from speed.permute's ``"1920x1080, block 4"``, or Nones."""
+    try:
+        width, height = str(size).split(",")[0].split("x")
+        return int(width), int(height)
+    except ValueError:
+        return None, None
+
+
+def _gap(values: Mapping[str, Any]) -> list[str]:
+    """The closing-the-gap options against the plain sort pass."""
+    lines = ["## Closing-the-gap options against the sort pass (`speed.permute`, `gap`)", ""]
+    gap = values.get("gap")
+    if not isinstance(gap, Mapping) or not gap:
+        return lines + [
+            "Not in these figures: they predate the timing of the docs/METHODS.md, section 8 "
+            "options; the next `bnerr bench --suite speed` measures them.",
+            "",
+        ]
+    anchor = values.get("sort_pass_lum_ms")
+    lines += [
+        f"{values.get('size')}: median milliseconds per call of each option's extra work "
+        "(docs/METHODS.md, section 8); ratio: over the plain sort pass with a luminance key "
+        f"({fmt(anchor)} ms in the same run).",
+        "",
+    ]
+    rows = [[name.removesuffix("_ms"), fmt(ms), ratio(ms, anchor)] for name, ms in gap.items()]
+    return lines + table_lines(["option", "ms", "option / sort pass"], rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.speed_permute", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.permute", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--width", type=int, default=1920)
     parser.add_argument("--height", type=int, default=1080)

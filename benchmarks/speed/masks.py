@@ -1,4 +1,4 @@
-"""Time the mask generators: ``python -m benchmarks.speed_masks``.
+"""Time the mask generators: ``python -m benchmarks.speed.masks``.
 
 Scalar void-and-cluster masks (64x64, 128x128; the project's bar is at most 2 s for 128x128) are
 timed ``repeats`` times and the median is reported; vector masks (64x64, D = 2, 4, 8, default
@@ -13,15 +13,23 @@ report them with the machine and its load.
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import statistics
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
+from benchmarks.reports.markdown import table_lines
+from benchmarks.speed.formatting import fmt, get, ratio
 from bnerr.masks import vector_mask, void_and_cluster
 from bnerr.spectrum import low_frequency_fraction
 
-__all__ = ["main", "measure"]
+#: White noise's low-frequency fraction at the masks' cutoff of 0.125 cycles per pixel: the area
+#: of the disc of that radius in the unit frequency square, pi / 64.
+WHITE_LOW_FREQUENCY = math.pi * 0.125**2
+
+__all__ = ["WHITE_LOW_FREQUENCY", "table", "main", "measure"]
 
 
 def measure(
@@ -57,9 +65,30 @@ def measure(
     return results
 
 
+def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
+    """The masks: time to make, low-frequency fraction against white noise's."""
+    lines = [
+        "## Masks (`speed.masks`)",
+        "",
+        "Seconds to generate each mask (scalar: void and cluster, median of runs; vector: one "
+        "run), and its low-frequency fraction (the energy below 0.125 cycles per pixel) against "
+        f"white noise's, pi / 64 = {fmt(WHITE_LOW_FREQUENCY)} (below 1: bluer than white noise).",
+        "",
+    ]
+    rows = []
+    for name, row in values.items():
+        low = get(row, "low_frequency_fraction")
+        size, _, dims = name.partition("_d")
+        kind, _, side = size.partition("_")
+        shape = f"{kind}, {side} x {side}" + (f", {dims} dims" if dims else "")
+        rows.append([shape, fmt(get(row, "seconds")), fmt(low), ratio(low, WHITE_LOW_FREQUENCY)])
+    header = ["mask", "seconds", "low-frequency fraction", "/ white noise's"]
+    return lines + table_lines(header, rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.speed_masks", description=__doc__.split("\n\n")[0]
+        prog="python -m benchmarks.speed.masks", description=__doc__.split("\n\n")[0]
     )
     parser.add_argument("--repeats", type=int, default=3, help="scalar-mask runs (median)")
     parser.add_argument("--no-vector", action="store_true", help="time the scalar masks only")

@@ -1,0 +1,39 @@
+"""The parsers of argument values that several commands share: one ``WxH`` resolution parser
+(``bnerr bench``, ``render`` and ``animate``, and ``python -m benchmarks.speed.tracer``) and the
+name lists that take both ``--scenes a b`` and ``--scenes a,b``.
+
+Not a command: :mod:`benchmarks.cli` skips the modules whose name starts with ``_``.
+"""
+
+from __future__ import annotations
+
+from bnerr.errors import DtypeError, ValueRangeError
+
+__all__ = ["names", "parse_resolution"]
+
+
+def parse_resolution(text: str, flag: str = "--res") -> tuple[int, int]:
+    """``"320x240"`` -> ``(320, 240)`` (width, height), both >= 1; ``X`` works as well as ``x``.
+
+    Raises:
+        DtypeError: not of the form ``WxH`` with integers.
+        ValueRangeError: a size < 1.
+    """
+    w, sep, h = str(text).lower().partition("x")
+    try:
+        width, height = int(w), int(h)
+    except ValueError:
+        width = height = None
+    if not sep or width is None or height is None:
+        raise DtypeError(f"{flag}: expected WxH with integers (e.g. 320x240), got {text!r}")
+    if width < 1 or height < 1:
+        raise ValueRangeError(f"{flag}: expected width and height >= 1, got {width}x{height}")
+    return width, height
+
+
+def names(values: list[str] | None) -> list[str] | None:
+    """The names of a ``nargs="+"`` option, space- or comma-separated (``a b``, ``a,b``, both);
+    None when the option was not given."""
+    if values is None:
+        return None
+    return [v for item in values for v in item.split(",") if v]

@@ -1,0 +1,70 @@
+"""The reports of a results folder, every one derived from ``<out>/cells.jsonl`` alone, so a
+report can be rebuilt without rendering anything (``python -m benchmarks.reports DIR``, or
+``bnerr bench --report-only``).
+
+:func:`write_report` writes them all:
+
+- ``table.csv`` and ``table.md`` (:mod:`~benchmarks.reports.table`): one row per cell, and the
+  readable report (headline, one section per scene and condition, the flagged cells);
+- ``decision.md`` (:mod:`~benchmarks.reports.decision`): the strategy to use per scene,
+  condition, spp and denoiser;
+- ``gap.md`` and ``gap.csv`` (:mod:`~benchmarks.reports.gap`): each strategy's share of the
+  white-to-oracle distance, when the records hold white and the oracle;
+- ``denoisers.md`` (:mod:`~benchmarks.reports.denoisers`): how each denoiser responds to each
+  strategy's noise, when the records hold the denoisers it compares;
+- the PNG charts (:mod:`~benchmarks.reports.charts`).
+
+Every report groups and orders its rows through :mod:`~benchmarks.reports.groups` and writes its
+Markdown tables with :mod:`~benchmarks.reports.markdown`.
+
+Not for: deciding anything. The reports state the measured ratios and their intervals; a cell is
+flagged "worse than white" only when the whole interval lies above 1.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+from benchmarks.reports.charts import write_charts
+from benchmarks.reports.decision import decision_table
+from benchmarks.reports.denoisers import write_denoise_tables
+from benchmarks.reports.gap import write_gap_tables
+from benchmarks.reports.table import csv_text, markdown_table, summarize
+from benchmarks.sweep.records import Record, load_records
+from bnerr.io import atomic_write
+
+__all__ = ["write_report"]
+
+
+def write_report(
+    out_dir: str | Path,
+    records: Sequence[Record] | None = None,
+    title: str | None = None,
+    charts: bool = True,
+) -> str:
+    """Write ``table.csv``, ``table.md``, ``decision.md``, ``gap.md`` / ``gap.csv`` (when the
+    records hold white and the oracle: :mod:`benchmarks.reports.gap`) and the charts into
+    ``out_dir``; return the Markdown of ``table.md``.
+
+    Args:
+        out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
+        records: the runner's records; read from ``out_dir`` when None.
+        title: heading of ``table.md`` (default: the folder's name).
+        charts: draw the PNG charts too.
+    """
+    out = Path(out_dir)
+    records = load_records(out) if records is None else list(records)
+    rows = summarize(records)
+    text = markdown_table(rows, title or f"bnerr bench: {out.name}")
+    with atomic_write(out / "table.csv") as tmp:
+        Path(tmp).write_text(csv_text(rows))
+    with atomic_write(out / "table.md") as tmp:
+        Path(tmp).write_text(text)
+    with atomic_write(out / "decision.md") as tmp:
+        Path(tmp).write_text(decision_table(rows))
+    write_gap_tables(out, records)
+    write_denoise_tables(out, records, rows)
+    if charts:
+        write_charts(rows, records, out)
+    return text
