@@ -40,7 +40,7 @@ import numpy as np
 import torch
 
 from benchmarks.suites import get_suite
-from benchmarks.sweep.measure import scene_for, t_reference, t_render
+from benchmarks.sweep.measure import scene_for, t_reference
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, known_names, real_parts
 from benchmarks.sweep.plan import Run
 from benchmarks.sweep.references import ReferenceCache
@@ -50,7 +50,7 @@ from bnerr.errors import DtypeError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
-from bnerr.strategies import STRATEGIES, make_strategy
+from bnerr.strategies import STRATEGIES, make_strategy, play
 from denoisers.tuning import ParamStore
 
 __all__ = [
@@ -208,15 +208,10 @@ def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
         spp=spec.spp,
         dimensions=scene.dimensions,
     )
-    render = BoundRender(parts, scene, spec.spp)
-    first = 0 if parts.stateful(strategy) else spec.warmup
-    frames = []
-    for t in range(first, spec.warmup + spec.frames):
-        render.t_render = t_render(run, t)
-        frame = strategy.frame(t, render)
-        if t >= spec.warmup:
-            frames.append(frame)
-    return frames
+    render_at = functools.partial(BoundRender, parts, scene, spec.spp)
+    shown = range(spec.warmup, spec.warmup + spec.frames)
+    played = play(strategy, render_at, shown, max(run.motion, 1))
+    return [frame for t, frame in played if t >= spec.warmup]
 
 
 def render_references(parts: Parts, references: ReferenceCache, spec: Animation) -> list[Frame]:

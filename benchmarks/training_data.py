@@ -26,6 +26,7 @@ Not for: benchmarking (the benchmark renders its named scenes); training a produ
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -38,7 +39,7 @@ import renderers
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.sequences import make_sampler
-from bnerr.strategies import make_strategy
+from bnerr.strategies import make_strategy, play
 from renderers.memory import render_bytes
 from renderers.scene import (
     Box,
@@ -379,15 +380,12 @@ def blue_input(scene: Scene, size: int, spp: int, key: int, strategy: str, sampl
         name, size, size, seed=key, sampler=sampler, spp=spp, dimensions=scene.dimensions
     )
     last = BLUE_WARMUP if made.stateful else 0
-    frame = None
-    for t in range(last + 1):
-
-        def render(seeds: torch.Tensor, per_pixel, t: int = t) -> Frame:
-            return renderers.render(scene, t, seeds, per_pixel, spp)
-
-        frame = made.frame(t, render)
-    assert frame is not None
-    return frame
+    played = play(
+        made,
+        lambda t: functools.partial(renderers.render, scene, t, spp=spp),
+        range(last, last + 1),
+    )
+    return [frame for _, frame in played][-1]
 
 
 def render_pair(

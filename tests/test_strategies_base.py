@@ -126,3 +126,23 @@ def test_play_starts_a_stateless_strategy_at_the_first_wanted_frame_and_matches_
 
 def test_white_is_the_control_registered_under_its_name():
     assert STRATEGIES["white"] is WhiteStrategy and "white" not in OWN_SAMPLERS
+
+
+def test_a_strategy_in_one_new_file_runs_through_bnerr_bench(toy, tmp_path):
+    """The registry is all a new strategy needs: the benchmark's command line knows it, measures
+    it beside white on a tiny cell, and records the sampler it dictates."""
+    from benchmarks.cli import main
+    from benchmarks.sweep.records import load_records
+
+    out = tmp_path / "out"
+    args = [
+        "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,toy",
+        "--spp", "1", "--denoisers", "gaussian", "--frames", "1", "--warmup", "0",
+        "--res", "8x8", "--reference-spp", "4", "--seed-sets", "1", "--out", str(out),
+        "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts",
+    ]  # fmt: skip
+    assert main(args) == 0
+    records = {r.cell.strategy: r for r in load_records(out)}
+    assert set(records) == {"white", "toy"}
+    assert records["toy"].render_sampler == "owen_sobol"
+    assert "toy" in (out / "table.md").read_text()

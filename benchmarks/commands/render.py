@@ -33,15 +33,20 @@ kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR`
 from __future__ import annotations
 
 import argparse
+import functools
 import time
+from collections.abc import Callable
 from pathlib import Path
+
+import torch
 
 from benchmarks.commands._args import parse_resolution
 from bnerr.errors import ValueRangeError, check_memory, check_positive_int
+from bnerr.frame import Frame
 from bnerr.io import write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
-from bnerr.sequences import make_sampler
-from bnerr.strategies import make_strategy, pixel_seeds
+from bnerr.sequences import Sampler, make_sampler
+from bnerr.strategies import make_strategy, pixel_seeds, play
 from renderers import get_scene, render
 from renderers.memory import render_bytes
 
@@ -114,20 +119,19 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
 
 
 def _strategy_frames(args: argparse.Namespace, strategy, scene):
-    """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, as the benchmark renders
-    them (:func:`benchmarks.sweep.measure.measure_seed_set`): ``strategy.frame(t, render)`` with the
-    renderer's frame t; a stateful strategy's earlier frames are rendered, not yielded."""
+    """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, played as the benchmark
+    plays them (:func:`bnerr.strategies.play`, the renderer's frame t): a stateful strategy's
+    earlier frames are rendered, not yielded, and not counted in the seconds."""
 
-    first = 0 if getattr(strategy, "stateful", False) else args.start
-    for t in range(first, args.start + args.frames):
+    def render_at(k: int) -> Callable[[torch.Tensor, Sampler], Frame]:
+        return functools.partial(render, scene, k, spp=args.spp, compile=args.compile_now)
 
-        def render_t(seeds, sampler, t=t):
-            return render(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
-
-        start = time.perf_counter()
-        frame = strategy.frame(t, render_t)
+    shown = range(args.start, args.start + args.frames)
+    start = time.perf_counter()
+    for t, frame in play(strategy, render_at, shown):
         if t >= args.start:
             yield t, frame, time.perf_counter() - start
+        start = time.perf_counter()
 
 
 def run(args: argparse.Namespace) -> int:

@@ -30,6 +30,7 @@ Not for: timing the parts in isolation at 1080p (the ``speed`` suite, :mod:`benc
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,6 +48,7 @@ from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.metrics import FrameMetrics, PreparedReference, edge_mask, temporal_correlation
 from bnerr.spectrum import radial_power_spectrum
+from bnerr.strategies import first_frame, play
 from bnerr.timing import Stopwatch
 
 __all__ = [
@@ -344,20 +346,18 @@ def measure_seed_set(
     scene = scene_for(run, parts)
     chosen = {name: denoisers[name] for name in run.denoisers}
     measurement = _SeedSetMeasurement(run, group, chosen)
-    render = BoundRender(parts, scene, run.spp, max(run.motion, 1))
     tick = on_frame if on_frame is not None else (lambda: None)
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
     # a stateful strategy, or a stateful denoiser, needs the warmup frames in order
     in_order = parts.stateful(strategy) or any(_stateful(d) for d in chosen.values())
-    first = 0 if in_order else run.warmup
-    for _ in range(first):  # the skipped warmup frames count as done
+    shown = range(run.warmup, run.warmup + run.frames)
+    for _ in range(first_frame(strategy, shown, in_order)):  # skipped warmup frames count as done
         tick()
     measurement.reset()
-    for t in range(first, run.warmup + run.frames):
-        render.t_render = t_render(run, t)
-        frame = strategy.frame(t, render)
+    render_at = functools.partial(BoundRender, parts, scene, run.spp)
+    for t, frame in play(strategy, render_at, shown, max(run.motion, 1), in_order=in_order):
         tick()
         if t >= run.warmup:
             measurement.add(t, frame, references.get(run, scene, t_reference(run, t)))

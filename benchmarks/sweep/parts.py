@@ -135,35 +135,25 @@ class Parts:
 
 
 class BoundRender:
-    """The ``render(seeds, sampler)`` a strategy calls, with scene, t and spp bound (no clock:
-    the frame carries the renderer's own time).
-
-    ``motion_scale``: a run whose animation is ``k`` times faster shows the strategy the
-    renderer's frames ``k t``, whose motion buffers say how far a pixel moved since frame
-    ``k t - 1``; the strategy's previous frame is ``k (t - 1)``, so the motion it sees is scaled
-    by ``k`` (exact for linear motion, a first-order estimate for orbits). Strategies that
-    reproject seeds and temporal denoisers read it.
+    """The ``render(seeds, sampler)`` a strategy calls (:class:`bnerr.strategies.RenderFn`), with
+    scene, the renderer's frame ``t_render`` and spp bound (no clock: the frame carries the
+    renderer's own time). ``render_at`` of :func:`bnerr.strategies.play`, which also scales the
+    motion of a faster animation: ``play(strategy, lambda k: BoundRender(parts, scene, spp, k),
+    frames, motion)``.
     """
 
-    def __init__(self, parts: Parts, scene: Scene, spp: int, motion_scale: int = 1) -> None:
-        self.parts, self.scene, self.spp = parts, scene, spp
-        self.motion_scale = motion_scale
-        self.t_render = 0
-        if parts.render_batch is not None:
-            self.batch = self._batch
-
-    def _scaled(self, frame: Frame) -> Frame:
-        if self.motion_scale != 1 and frame.motion is not None:
-            frame.motion = frame.motion * self.motion_scale
-        return frame
+    def __init__(self, parts: Parts, scene: Scene, spp: int, t_render: int = 0) -> None:
+        self.parts, self.scene, self.spp, self.t_render = parts, scene, spp, t_render
 
     def __call__(self, seeds: torch.Tensor, sampler: Any) -> Frame:
-        return self._scaled(self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp))
+        return self.parts.render(self.scene, self.t_render, seeds, sampler, self.spp)
 
-    def _batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
-        """The renders of ``seeds [K, H, W]`` at once (``render.batch``, for the oracle)."""
-        frames = self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
-        return [self._scaled(frame) for frame in frames]
+    def batch(self, seeds: torch.Tensor, sampler: Any) -> list[Frame]:
+        """The renders of ``seeds [K, H, W]`` (the oracle's candidates): at once where the parts
+        have a batch render, else one by one (the same frames bit for bit)."""
+        if self.parts.render_batch is None:
+            return [self(s, sampler) for s in seeds]
+        return self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
 
 
 def real_parts() -> Parts:

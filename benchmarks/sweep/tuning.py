@@ -17,12 +17,14 @@ Not for: the grid search itself (:func:`denoisers.tuning.tune`, through ``Parts.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from pathlib import Path
 from typing import Any, Protocol
 
-from benchmarks.sweep.measure import References, scene_for, t_reference, t_render
+from benchmarks.sweep.measure import References, scene_for, t_reference
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts
 from benchmarks.sweep.plan import Run
+from bnerr.strategies import play
 
 __all__ = [
     "OWN_SUFFIX",
@@ -119,15 +121,13 @@ def tune_missing(
     if not names:
         return {}
     scene = scene_for(run, parts)
-    render = BoundRender(parts, scene, run.spp, max(run.motion, 1))
     strategy = parts.make_strategy(
         source, scene, run.height, run.width, TUNING_SEED_SET, run.sampler, run.spp
     )
-    first = 0 if parts.stateful(strategy) else run.warmup
     frames, refs = [], []
-    for t in range(first, run.warmup + min(run.frames, 4)):
-        render.t_render = t_render(run, t)
-        frame = strategy.frame(t, render)
+    shown = range(run.warmup, run.warmup + min(run.frames, 4))
+    render_at = functools.partial(BoundRender, parts, scene, run.spp)
+    for t, frame in play(strategy, render_at, shown, max(run.motion, 1)):
         if t >= run.warmup:
             frames.append(frame)
             refs.append(references.get(run, scene, t_reference(run, t)).color)
