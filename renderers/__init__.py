@@ -4,7 +4,7 @@
   -> bnerr.frame.Frame``, a pure function of its inputs whose every random number comes from the
   sampler (seed image, sample index, dimension); :func:`render_batch` (same module): K such
   renders of one frame with K seed images at once, each bit-identical to its own render.
-- :func:`get_scene` and :data:`SCENES` (:mod:`renderers.scenes`): the named scenes, each animated
+- :func:`get_scene` and :data:`SCENES` (:mod:`renderers.catalog`): the named scenes, each animated
   over frames t with a static variant; ``scene.dimensions`` is D and ``scene.max_depth`` the
   depth in Mitsuba's convention.
 - :mod:`renderers.scene`: the scene description; :mod:`renderers.layout`: which dimension feeds
@@ -17,7 +17,7 @@ This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmar
 
 from renderers.layout import Layout
 from renderers.scene import Scene
-from renderers.scenes import SCENES, get_scene
+from renderers.catalog import SCENES, get_scene
 from renderers.tracer import render, render_batch
 
 __all__ = ["Layout", "SCENES", "Scene", "get_scene", "render", "render_batch"]

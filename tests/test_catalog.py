@@ -1,4 +1,4 @@
-"""Tests for renderers.scenes: the registry, D per scene, animation and static variants."""
+"""Tests for renderers.catalog: the registry, D per scene, animation and static variants."""
 
 import pytest
 import torch
