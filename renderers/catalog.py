@@ -1,4 +1,5 @@
-"""The catalog of named scenes: each an animation over frames t, with a static variant (``animated=False``).
+"""The catalog of named scenes: each an animation over frames t, with a static variant
+(``animated=False``).
 
 ===============  ===  =====  ======================================================================
 name             D    depth  what it models
