@@ -39,19 +39,8 @@ class _SppStrategy(Strategy):
         return cls(height, width, spp=build.spp, **build.common)  # type: ignore[call-arg]
 
 
-class ZSobolStrategy(_SppStrategy):
-    """``zsobol``: pbrt-v4's ZSobolSampler, the identity key image and a fresh scramble per frame.
-
-    Memory as white's (33 bytes per pixel measured: the key image, made once through a few int64
-    temporaries).
-
-    Args:
-        spp: samples per pixel, a power of two (pbrt's per-pixel blocks).
-    """
-
-    name = "zsobol"
-    own_sampler = "zsobol"
-    stream = 5
+class _ZOrderKeys(_SppStrategy):
+    """A power-of-two spp and the identity key image ``zsobol_keys(H, W)``, made once."""
 
     def __init__(
         self,
@@ -65,6 +54,21 @@ class ZSobolStrategy(_SppStrategy):
         self.spp = power_of_two_spp(spp, self.name)
         super().__init__(height, width, seed=seed, device=device)
         self.keys = zsobol_keys(height, width, self.device)
+
+
+class ZSobolStrategy(_ZOrderKeys):
+    """``zsobol``: pbrt-v4's ZSobolSampler, the identity key image and a fresh scramble per frame.
+
+    Memory as white's (33 bytes per pixel measured: the key image, made once through a few int64
+    temporaries).
+
+    Args:
+        spp: samples per pixel, a power of two (pbrt's per-pixel blocks).
+    """
+
+    name = "zsobol"
+    own_sampler = "zsobol"
+    stream = 5
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         key = stream_key(self.seed, t, self.stream)
@@ -110,7 +114,7 @@ class CyclesBlueStrategy(_SppStrategy):
         return render(cycles_keys(self.height, self.width, key, self.device), self.sampler)
 
 
-class ZSobolTStrategy(_SppStrategy):
+class ZSobolTStrategy(_ZOrderKeys):
     """``zsobol_t``: temporal Z-order, the identity key image and the sampler at frame t.
 
     One scramble seed per seed set for every frame: frame t's blocks neighbour frame t - 1's in
@@ -134,12 +138,10 @@ class ZSobolTStrategy(_SppStrategy):
         spp: int,
         device: torch.device | str = "cpu",
     ) -> None:
-        self.spp = power_of_two_spp(spp, self.name)
-        super().__init__(height, width, seed=seed, device=device)
+        super().__init__(height, width, seed=seed, spp=spp, device=device)
         key = stream_key(self.seed, 0, self.stream)
         # The class itself (what make_sampler("zsobol_t") builds): _frame needs its at_frame.
         self.sampler = ZSobolTSampler(width=width, height=height, spp=self.spp, seed=key)
-        self.keys = zsobol_keys(height, width, self.device)
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         return render(self.keys, self.sampler.at_frame(t))
