@@ -240,7 +240,7 @@ def test_t_interval_covers_at_the_suites_settings(seed_sets, set_sd):
     # strategy, frame noise like the committed results' (bnerr.metrics.coverage), true ratio 1; at
     # 95 % and the ordering tests' Bonferroni levels. 200 000 trials give a band of +-0.05 % at
     # 99.69 % (nominal miss 0.31 %), +-0.19 % at 95 %. Measured (python -m
-    # bnerr.metrics.coverage, 400 000 trials): every miss rate within 0.06 % of nominal.
+    # bnerr.metrics.coverage, 400 000 trials): every miss rate within 0.04 % of nominal.
     trials = 200_000
     a, b = simulate(trials, seed_sets, 3, set_sd, torch.Generator().manual_seed(11))
     for level, (lo, hi) in zip(LEVELS, t_intervals(a, b, LEVELS), strict=True):
@@ -250,8 +250,8 @@ def test_t_interval_covers_at_the_suites_settings(seed_sets, set_sd):
 
 def test_the_former_bootstrap_misses_far_more_often_than_it_says():
     # Why the default changed: the same check on the two-stage percentile bootstrap at S = 4 and a
-    # 5 % seed-set effect fails by far (measured with 40 000 trials: 13 % misses at 95 %, 4.7 % at
-    # 99.69 %; this run's 4000 trials agree). Kept as method="bootstrap" for comparison only.
+    # 5 % seed-set effect fails by far (measured with 40 000 trials: 12.6 % misses at 95 %, 5.0 %
+    # at 99.69 %; this run's 4000 trials agree). Kept as method="bootstrap" for comparison only.
     trials = 4000
     a, b = simulate(trials, 4, 3, 0.05, torch.Generator().manual_seed(12))
     levels = (0.95, LEVELS[-1])

@@ -199,7 +199,7 @@ def coverage(
 
 def _cell(row: Coverage) -> str:
     if row.infinite > 0:
-        width = f"inf ({100 * row.infinite:.2g} % of trials)"
+        width = f"inf ({100 * row.infinite:.3g} % of trials)"
     elif row.mean_width > 10 * row.median_width:  # a few near-infinite intervals
         width = f"median {row.median_width:.3f} (mean {row.mean_width:.0e})"
     else:
