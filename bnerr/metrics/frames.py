@@ -2,16 +2,17 @@
 
 **The table.** :data:`METRIC_TABLE` maps each metric's name to a :class:`Metric`: its update (one
 image -> its pair, a method of :class:`~bnerr.metrics.image.ImagePair` or any function of one) and
-how summary tables show it (``benchmarks/report.py`` takes ``table.csv``'s metric columns from
-it). :data:`METRICS`, the names in table order, is derived from it. Adding a metric is one update
-function and one table entry; :class:`FrameMetrics` and the report need no change.
+how summary tables show it (``benchmarks/reports/table.py`` takes ``table.csv``'s metric columns
+from it). :data:`METRICS`, the names in table order, is derived from it. Adding a metric is one
+update function and one table entry; :class:`FrameMetrics` and the report need no change.
 
 **Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
 Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
 pixel count)`` for the MSE family, ``(value, 1)`` for per-image scores such as PSNR and SSIM), and
 the compute step is ``sum(numerators) / sum(denominators)`` over frames
 (:func:`bnerr.metrics.stats.pooled_mean`). One frame gives the per-image value; many frames give
-the pooled running mean; a bootstrap resamples the frames' pairs (:mod:`bnerr.metrics.stats`).
+the pooled running mean; its interval is a t-interval over the seed sets' pooled means
+(:mod:`bnerr.metrics.stats`).
 
 Not for: metrics that need more than one frame at a time (the error's correlation from frame to
 frame is :func:`bnerr.metrics.image.temporal_correlation`, measured beside the table).
@@ -175,7 +176,9 @@ class FrameMetrics:
     def compute(
         self, level: float = 0.95, resamples: int = 2000, seed: int = 0
     ) -> dict[str, Estimate]:
-        """Every metric's pooled mean over the frames with its bootstrap interval."""
+        """Every metric's pooled mean over the frames with its interval
+        (:func:`bnerr.metrics.stats.bootstrap_interval`: a t-interval over seed sets; ``resamples``
+        and ``seed`` are for its ``method="bootstrap"`` and unused here)."""
         return {
             name: bootstrap_interval(self.stats(name), level, resamples, seed)
             for name in self.names
@@ -189,5 +192,6 @@ class FrameMetrics:
         resamples: int = 2000,
         seed: int = 0,
     ) -> Estimate:
-        """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames."""
+        """Paired ratio of this run's metric ``name`` to ``baseline``'s over the same frames, with
+        :func:`bnerr.metrics.stats.paired_ratio`'s interval (a t-interval over seed sets)."""
         return paired_ratio(self.stats(name), baseline.stats(name), level, resamples, seed)

@@ -1,0 +1,237 @@
+"""Coverage study of the interval behind every comparison: which method gives its nominal rate.
+
+``python -m bnerr.metrics.coverage`` prints the table of docs/METHODS.md, section 6
+("Intervals"). Each trial simulates one suite cell with a true ratio of 1: two strategies, S
+independent seed sets of F frames, per-frame MSE values built as the committed results show them
+(``results/quality`` and ``results/stability``, ``cells.jsonl``: per-frame coefficient of
+variation of the MSE inside a seed set median 3.5 %, 90th percentile 11-16 %; correlation of the
+two strategies' per-frame deviations median 0.05-0.07; per-seed-set log ratios with standard
+deviation median 0.03, 90th percentile 0.09-0.14):
+
+- a frame content factor, log-normal with sd :data:`CONTENT_SD`, shared by both strategies and by
+  every seed set (frame i of every seed set is the same scene frame);
+- a seed-set effect per strategy, log-normal with sd ``set_sd`` (0, 5 % or 15 %), drawn
+  independently for the two strategies (they render with their own seeds);
+- frame noise, log-normal with sd :data:`FRAME_CV` for each strategy, correlation :data:`RHO`
+  between the two strategies on the same frame.
+
+Both strategies are drawn alike, so the ratio of their expected MSE is 1 and a miss is an interval
+that excludes 1. Candidates: ``bootstrap``, the former two-stage percentile bootstrap exactly as
+:func:`bnerr.metrics.paired_ratio` ran it (2000 resamples, weights of seed 0); ``t``, the
+t-interval on per-seed-set log ratios with S - 1 degrees of freedom that replaced it; and
+``studentized``, a studentized bootstrap of those log ratios over seed sets (1000 resamples).
+
+Every interval is computed batched over trials (the same arithmetic as :mod:`bnerr.metrics.stats`
+but for the bootstrap's sums, which are matrix products here: their rounding does not matter for
+a coverage count). Not for: the intervals themselves; use :func:`bnerr.metrics.paired_ratio`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import torch
+
+from bnerr.metrics.stats import resample_weights, set_means, t_interval
+
+__all__ = [
+    "CONTENT_SD",
+    "FRAME_CV",
+    "LEVELS",
+    "RHO",
+    "Coverage",
+    "bootstrap_intervals",
+    "coverage",
+    "main",
+    "simulate",
+    "studentized_intervals",
+    "t_intervals",
+]
+
+FRAME_CV = 0.05  # per-frame log-sd of the MSE inside a seed set (data: median 0.035)
+RHO = 0.1  # correlation of the two strategies' frame noise (data: median 0.05-0.07)
+CONTENT_SD = 0.3  # log-sd of the scene frames' content, shared by both strategies
+#: The levels the suites and tests use: 95 % and the ordering tests' Bonferroni levels
+#: (tests/test_ordering.py: 1 - 0.05/6 failure cases and gap, 1 - 0.05/8 raw MSE and rivals,
+#: 1 - 0.05/16 orderings).
+LEVELS = (0.95, 1 - 0.05 / 6, 1 - 0.05 / 8, 1 - 0.05 / 16)
+
+Intervals = list[tuple[torch.Tensor, torch.Tensor]]  # per level: (lo [T], hi [T]) of the ratio
+
+
+def simulate(
+    trials: int, seed_sets: int, frames: int, set_sd: float, generator: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """Per-frame MSE of two strategies with a true ratio of 1: ``(a, b)``, each
+    ``[trials, seed_sets, frames]`` float64 (the model of the module docstring)."""
+    shape = (trials, seed_sets, frames)
+
+    def normal(*size: int) -> torch.Tensor:
+        return torch.randn(size, generator=generator, dtype=torch.float64)
+
+    content = CONTENT_SD * normal(trials, 1, frames)
+    set_a, set_b = set_sd * normal(trials, seed_sets, 1), set_sd * normal(trials, seed_sets, 1)
+    z1, z2 = normal(*shape), normal(*shape)
+    noise_a = FRAME_CV * z1
+    noise_b = FRAME_CV * (RHO * z1 + math.sqrt(1 - RHO * RHO) * z2)
+    return torch.exp(content + set_a + noise_a), torch.exp(content + set_b + noise_b)
+
+
+def _pairs(x: torch.Tensor) -> torch.Tensor:
+    return torch.stack([x, torch.ones_like(x)], dim=-1)
+
+
+def t_intervals(a: torch.Tensor, b: torch.Tensor, levels: Sequence[float]) -> Intervals:
+    """The t-interval of :func:`bnerr.metrics.paired_ratio` for every trial of ``a, b [T, S, F]``
+    (S >= 2): log ratios of the seed sets' pooled means, centred on the pooled ratio."""
+    logs = torch.log(set_means(_pairs(a)) / set_means(_pairs(b)))  # [T, S]
+    centre = torch.log(a.sum(dim=(1, 2)) / b.sum(dim=(1, 2)))  # [T]
+    out = []
+    for level in levels:
+        lo, hi = t_interval(logs, centre, level)
+        out.append((torch.exp(lo), torch.exp(hi)))
+    return out
+
+
+def bootstrap_intervals(
+    a: torch.Tensor, b: torch.Tensor, levels: Sequence[float], chunk: int = 2000
+) -> Intervals:
+    """The former two-stage percentile bootstrap of :func:`bnerr.metrics.paired_ratio` (2000
+    resamples, weights of seed 0, torch's linear quantiles) for every trial of ``a, b``."""
+    trials, s, f = a.shape
+    weights = resample_weights((s, f), 2000, 0).T  # [S * F, R]
+    alphas = [(1 - level) / 2 for level in levels]
+    q = torch.tensor([p for al in alphas for p in (al, 1 - al)], dtype=torch.float64)
+    parts = []
+    for i in range(0, trials, chunk):
+        ratio = (a[i : i + chunk].reshape(-1, s * f) @ weights) / (
+            b[i : i + chunk].reshape(-1, s * f) @ weights
+        )
+        parts.append(torch.quantile(ratio, q, dim=1))  # [2 * levels, chunk]
+    bounds = torch.cat(parts, dim=1)
+    return [(bounds[2 * k], bounds[2 * k + 1]) for k in range(len(levels))]
+
+
+def studentized_intervals(
+    a: torch.Tensor, b: torch.Tensor, levels: Sequence[float], chunk: int = 2000
+) -> Intervals:
+    """Studentized (bootstrap-t) intervals of the mean per-seed-set log ratio: 1000 resamples of
+    the seed sets (seed 1); a resample of one repeated seed set has no spread, its t is infinite,
+    and the quantiles are the conservative order statistics (lower for the low tail)."""
+    logs = torch.log(set_means(_pairs(a)) / set_means(_pairs(b)))  # [T, S]
+    trials, s = logs.shape
+    draws = torch.randint(s, (1000, s), generator=torch.Generator().manual_seed(1))
+    mean, se = logs.mean(dim=1), logs.std(dim=1) / math.sqrt(s)
+    parts = []
+    for i in range(0, trials, chunk):
+        star = logs[i : i + chunk][:, draws]  # [chunk, R, S]
+        t = (star.mean(dim=2) - mean[i : i + chunk, None]) / (star.std(dim=2) / math.sqrt(s))
+        parts.append(torch.sort(torch.nan_to_num(t, nan=0.0, posinf=math.inf), dim=1).values)
+    tstar = torch.cat(parts)  # [T, R]
+    r = tstar.shape[1] - 1
+    out = []
+    for level in levels:
+        alpha = (1 - level) / 2
+        t_lo, t_hi = tstar[:, math.floor(alpha * r)], tstar[:, math.ceil((1 - alpha) * r)]
+        out.append((torch.exp(mean - t_hi * se), torch.exp(mean - t_lo * se)))
+    return out
+
+
+METHODS: dict[str, Callable[[torch.Tensor, torch.Tensor, Sequence[float]], Intervals]] = {
+    "bootstrap": bootstrap_intervals,
+    "t": t_intervals,
+    "studentized": studentized_intervals,
+}
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """One method's record at one setting: the share of trials whose interval misses 1, its
+    binomial standard error, and the intervals' mean and median width (inf when any is infinite,
+    with the share of infinite intervals)."""
+
+    method: str
+    seed_sets: int
+    set_sd: float
+    level: float
+    trials: int
+    miss: float
+    miss_se: float
+    mean_width: float
+    median_width: float
+    infinite: float
+
+
+def coverage(
+    method: str,
+    seed_sets: int,
+    set_sd: float,
+    trials: int,
+    levels: Sequence[float] = LEVELS,
+    frames: int = 3,
+    seed: int = 0,
+) -> list[Coverage]:
+    """Simulate ``trials`` cells (``seed`` fixes them) and measure ``method`` at each level."""
+    a, b = simulate(trials, seed_sets, frames, set_sd, torch.Generator().manual_seed(seed))
+    rows = []
+    for level, (lo, hi) in zip(levels, METHODS[method](a, b, levels), strict=True):
+        miss = float(((lo > 1) | (hi < 1)).double().mean())
+        width = hi - lo
+        rows.append(
+            Coverage(
+                method,
+                seed_sets,
+                set_sd,
+                level,
+                trials,
+                miss,
+                math.sqrt(miss * (1 - miss) / trials),
+                float(width.mean()),
+                float(width.median()),
+                float((~torch.isfinite(width)).double().mean()),
+            )
+        )
+    return rows
+
+
+def _cell(row: Coverage) -> str:
+    if row.infinite > 0:
+        width = f"inf ({100 * row.infinite:.3g} % of trials)"
+    elif row.mean_width > 10 * row.median_width:  # a few near-infinite intervals
+        width = f"median {row.median_width:.3f} (mean {row.mean_width:.0e})"
+    else:
+        width = f"{row.mean_width:.3f}"
+    return f"{100 * row.miss:.2f} ± {100 * row.miss_se:.2f} / {width}"
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    """Print the coverage table (markdown): miss rate in % ± its Monte Carlo standard error, and
+    the mean width of the ratio's interval, per seed-set count, seed-set effect and level."""
+    parser = argparse.ArgumentParser(prog="python -m bnerr.metrics.coverage", description=__doc__)
+    parser.add_argument("--trials", type=int, default=40_000, help="trials per bootstrap setting")
+    parser.add_argument("--t-trials", type=int, default=400_000, help="trials per t setting")
+    args = parser.parse_args(argv)
+    torch.set_num_threads(1)  # bit-identical tables, and fair to a shared machine
+    names = list(METHODS)
+    print("| S | seed-set sd | level | nominal miss % | " + " | ".join(names) + " |")
+    print("|---|---|---|---|" + "---|" * len(names))
+    for seed_sets in (4, 8):
+        for set_sd in (0.0, 0.05, 0.15):
+            table = {
+                m: coverage(m, seed_sets, set_sd, args.t_trials if m == "t" else args.trials)
+                for m in names
+            }
+            for k, level in enumerate(LEVELS):
+                cells = " | ".join(_cell(table[m][k]) for m in names)
+                print(
+                    f"| {seed_sets} | {set_sd:.0%} | {level:.5f} | {100 * (1 - level):.2f} | "
+                    f"{cells} |",
+                    flush=True,
+                )
+
+
+if __name__ == "__main__":
+    main()
