@@ -2,6 +2,7 @@
 
 import csv
 import dataclasses
+import re
 import shutil
 from pathlib import Path
 
@@ -275,35 +276,25 @@ def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
     )
 
 
-_QUICK = Path(__file__).resolve().parents[1] / "results" / "quick"
+_RESULTS = Path(__file__).resolve().parents[1] / "results"
+#: The tables a results folder's report writes from its cells.jsonl (charts aside: PNG bytes
+#: depend on the fonts and matplotlib build).
+_TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoisers.md")
 
 
-def _without_last_column(text: str) -> list[list[str]]:
-    return [row[:-1] for row in csv.reader(text.splitlines())]
-
-
-@pytest.mark.skipif(not (_QUICK / "cells.jsonl").exists(), reason="no committed quick results")
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "results/quick/table.md was written with the former two-stage bootstrap intervals; "
-        "paired_ratio now gives t-intervals over seed sets (issue 24), which move its bold cells. "
-        "The tables are regenerated, and this mark removed, with the benchmarks/ layout move."
-    ),
-)
-def test_the_committed_quick_tables_regenerate_byte_identical(tmp_path):
-    # table.md byte for byte; table.csv in every committed column, plus the render_sampler column
-    # added last since (the committed records predate it: the strategy's own or the condition's).
-    shutil.copy(_QUICK / "cells.jsonl", tmp_path / "cells.jsonl")
-    write_report(tmp_path, title="bnerr bench --suite quick", charts=False)
-    assert (tmp_path / "table.md").read_bytes() == (_QUICK / "table.md").read_bytes()
-    new, old = (tmp_path / "table.csv").read_text(), (_QUICK / "table.csv").read_text()
-    if COLUMNS[-1] not in old.splitlines()[0].split(","):
-        assert COLUMNS[-1] == "render_sampler"
-        assert _without_last_column(new) == [row for row in csv.reader(old.splitlines())]
-        assert {row["render_sampler"] for row in csv.DictReader(new.splitlines())} == {"owen_sobol"}
-    else:
-        assert new == old
+@pytest.mark.slow
+@pytest.mark.parametrize("suite", ["quick", "stability", "gap", "quality"])
+def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_path, suite):
+    # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
+    # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
+    folder = _RESULTS / suite
+    shutil.copy(folder / "cells.jsonl", tmp_path / "cells.jsonl")
+    write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
+    committed = [name for name in _TABLES if (folder / name).exists()]
+    assert "table.md" in committed and "decision.md" in committed
+    for name in committed:
+        assert (tmp_path / name).read_bytes() == (folder / name).read_bytes(), name
+    assert not [n for n in _TABLES if (tmp_path / n).exists() and n not in committed]
 
 
 _COMMITTED = [
@@ -368,3 +359,17 @@ def test_a_strategy_with_its_own_sampler_is_named_in_its_section():
     old = dataclasses.replace(records[-1], render_sampler=None)
     assert table.render_sampler(old) == "zsobol"  # files from before: the strategy's own
     assert "Samplers:" not in markdown_table(summarize(_records(), resamples=200))
+
+
+def test_the_readmes_headline_table_is_the_committed_quality_decision():
+    # The README's bold cells come from results/quality, never from a hand edit: its headline
+    # table must be headline_table() of the committed records, for the scenes and denoisers it
+    # names, in its order.
+    readme = (_RESULTS.parent / "README.md").read_text()
+    found = re.search(r"\n(\| scene \| spp \| gaussian \|[^\n]*\n(?:\|[^\n]*\n)+)", readme)
+    assert found, "README: the headline table (| scene | spp | gaussian | ...) is missing"
+    lines = found.group(1).splitlines()
+    denoisers = [c.strip() for c in lines[0].strip("|").split("|")][2:]
+    scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
+    rows = summarize(load_records(_RESULTS / "quality"))
+    assert found.group(1) == decision.headline_table(rows, denoisers, scenes)

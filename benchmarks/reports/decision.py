@@ -16,7 +16,7 @@ from collections.abc import Sequence
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
 
-__all__ = ["DECISION_EXCLUDES", "best_rows", "decision_table"]
+__all__ = ["DECISION_EXCLUDES", "best_rows", "decision_table", "headline_table"]
 
 
 #: Left out of the decision table by default: the oracle renders K candidates per frame (an
@@ -85,12 +85,44 @@ def decision_table(
         f"# {title}",
         "",
         "Per scene, condition, spp and denoiser: the strategy with the lowest post-denoise MSE, "
-        "its MSE as a fraction of white's with the 95% paired bootstrap interval, and its cost per "
-        "frame (render + permutation ms). Bold: below white beyond the interval; a strategy named "
-        "without bold is lowest by its point estimate only; white: no strategy was lower."
-        + _left_out(exclude),
+        "its MSE as a fraction of white's with the 95% paired interval (a Student t-interval on "
+        "the seed sets' log ratios), and its cost per frame (render + permutation ms). Bold: "
+        "below white beyond the interval (superiority); a strategy named without bold is lowest "
+        "by its point estimate only; white: no strategy was lower." + _left_out(exclude),
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",
     ]
     return "\n".join(lines)
+
+
+def _headline_cell(row: dict | None) -> str:
+    """``**name ratio**`` below white beyond the interval, ``name ratio`` by its point estimate
+    only, ``white`` when no strategy was lower, ``-`` when not measured."""
+    if row is None:
+        return "-"
+    if row["strategy"] == "white" or row.get("den_mse_ratio") is None:
+        return row["strategy"]
+    text = f"{row['strategy']} {row['den_mse_ratio']:.2f}"
+    return f"**{text}**" if row["den_mse_ratio_hi"] < 1.0 else text
+
+
+def headline_table(
+    rows: Sequence[dict],
+    denoisers: Sequence[str],
+    scenes: Sequence[str],
+    exclude: Sequence[str] = DECISION_EXCLUDES,
+) -> str:
+    """The README's headline: the decision table of ``scenes`` in that order, each without a
+    condition (the scene's own motion, depth, every pixel, the default sampler), one column per
+    denoiser of ``denoisers``, each cell the best strategy and its ratio to white (bold: below
+    white beyond the interval). Markdown lines, no title."""
+    best = best_rows(rows, exclude)
+    plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}
+    body = [
+        [scene, str(spp)] + [_headline_cell(best.get((group, spp, d))) for d in denoisers]
+        for scene in scenes
+        for group in sorted((g for g in plain if g[0] == scene), key=group_order)
+        for spp in sorted({k[1] for k in best if k[0] == group})
+    ]
+    return "\n".join(table_lines(["scene", "spp", *denoisers], body)) + "\n"

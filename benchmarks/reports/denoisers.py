@@ -77,7 +77,7 @@ _OWN = ":own"
 _LEARNED = ("gaussian", "oidn", "unet", "unet_blue")
 _BOUNDS = ("oracle",)
 
-#: ``(value, lo, hi)`` of a ratio and its 95% paired bootstrap interval.
+#: ``(value, lo, hi)`` of a ratio and its 95% paired interval (:func:`bnerr.metrics.paired_ratio`).
 Interval = tuple[float, float, float]
 
 

@@ -1,9 +1,10 @@
 """``table.csv`` and ``table.md`` from the runner's records.
 
 - ``table.csv`` (:func:`summarize`, :func:`csv_text`): one row per cell (scene, strategy, spp,
-  denoiser, condition) with the raw and denoised MSE and their 95% bootstrap intervals, relMSE,
+  denoiser, condition) with the raw and denoised MSE and their 95% intervals, relMSE,
   PSNR, SSIM, the blurred MSEs, the error's low-frequency fraction, the ratio of each strategy to
-  white noise on the same frames (paired bootstrap interval, :func:`bnerr.metrics.paired_ratio`),
+  white noise on the same frames (paired t-interval over seed sets,
+  :func:`bnerr.metrics.paired_ratio`),
   and the render, permutation and denoise milliseconds per frame. The metric columns come from
   :data:`bnerr.metrics.METRIC_TABLE` (:func:`table_columns`): a metric added there reaches the
   table with no change here. The other reports read these rows too.
@@ -77,7 +78,7 @@ def _tabled() -> dict[str, Metric]:
 
 
 def _interval_names() -> list[str]:
-    """``raw_<m>``, ``den_<m>`` of every metric given a bootstrap interval (``mse``)."""
+    """``raw_<m>``, ``den_<m>`` of every metric given an interval (``mse``)."""
     return [f"{k}_{name}" for name, m in _tabled().items() if m.interval for k in _KINDS]
 
 
@@ -132,7 +133,7 @@ def _mean_ms(series: list[list[float]]) -> float:
 
 
 def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
-    """The pooled value of every metric and the bootstrap interval of those that have one."""
+    """The pooled value of every metric and the interval of those that have one."""
     for kind in ("raw", "den"):
         for metric in getattr(rec, kind):
             stats = _stats(rec, kind, metric)
@@ -277,7 +278,7 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
         f"D = {first['dimensions']}, reference {first['reference_spp']} spp.",
         "",
         "Post-denoise MSE: white's absolute value, every other strategy as a fraction of white's "
-        "(95% paired bootstrap interval).",
+        "(95% paired interval: a Student t-interval on the seed sets' log ratios).",
         "",
     ]
     lines += _sampler_note(rows)
@@ -409,8 +410,9 @@ def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
         + " / ".join(HEADLINE_STRATEGIES)
         + " post-denoise MSE as a fraction of white's",
         "",
-        "Bold: below white beyond the 95% paired interval; ↑: above white beyond it; "
-        "-: not measured. Intervals and absolute values are in the sections below.",
+        "Bold: below white beyond the 95% paired interval (a superiority claim: the whole "
+        "t-interval over seed sets below 1); ↑: above white beyond it; -: not measured. "
+        "Intervals and absolute values are in the sections below.",
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",
