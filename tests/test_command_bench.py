@@ -192,6 +192,8 @@ def test_speed_report_only_rewrites_speed_md_from_the_committed_figures(tmp_path
     assert (out / "speed.json").read_text() == figures  # nothing measured
     text = (out / "speed.md").read_text()
     assert "|" in text and "OIDN" in text  # one table per part, denoisers against OIDN
+    committed = Path(__file__).parents[1] / "results" / "speed" / "speed.md"
+    assert text == committed.read_text()  # speed.md follows from speed.json alone, rows sorted
 
 
 def test_speed_report_only_refuses_figures_of_unknown_scripts(tmp_path, capsys):
