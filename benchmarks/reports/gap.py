@@ -8,10 +8,14 @@ strategy and ``oracle`` over the same frames and seed sets::
 0 is white's error, 1 the oracle's; below 0 the strategy is worse than white, above 1 better than
 the oracle. It is computed for each *measure*: the raw frames' MSE after the sigma-1 and sigma-2
 blurs (``raw mse_blur1``, ``raw mse_blur2``: where a blue-noise error pays off) and each
-denoiser's output MSE (``den mse``, per denoiser). The interval is a paired two-stage bootstrap
-(seed sets, then frames; :mod:`bnerr.metrics.stats`): each resample draws the same frames for the
-three strategies, so the frame-to-frame variation of the content cancels. Next to it, ``gap`` is
-the distance itself relative to white, ``(W - O) / W``: a share of a gap near 0 means little.
+denoiser's output MSE (``den mse``, per denoiser). The interval is a Student t-interval over the
+seed sets (:mod:`bnerr.metrics.stats`, like every other interval of the reports): each seed set
+gives one share from its own pooled means of the three strategies on the same frames, so the
+frame-to-frame variation of the content cancels, and the S shares give the interval (S - 1
+degrees of freedom), centred on the share of the pooled means. A seed set where the oracle is not
+below white has no gap to share: the interval is then unbounded (not resolved). Next to it,
+``gap`` is the distance itself relative to white, ``(W - O) / W``: a share of a gap near 0 means
+little.
 
 - :func:`gap_shares`: one :class:`GapShare` per (scene, spp, condition, measure, strategy).
 - :func:`gap_markdown` / :func:`gap_csv`: the table, one row per (scene, spp, condition,
@@ -38,13 +42,7 @@ import torch
 
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
-from bnerr.metrics import (
-    as_stats,
-    check_bootstrap,
-    percentile_interval,
-    resample_weights,
-    resampled_values,
-)
+from bnerr.metrics import as_stats, check_bootstrap, replicates, t_interval
 
 __all__ = [
     "GAP_CSV",
@@ -74,7 +72,7 @@ class GapShare:
             e.g. ``"m1 all owen_sobol"``.
         measure: ``"raw mse_blur1"``, ``"raw mse_blur2"`` or ``"<denoiser> mse"``.
         strategy: the strategy measured.
-        share, lo, hi: ``(W - V) / (W - O)`` and its bootstrap interval at ``level``.
+        share, lo, hi: ``(W - V) / (W - O)`` and its t-interval over seed sets at ``level``.
         gap: ``(W - O) / W``.
         level: the interval's confidence level.
     """
@@ -118,7 +116,7 @@ def _measures(records: Iterable[Record]) -> dict[tuple, dict[str, dict[str, torc
 
 
 def _share(
-    w: torch.Tensor, v: torch.Tensor, o: torch.Tensor, level: float, resamples: int
+    w: torch.Tensor, v: torch.Tensor, o: torch.Tensor, level: float
 ) -> tuple[float, float, float, float]:
     """``(share, lo, hi, gap)`` of stats ``[S, F, 2]`` of white, the strategy and the oracle.
 
@@ -128,11 +126,13 @@ def _share(
     if not mean[0] > mean[2]:
         nan = float("nan")
         return nan, nan, nan, (mean[0] - mean[2]) / mean[0] if mean[0] else nan
-    weights = resample_weights(tuple(w.shape[:2]), resamples, 0)
-    rw, rv, ro = (resampled_values(x, weights) for x in (w, v, o))
-    lo, hi = percentile_interval((rw - rv) / (rw - ro), level)
     share = (mean[0] - mean[1]) / (mean[0] - mean[2])
-    return share, lo, hi, (mean[0] - mean[2]) / mean[0]
+    rw, rv, ro = (replicates(x) for x in (w, v, o))
+    if rw.numel() < 2 or not bool((rw > ro).all()):  # a replicate without a gap: not resolved
+        return share, float("-inf"), float("inf"), (mean[0] - mean[2]) / mean[0]
+    centre = torch.tensor(share, dtype=rw.dtype)
+    lo, hi = t_interval((rw - rv) / (rw - ro), centre, level)
+    return share, float(lo), float(hi), (mean[0] - mean[2]) / mean[0]
 
 
 def gap_shares(
@@ -143,7 +143,7 @@ def gap_shares(
     Args:
         records: benchmark records (:func:`benchmarks.sweep.records.load_records`).
         level: the intervals' confidence level in [0.5, 0.999].
-        resamples: bootstrap resamples (>= 100).
+        resamples: checked and kept for callers of the former bootstrap (>= 100; unused).
 
     Returns:
         :class:`GapShare` s in the records' order of cells, measures and strategies; white and
@@ -159,7 +159,7 @@ def gap_shares(
             for strategy, v in by_strategy.items():
                 if strategy in _BOUNDS or v.shape != w.shape or o.shape != w.shape:
                     continue
-                share, lo, hi, gap = _share(w, v, o, level, resamples)
+                share, lo, hi, gap = _share(w, v, o, level)
                 rows.append(GapShare(*key[:3], measure, strategy, share, lo, hi, gap, level))
     return rows
 
@@ -183,7 +183,8 @@ def gap_markdown(rows: Sequence[GapShare], title: str = "Share of the white-to-o
         f"## {title}",
         "",
         f"`(white - strategy) / (white - oracle)` of mean MSE, {rows[0].level:.0%} paired "
-        "bootstrap interval; 0 is white, 1 the oracle.",
+        "t-interval over the seed sets' shares ([-inf, inf]: a seed set without a gap, not "
+        "resolved); 0 is white, 1 the oracle.",
         "",
         "| " + " | ".join(head) + " |",
         "|" + "---|" * len(head),

@@ -16,9 +16,7 @@ two-stage percentile bootstrap (Efron & Tibshirani 1993) missed a true ratio of 
 trials at 95 % with a 5 % seed-set effect, and in 5 % at 99.69 % (nominal 0.31 %), while the
 t-interval stays at its nominal rate. The bootstrap stays available as ``method="bootstrap"``,
 with its pieces (:func:`resample_weights`, :func:`resampled_values`,
-:func:`percentile_interval`), for statistics that are not a mean or a ratio of means (the share
-of a gap, :mod:`benchmarks.reports.gap`) until those move to per-seed-set values and
-:func:`t_interval`.
+:func:`percentile_interval`), to compare with.
 
 With one seed set (per-frame values ``[F]``) there is nothing to replicate over; the interval then
 falls back to a t-interval over the frames (F - 1 degrees of freedom), which is a within-run
@@ -26,11 +24,11 @@ interval and too narrow for a temporal run whose frames are correlated (say so w
 quoted); with a single value it is infinite.
 
 **Building blocks.** A statistic that is neither a mean nor a ratio of two means (the share of a
-gap, :mod:`benchmarks.reports.gap`) is built from the same pieces, so that its interval
-resamples the frames exactly as the others do: :func:`as_stats` (values to ``[S, F, 2]`` pairs),
-:func:`resample_weights` (the two-stage draws, shared by every quantity of one comparison),
-:func:`resampled_values` (a pooled mean per resample), :func:`percentile_interval` and
-:func:`check_bootstrap` (the arguments' checks).
+gap, :mod:`benchmarks.reports.gap`) is built from the same pieces, so that its interval rests on
+the same replicates as the others: :func:`as_stats` (values to ``[S, F, 2]`` pairs),
+:func:`replicates` (one pooled mean per seed set), :func:`t_interval` and :func:`check_bootstrap`
+(the arguments' checks); the bootstrap's :func:`resample_weights`, :func:`resampled_values` and
+:func:`percentile_interval` remain for ``method="bootstrap"``.
 
 **Claims with margins.** :func:`better`, :func:`not_worse` and :func:`equivalent` turn an
 interval of a ratio (lower is better, as for an MSE) into the three kinds of claim the tests and
