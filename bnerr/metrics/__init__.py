@@ -34,6 +34,7 @@ from bnerr.metrics.image import (
     ssim,
     temporal_correlation,
 )
+from bnerr.metrics.power import resolve_power, seed_set_spread, seed_sets_needed
 from bnerr.metrics.stats import (
     METHODS,
     Estimate,
@@ -55,6 +56,9 @@ from bnerr.metrics.stats import (
 )
 
 __all__ = [
+    "resolve_power",
+    "seed_set_spread",
+    "seed_sets_needed",
     "BLUR_SIGMAS",
     "METHODS",
     "METRICS",
