@@ -8,7 +8,7 @@ from benchmarks import cli
 
 
 def _run_raising(monkeypatch, error):
-    def build_parser():
+    def build_parser(only=None):
         parser = argparse.ArgumentParser(prog="bnerr")
         sub = parser.add_subparsers(dest="command", required=True)
         p = sub.add_parser("boom")
@@ -40,3 +40,17 @@ def test_file_system_and_memory_errors_are_one_line(monkeypatch, capsys, error, 
 def test_a_bug_still_shows_its_traceback(monkeypatch):
     with pytest.raises(RuntimeError, match="a bug"):
         _run_raising(monkeypatch, RuntimeError("a bug"))
+
+
+def test_a_command_imports_only_its_own_module():
+    # bnerr render must not pay for importing every other command's dependencies at start-up.
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from benchmarks.cli import main\n"
+        "try:\n    main(['scenes', '--help'])\nexcept SystemExit:\n    pass\n"
+        "print(sorted(m for m in sys.modules if m.startswith('benchmarks.commands.')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "['benchmarks.commands.scenes']"
