@@ -61,6 +61,7 @@ import threading
 import weakref
 from dataclasses import dataclass, replace
 
+import numpy as np
 import torch
 
 from bnerr import native
@@ -632,6 +633,32 @@ class SortPass(torch.nn.Module):
         return f"block={self.block}"
 
 
+#: The reference's own Rec. 709 luminance weights of linear R, G, B, written out from their
+#: definition (ITU-R BT.709-6, item 3.2; docs/METHODS.md, section 4: HB19 sort by luminance), not
+#: taken from :data:`bnerr.color.LUMINANCE_WEIGHTS`, so that a wrong weight there makes the fast
+#: op and its twin disagree.
+_REFERENCE_REC709 = (0.2126, 0.7152, 0.0722)
+
+
+def _reference_luminance(values: torch.Tensor) -> list[list[float]]:
+    """The reference's key per pixel: ``values [H, W]`` or ``[1, H, W]`` rounded to float32, or
+    ``(w0 R + w1 G) + w2 B`` of ``[3, H, W]`` in float32, one float32 operation at a time (the
+    order :func:`bnerr.color.luminance` documents as its contract)."""
+    v = values.to(torch.float32).cpu()
+    if v.ndim == 3 and v.shape[0] == 1:
+        v = v[0]
+    if v.ndim == 2:
+        return v.tolist()
+    f32 = np.float32  # numpy float32 scalars: every product and sum rounded to float32
+    w0, w1, w2 = (f32(c) for c in _REFERENCE_REC709)
+    rgb = v.numpy()
+    h, w = rgb.shape[1:]
+    return [
+        [float((w0 * rgb[0, y, x] + w1 * rgb[1, y, x]) + w2 * rgb[2, y, x]) for x in range(w)]
+        for y in range(h)
+    ]
+
+
 def _python_key(value: float) -> tuple[int, float]:
     """Sort key of one float for the reference: NaN after everything, else the value itself."""
     return (1, 0.0) if value != value else (0, value)
@@ -668,7 +695,8 @@ def sort_pass_reference(
     """The slow twin of :func:`sort_pass`: a Python loop over blocks with Python's stable sort.
 
     Same arguments, checks and result as :func:`sort_pass` (``mask`` must be a tensor). Values
-    and mask go through float32 exactly as in the fast op; Python compares ``-0.0 == 0.0`` and
+    and mask go through float32 exactly as in the fast op, an RGB frame through the twin's own
+    Rec. 709 luminance (its own weights, numpy float32 scalars); Python compares ``-0.0 == 0.0`` and
     orders infinities natively, and NaN is keyed after everything. Blocks are enumerated with
     the grid offset (pixel (y, x) in block ``((y + oy) // B, (x + ox) // B)``), each group of a
     block separately. For tests and for reading, not for use: it takes seconds on 256 x 256.
@@ -679,7 +707,7 @@ def sort_pass_reference(
     mask = _check_mask(mask, h, w, seeds.device)
     oy, ox = _check_grid_offset(grid_offset, block)
     labels = None if groups is None else _check_groups(groups, h, w, seeds.device).cpu().tolist()
-    lum = luminance(values).cpu().tolist()
+    lum = _reference_luminance(values)
     mvals = mask.to(torch.float32).cpu().tolist()
     src = seeds.cpu().tolist()
     out = [row[:] for row in src]

@@ -203,13 +203,16 @@ def stbn_energy_field(
 
 
 def stbn_energy_field_reference(
-    pattern: torch.Tensor, sigma: float = DEFAULT_SIGMA, sigma_t: float = DEFAULT_SIGMA
+    pattern: torch.Tensor, sigma: float = 1.9, sigma_t: float = 1.9
 ) -> torch.Tensor:
     """Slow twin of :func:`stbn_energy_field`: the double sum over samples in plain Python.
 
     Every pair (p, q) with ``K(p - q) != 0`` is visited with the kernel written out from its
     definition (``math.exp`` of the shorter toroidal distances). For tiny patterns only (F T^2 up
     to a few hundred). Returns ``[F, T, T]`` float64 on the CPU.
+
+    The default widths are the literal 1.9 of Wolfe et al. 2022 (the module docstring), not
+    :data:`DEFAULT_SIGMA`, so that a wrong default there makes the twins disagree.
     """
     pattern = _check_pattern(pattern)
     sigma, sigma_t = _check_sigmas(sigma, sigma_t)
@@ -675,8 +678,8 @@ def stbn_vector_energy(
 
 def stbn_vector_energy_reference(
     mask: torch.Tensor,
-    sigma: float = DEFAULT_SIGMA,
-    sigma_t: float = DEFAULT_SIGMA,
+    sigma: float = 1.9,
+    sigma_t: float = 1.9,
     sigma_s: float = 1.0,
     *,
     radius: float = 3.0,
@@ -685,7 +688,8 @@ def stbn_vector_energy_reference(
 
     Pairs in one slice within ``radius sigma`` pixels (shorter toroidal distance) and pairs at one
     pixel within ``radius sigma_t`` frames, weights and similarity written out from their
-    definitions. For tiny masks only.
+    definitions. For tiny masks only. The default widths are the paper's literal 1.9, like
+    :func:`stbn_energy_field_reference`'s.
     """
     shape = _check_vector_mask(mask)
     size, frames, dims = shape["T"], shape["F"], shape["D"]

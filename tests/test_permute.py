@@ -5,6 +5,7 @@ import math
 
 import pytest
 import torch
+from _twins import REC709
 from hypothesis import example, given
 from hypothesis import strategies as st
 
@@ -221,12 +222,13 @@ def test_explicit_plan_and_module_equal_the_function():
 
 def test_luminance_uses_rec709_weights_in_float32():
     rgb = torch.tensor([1.0, 0.0, 0.0]).view(3, 1, 1) * torch.ones(3, 2, 2)
-    assert torch.allclose(luminance(rgb), torch.full((2, 2), LUMINANCE_WEIGHTS[0]))
+    assert torch.allclose(luminance(rgb), torch.full((2, 2), REC709[0]))
     color = torch.rand(3, 4, 5, dtype=torch.float64, generator=torch.Generator().manual_seed(0))
     lum = luminance(color)
     assert lum.dtype == torch.float32 and lum.shape == (4, 5)
     c = color.float()
-    w0, w1, w2 = LUMINANCE_WEIGHTS
+    w0, w1, w2 = REC709  # the test's own copy of ITU-R BT.709-6, item 3.2 (tests/_twins.py)
+    assert LUMINANCE_WEIGHTS == REC709
     assert torch.equal(lum, w0 * c[0] + w1 * c[1] + w2 * c[2])
     assert torch.equal(luminance(c[:1]), c[0])
     assert torch.equal(luminance(c[0]), c[0])
