@@ -31,6 +31,7 @@ Not for: measuring (:mod:`benchmarks.sweep.measure`), or single frames (``bnerr 
 from __future__ import annotations
 
 import functools
+import importlib.util
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -46,7 +47,7 @@ from benchmarks.sweep.plan import Run
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.tuning import stored_params, tuning_key
 from bnerr.color import preview_u8
-from bnerr.errors import DtypeError, check_name, check_positive_int
+from bnerr.errors import DtypeError, MissingExtraError, check_name, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
@@ -55,6 +56,7 @@ from denoisers.tuning import ParamStore
 
 __all__ = [
     "MANIFEST",
+    "require_ffmpeg",
     "SHOWN_RIVALS",
     "Animation",
     "Tiles",
@@ -357,12 +359,22 @@ def _pad(frame: np.ndarray, multiple: int) -> np.ndarray:
 # Writing
 
 
+def require_ffmpeg() -> None:
+    """Raise :class:`~bnerr.errors.MissingExtraError` unless imageio's ffmpeg plugin
+    (``imageio-ffmpeg``, which ships the ffmpeg binary) is installed."""
+    if importlib.util.find_spec("imageio_ffmpeg") is None:
+        raise MissingExtraError(
+            "mp4", "ffmpeg", "imageio-ffmpeg (imageio's ffmpeg)", "no module named 'imageio_ffmpeg'"
+        )
+
+
 def write_mp4(path: str | Path, frames: Sequence[np.ndarray], fps: int, quality: int = 7) -> Path:
     """Write ``frames`` (each ``[H, W, 3]`` uint8, all one size) as an H.264 MP4, atomically.
 
     Frames are padded with black to a multiple of 16 pixels (so ffmpeg does not resize them);
     libx264 runs on one thread, yuv420p, imageio's ``quality`` scale (0-10).
     """
+    require_ffmpeg()
     import imageio.v2 as imageio  # see text_strip: imported where the files are written
 
     path = Path(path)
@@ -513,6 +525,7 @@ def animate(
     killed run left for these files are removed first). ``on_scene`` is called with each scene's
     result."""
 
+    require_ffmpeg()  # before any render, not at the first MP4
     out = check_output(out_dir, "dir", need_bytes=2**20 * len(specs))
     store = load_store(params)
     parts = real_parts() if parts is None else parts

@@ -6,7 +6,11 @@ these errors, whose message names what was expected and what came. Private helpe
 callers.
 
 The error classes also derive from the matching builtin (``ValueError``, ``TypeError``,
-``OSError``) so that callers who catch the builtin keep working.
+``OSError``, ``ImportError``) so that callers who catch the builtin keep working.
+
+A missing optional dependency is always a :class:`MissingExtraError` (Mitsuba and its LLVM
+library, OIDN, FLIP, Ray, imageio's ffmpeg), whose message names the extra that provides it and
+the command that installs it (:data:`EXTRAS`); the CLI prints it as one line with exit code 2.
 """
 
 from __future__ import annotations
@@ -20,8 +24,10 @@ import torch
 __all__ = [
     "BnerrError",
     "DtypeError",
+    "EXTRAS",
     "FileFormatError",
     "MemoryLimitError",
+    "MissingExtraError",
     "NonFiniteError",
     "ShapeError",
     "UnknownNameError",
@@ -74,6 +80,49 @@ class NonFiniteError(BnerrError, ValueError):
 
 class UnknownNameError(BnerrError, ValueError):
     """A name (scene, sampler, denoiser, strategy, suite) is not registered."""
+
+
+#: Optional extra (of pyproject.toml, or what an extra needs beside it) -> the command that
+#: installs it. ``make`` installs every pip extra (and libllvm19 when run as root on Debian).
+EXTRAS: dict[str, str] = {
+    "reference": "pip install '.[reference]' or make",
+    "cluster": "pip install '.[cluster]' or make",
+    "llvm": "apt-get install libllvm19 (make does it as root on Debian), or point "
+    "DRJIT_LIBLLVM_PATH at a libLLVM >= 19",
+    "ffmpeg": "pip install 'imageio-ffmpeg>=0.8,<0.9' (a bnerr dependency: pip install . or make)",
+}
+
+
+class MissingExtraError(BnerrError, ImportError):
+    """An optional dependency is not installed (or not usable): one class for every extra.
+
+    The message reads ``"<what>: expected the optional extra '<extra>', which provides <provides>
+    (install: <install>), got <got>"``; ``extra`` and ``install`` are kept as attributes.
+
+    Args:
+        what: the feature that needs it (``"oidn"``, ``"flip"``, ``"--ray"``, ...).
+        extra: a key of :data:`EXTRAS` (``"reference"``, ``"cluster"``, ``"llvm"``, ``"ffmpeg"``).
+        provides: what the extra brings that is missing (``"pyoidn"``, ``"ray"``, ...).
+        got: what was found instead (the import error's text, an old version, ...).
+    """
+
+    def __init__(self, what: str, extra: str, provides: str, got: str) -> None:
+        check_name(extra, EXTRAS, "optional extra")
+        self.what, self.extra, self.install = what, extra, EXTRAS[extra]
+        super().__init__(
+            f"{what}: expected the optional extra '{extra}', which provides {provides} "
+            f"(install: {self.install}), got {got}"
+        )
+
+    def __reduce__(self) -> tuple[object, ...]:  # picklable (Ray and multiprocessing send it)
+        return (_rebuild_missing_extra, (str(self), self.what, self.extra))
+
+
+def _rebuild_missing_extra(message: str, what: str, extra: str) -> MissingExtraError:
+    err = MissingExtraError.__new__(MissingExtraError)
+    Exception.__init__(err, message)
+    err.what, err.extra, err.install = what, extra, EXTRAS[extra]
+    return err
 
 
 class FileFormatError(BnerrError, OSError):

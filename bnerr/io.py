@@ -23,6 +23,11 @@ alphabetically. Channels without a layer other than ``R G B`` (``A``, ``Y``, ``Z
 one-channel buffers under their own name. HALF and UINT channels are converted to float32 (UINT
 values above 2^24 lose precision); of a multi-part file only the first part is read.
 
+An output file's suffix decides its format, in one place for every command that writes images:
+:func:`image_format` maps ``.exr`` to an EXR (exact float32) and ``.png`` to a tone-mapped 8-bit
+PNG preview, and refuses any other suffix with the list of accepted ones (before any work, so a
+command calls it first); :func:`write_image` writes a Frame in the format its name says.
+
 Every writer goes through :func:`atomic_write`: a crash or an exception never leaves a partial
 file under the final name.
 
@@ -58,13 +63,16 @@ from bnerr.outputs import OutputPathError, temporary_name
 
 __all__ = [
     "CHANNELS",
+    "IMAGE_SUFFIXES",
     "TIMINGS_ATTRIBUTE",
     "TONEMAPS",
     "atomic_write",
+    "image_format",
     "read_exr",
     "read_frame",
     "write_exr",
     "write_frame",
+    "write_image",
     "write_png",
 ]
 
@@ -78,6 +86,10 @@ CHANNELS: dict[str, tuple[str, ...]] = {
     "object_id": ("object_id.Y",),
     "variance": ("variance.R", "variance.G", "variance.B"),
 }
+
+#: Output suffixes of image files and what each writes: ``.exr`` every buffer exactly
+#: (:func:`write_frame`), ``.png`` a tone-mapped sRGB preview of the color (:func:`write_png`).
+IMAGE_SUFFIXES: tuple[str, ...] = (".exr", ".png")
 
 #: Tone-map names of :func:`write_png` (:data:`bnerr.color.TONEMAPS`, sorted).
 TONEMAPS = tuple(sorted(_COLOR_TONEMAPS))
@@ -374,3 +386,48 @@ def write_png(
 
     with atomic_write(path, suffix=".png") as tmp:  # imsave picks the format by extension
         imsave(tmp, pixels, check_contrast=False)
+
+
+# ------------------------------------------------------------------------------------------------
+# Output names decide the format
+
+
+def image_format(
+    path: str | os.PathLike, name: str = "--out", accepted: tuple[str, ...] = IMAGE_SUFFIXES
+) -> str:
+    """The lower-case suffix of ``path`` if it is one of ``accepted`` (default
+    :data:`IMAGE_SUFFIXES`), which decides the format a writer uses.
+
+    Commands call it before any work, so that a name the writers cannot honour (``result.tiff``,
+    ``result``) is refused at once instead of after minutes of rendering, and so that a ``.png``
+    name never receives EXR bytes.
+
+    Raises:
+        FileFormatError: ``"<name> <path>: expected a name ending in .exr or .png, got '.tiff'"``.
+    """
+    path = _check_path(path, name)
+    suffix = path.suffix.lower()
+    if suffix not in accepted:
+        got = repr(suffix) if suffix else "no suffix"
+        raise FileFormatError(
+            f"{name} {path}: expected a name ending in {' or '.join(accepted)}, got {got}"
+        )
+    return suffix
+
+
+def write_image(
+    path: str | os.PathLike, frame: Frame, *, exposure: float = 0.0, tonemap: str = "aces"
+) -> None:
+    """Write ``frame`` in the format ``path``'s suffix names (:func:`image_format`): ``.exr``
+    every buffer and the timings (:func:`write_frame`, reads back with :func:`read_frame`),
+    ``.png`` a preview of the color (:func:`write_png` with ``exposure`` and ``tonemap``).
+
+    Raises:
+        FileFormatError: any other suffix (nothing is written).
+    """
+    if not isinstance(frame, Frame):
+        raise DtypeError(f"frame: expected a bnerr.frame.Frame, got {type(frame).__name__}")
+    if image_format(path, "path") == ".png":
+        write_png(path, frame.color, exposure=exposure, tonemap=tonemap)
+    else:
+        write_frame(path, frame)

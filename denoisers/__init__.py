@@ -24,7 +24,7 @@ import inspect
 from bnerr.errors import UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
-from denoisers.oidn import OIDN, MissingExtraError
+from denoisers.oidn import OIDN
 from denoisers.temporal import SVGF, TAA
 from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
 
@@ -32,7 +32,6 @@ __all__ = [
     "DENOISERS",
     "Denoiser",
     "MissingBufferError",
-    "MissingExtraError",
     "check_frame",
     "get_denoiser",
 ]

@@ -16,15 +16,11 @@ from types import ModuleType
 
 import torch
 
-from bnerr.errors import BnerrError, check_name
+from bnerr.errors import MissingExtraError, check_name
 from bnerr.frame import Frame
 from denoisers.base import Denoiser
 
-__all__ = ["MissingExtraError", "OIDN", "load_pyoidn", "oidn_denoise"]
-
-
-class MissingExtraError(BnerrError, ImportError):
-    """An optional dependency (a package of an extra such as ``reference``) is not installed."""
+__all__ = ["OIDN", "load_pyoidn", "oidn_denoise"]
 
 
 def load_pyoidn() -> ModuleType:
@@ -33,8 +29,7 @@ def load_pyoidn() -> ModuleType:
         return importlib.import_module("pyoidn")
     except ImportError as err:
         raise MissingExtraError(
-            "oidn: expected the optional extra 'reference' (pip install 'bnerr[reference]', "
-            f"which provides pyoidn), got {type(err).__name__}: {err}"
+            "oidn", "reference", "pyoidn", f"{type(err).__name__}: {err}"
         ) from None
 
 

@@ -21,8 +21,8 @@ vertex including the last, its volpath picks a colour channel and plays Russian 
 absorption), but each is unbiased for the same integral, so their expected images agree.
 
 Mitsuba is an optional dependency (the ``reference`` extra): :func:`mitsuba_available` says
-whether it imports, and the functions here raise :class:`ImportError` with the install hint when it
-does not.
+whether it imports, and the functions here raise :class:`~bnerr.errors.MissingExtraError` (an
+``ImportError``) with the install command when it does not.
 
 Not for: exporting scenes to files, or any Mitsuba feature our scene model does not have.
 """
@@ -34,12 +34,10 @@ import importlib.util
 import numpy as np
 import torch
 
-from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
+from bnerr.errors import DtypeError, MissingExtraError, ValueRangeError, check_positive_int
 from renderers.scene import Rectangle, Scene, Sphere
 
 __all__ = ["mitsuba_available", "render_mitsuba", "to_mitsuba"]
-
-_HINT = "Mitsuba 3 is not installed: pip install 'bnerr[reference]' (mitsuba==3.9.1)"
 
 
 def mitsuba_available() -> bool:
@@ -50,7 +48,9 @@ def mitsuba_available() -> bool:
 def _mi(variant: str | None = None):
     """The mitsuba module with ``variant`` set (or any variant already set, else scalar_rgb)."""
     if not mitsuba_available():
-        raise ImportError(_HINT)
+        raise MissingExtraError(
+            "mitsuba", "reference", "mitsuba==3.9.1", "no module named 'mitsuba'"
+        )
     import mitsuba as mi
 
     if variant is not None:
@@ -109,7 +109,7 @@ def to_mitsuba(
     Uses the active Mitsuba variant (scalar_rgb if none is set). Shapes are keyed by their names.
 
     Raises:
-        ImportError: Mitsuba is not installed.
+        MissingExtraError: Mitsuba is not installed.
         DtypeError: ``scene`` is not a Scene.
         ValueRangeError: width, height or spp < 1.
     """
@@ -196,7 +196,7 @@ def render_mitsuba(
     With ``passes = 1`` the variance is None.
 
     Raises:
-        ImportError: Mitsuba (or the variant) is not available.
+        MissingExtraError: Mitsuba is not installed (a missing variant: Mitsuba's own error).
         ValueRangeError: ``passes`` does not divide ``spp``.
     """
     check_positive_int(passes, "passes")

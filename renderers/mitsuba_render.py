@@ -41,7 +41,7 @@ reconstruction filter is replaced by a box: each sample lands in its own pixel, 
 per-pixel seed means. ``variance`` and ``motion`` are None.
 
 Mitsuba is optional (the ``reference`` extra); without it, or with an LLVM too old, the functions
-here raise :class:`MitsubaUnavailableError` saying what to install. The ``bnerr`` package never
+here raise :class:`MissingExtraError` saying what to install. The ``bnerr`` package never
 imports Mitsuba.
 
 Not for: Mitsuba's scalar or spectral variants, films with ``sample_border``, or integrators that
@@ -68,6 +68,7 @@ from bnerr.errors import (
     BnerrError,
     DtypeError,
     FileFormatError,
+    MissingExtraError,
     ShapeError,
     check_dtype,
     check_name,
@@ -83,7 +84,6 @@ __all__ = [
     "PLUGIN",
     "VARIANTS",
     "MitsubaRender",
-    "MitsubaUnavailableError",
     "load_mitsuba",
     "mitsuba_reference",
     "mitsuba_render_fn",
@@ -100,11 +100,6 @@ MIN_LLVM = (19, 0, 0)
 #: The AOVs asked of Mitsuba's ``aov`` integrator, in output order, with their channel counts.
 _AOVS = (("albedo", "albedo", 3), ("normal", "sh_normal", 3), ("depth", "depth", 1))
 _AOVS += (("object_id", "shape_index", 1),)
-_INSTALL = "pip install '.[reference]'"
-
-
-class MitsubaUnavailableError(BnerrError, ImportError):
-    """Mitsuba 3 (the ``reference`` extra), the variant, or an LLVM it needs is missing."""
 
 
 # --------------------------------------------------------------------------------------------------
@@ -120,7 +115,7 @@ def unavailable_reason(variant: str = "llvm_ad_rgb") -> str | None:
     with _keep_variant():
         try:
             load_mitsuba(variant)
-        except MitsubaUnavailableError as err:
+        except MissingExtraError as err:
             return str(err)
     return None
 
@@ -144,24 +139,28 @@ def load_mitsuba(variant: str = "llvm_ad_rgb") -> ModuleType:
 
     Raises:
         UnknownNameError: ``variant`` is not one of :data:`VARIANTS`.
-        MitsubaUnavailableError: Mitsuba is not installed, lacks the variant, or (LLVM variants)
+        MissingExtraError: Mitsuba is not installed, lacks the variant, or (LLVM variants)
             Dr.Jit found no LLVM >= :data:`MIN_LLVM`.
     """
     check_name(variant, VARIANTS, "Mitsuba variant")
     if importlib.util.find_spec("mitsuba") is None:
-        raise MitsubaUnavailableError(
-            f"mitsuba: expected the optional extra 'reference' ({_INSTALL}, which provides "
-            "mitsuba==3.9.1), got no module named 'mitsuba'"
+        raise MissingExtraError(
+            "mitsuba", "reference", "mitsuba==3.9.1", "no module named 'mitsuba'"
         )
     mi = importlib.import_module("mitsuba")
     if variant not in mi.variants():
-        raise MitsubaUnavailableError(
-            f"mitsuba: expected the variant {variant!r}, got only {', '.join(mi.variants())}"
+        raise MissingExtraError(
+            "mitsuba",
+            "reference",
+            f"mitsuba==3.9.1 with the variant {variant!r}",
+            f"only {', '.join(mi.variants())}",
         )
     try:
         mi.set_variant(variant)
     except Exception as err:  # Mitsuba raises plain exceptions (no LLVM, no CUDA driver)
-        raise MitsubaUnavailableError(f"mitsuba: expected {variant} to load, got {err}") from None
+        raise MissingExtraError(
+            "mitsuba", "reference", f"mitsuba==3.9.1 whose {variant} loads", str(err)
+        ) from None
     if variant.startswith("llvm"):
         _check_llvm(importlib.import_module("drjit"))
     return mi
@@ -171,15 +170,15 @@ def _check_llvm(dr: ModuleType) -> None:
     try:
         version = tuple(dr.detail.llvm_version())
     except Exception as err:  # no libLLVM found: Dr.Jit raises when the backend is first used
-        raise MitsubaUnavailableError(
-            f"mitsuba llvm variant: expected a shared LLVM library, got {err}"
+        raise MissingExtraError(
+            "mitsuba llvm variant", "llvm", "a shared LLVM library for Dr.Jit", str(err)
         ) from None
     if version < MIN_LLVM:
-        raise MitsubaUnavailableError(
-            "mitsuba llvm variant: expected LLVM >= "
-            f"{'.'.join(map(str, MIN_LLVM))} for Dr.Jit (Debian: apt-get install libllvm19, or "
-            f"point DRJIT_LIBLLVM_PATH at a newer libLLVM), got LLVM "
-            f"{'.'.join(map(str, version))}, which aborts while compiling the path tracer"
+        raise MissingExtraError(
+            "mitsuba llvm variant",
+            "llvm",
+            f"LLVM >= {'.'.join(map(str, MIN_LLVM))} for Dr.Jit",
+            f"LLVM {'.'.join(map(str, version))}, which aborts while compiling the path tracer",
         )
 
 
@@ -478,7 +477,7 @@ def mitsuba_render_fn(
         bit-identical frames.
 
     Raises:
-        MitsubaUnavailableError: Mitsuba, the variant or a recent enough LLVM is missing.
+        MissingExtraError: Mitsuba, the variant or a recent enough LLVM is missing.
         UnknownNameError: unknown variant or sampler name.
         FileFormatError: unreadable scene, no sensor, or a film with ``sample_border``.
     """

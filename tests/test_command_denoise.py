@@ -143,14 +143,14 @@ def test_nan_guides_never_give_a_nan_output_with_exit_0(tmp_path, capsys, buffer
 @pytest.mark.parametrize(
     ("out", "message"),
     [
-        ("dir", "expected a file name, got an existing folder"),
+        ("dir.exr", "expected a file name, got an existing folder"),
         ("/proc/self/out.exr", "expected a writable folder"),
         ("frame.exr", "expected a file other than --in"),
     ],
 )
 def test_bad_output_files_fail_before_denoising_in_one_line(tmp_path, capsys, out, message):
     path, _ = _frame_file(tmp_path)
-    (tmp_path / "dir").mkdir()
+    (tmp_path / "dir.exr").mkdir()
     target = out if out.startswith("/") else str(tmp_path / out)
     args = ["denoise", "--denoiser", "gaussian", "--in", str(path), "--out", target]
     assert main(args) == 2

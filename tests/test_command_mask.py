@@ -41,7 +41,7 @@ def test_png_stores_the_mask_values_as_8_bit(tmp_path):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--size", "16", "--out", "m.tiff"], "expected a .npy, .exr, .png file"),
+        (["--size", "16", "--out", "m.tiff"], "expected a name ending in .npy or .exr or .png"),
         (["--size", "-4", "--out", "m.npy"], "size"),
     ],
 )

@@ -7,8 +7,10 @@
 the scene's name when the file holds one key for it; ``--spp`` may be left out when that key has
 one spp. Otherwise the error lists the candidates.
 
-The output is the input frame with its color replaced by the denoised color (the auxiliary
-buffers are kept, so the file reads back as a Frame), and ``timings["denoise"]`` in milliseconds.
+``--out`` names the format (:func:`bnerr.io.image_format`): ``.exr`` writes the input frame with
+its color replaced by the denoised color (the auxiliary buffers are kept, so the file reads back
+as a Frame) and ``timings["denoise"]`` in milliseconds; ``.png`` writes a tone-mapped preview of
+the denoised color (``--exposure``); any other suffix is refused before any work.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from pathlib import Path
 
 from bnerr.errors import DtypeError
 from bnerr.frame import Frame
-from bnerr.io import read_frame, write_frame
+from bnerr.io import image_format, read_frame, write_image
 from bnerr.outputs import check_output
 from denoisers import get_denoiser
 from denoisers.tuning import ParamStore
@@ -60,6 +62,7 @@ def _params(args: argparse.Namespace) -> dict[str, object]:
 
 def run(args: argparse.Namespace) -> int:
 
+    image_format(args.output, "--out")  # before anything: the name decides the format
     source = Path(args.input)
     # The output is about as large as the input (same buffers, new color): check the folder
     # before reading anything.
@@ -74,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     elapsed_ms = 1000.0 * (time.perf_counter() - start)
     buffers = {**frame.buffers(), "color": color}
     timings = {**frame.timings, "denoise": elapsed_ms}
-    write_frame(output, Frame(**buffers, timings=timings))
+    write_image(output, Frame(**buffers, timings=timings), exposure=args.exposure)
     print(f"{denoiser!r}: {frame.width}x{frame.height} in {elapsed_ms:.1f} ms -> {args.output}")
     return 0
 
@@ -95,8 +98,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--in", dest="input", required=True, metavar="FRAME.exr", help="frame from bnerr render"
     )
     p.add_argument(
-        "--out", dest="output", required=True, metavar="OUT.exr", help="where to write the result"
+        "--out",
+        dest="output",
+        required=True,
+        metavar="OUT.exr|OUT.png",
+        help="where to write the result: .exr (every buffer, exact) or .png (tone-mapped preview)",
     )
+    p.add_argument("--exposure", type=float, default=0.0, help="exposure in stops of a .png output")
     p.add_argument(
         "--params", nargs="*", default=[], metavar="KEY=VALUE", help="denoiser parameters"
     )

@@ -24,7 +24,7 @@ import torch
 
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
 from bnerr.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
-from bnerr.io import atomic_write, write_exr, write_png
+from bnerr.io import IMAGE_SUFFIXES, atomic_write, image_format, write_exr, write_png
 from bnerr.masks import vector_mask, void_and_cluster
 from bnerr.outputs import check_output
 from bnerr.spectrum import low_frequency_fraction
@@ -32,7 +32,7 @@ from bnerr.stbn import DEFAULT_SIGMA, stbn_scalar, stbn_vector, temporal_low_fre
 
 __all__ = ["register", "run", "write_mask"]
 
-_FORMATS = (".npy", ".exr", ".png")
+_FORMATS = (".npy", *IMAGE_SUFFIXES)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -95,9 +95,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    suffix = args.out.suffix.lower()
-    if suffix not in _FORMATS:
-        raise FileFormatError(f"{args.out}: expected a {', '.join(_FORMATS)} file, got {suffix!r}")
+    image_format(args.out, "--out", _FORMATS)
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     if args.fast is not None and (args.frames is not None or args.dims != 1):

@@ -41,9 +41,9 @@ from pathlib import Path
 import torch
 
 from benchmarks.commands._args import parse_resolution
-from bnerr.errors import ValueRangeError, check_memory, check_positive_int
+from bnerr.errors import FileFormatError, ValueRangeError, check_memory, check_positive_int
 from bnerr.frame import Frame
-from bnerr.io import write_frame, write_png
+from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds, play
@@ -66,6 +66,12 @@ OUTPUT_BYTES_PER_PIXEL = 16 * 4 + 3
 def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
     """Every check of ``bnerr render`` that needs no rendering: numbers, memory, output folder."""
 
+    if Path(args.out).suffix.lower() in IMAGE_SUFFIXES:
+        # A folder named frame.png would hold frame.png/direct_0.exr: the user meant a file.
+        raise FileFormatError(
+            f"--out {args.out}: expected a folder (frames are written as DIR/<scene>_<t>.exr and "
+            f"DIR/<scene>_<t>.png), got a name ending in {Path(args.out).suffix}"
+        )
     width, height = parse_resolution(args.res)
     check_positive_int(args.spp, "--spp")
     check_positive_int(args.frames, "--frames")

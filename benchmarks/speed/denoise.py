@@ -24,10 +24,10 @@ import torch
 
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import fmt, number, ratio
-from bnerr.errors import FileFormatError
+from bnerr.errors import FileFormatError, MissingExtraError
 from bnerr.frame import Frame
 from bnerr.timing import Stopwatch
-from denoisers import DENOISERS, MissingExtraError, get_denoiser
+from denoisers import DENOISERS, get_denoiser
 
 __all__ = ["table", "main", "measure", "synthetic_frame"]
 

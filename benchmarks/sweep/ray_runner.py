@@ -66,34 +66,22 @@ from benchmarks.sweep.tuning import (
     tuning_key,
 )
 from benchmarks.sweep.version import code_version
-from bnerr.errors import BnerrError, check_positive_int
+from bnerr.errors import BnerrError, MissingExtraError, check_positive_int
 from bnerr.frame import Frame
 
 __all__ = [
-    "INSTALL_HINT",
     "CodeVersionError",
-    "RayUnavailableError",
     "require_ray",
     "run_suite_ray",
 ]
 
-#: How to install Ray (the ``cluster`` extra).
-INSTALL_HINT = "pip install '.[cluster]'"
-
-
-class RayUnavailableError(BnerrError, ImportError):
-    """``--ray`` without the ``ray`` package (the ``cluster`` extra)."""
-
 
 def require_ray() -> ModuleType:
-    """Import ``ray``, or raise :class:`RayUnavailableError` saying how to install it."""
+    """Import ``ray``, or raise :class:`~bnerr.errors.MissingExtraError` naming its install."""
     try:
         import ray  # the optional cluster extra: a missing one is this typed error
     except ImportError as err:
-        raise RayUnavailableError(
-            f"--ray: expected the optional extra 'cluster' ({INSTALL_HINT}, which provides "
-            f"ray), got {type(err).__name__}: {err}"
-        ) from None
+        raise MissingExtraError("--ray", "cluster", "ray", f"{type(err).__name__}: {err}") from None
     return ray
 
 
@@ -356,7 +344,7 @@ def run_suite_ray(
         suite, out_dir, parts, cache_dir, resume, overwrite, progress: as ``run_suite``.
 
     Raises:
-        RayUnavailableError: ray is not installed.
+        MissingExtraError: ray is not installed.
         ResultsExistError, FileFormatError: as ``run_suite``.
         Any error of a task, on the driver, after the others are cancelled.
     """

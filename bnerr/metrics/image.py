@@ -56,6 +56,7 @@ import torch
 
 from bnerr.errors import (
     FLOAT_DTYPES,
+    MissingExtraError,
     ShapeError,
     ValueRangeError,
     check_dtype,
@@ -316,11 +317,11 @@ def _ssim_value(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None
 
 
 def require_flip() -> None:
-    """Raise ``ImportError`` with the install command unless ``flip-evaluator`` is installed."""
+    """Raise :class:`~bnerr.errors.MissingExtraError` (an ``ImportError``) naming the extra and
+    its install command unless ``flip-evaluator`` is installed."""
     if not flip_available():
-        raise ImportError(
-            "flip: the FLIP metric needs the optional package 'flip-evaluator' "
-            "(pip install 'bnerr[reference]' or pip install flip-evaluator==1.7)"
+        raise MissingExtraError(
+            "flip", "reference", "flip-evaluator==1.7", "no module named 'flip_evaluator'"
         )
 
 
