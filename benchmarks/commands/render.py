@@ -46,8 +46,9 @@ from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
-from bnerr.strategies import make_strategy, pixel_seeds, play
+from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
 from renderers import get_scene, render
+from renderers.budget import check_render_time, format_seconds
 from renderers.memory import render_bytes
 
 __all__ = ["AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
@@ -61,6 +62,11 @@ AUTO_COMPILE_PATHS = 1 << 21
 #: Disk bytes per pixel and frame at most: 16 float32 EXR channels (ZIP never grows them much)
 #: and the 8-bit RGB preview.
 OUTPUT_BYTES_PER_PIXEL = 16 * 4 + 3
+#: A render estimated to take longer than this is refused unless ``--force``: an hour is far
+#: beyond what the benchmark's sizes need on this machine and usually means a mistyped number.
+TIME_LIMIT_S = 3600.0
+#: A render estimated to take longer than this prints its estimate before it starts.
+SHOW_ESTIMATE_S = 10.0
 
 
 def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
@@ -101,6 +107,23 @@ def compile_choice(args: argparse.Namespace, width: int, height: int) -> bool:
     if args.strategy is not None:
         return False
     return width * height * args.spp * args.frames >= AUTO_COMPILE_PATHS
+
+
+def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: int) -> None:
+    """Estimate the render's time from the tracer's throughput measured on this machine
+    (:mod:`renderers.budget`): refuse it beyond :data:`TIME_LIMIT_S` unless ``--force``, print
+    the estimate beyond :data:`SHOW_ESTIMATE_S`. Counts every render: a stateful strategy's
+    unwritten frames before ``--start`` and the oracle's K renders per frame."""
+    if args.force:
+        return
+    frames = range(args.start, args.start + args.frames)
+    first = args.start if strategy is None else first_frame(strategy, frames)
+    renders = getattr(strategy, "K", 1)  # the oracle renders K candidates per frame
+    paths = width * height * args.spp * (frames.stop - first) * renders
+    what = f"--res {width}x{height} --spp {args.spp} --frames {args.frames}"
+    seconds = check_render_time(scene, paths, what, limit_s=TIME_LIMIT_S, compile=args.compile_now)
+    if seconds > SHOW_ESTIMATE_S:
+        print(f"bnerr render: estimated {format_seconds(seconds)} ({paths:.3g} paths)", flush=True)
 
 
 def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, scene, path: str):
@@ -145,6 +168,7 @@ def run(args: argparse.Namespace) -> int:
     width, height, out = _check_args(args)
     args.compile_now = compile_choice(args, width, height)
     scene = get_scene(args.scene, animated=not args.static)
+    strategy = None
     if args.strategy is None:
         frames = _fixed_seed_frames(args, scene, height, width)
     else:  # built before the lock: a bad name or spp is refused before anything is written
@@ -158,6 +182,7 @@ def run(args: argparse.Namespace) -> int:
             dimensions=scene.dimensions,
         )
         frames = _strategy_frames(args, strategy, scene)
+    _check_time(args, scene, strategy, width, height)
     with output_lock(out, "bnerr render"):
         clean_stale_temporaries(out)
         for t, frame, seconds in frames:
@@ -201,6 +226,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action=argparse.BooleanOptionalAction,
         default=None,
         help="torch.compile the tracer (default: from 2^21 paths in all, not with --strategy)",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help=f"render even if the estimated time exceeds {TIME_LIMIT_S / 3600:.0f} h",
     )
     p.add_argument("--exposure", type=float, default=0.0, help="PNG preview exposure in stops")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
