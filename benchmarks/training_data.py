@@ -123,6 +123,14 @@ class TrainingSpec:
         check_positive_int(self.seed, "TrainingSpec.seed", minimum=0)
 
 
+def training_paths(spec: TrainingSpec) -> int:
+    """Paths traced to render ``spec``'s pairs, at most: each pair's reference, and its input at
+    the largest spp of :data:`SPP_CHOICES` with a stateful strategy's :data:`BLUE_WARMUP` frames
+    (an upper bound; the time model's rough estimate, :mod:`renderers.budget`)."""
+    per_pixel = spec.reference_spp + (BLUE_WARMUP + 1) * max(SPP_CHOICES)
+    return spec.scenes * spec.size * spec.size * per_pixel
+
+
 def training_set_bytes(spec: TrainingSpec, stored: bool = False) -> int:
     """Rough bytes of the training set of ``spec``: stored (``stored=True``: the network's inputs
     and targets, 12 float32 channels per pixel, as in the ``OUT.data`` cache), or the peak while

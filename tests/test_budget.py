@@ -113,3 +113,29 @@ def test_threads_do_not_change_the_estimate():
         assert estimate_seconds(scene, 1 << 22) == one
     finally:
         torch.set_num_threads(threads)
+
+
+TRAIN_ABSURD = ["train", "--size", "128", "--scenes", "512", "--reference-spp", "4096"]
+
+
+def test_train_refuses_absurd_data_in_one_line(tmp_path, capsys):
+    code = main([*TRAIN_ABSURD, "--out", str(tmp_path / "w.pt")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "--force" in err and "estimate of" in err
+    assert not (tmp_path / "w.pt").exists()
+
+
+def test_train_force_skips_the_estimate(tmp_path, monkeypatch):
+    import benchmarks.commands.train as train_command
+
+    def stub(*args, **kwargs):
+        raise _Reached
+
+    def no_estimate(*args, **kwargs):
+        raise AssertionError("--force must not estimate")
+
+    monkeypatch.setattr(train_command, "make_pairs", stub)
+    monkeypatch.setattr(train_command, "check_render_time", no_estimate)
+    with pytest.raises(_Reached):
+        main([*TRAIN_ABSURD, "--force", "--out", str(tmp_path / "w.pt")])

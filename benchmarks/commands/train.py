@@ -26,11 +26,13 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.training_data import TrainingSpec, make_pairs, training_set_bytes
+from benchmarks.training_data import TrainingSpec, make_pairs, training_paths, training_set_bytes
 from bnerr.errors import ValueRangeError, check_memory
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from denoisers.train import TrainConfig, TrainingSet, make_training_set, step_bytes, train
 from denoisers.unet import atomic_torch_save, check_parameter_count, parameter_count, save_weights
+from renderers import get_scene
+from renderers.budget import check_render_time, format_seconds
 
 __all__ = ["canonical_command", "load_or_render", "register", "run"]
 
@@ -39,9 +41,25 @@ __all__ = ["canonical_command", "load_or_render", "register", "run"]
 DATA_FORMAT = "bnerr-training-set-v2"
 
 
-def load_or_render(spec, path: Path, progress: bool):
+#: Training data estimated to take longer than this to render is refused unless ``--force``:
+#: the shipped weights' data renders in minutes; an hour usually means a mistyped number.
+TIME_LIMIT_S = 3600.0
+
+
+def check_data_time(spec: TrainingSpec) -> None:
+    """Refuse rendering ``spec``'s data beyond :data:`TIME_LIMIT_S` by the time model (cornell's
+    measured throughput stands for the random rooms'); print the estimate beyond 10 s."""
+    paths = training_paths(spec)
+    what = f"--size {spec.size} --scenes {spec.scenes} --reference-spp {spec.reference_spp}"
+    seconds = check_render_time(get_scene("cornell"), paths, what, limit_s=TIME_LIMIT_S)
+    if seconds > 10.0:
+        print(f"bnerr train: rendering the data, estimated {format_seconds(seconds)}", flush=True)
+
+
+def load_or_render(spec, path: Path, progress: bool, force: bool = True):
     """The :class:`~denoisers.train.TrainingSet` of ``spec``: read from ``path`` if it holds
-    that spec's data, else rendered and written there (atomically)."""
+    that spec's data, else rendered and written there (atomically), after
+    :func:`check_data_time` unless ``force``."""
 
     if path.exists():
         try:
@@ -54,6 +72,8 @@ def load_or_render(spec, path: Path, progress: bool):
             and cached.get("spec") == asdict(spec)
         ):
             return TrainingSet(cached["inputs"], cached["targets"])
+    if not force:
+        check_data_time(spec)
     data = make_training_set(make_pairs(spec, progress=progress))
     atomic_torch_save(
         {
@@ -152,7 +172,7 @@ def _run(args: argparse.Namespace) -> int:
 
 def _train(args: argparse.Namespace, spec, config, out: Path, start: float) -> int:
 
-    data = load_or_render(spec, _data_path(out), progress=not args.no_progress)
+    data = load_or_render(spec, _data_path(out), not args.no_progress, force=args.force)
     render_s = time.perf_counter() - start
     limit = None if args.minutes is None else max(args.minutes * 60.0 - render_s, 0.0)
     result = train(
@@ -237,4 +257,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--seed", type=int, default=0, help="seeds the scenes, the weights and the batches"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="render the data even if its estimated time exceeds 1 h",
+    )
     p.set_defaults(func=run)
