@@ -139,3 +139,28 @@ def test_train_force_skips_the_estimate(tmp_path, monkeypatch):
     monkeypatch.setattr(train_command, "check_render_time", no_estimate)
     with pytest.raises(_Reached):
         main([*TRAIN_ABSURD, "--force", "--out", str(tmp_path / "w.pt")])
+
+
+ANIMATE_ABSURD = ["animate", "--scene", "cornell", "--res", "256x256", "--spp", "4096"]
+
+
+def test_animate_refuses_absurd_work_in_one_line(tmp_path, capsys):
+    code = main([*ANIMATE_ABSURD, "--out", str(tmp_path / "a"), "--cache", str(tmp_path / "c")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1 and "--force" in err and "estimate of" in err
+
+
+def test_animate_force_skips_the_estimate(tmp_path, monkeypatch):
+    import benchmarks.commands.animate as animate_command
+
+    def stub(*args, **kwargs):
+        raise _Reached
+
+    def no_estimate(*args, **kwargs):
+        raise AssertionError("--force must not estimate")
+
+    monkeypatch.setattr(animate_command, "animate", stub)
+    monkeypatch.setattr(animate_command, "check_render_time", no_estimate)
+    with pytest.raises(_Reached):
+        main([*ANIMATE_ABSURD, "--force", "--out", str(tmp_path / "a")])

@@ -29,6 +29,9 @@ from benchmarks.animate import Animation, animate, default_strategies
 from benchmarks.commands._args import names, parse_resolution
 from benchmarks.sweep.parts import known_names
 from bnerr.errors import check_positive_int
+from bnerr.strategies import parse_variant
+from renderers import get_scene
+from renderers.budget import check_render_time, format_seconds
 
 __all__ = ["register", "run"]
 
@@ -70,6 +73,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
     add("--out", type=Path, default=Path("results/animations"), help="output folder")
     add("--threads", type=int, help="torch intra-op threads; 1 on a shared machine")
+    add("--force", action="store_true", help="render even if the estimate exceeds 1 h")
     parser.set_defaults(func=run)
 
 
@@ -98,12 +102,42 @@ def _specs(args: argparse.Namespace) -> list:
     ]
 
 
+#: Animations estimated to take longer than this are refused unless ``--force``: the shipped ones
+#: take minutes; an hour usually means a mistyped number.
+TIME_LIMIT_S = 3600.0
+#: The oracle's candidates per frame (``make_strategy``'s default K), each a full render.
+ORACLE_K = 32
+
+
+def _animation_paths(spec: Animation) -> int:
+    """Paths traced for ``spec``, at most: every strategy's warmup and shown frames (the
+    oracle's K renders each) and the shown frames' references (counted even when cached)."""
+    renders = sum(ORACLE_K if parse_variant(n)[0] == "oracle" else 1 for n in spec.strategies)
+    pixels = spec.width * spec.height
+    strategies = pixels * spec.spp * (spec.warmup + spec.frames) * renders
+    return strategies + pixels * spec.reference_spp * spec.frames
+
+
+def _check_time(specs: list[Animation]) -> None:
+    """Refuse a scene's animation beyond :data:`TIME_LIMIT_S` by the time model
+    (:mod:`renderers.budget`, the scene's measured throughput); print the total beyond 10 s."""
+    total = 0.0
+    for spec in specs:
+        what = f"--scene {spec.scene} --res {spec.width}x{spec.height} --spp {spec.spp}"
+        paths = _animation_paths(spec)
+        total += check_render_time(get_scene(spec.scene), paths, what, limit_s=TIME_LIMIT_S)
+    if total > 10.0:
+        print(f"bnerr animate: estimated {format_seconds(total)} of rendering", flush=True)
+
+
 def run(args: argparse.Namespace) -> int:
     """Check everything, then render and write each scene, printing its files and timings."""
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     specs = _specs(args)
+    if not args.force:
+        _check_time(specs)
     start = time.perf_counter()
 
     def report(spec, result) -> None:
