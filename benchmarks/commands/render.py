@@ -27,7 +27,10 @@ Each output line says which path ran.
 
 Before rendering, the resolution is checked against the memory it needs and ``DIR`` against its
 kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR``'s lock
-(:func:`bnerr.outputs.output_lock`), so a second writer into ``DIR`` refuses.
+(:func:`bnerr.outputs.output_lock`), so a second writer into ``DIR`` refuses. Its time is
+estimated too, from the tracer's throughput measured on this machine for the scene
+(:mod:`renderers.budget`, a fraction of a second, skipped for renders of under 2^18 paths): an
+estimate over 10 s is printed, one over an hour refused unless ``--force``.
 """
 
 from __future__ import annotations
