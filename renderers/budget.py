@@ -23,6 +23,8 @@ from renderers.scene import Scene
 from renderers.tracer import render
 
 __all__ = [
+    "SHOW_ESTIMATE_S",
+    "TIME_LIMIT_S",
     "CALIBRATION_SPP",
     "COMPILE_SPEEDUP",
     "UNMEASURED_PATHS",
@@ -31,6 +33,13 @@ __all__ = [
     "format_seconds",
     "seconds_per_path",
 ]
+
+#: A command refuses work estimated to take longer than this unless ``--force``: an hour is far
+#: beyond what the benchmark's, the animations' and the training data's sizes need on this
+#: machine, and usually means a mistyped number.
+TIME_LIMIT_S = 3600.0
+#: A command prints its estimate before starting work estimated to take longer than this.
+SHOW_ESTIMATE_S = 10.0
 
 #: Samples per pixel of the two calibration renders of 8 x 8 pixels (4096 and 32768 paths). A
 #: render has a fixed cost per call (about 17 ms for cornell, 4 ms for direct: the per-vertex ops'

@@ -31,7 +31,7 @@ from benchmarks.sweep.parts import known_names
 from bnerr.errors import check_positive_int
 from bnerr.strategies import parse_variant
 from renderers import get_scene
-from renderers.budget import check_render_time, format_seconds
+from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 
 __all__ = ["register", "run"]
 
@@ -102,9 +102,6 @@ def _specs(args: argparse.Namespace) -> list:
     ]
 
 
-#: Animations estimated to take longer than this are refused unless ``--force``: the shipped ones
-#: take minutes; an hour usually means a mistyped number.
-TIME_LIMIT_S = 3600.0
 #: The oracle's candidates per frame (``make_strategy``'s default K), each a full render.
 ORACLE_K = 32
 
@@ -126,7 +123,7 @@ def _check_time(specs: list[Animation]) -> None:
         what = f"--scene {spec.scene} --res {spec.width}x{spec.height} --spp {spec.spp}"
         paths = _animation_paths(spec)
         total += check_render_time(get_scene(spec.scene), paths, what, limit_s=TIME_LIMIT_S)
-    if total > 10.0:
+    if total > SHOW_ESTIMATE_S:
         print(f"bnerr animate: estimated {format_seconds(total)} of rendering", flush=True)
 
 

@@ -51,7 +51,7 @@ from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
 from renderers import get_scene, render
-from renderers.budget import check_render_time, format_seconds
+from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 from renderers.memory import render_bytes
 
 __all__ = ["AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
@@ -65,11 +65,6 @@ AUTO_COMPILE_PATHS = 1 << 21
 #: Disk bytes per pixel and frame at most: 16 float32 EXR channels (ZIP never grows them much)
 #: and the 8-bit RGB preview.
 OUTPUT_BYTES_PER_PIXEL = 16 * 4 + 3
-#: A render estimated to take longer than this is refused unless ``--force``: an hour is far
-#: beyond what the benchmark's sizes need on this machine and usually means a mistyped number.
-TIME_LIMIT_S = 3600.0
-#: A render estimated to take longer than this prints its estimate before it starts.
-SHOW_ESTIMATE_S = 10.0
 
 
 def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:

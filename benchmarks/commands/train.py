@@ -32,7 +32,7 @@ from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from denoisers.train import TrainConfig, TrainingSet, make_training_set, step_bytes, train
 from denoisers.unet import atomic_torch_save, check_parameter_count, parameter_count, save_weights
 from renderers import get_scene
-from renderers.budget import check_render_time, format_seconds
+from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 
 __all__ = ["canonical_command", "load_or_render", "register", "run"]
 
@@ -41,18 +41,13 @@ __all__ = ["canonical_command", "load_or_render", "register", "run"]
 DATA_FORMAT = "bnerr-training-set-v2"
 
 
-#: Training data estimated to take longer than this to render is refused unless ``--force``:
-#: the shipped weights' data renders in minutes; an hour usually means a mistyped number.
-TIME_LIMIT_S = 3600.0
-
-
 def check_data_time(spec: TrainingSpec) -> None:
     """Refuse rendering ``spec``'s data beyond :data:`TIME_LIMIT_S` by the time model (cornell's
     measured throughput stands for the random rooms'); print the estimate beyond 10 s."""
     paths = training_paths(spec)
     what = f"--size {spec.size} --scenes {spec.scenes} --reference-spp {spec.reference_spp}"
     seconds = check_render_time(get_scene("cornell"), paths, what, limit_s=TIME_LIMIT_S)
-    if seconds > 10.0:
+    if seconds > SHOW_ESTIMATE_S:
         print(f"bnerr train: rendering the data, estimated {format_seconds(seconds)}", flush=True)
 
 
