@@ -26,6 +26,7 @@ from pathlib import Path
 
 import torch
 
+from benchmarks.commands._args import MAX_MINUTES, positive_float, positive_int, seed_int
 from benchmarks.training_data import TrainingSpec, make_pairs, training_set_bytes
 from bnerr.errors import ValueRangeError, check_memory
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
@@ -208,33 +209,45 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         choices=("white", "owen_sobol"),
         help="per-pixel sampler of the white-noise inputs (the benchmark renders with owen_sobol)",
     )
-    p.add_argument("--steps", type=int, default=2500, help="optimizer steps of the full run")
     p.add_argument(
-        "--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)"
+        "--steps", type=positive_int, default=2500, help="optimizer steps of the full run"
+    )
+    p.add_argument(
+        "--minutes",
+        type=positive_float(MAX_MINUTES),
+        help="wall-time cap of this call (stops at a checkpoint)",
     )
     p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
-    p.add_argument("--scenes", type=int, default=128, help="random training scenes (one pair each)")
-    p.add_argument("--size", type=int, default=64, help="training image side in pixels")
-    p.add_argument("--reference-spp", type=int, default=256, help="spp of the training references")
-    p.add_argument("--batch-size", type=int, default=16)
-    p.add_argument("--crop", type=int, default=48, help="crop side (multiple of 8, at most --size)")
-    p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
+    p.add_argument(
+        "--scenes", type=positive_int, default=128, help="random training scenes (one pair each)"
+    )
+    p.add_argument("--size", type=positive_int, default=64, help="training image side in pixels")
+    p.add_argument(
+        "--reference-spp", type=positive_int, default=256, help="spp of the training references"
+    )
+    p.add_argument("--batch-size", type=positive_int, default=16)
+    p.add_argument(
+        "--crop", type=positive_int, default=48, help="crop side (multiple of 8, at most --size)"
+    )
+    p.add_argument(
+        "--lr", type=positive_float(10.0), default=2e-3, help="peak learning rate (Adam)"
+    )
     p.add_argument(
         "--loss",
         default="l1_log+l1",
         choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"),
         help="training loss",
     )
-    p.add_argument("--checkpoint-every", type=int, default=100)
+    p.add_argument("--checkpoint-every", type=positive_int, default=100)
     p.add_argument(
         "--threads",
-        type=int,
+        type=positive_int,
         default=2,
         help="torch threads (2: both cores of an idle 2-core machine, 1.7x faster than 1; 1 when "
         "the other core is busy, where two threads that wait on each other are slower)",
     )
     p.add_argument(
-        "--seed", type=int, default=0, help="seeds the scenes, the weights and the batches"
+        "--seed", type=seed_int, default=0, help="seeds the scenes, the weights and the batches"
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
     p.set_defaults(func=run)
