@@ -47,10 +47,10 @@ def _integer(minimum: int, maximum: int, what: str) -> Callable[[str], int]:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"expected {what}, got {text!r}") from None
-        if not minimum <= value <= maximum:
-            raise argparse.ArgumentTypeError(
-                f"expected {what} in [{minimum}, {maximum}], got {text}"
-            )
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"expected an integer >= {minimum}, got {text}")
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"expected an integer <= {maximum}, got {text}")
         return value
 
     parse.__name__ = what.replace(" ", "_")  # argparse names the type in "invalid <name> value"
