@@ -17,11 +17,12 @@ import argparse
 import importlib
 import pkgutil
 import sys
+from typing import NoReturn
 
 import benchmarks.commands as commands
 from bnerr.errors import BnerrError
 
-__all__ = ["build_parser", "main"]
+__all__ = ["OneLineParser", "UsageError", "build_parser", "main"]
 
 
 def command_names() -> list[str]:
@@ -30,10 +31,24 @@ def command_names() -> list[str]:
     return sorted(info.name for info in infos if not info.name.startswith("_"))
 
 
+class UsageError(SystemExit):
+    """A command line argparse refused, already printed as one line (exit code 2)."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argparse parser whose refusal is one line, ``bnerr <command>: error: <message>``, like
+    every other error of the CLI (argparse's own prints its usage first); its subparsers are of
+    this class too (``add_subparsers`` makes them of the parent's class)."""
+
+    def error(self, message: str) -> NoReturn:
+        print(f"{self.prog}: error: {message} (see {self.prog} --help)", file=sys.stderr)
+        raise UsageError(2)
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The ``bnerr`` parser with every subcommand, or only ``only`` (its module alone imported)."""
 
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="bnerr",
         description=(
             "Measure how much distributing Monte Carlo error as blue noise in screen space "
@@ -66,7 +81,10 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     wanted = next((a for a in argv if not a.startswith("-")), None)
     only = wanted if wanted in command_names() else None
-    args = build_parser(only).parse_args(argv)
+    try:
+        args = build_parser(only).parse_args(argv)
+    except UsageError:
+        return 2
     try:
         return int(args.func(args) or 0)
     except (BnerrError, OSError, MemoryError, RuntimeError) as err:

@@ -26,7 +26,13 @@ from pathlib import Path
 import torch
 
 from benchmarks.animate import Animation, animate, default_strategies
-from benchmarks.commands._args import names, parse_resolution
+from benchmarks.commands._args import (
+    names,
+    nonnegative_int,
+    parse_resolution,
+    positive_int,
+    seed_int,
+)
 from benchmarks.sweep.parts import known_names
 from bnerr.errors import check_positive_int
 from bnerr.strategies import parse_variant
@@ -55,15 +61,25 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add("--strategies", nargs="+", metavar="NAME", help="strategy columns (default: see above)")
     add("--denoiser", default="gaussian", help="denoiser of the second row (default gaussian)")
-    add("--frames", type=int, default=16, help="frames shown (default 16)")
-    add("--warmup", type=int, default=6, help="frames rendered before them (default 6)")
+    add("--frames", type=positive_int, default=16, help="frames shown (default 16)")
+    add("--warmup", type=nonnegative_int, default=6, help="frames rendered before them (default 6)")
     add("--res", default="128x128", help="WIDTHxHEIGHT (default 128x128)")
-    add("--spp", type=int, default=4, help="samples per pixel (default 4)")
-    add("--seed-set", type=int, default=0, help="the benchmark seed set (default 0)")
-    add("--reference-spp", type=int, default=1024, help="reference spp (default 1024)")
-    add("--fps", type=int, default=8, help="frames per second (default 8)")
-    add("--gif-crop", type=int, default=64, help="centre crop of each GIF tile (default 64)")
-    add("--gif-frames", type=int, default=8, help="frames in the GIF (default 8; 0: all)")
+    add("--spp", type=positive_int, default=4, help="samples per pixel (default 4)")
+    add("--seed-set", type=seed_int, default=0, help="the benchmark seed set (default 0)")
+    add("--reference-spp", type=positive_int, default=1024, help="reference spp (default 1024)")
+    add("--fps", type=positive_int, default=8, help="frames per second (default 8)")
+    add(
+        "--gif-crop",
+        type=positive_int,
+        default=64,
+        help="centre crop of each GIF tile (default 64)",
+    )
+    add(
+        "--gif-frames",
+        type=nonnegative_int,
+        default=8,
+        help="frames in the GIF (default 8; 0: all)",
+    )
     add(
         "--params",
         type=Path,
@@ -72,7 +88,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
     add("--out", type=Path, default=Path("results/animations"), help="output folder")
-    add("--threads", type=int, help="torch intra-op threads; 1 on a shared machine")
+    add("--threads", type=positive_int, help="torch intra-op threads; 1 on a shared machine")
     add("--force", action="store_true", help="render even if the estimate exceeds 1 h")
     parser.set_defaults(func=run)
 

@@ -31,7 +31,13 @@ from pathlib import Path
 import torch
 
 from benchmarks import suites
-from benchmarks.commands._args import names, parse_resolution
+from benchmarks.commands._args import (
+    MAX_COUNT,
+    names,
+    nonnegative_int,
+    parse_resolution,
+    positive_int,
+)
 from benchmarks.reports import write_report
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES
@@ -65,7 +71,10 @@ def _ints(values: list[str] | None, flag: str) -> list[int] | None:
         numbers = [int(v) for v in given]
     except ValueError as err:
         raise DtypeError(f"{flag}: expected positive integers, got {values!r}") from err
-    return [check_positive_int(n, flag) for n in numbers]
+    for n in numbers:
+        if check_positive_int(n, flag) > MAX_COUNT:  # the same bound as every count's type
+            raise ValueRangeError(f"{flag}: expected integers <= {MAX_COUNT}, got {n}")
+    return numbers
 
 
 def _count(value: int | None, flag: str, minimum: int = 1) -> int | None:
@@ -92,10 +101,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--strategies", nargs="+", metavar="NAME", help="override the strategies")
     add("--spp", nargs="+", metavar="N", help="override the samples per pixel")
     add("--denoisers", nargs="+", metavar="NAME", help="override the denoisers")
-    add("--frames", type=int, help="measured frames per seed set")
-    add("--warmup", type=int, help="frames rendered before measuring (not measured)")
-    add("--seed-sets", type=int, help="independent seed sets")
-    add("--reference-spp", type=int, help="samples per pixel of the references")
+    add("--frames", type=positive_int, help="measured frames per seed set")
+    add("--warmup", type=nonnegative_int, help="frames rendered before measuring (not measured)")
+    add("--seed-sets", type=positive_int, help="independent seed sets")
+    add("--reference-spp", type=positive_int, help="samples per pixel of the references")
     add("--res", help="resolution WIDTHxHEIGHT")
     add("--out", type=Path, help="output folder (default results/<suite>)")
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
@@ -117,7 +126,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add(
         "--threads",
-        type=int,
+        type=positive_int,
         help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
         "machine, where OpenMP barriers stall whenever a thread is descheduled",
     )
@@ -129,7 +138,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="run the cells as Ray tasks: auto (default: this machine's cluster, else a local "
         "instance), local, or HOST:PORT of a head node (needs: pip install '.[cluster]')",
     )
-    add("--ray-cpus", type=int, default=1, help="CPUs (and torch threads) per Ray task")
+    add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
     add("--no-charts", action="store_true", help="write the tables only")
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)

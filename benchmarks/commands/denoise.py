@@ -20,6 +20,7 @@ import json
 import time
 from pathlib import Path
 
+from benchmarks.commands._args import EXPOSURE, positive_int
 from bnerr.errors import DtypeError
 from bnerr.frame import Frame
 from bnerr.io import image_format, read_frame, write_image
@@ -104,7 +105,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="OUT.exr|OUT.png",
         help="where to write the result: .exr (every buffer, exact) or .png (tone-mapped preview)",
     )
-    p.add_argument("--exposure", type=float, default=0.0, help="exposure in stops of a .png output")
+    p.add_argument(
+        "--exposure", type=EXPOSURE, default=0.0, help="exposure in stops of a .png output"
+    )
     p.add_argument(
         "--params", nargs="*", default=[], metavar="KEY=VALUE", help="denoiser parameters"
     )
@@ -116,5 +119,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="scene key to look up in --tuned (direct/m1/owen_sobol/128x128), or the scene's name "
         "alone (direct) when the file holds one key for it",
     )
-    p.add_argument("--spp", type=int, help="spp to look up in --tuned (optional when it holds one)")
+    p.add_argument(
+        "--spp", type=positive_int, help="spp to look up in --tuned (optional when it holds one)"
+    )
     p.set_defaults(func=run)

@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from benchmarks.commands._args import positive_float, positive_int, seed_int
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
 from bnerr.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
 from bnerr.io import IMAGE_SUFFIXES, atomic_write, image_format, write_exr, write_png
@@ -42,26 +43,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument("--size", type=int, default=64, help="tile size T (default 64)")
+    parser.add_argument("--size", type=positive_int, default=64, help="tile size T (default 64)")
     parser.add_argument(
-        "--dims", type=int, default=1, help="1: scalar void-and-cluster mask; D >= 2: vector mask"
+        "--dims",
+        type=positive_int,
+        default=1,
+        help="1: scalar void-and-cluster mask; D >= 2: vector mask",
     )
-    parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    parser.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     parser.add_argument(
         "--frames",
-        type=int,
+        type=positive_int,
         default=None,
         help="F: make a spatiotemporal mask of F slices (bnerr.stbn; .npy output only)",
     )
     parser.add_argument(
         "--sigma",
-        type=float,
+        type=positive_float(100.0),
         default=None,
         help="Gaussian sigma in pixels (default 1.5 for a 2D scalar mask; 1.9 for --frames)",
     )
     parser.add_argument(
         "--sigma-t",
-        type=float,
+        type=positive_float(100.0),
         default=DEFAULT_SIGMA,
         help="Gaussian sigma in frames (--frames only, default 1.9)",
     )
@@ -70,20 +74,20 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument(
         "--threads",
-        type=int,
+        type=positive_int,
         default=None,
         help="torch intra-op threads (default: torch's own); 1 on a shared machine",
     )
     parser.add_argument(
         "--fast",
-        type=float,
+        type=positive_float(100.0),
         default=None,
         metavar="SIGMA",
         help="anneal the scalar mask into a FAST mask for a Gaussian filter of SIGMA pixels",
     )
     parser.add_argument(
         "--iterations",
-        type=int,
+        type=positive_int,
         default=None,
         help=f"candidate swaps per pixel (vector masks, default 64; --fast, default "
         f"{DEFAULT_ITERATIONS})",

@@ -43,7 +43,13 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.commands._args import parse_resolution
+from benchmarks.commands._args import (
+    EXPOSURE,
+    nonnegative_int,
+    parse_resolution,
+    positive_int,
+    seed_int,
+)
 from bnerr.errors import FileFormatError, ValueRangeError, check_memory, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
@@ -200,15 +206,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--scene", required=True, help="scene name (see: bnerr scenes)")
     p.add_argument("--res", default="256x256", metavar="WxH", help="resolution (default 256x256)")
-    p.add_argument("--spp", type=int, default=16, help="samples per pixel (default 16)")
-    p.add_argument("--frames", type=int, default=1, help="number of frames (default 1)")
-    p.add_argument("--start", type=int, default=0, help="first frame index t (default 0)")
+    p.add_argument("--spp", type=positive_int, default=16, help="samples per pixel (default 16)")
+    p.add_argument("--frames", type=positive_int, default=1, help="number of frames (default 1)")
+    p.add_argument(
+        "--start", type=nonnegative_int, default=0, help="first frame index t (default 0)"
+    )
     p.add_argument(
         "--sampler",
         choices=SAMPLER_NAMES,
         help="sequence (default white; owen_sobol with --strategy, the benchmark's condition)",
     )
-    p.add_argument("--seed", type=int, help="seed-image key without --strategy (default 0)")
+    p.add_argument("--seed", type=seed_int, help="seed-image key without --strategy (default 0)")
     p.add_argument(
         "--strategy",
         metavar="NAME",
@@ -216,7 +224,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "frame to frame: the frames bnerr bench renders for --seed-set",
     )
     p.add_argument(
-        "--seed-set", type=int, help="the strategy's seed set, as in bnerr bench (default 0)"
+        "--seed-set", type=seed_int, help="the strategy's seed set, as in bnerr bench (default 0)"
     )
     p.add_argument("--static", action="store_true", help="the scene's static variant (no motion)")
     p.add_argument(
@@ -230,6 +238,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         action="store_true",
         help=f"render even if the estimated time exceeds {TIME_LIMIT_S / 3600:.0f} h",
     )
-    p.add_argument("--exposure", type=float, default=0.0, help="PNG preview exposure in stops")
+    p.add_argument("--exposure", type=EXPOSURE, default=0.0, help="PNG preview exposure in stops")
     p.add_argument("--out", required=True, metavar="DIR", help="output directory")
     p.set_defaults(func=run)

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from benchmarks.commands._args import finite_float, nonnegative_int, positive_int, seed_int
 from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.masks import load_mask, r2_step
 from bnerr.retarget import (
@@ -41,7 +42,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(
-        "--size", type=int, default=64, help="tile size T of the shipped scalar mask (default 64)"
+        "--size",
+        type=positive_int,
+        default=64,
+        help="tile size T of the shipped scalar mask (default 64)",
     )
     parser.add_argument(
         "--mask", type=Path, help="a [T, T] float32 .npy mask instead of the shipped one"
@@ -49,15 +53,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument(
         "--method", choices=METHODS, default="exact", help="optimizer (default exact)"
     )
-    parser.add_argument("--seed", type=int, default=0, help="annealing seed (default 0)")
+    parser.add_argument("--seed", type=seed_int, default=0, help="annealing seed (default 0)")
     parser.add_argument(
-        "--iterations", type=int, default=40000, help="annealing steps (default 40000)"
+        "--iterations", type=nonnegative_int, default=40000, help="annealing steps (default 40000)"
     )
     parser.add_argument(
-        "--temperature", type=float, default=0.05, help="initial annealing temperature"
+        "--temperature",
+        type=finite_float(0.0, 1.0),
+        default=0.05,
+        help="initial annealing temperature",
     )
     parser.add_argument(
-        "--radius", type=int, default=MAX_DISPLACEMENT, help="largest |dy|, |dx| (default 6)"
+        "--radius",
+        type=nonnegative_int,
+        default=MAX_DISPLACEMENT,
+        help="largest |dy|, |dx| (default 6)",
     )
     parser.add_argument("--out", type=Path, required=True, help="output .npy file (int8 [2, T, T])")
     parser.set_defaults(func=run)

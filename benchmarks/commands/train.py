@@ -26,6 +26,7 @@ from pathlib import Path
 
 import torch
 
+from benchmarks.commands._args import MAX_MINUTES, positive_float, positive_int, seed_int
 from benchmarks.training_data import TrainingSpec, make_pairs, training_paths, training_set_bytes
 from bnerr.errors import ValueRangeError, check_memory
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
@@ -208,8 +209,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="render training data and train the U-Net denoiser",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
-    p.add_argument(
+    add = p.add_argument
+    add("--out", required=True, metavar="WEIGHTS.pt", help="where to write the weights")
+    add(
         "--mix",
         default="white",
         choices=("white", "white+blue"),
@@ -217,44 +219,40 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "random seeds), or white+blue (every second input made by the benchmark's temporal, "
         "zsobol or cycles_blue strategy instead; benchmarks.training_data.BLUE_STRATEGIES)",
     )
-    p.add_argument(
+    add(
         "--sampler",
         default="owen_sobol",
         choices=("white", "owen_sobol"),
         help="per-pixel sampler of the white-noise inputs (the benchmark renders with owen_sobol)",
     )
-    p.add_argument("--steps", type=int, default=2500, help="optimizer steps of the full run")
-    p.add_argument(
-        "--minutes", type=float, help="wall-time cap of this call (stops at a checkpoint)"
+    add("--steps", type=positive_int, default=2500, help="optimizer steps of the full run")
+    add(
+        "--minutes",
+        type=positive_float(MAX_MINUTES),
+        help="wall-time cap of this call (stops at a checkpoint)",
     )
-    p.add_argument("--resume", action="store_true", help="continue from OUT.ckpt")
-    p.add_argument("--scenes", type=int, default=128, help="random training scenes (one pair each)")
-    p.add_argument("--size", type=int, default=64, help="training image side in pixels")
-    p.add_argument("--reference-spp", type=int, default=256, help="spp of the training references")
-    p.add_argument("--batch-size", type=int, default=16)
-    p.add_argument("--crop", type=int, default=48, help="crop side (multiple of 8, at most --size)")
-    p.add_argument("--lr", type=float, default=2e-3, help="peak learning rate (Adam)")
-    p.add_argument(
+    add("--resume", action="store_true", help="continue from OUT.ckpt")
+    add("--scenes", type=positive_int, default=128, help="random training scenes (one pair each)")
+    add("--size", type=positive_int, default=64, help="training image side in pixels")
+    add("--reference-spp", type=positive_int, default=256, help="spp of the training references")
+    add("--batch-size", type=positive_int, default=16)
+    add("--crop", type=positive_int, default=48, help="crop side (multiple of 8, at most --size)")
+    add("--lr", type=positive_float(10.0), default=2e-3, help="peak learning rate (Adam)")
+    add(
         "--loss",
         default="l1_log+l1",
         choices=("l1_log", "l1_log+l1", "l1_log+l2", "relmse"),
         help="training loss",
     )
-    p.add_argument("--checkpoint-every", type=int, default=100)
-    p.add_argument(
+    add("--checkpoint-every", type=positive_int, default=100)
+    add(
         "--threads",
-        type=int,
+        type=positive_int,
         default=2,
         help="torch threads (2: both cores of an idle 2-core machine, 1.7x faster than 1; 1 when "
         "the other core is busy, where two threads that wait on each other are slower)",
     )
-    p.add_argument(
-        "--seed", type=int, default=0, help="seeds the scenes, the weights and the batches"
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bars")
-    p.add_argument(
-        "--force",
-        action="store_true",
-        help="render the data even if its estimated time exceeds 1 h",
-    )
+    add("--seed", type=seed_int, default=0, help="seeds the scenes, the weights and the batches")
+    add("--no-progress", action="store_true", help="no progress bars")
+    add("--force", action="store_true", help="render the data even if its estimate exceeds 1 h")
     p.set_defaults(func=run)
