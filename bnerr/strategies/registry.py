@@ -70,11 +70,6 @@ class StrategyRegistry(Mapping[str, Any]):
     def __len__(self) -> int:
         return len({*self._classes, *self._variants})
 
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, tuple):
-            return tuple(self) == other
-        return Mapping.__eq__(self, other)
-
     def __repr__(self) -> str:
         return f"StrategyRegistry({', '.join(self)})"
 
