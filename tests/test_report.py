@@ -322,12 +322,17 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
     text = decision.decision_table(rows)
     lines = [line for line in text.splitlines() if line.startswith("| ")][1:]
     assert len(lines) == len({(k[0], k[1]) for k in best})
-    for row in best.values():
-        cell = decision._decision_cell(row)
+    rivals = decision.rival_counts(rows)
+    for key, row in best.items():
+        cell = decision._decision_cell(row, rivals.get(key, 1))
         assert f"({row['render_ms']:.0f} + {row['perm_ms']:.1f} ms)" in cell
         if row["strategy"] != "white":
+            est = decision.corrected(row, rivals[key])
             assert f"{row['den_mse_ratio']:.2f} [" in cell
-            assert cell.startswith("**") == (row["den_mse_ratio_hi"] < 1.0)
+            # bold only below white beyond the interval corrected for picking the best of m
+            assert est.lo <= row["den_mse_ratio_lo"] * (1 + 1e-12)
+            assert est.hi >= row["den_mse_ratio_hi"] * (1 - 1e-12)
+            assert cell.startswith("**") == (est.hi < 1.0)
 
 
 def test_the_decision_table_bolds_only_an_established_winner():

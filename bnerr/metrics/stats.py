@@ -74,6 +74,7 @@ __all__ = [
     "paired_ratio",
     "percentile_interval",
     "pooled_mean",
+    "relevel_ratio",
     "replicates",
     "resample_weights",
     "resampled_values",
@@ -341,6 +342,30 @@ def paired_ratio(
         return Estimate(float(value), 0.0, math.inf, n, level)
     log_lo, log_hi = t_interval(torch.log(ra / rb), torch.log(value), level)
     return Estimate(float(value), math.exp(float(log_lo)), math.exp(float(log_hi)), n, level)
+
+
+def relevel_ratio(estimate: Estimate, level: float, df: int) -> Estimate:
+    """The same t-interval of a ratio (:func:`paired_ratio`, symmetric in log space around
+    ``log(value)``) at another confidence ``level``: ``value * exp(-+ t(level) * se)`` with the
+    standard error ``se`` read back from the interval at ``estimate.level``.
+
+    The decision table uses it to correct for choosing the best of m strategies (Bonferroni:
+    ``level = 1 - (1 - estimate.level) / m``). ``df`` is the interval's degrees of freedom (seed
+    sets - 1, or frames - 1 with one seed set). An unbounded interval stays unbounded.
+    """
+    check_range(level, "level", 0.5, 1.0 - 1e-9)
+    check_positive_int(df, "df")
+    if not (0.0 < estimate.lo <= estimate.value <= estimate.hi < math.inf):
+        return Estimate(estimate.value, 0.0, math.inf, estimate.n, level)
+    se = math.log(estimate.hi / estimate.value) / t_quantile(estimate.level, df)
+    half = se * t_quantile(level, df)
+    return Estimate(
+        estimate.value,
+        estimate.value * math.exp(-half),
+        estimate.value * math.exp(half),
+        estimate.n,
+        level,
+    )
 
 
 # -- claims with margins ---------------------------------------------------------------------------
