@@ -19,7 +19,7 @@ from bnerr.errors import (
 from bnerr.frame import Frame
 from bnerr.hashing import lowbias32_host
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.metrics import Estimate, blurred_mse, equivalent, t_quantile
+from bnerr.metrics import Estimate, blurred_mse, equivalent, not_worse, t_quantile
 from bnerr.permute import histogram_select, luminance, sort_pass_reference
 from bnerr.retarget import load_retarget
 from bnerr.sequences import BNDSSampler, cycles_keys, zsobol_2d, zsobol_keys
@@ -636,15 +636,23 @@ def analytic_rivals():
 @pytest.mark.parametrize("name", RIVALS)
 def test_rivals_raw_mse_is_not_worse_than_white_on_the_analytic_integrand(analytic_rivals, name):
     # Each pixel's single sample is uniform under every rival, so the raw MSE must not exceed
-    # white's by more than 4 standard errors of the tile-paired difference.
-    diff, se = _paired(
-        _tiles(analytic_rivals[name].square()), _tiles(analytic_rivals["white"].square())
+    # white's by more than _RAW_MARGIN (non-inferiority: the interval's upper end below 1 + d).
+    ratio = _paired_ratio(
+        _tiles(analytic_rivals[name].square()),
+        _tiles(analytic_rivals["white"].square()),
+        1 - 0.05 / len(RIVALS),
     )
-    assert diff <= 4 * se, (name, diff, se)
+    assert not_worse(ratio, _RAW_MARGIN), (name, str(ratio))
 
 
 # A small real render: direct (animated), 48x48, 4 spp, 8 frames, against 256-spp references.
 _REAL = dict(size=48, spp=4, frames=8, tile=4)
+#: Non-inferiority margin of raw MSE ratios on that render. Its 144 tiles x 8 frames give a
+#: relative standard error of 6-9 % per comparison, so the Bonferroni interval spans about -+20 %
+#: (measured upper ends up to 1.30): it can only catch a gross loss, such as the doubled raw MSE of
+#: repeated seeds (bnds here: 2.29x), and that is all it is asked. Equivalence within the strict
+#: _RAW_MARGIN is tested on the analytic integrand, which resolves it.
+_REAL_MARGIN = 0.35
 _BNDS_RAW = (
     "bnds_st renders with the bnds sampler, which has about twice white's raw MSE here: measured "
     "on direct 48x48 at 4 spp over 8 frames, raw MSE / white 2.29 (5.6 standard errors of the "
@@ -690,8 +698,9 @@ def real_raw_errors(one_thread):
     ],
 )
 def test_rivals_raw_mse_is_not_worse_than_white_on_a_small_render(real_raw_errors, name):
-    diff, se = _paired(real_raw_errors[name], real_raw_errors["white"])
-    assert diff <= 4 * se, (name, diff, se)
+    level = 1 - 0.05 / len(RIVALS)
+    ratio = _paired_ratio(real_raw_errors[name], real_raw_errors["white"], level)
+    assert not_worse(ratio, _REAL_MARGIN), (name, str(ratio))
 
 
 # --------------------------------------------------------------------------------------------------
@@ -890,6 +899,51 @@ def test_variants_refuse_frames_without_the_buffers_they_need():
     make_strategy("temporal+residual", 8, 8).frame(0, bare)
 
 
+def _with_buffers(render):
+    """The soft-shadow render with the aux buffers the variants read: one object, unit albedo, a
+    flat normal and depth, no motion."""
+
+    def full(seeds: torch.Tensor, sampler) -> Frame:
+        frame = render(seeds, sampler)
+        ones = torch.ones(1, SIZE, SIZE)
+        return dataclasses.replace(
+            frame,
+            albedo=ones.expand(3, SIZE, SIZE).contiguous(),
+            normal=torch.cat([torch.zeros(2, SIZE, SIZE), ones]),
+            depth=ones.clone(),
+            motion=torch.zeros(2, SIZE, SIZE),
+            object_id=torch.zeros(1, SIZE, SIZE),
+        )
+
+    return full
+
+
+@pytest.fixture(scope="module")
+def analytic_variants():
+    """Per-tile raw MSE of white and every variant on the soft-shadow integrand: name -> tiles."""
+    out = {}
+    for name in ("white", "zsobol", *VARIANTS):
+        strategy = make_strategy(name, SIZE, SIZE, seed=0, spp=1)
+        errs = [
+            strategy.frame(t, _with_buffers(_soft_shadow_render(t))).color[0].double()
+            - _coverage(t)
+            for t in range(FRAMES)
+        ]
+        out[name] = _tiles(torch.stack([errs[t] for t in MEASURED]).square())
+    return out
+
+
+@pytest.mark.parametrize("name", VARIANTS)
+def test_variants_raw_mse_is_whites_on_the_analytic_integrand(analytic_variants, name):
+    # They only move seeds: the raw MSE must be equivalent to that of the sampler they permute
+    # (white's, or zsobol's for temporal_zsobol) within _RAW_MARGIN, the whole Bonferroni interval
+    # inside (a noisier measurement fails instead of passing).
+    base = "zsobol" if name.startswith("temporal_zsobol") else "white"
+    level = 1 - 0.05 / len(VARIANTS)
+    ratio = _paired_ratio(analytic_variants[name], analytic_variants[base], level)
+    assert equivalent(ratio, _RAW_MARGIN), (name, str(ratio))
+
+
 @pytest.fixture(scope="module")
 def variant_raw_errors(one_thread):
     """Per-tile raw MSE of white, temporal and every registered variant on a small real render
@@ -905,7 +959,7 @@ def variant_raw_errors(one_thread):
         for t in range(frames)
     ]
     out = {}
-    for name in ("white", "temporal", *VARIANTS):
+    for name in ("white", "zsobol", "temporal", *VARIANTS):
         strategy = make_strategy(name, n, n, seed=0, spp=spp, dimensions=scene.dimensions)
         squared = []
         for t in range(frames):
@@ -919,7 +973,10 @@ def variant_raw_errors(one_thread):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", VARIANTS)
 def test_variants_raw_mse_equals_whites_on_a_small_render(variant_raw_errors, name):
-    # They only move seeds: the raw MSE must equal white's within 4 standard errors of the
-    # tile-paired difference, in both directions.
-    diff, se = _paired(variant_raw_errors[name], variant_raw_errors["white"])
-    assert abs(diff) <= 4 * se, (name, diff, se)
+    # On real buffers (object ids, motion, albedo) no variant may lose more than _REAL_MARGIN of
+    # raw MSE against the sampler it permutes (white's, or zsobol's for temporal_zsobol); the
+    # equivalence itself is tested on the analytic integrand.
+    base = "zsobol" if name.startswith("temporal_zsobol") else "white"
+    level = 1 - 0.05 / len(VARIANTS)
+    ratio = _paired_ratio(variant_raw_errors[name], variant_raw_errors[base], level)
+    assert not_worse(ratio, _REAL_MARGIN), (name, str(ratio))
