@@ -195,7 +195,19 @@ def _write_exr(path: Path, buffers: dict[str, torch.Tensor], attributes: dict[st
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
     with atomic_write(path) as tmp:
         # File() turns the values of the dict it gets into Channel objects: give it its own.
-        OpenEXR.File(header, dict(channels)).write(str(tmp))
+        try:
+            OpenEXR.File(header, dict(channels)).write(str(tmp))
+        except RuntimeError as err:  # OpenEXR's word for a full disk or a read-only folder
+            raise OutputPathError(
+                f"{path}: expected a writable file, got {_exr_reason(err)}"
+            ) from err
+
+
+def _exr_reason(err: RuntimeError) -> str:
+    """The system's reason at the end of an OpenEXR write error (``... "<tmp>". No space left on
+    device.`` -> ``No space left on device``), else its first line."""
+    text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+    return text.rstrip(".").rsplit('". ', 1)[-1]
 
 
 def write_exr(
