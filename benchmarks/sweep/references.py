@@ -33,13 +33,14 @@ Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import torch
 
 from benchmarks.sweep.parts import Parts, Scene
 from benchmarks.sweep.plan import Run
-from bnerr.errors import FileFormatError
+from bnerr.errors import BnerrError, FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
@@ -90,8 +91,9 @@ class ReferenceCache:
 
     Args:
         root: cache folder (``cache/references`` by default in the CLI; git-ignored), or None to
-            keep references in memory only (a Ray worker whose node cannot write the cache
-            folder: its references travel through the object store).
+            keep references in memory only. A folder that refuses writes (read-only, a full
+            disk) is still read; the references it lacks are rendered and kept in memory, with
+            one warning (on a Ray node they travel through the object store).
         parts: the parts that render; ``parts.code_version`` enters every key.
     """
 
@@ -99,6 +101,25 @@ class ReferenceCache:
         self.root = Path(root) if root is not None else None
         self.parts = parts
         self._memory: dict[str, Frame] = {}
+        self.unwritable: str | None = None  # why the cache folder refused a write, if it did
+
+    def _store(self, path: Path, frame: Frame) -> None:
+        """Write ``frame`` to the cache file ``path`` (atomically). A folder that refuses (read
+        only, a full disk) is said once, in a warning, and not tried again: the sweep goes on
+        with its references in memory, which measures the same cells (only a later sweep renders
+        them again)."""
+        if self.root is None or self.unwritable is not None:
+            return
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_frame(path, frame)
+        except OSError as err:  # OutputPathError among them: atomic_write left no partial file
+            self.unwritable = str(err) if isinstance(err, BnerrError) else f"{path}: {err}"
+            warnings.warn(
+                f"--cache {self.root}: expected a writable reference cache, got "
+                f"{self.unwritable}; references are kept in memory for this run only",
+                stacklevel=3,
+            )
 
     def path(self, run: Run, t_render: int) -> Path:
         """The cache file of ``run``'s reference at renderer frame ``t_render``."""
@@ -134,9 +155,7 @@ class ReferenceCache:
             spp = run.reference_spp
             compile = reference_compile(run.height, run.width, spp)
             frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
-            if self.root is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                write_frame(path, frame)
+            self._store(path, frame)
         if len(self._memory) >= _REFERENCES_IN_MEMORY:
             self._memory.pop(next(iter(self._memory)))
         self._memory[key] = frame
