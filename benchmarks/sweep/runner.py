@@ -24,6 +24,7 @@ Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -42,6 +43,7 @@ from benchmarks.sweep.records import (
 )
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.tuning import TuningStore, tune_denoisers
+from bnerr.errors import FileFormatError
 from denoisers.tuning import ParamStore
 
 __all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
@@ -105,6 +107,20 @@ class SweepState:
             self.write()
 
 
+def _load_params(path: Path) -> ParamStore:
+    """The tuned parameters a resumed sweep keeps: ``path``'s, an empty store if there is no
+    such file, and an empty one with a warning if it is not a valid tuned-parameters file (the
+    denoisers are tuned again, deterministically, so the same parameters come back; the file is
+    replaced atomically at the next save)."""
+    if not path.exists():
+        return ParamStore()
+    try:
+        return ParamStore.load(path)
+    except FileFormatError as err:
+        warnings.warn(f"{err}; the denoisers are tuned again", stacklevel=3)
+        return ParamStore()
+
+
 def start_sweep(
     suite: Suite, out_dir: str | Path, parts: Parts | None, *, resume: bool, overwrite: bool
 ) -> SweepState:
@@ -113,7 +129,8 @@ def start_sweep(
     Raises:
         ResultsExistError: finished cells in ``out_dir`` and neither ``resume`` nor
             ``overwrite``; nothing is written.
-        FileFormatError: with ``resume``, a results or tuned-parameters file that is not valid.
+        FileFormatError: with ``resume``, a results file that is not valid (a tuned-parameters
+            file that is not valid is a warning: the denoisers are tuned again).
     """
     out = Path(out_dir)
     if not resume and not overwrite:
@@ -121,8 +138,7 @@ def start_sweep(
     records = {r.key: r for r in load_records(out, torn_tail=True)} if resume else {}
     parts = real_parts() if parts is None else parts
     out.mkdir(parents=True, exist_ok=True)
-    params_path = out / TUNED_PARAMS_FILE
-    store = ParamStore.load(params_path) if resume and params_path.exists() else ParamStore()
+    store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     todo = pending(suite, records)
     order = list(records) + [c.key() for run in todo for c in run.cells() if c.key() not in records]
     return SweepState(out=out, parts=parts, records=records, store=store, todo=todo, order=order)
