@@ -1,13 +1,15 @@
 """Tests of benchmarks.sweep.ray_runner on a local 2-CPU Ray instance: a tiny suite (a fair and an
 own-tuned denoiser column) gives the serial runner's records bit for bit (timings aside), a failed
-task stops the sweep with its own error and ``resume`` completes it, and tasks set torch's threads
-from the CPUs Ray gave them.
+task stops the sweep with its own error and ``resume`` completes it (a SIGKILLed worker too, as a
+one-line WorkerLostError), and tasks set torch's threads from the CPUs Ray gave them.
 
 Everything renders with the real path tracer at 16x12; Ray's start-up dominates the time.
 """
 
 import dataclasses
 import json
+import os
+import signal
 import sys
 import time
 
@@ -116,6 +118,40 @@ def test_a_failed_task_stops_the_sweep_and_resume_completes_it(local_ray, serial
     )
     _same_as_serial(serial_out, serial_records, out, records)
     for rec in records:  # the cells of the first pass were kept, not measured again
+        if rec.key in first:
+            assert rec == first[rec.key]
+
+
+class _KilledWorker(_FailingStrategy):
+    """Parts whose ``make_strategy`` SIGKILLs its own worker for one seed set of one strategy
+    (after a pause): a worker lost as to the OOM killer or a crash, not an error raised."""
+
+    def __call__(self, name, scene, height, width, seed, sampler, spp):
+        if (name, seed) == (self.strategy, self.group):
+            time.sleep(2.0)
+            os.kill(os.getpid(), signal.SIGKILL)
+        return self.make_strategy(name, scene, height, width, seed, sampler, spp)
+
+
+def test_a_killed_worker_stops_the_sweep_with_one_line_and_resume_completes_it(
+    local_ray, serial, tmp_path
+):
+    serial_out, cache, serial_records = serial
+    parts = real_parts()
+    killing = dataclasses.replace(
+        parts, make_strategy=_KilledWorker(parts.make_strategy, "temporal", 1)
+    )
+    out = tmp_path / "out"
+    with pytest.raises(ray_runner.WorkerLostError, match="rerun with --resume") as err:
+        ray_runner.run_suite_ray(_suite(), out, parts=killing, cache_dir=cache, progress=False)
+    assert "\n" not in str(err.value) and "measure task" in str(err.value)
+    first = {r.key: r for r in load_records(out)}  # whole lines only: no torn tail
+    assert {r.cell.strategy for r in first.values()} <= {"white"}
+    records = ray_runner.run_suite_ray(
+        _suite(), out, parts=parts, cache_dir=cache, resume=True, progress=False
+    )
+    _same_as_serial(serial_out, serial_records, out, records)
+    for rec in records:
         if rec.key in first:
             assert rec == first[rec.key]
 
