@@ -33,7 +33,7 @@ from tqdm import tqdm
 from benchmarks.suites import Suite
 from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Parts, real_parts
-from benchmarks.sweep.plan import Run, pending
+from benchmarks.sweep.plan import Run, pending, plan
 from benchmarks.sweep.records import (
     Record,
     append_records,
@@ -56,11 +56,13 @@ TUNED_PARAMS_FILE = "tuned_params.json"
 class SweepState:
     """A sweep in progress: its output folder, parts, records, tuned parameters and pending runs.
 
-    Records are written in one order whatever the order runs finish in: those kept from the
-    results file first, then the pending runs' cells in plan order. The first write replaces the
-    file atomically (so a fresh run keeps the old file until a run has finished); later ones
-    append the run's lines, and :meth:`finish` rewrites the file once if runs finished out of
-    plan order (Ray), so the file ends the same either way.
+    Records are written in one order whatever the order runs finish in, and whatever a resumed
+    sweep kept: the kept records of cells outside the suite's plan first (in file order), then
+    every planned cell in plan order. The first write replaces the file atomically (so a fresh
+    run keeps the old file until a run has finished); later ones append the run's lines, and
+    :meth:`finish` rewrites the file once if runs finished out of plan order (Ray, or a resumed
+    Ray sweep whose first pass finished them so), so the file ends as an uninterrupted serial
+    run leaves it.
     """
 
     out: Path
@@ -90,7 +92,8 @@ class SweepState:
         self.written.extend(r.key for r in fresh)
 
     def ordered(self) -> list[Record]:
-        """The records, kept ones first, then the pending runs' cells in plan order."""
+        """The records: kept ones outside the plan first, then the planned cells in plan
+        order."""
         rank = {key: i for i, key in enumerate(self.order)}
         keys = sorted(self.records, key=lambda k: rank.get(k, len(rank)))
         return [self.records[k] for k in keys]
@@ -140,7 +143,8 @@ def start_sweep(
     out.mkdir(parents=True, exist_ok=True)
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     todo = pending(suite, records)
-    order = list(records) + [c.key() for run in todo for c in run.cells() if c.key() not in records]
+    planned = {c.key(): None for run in plan(suite) for c in run.cells()}  # ordered, no repeats
+    order = [k for k in records if k not in planned] + list(planned)
     return SweepState(out=out, parts=parts, records=records, store=store, todo=todo, order=order)
 
 
