@@ -229,7 +229,8 @@ def test_an_injected_full_disk_at_the_reference_write_warns_once_and_goes_on(
 
     def refuse(path, frame):
         tries.append(path)
-        raise OutputPathError(f"{path}: expected a writable file, got No space left on device")
+        message = f"{path}: expected a writable file, got No space left on device"
+        raise OutputPathError(message) from no_space(path)  # as atomic_write raises it
 
     monkeypatch.setattr(references_module, "write_frame", refuse)
     cache = tmp_path / "cache"
@@ -240,6 +241,12 @@ def test_an_injected_full_disk_at_the_reference_write_warns_once_and_goes_on(
 
 
 # -- a read-only cache ----------------------------------------------------------------------------
+
+
+def test_a_cache_that_is_a_file_is_an_error_not_a_warning(tmp_path):
+    (tmp_path / "cache").write_text("not a folder")
+    with pytest.raises(OSError, match="cache"):
+        run_suite(_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
 
 
 def test_a_read_only_empty_cache_warns_and_measures_the_same_cells(whole, tmp_path):

@@ -33,6 +33,7 @@ Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
 
 from __future__ import annotations
 
+import errno
 import warnings
 from pathlib import Path
 
@@ -85,6 +86,17 @@ def reference_compile(height: int, width: int, spp: int) -> bool:
     return height * width * spp >= REFERENCE_COMPILE_PATHS
 
 
+#: The errors of a cache folder that refuses writes (read-only, full, not ours): the sweep goes
+#: on with its references in memory. Any other (``--cache`` names a file) is raised.
+_REFUSALS = frozenset({errno.EROFS, errno.EACCES, errno.EPERM, errno.ENOSPC, errno.EDQUOT})
+
+
+def _errno(err: OSError) -> int | None:
+    """``err``'s errno, or that of the OSError it was raised from (atomic_write's one-liners)."""
+    cause = err.__cause__
+    return err.errno if err.errno is not None else getattr(cause, "errno", None)
+
+
 class ReferenceCache:
     """High-spp references, rendered on first use and kept as EXR files (and the last few in
     memory).
@@ -92,8 +104,8 @@ class ReferenceCache:
     Args:
         root: cache folder (``cache/references`` by default in the CLI; git-ignored), or None to
             keep references in memory only. A folder that refuses writes (read-only, a full
-            disk) is still read; the references it lacks are rendered and kept in memory, with
-            one warning (on a Ray node they travel through the object store).
+            disk, permissions) is still read; the references it lacks are rendered and kept in
+            memory, with one warning (on a Ray node they travel through the object store).
         parts: the parts that render; ``parts.code_version`` enters every key.
     """
 
@@ -114,6 +126,8 @@ class ReferenceCache:
             path.parent.mkdir(parents=True, exist_ok=True)
             write_frame(path, frame)
         except OSError as err:  # OutputPathError among them: atomic_write left no partial file
+            if _errno(err) not in _REFUSALS:  # a file where the folder should be: the user's
+                raise
             self.unwritable = str(err) if isinstance(err, BnerrError) else f"{path}: {err}"
             warnings.warn(
                 f"--cache {self.root}: expected a writable reference cache, got "
