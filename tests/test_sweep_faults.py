@@ -9,8 +9,10 @@ and ``--resume`` gives the records of an uninterrupted run (everything but the t
 The full disk and the read-only folder are real where the tests run as root (a small tmpfs:
 tests/_disks.py); elsewhere those cases skip and their ``injected`` twin raises the kernel's
 ``OSError(ENOSPC)`` at the write call instead. The kills are real ``SIGKILL``s of a child process
-running the serial runner. The Ray worker's kill is in tests/test_ray_runner.py. Everything
-renders with the real tracer at 16x12 (a sweep takes under a second).
+running the serial runner (between two runs, with a rename pending, and in the middle of an
+append; about 3-10 s each, most of it the child's imports). The Ray worker's kill is in
+tests/test_ray_runner.py. Everything renders with the real tracer at 16x12 (a sweep takes under a
+second).
 """
 
 from __future__ import annotations
@@ -119,15 +121,22 @@ import dataclasses, os, signal, sys
 import torch
 sys.path.insert(0, {tests!r})
 torch.set_num_threads(1)
-from test_sweep_faults import _suite, _parts, _OnRender, _Os, WHITE_RENDERS
+from test_sweep_faults import _suite, _parts, _Os
 from benchmarks.sweep import records
 from benchmarks.sweep.runner import run_suite
 
 def die():
     os.kill(os.getpid(), signal.SIGKILL)
 
-if {where!r} == "render":  # between two runs' writes
-    render = _OnRender(WHITE_RENDERS, die)
+if {where!r} == "rename":  # between two runs, tuned_params.json written to its temporary only
+    import bnerr.io
+    render, replace, seen = None, os.replace, []
+    def dying_replace(src, dst):
+        seen.append(str(dst))
+        if seen.count(str(dst)) == 2 and str(dst).endswith("tuned_params.json"):
+            die()  # the temporal run's save
+        return replace(src, dst)
+    bnerr.io.os = _Os(replace=dying_replace)
 else:  # in the middle of the temporal run's append: half its bytes written
     render = None
     write = os.write
@@ -141,7 +150,7 @@ run_suite(_suite(), {out!r}, parts=_parts(render), cache_dir={cache!r}, progress
 """
 
 
-@pytest.mark.parametrize("where", ["render", "append"])
+@pytest.mark.parametrize("where", ["rename", "append"])
 def test_a_driver_killed_mid_sweep_resumes_to_the_same_records(whole, tmp_path, where):
     _, cache, records = whole
     out = tmp_path / "out"
@@ -149,12 +158,26 @@ def test_a_driver_killed_mid_sweep_resumes_to_the_same_records(whole, tmp_path, 
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "tests")])}
     done = subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT, timeout=120)
     assert done.returncode == -signal.SIGKILL
+    left = [p.name for p in out.iterdir() if ".bnerr-tmp-" in p.name]
+    assert len(left) == (where == "rename")  # the killed rename's temporary, removed on resume
     data = (out / RESULTS_FILE).read_bytes()
-    assert data.endswith(b"\n") == (where == "render")  # the append's half line: a torn tail
+    assert data.endswith(b"\n") == (where != "append")  # the append's half line: a torn tail
     with pytest.warns(UserWarning, match="cut short") if where == "append" else nullcontext():
         first = {r.key: r for r in load_records(out, torn_tail=True)}
     assert {r.cell.strategy for r in first.values()} == {"white"}
     _check_resumes(whole, out, cache, first)
+
+
+def test_a_reference_write_cut_by_a_kill_leaves_a_temporary_the_next_sweep_removes(whole, tmp_path):
+    _, _, records = whole
+    dead = subprocess.Popen(["true"])
+    dead.wait()  # a writer process that no longer runs
+    stale = tmp_path / "cache" / "direct" / f".ref.exr.bnerr-tmp-{dead.pid}-0123abcd.exr"
+    stale.parent.mkdir(parents=True)
+    stale.write_bytes(b"half an EXR")
+    done = run_suite(_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
+    assert _measured(done) == _measured(records)
+    assert not stale.exists() and list(stale.parent.glob("*.exr"))
 
 
 # -- a full disk ---------------------------------------------------------------------------------

@@ -45,6 +45,7 @@ from bnerr.errors import BnerrError, FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
+from bnerr.outputs import clean_stale_temporaries
 
 __all__ = [
     "REFERENCE_COMPILE_PATHS",
@@ -114,6 +115,7 @@ class ReferenceCache:
         self.parts = parts
         self._memory: dict[str, Frame] = {}
         self.unwritable: str | None = None  # why the cache folder refused a write, if it did
+        self._cleaned: set[Path] = set()
 
     def _store(self, path: Path, frame: Frame) -> None:
         """Write ``frame`` to the cache file ``path`` (atomically). A folder that refuses (read
@@ -124,6 +126,9 @@ class ReferenceCache:
             return
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
+            if path.parent not in self._cleaned:  # what writers killed mid-write left
+                clean_stale_temporaries(path.parent)
+                self._cleaned.add(path.parent)
             write_frame(path, frame)
         except OSError as err:  # OutputPathError among them: atomic_write left no partial file
             if _errno(err) not in _REFUSALS:  # a file where the folder should be: the user's

@@ -35,6 +35,7 @@ from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Parts, real_parts
 from benchmarks.sweep.plan import Run, pending, plan
 from benchmarks.sweep.records import (
+    RESULTS_FILE,
     Record,
     append_records,
     check_no_results,
@@ -44,6 +45,7 @@ from benchmarks.sweep.records import (
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.tuning import TuningStore, tune_denoisers
 from bnerr.errors import FileFormatError
+from bnerr.outputs import clean_stale_temporaries
 from denoisers.tuning import ParamStore
 
 __all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
@@ -129,6 +131,9 @@ def start_sweep(
 ) -> SweepState:
     """Check the output folder, load what ``resume`` keeps and plan the pending runs.
 
+    The temporaries of the results and parameters files that a killed writer left are removed
+    (the caller is the folder's one writer).
+
     Raises:
         ResultsExistError: finished cells in ``out_dir`` and neither ``resume`` nor
             ``overwrite``; nothing is written.
@@ -141,6 +146,7 @@ def start_sweep(
     records = {r.key: r for r in load_records(out, torn_tail=True)} if resume else {}
     parts = real_parts() if parts is None else parts
     out.mkdir(parents=True, exist_ok=True)
+    clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     todo = pending(suite, records)
     planned = {c.key(): None for run in plan(suite) for c in run.cells()}  # ordered, no repeats
