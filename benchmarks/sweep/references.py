@@ -133,7 +133,8 @@ class ReferenceCache:
         except OSError as err:  # OutputPathError among them: atomic_write left no partial file
             if _errno(err) not in _REFUSALS:  # a file where the folder should be: the user's
                 raise
-            self.unwritable = str(err) if isinstance(err, BnerrError) else f"{path}: {err}"
+            plain = f"{err.filename or path}: {err.strerror or err}"  # mkdir's, without [Errno]
+            self.unwritable = str(err) if isinstance(err, BnerrError) else plain
             warnings.warn(
                 f"--cache {self.root}: expected a writable reference cache, got "
                 f"{self.unwritable}; references are kept in memory for this run only",
