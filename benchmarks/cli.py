@@ -14,9 +14,11 @@ and ``bnerr train`` need the renderer, which :mod:`bnerr` must not import.
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import pkgutil
 import sys
+import warnings
 from typing import NoReturn
 
 import benchmarks.commands as commands
@@ -75,9 +77,16 @@ def _one_line(err: BaseException) -> str | None:
     return None
 
 
+def _show_warning(command: str, message, category, filename, lineno, file=None, line=None):
+    """A warning during a command as one line, ``bnerr <command>: warning: <message>`` (a
+    reference cache that refuses writes, a torn results line dropped on resume...), not Python's
+    two lines of file, line number and source."""
+    print(f"bnerr {command}: warning: {message}", file=file or sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run one subcommand; a user's error (bad input, file system, memory) is one line on stderr
-    and exit code 2, never a traceback."""
+    and exit code 2, never a traceback; a warning is one line on stderr too."""
     argv = sys.argv[1:] if argv is None else argv
     wanted = next((a for a in argv if not a.startswith("-")), None)
     only = wanted if wanted in command_names() else None
@@ -86,7 +95,9 @@ def main(argv: list[str] | None = None) -> int:
     except UsageError:
         return 2
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = functools.partial(_show_warning, args.command)
+            return int(args.func(args) or 0)
     except (BnerrError, OSError, MemoryError, RuntimeError) as err:
         message = _one_line(err)
         if message is None:

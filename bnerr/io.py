@@ -37,6 +37,7 @@ Not for: deep images, tiled or mip-mapped files, or anything but single-part sca
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 from collections.abc import Iterator, Mapping
@@ -195,7 +196,25 @@ def _write_exr(path: Path, buffers: dict[str, torch.Tensor], attributes: dict[st
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **attributes}
     with atomic_write(path) as tmp:
         # File() turns the values of the dict it gets into Channel objects: give it its own.
-        OpenEXR.File(header, dict(channels)).write(str(tmp))
+        try:
+            OpenEXR.File(header, dict(channels)).write(str(tmp))
+        except RuntimeError as err:  # OpenEXR's word for a full disk or a read-only folder
+            raise _exr_write_error(path, err) from err
+
+
+#: The system's reasons OpenEXR quotes at the end of a write error, and their errno.
+_REASONS = {os.strerror(code): code for code in (errno.ENOSPC, errno.EROFS, errno.EACCES)}
+
+
+def _exr_write_error(path: Path, err: RuntimeError) -> OutputPathError:
+    """OpenEXR's write error as an OutputPathError naming ``path`` and the system's reason
+    (``... "<tmp>". No space left on device.`` -> ``No space left on device``, its ``errno``
+    set), else its first line."""
+    text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+    reason = text.rstrip(".").rsplit('". ', 1)[-1]
+    error = OutputPathError(f"{path}: expected a writable file, got {reason}")
+    error.errno = _REASONS.get(reason)
+    return error
 
 
 def write_exr(

@@ -1,22 +1,38 @@
 """Tests of benchmarks/cli.py: a user's error is one line on stderr and exit code 2."""
 
 import argparse
+import warnings
 
 import pytest
 
 from benchmarks import cli
 
 
-def _run_raising(monkeypatch, error):
+def _run(monkeypatch, func):
     def build_parser(only=None):
         parser = argparse.ArgumentParser(prog="bnerr")
         sub = parser.add_subparsers(dest="command", required=True)
         p = sub.add_parser("boom")
-        p.set_defaults(func=lambda args: (_ for _ in ()).throw(error))
+        p.set_defaults(func=func)
         return parser
 
     monkeypatch.setattr(cli, "build_parser", build_parser)
     return cli.main(["boom"])
+
+
+def _run_raising(monkeypatch, error):
+    return _run(monkeypatch, lambda args: (_ for _ in ()).throw(error))
+
+
+def test_a_warning_is_one_line_and_the_command_goes_on(monkeypatch, capsys):
+    def warn(args):
+        warnings.warn("--cache /c: expected a writable reference cache, got ...", stacklevel=2)
+        return 0
+
+    assert _run(monkeypatch, warn) == 0
+    err = capsys.readouterr().err
+    assert err == "bnerr boom: warning: --cache /c: expected a writable reference cache, got ...\n"
+    assert warnings.showwarning is not cli._show_warning  # put back after the command
 
 
 @pytest.mark.parametrize(

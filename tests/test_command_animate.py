@@ -5,11 +5,14 @@ import imageio.v3 as iio
 import pytest
 
 from benchmarks.cli import main
+from benchmarks.commands.animate import DEFAULT_PARAMS, params_file
+from denoisers.tuning import ParamStore
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _args(tmp_path, *extra):
+    ParamStore().save(tmp_path / "tuned_params.json")  # no entries: the denoiser's defaults
     return [
         "animate",
         "--scene",
@@ -31,7 +34,7 @@ def _args(tmp_path, *extra):
         "--gif-frames",
         "2",
         "--params",
-        str(tmp_path / "no_params.json"),
+        str(tmp_path),  # a bnerr bench folder holding tuned_params.json
         "--cache",
         str(tmp_path / "cache"),
         *extra,
@@ -68,6 +71,8 @@ def test_writes_mp4_and_gif_per_scene(tmp_path, capsys):
         (["--res", "0x24"], "--res: expected width and height >= 1"),
         (["--frames", "0"], "frames: expected an integer >= 1"),
         (["--threads", "0"], "--threads: expected an integer >= 1"),
+        (["--params", "typo.json"], "--params typo.json: expected a tuned_params.json or a bnerr"),
+        (["--params", "/"], "--params /: expected a tuned_params.json or a bnerr bench folder"),
     ],
 )
 def test_bad_input_is_one_line(tmp_path, capsys, extra, message):
@@ -86,3 +91,23 @@ def test_unwritable_out_is_one_line(tmp_path, capsys):
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("bnerr animate: error: --out ")
     assert not (tmp_path / "cache").exists()
+
+
+@pytest.mark.parametrize("garbage", [b"", b'{"format": "bnerr-tun', b'{"format": "other"}'])
+def test_a_corrupted_params_file_is_one_line_before_any_render(tmp_path, capsys, garbage):
+    bad = tmp_path / "bad.json"
+    bad.write_bytes(garbage)
+    assert main(_args(tmp_path, "--out", str(tmp_path / "anim"), "--params", str(bad))) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"bnerr animate: error: {bad}: expected")
+    assert not (tmp_path / "cache").exists()
+
+
+def test_params_omitted_is_the_quality_suites_file_or_the_defaults(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert params_file(None) is None
+    assert "the denoiser runs with its defaults" in capsys.readouterr().out
+    DEFAULT_PARAMS.parent.mkdir(parents=True)
+    ParamStore().save(DEFAULT_PARAMS)
+    assert params_file(None) == DEFAULT_PARAMS
+    assert params_file(DEFAULT_PARAMS.parent) == DEFAULT_PARAMS  # the folder holding it

@@ -201,3 +201,12 @@ def test_speed_report_only_refuses_figures_of_unknown_scripts(tmp_path, capsys):
     (out / "speed.json").write_text('{"os": {}}')
     assert main(["bench", "--suite", "speed", "--report-only", "--out", str(out), "--quiet"]) == 2
     assert "expected figures of the scripts" in capsys.readouterr().err
+
+
+def test_bench_keeps_a_progress_bar_on_stderr_unless_quiet(tmp_path, capsys):
+    loud = [a for a in _args(tmp_path / "out", tmp_path / "cache") if a != "--quiet"]
+    assert main(loud) == 0
+    err = capsys.readouterr().err
+    assert "1/1" in err and "frame" in err  # the measured frames, counted as they finish
+    assert main(_args(tmp_path / "out2", tmp_path / "cache")) == 0
+    assert "1/1" not in capsys.readouterr().err

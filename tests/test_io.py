@@ -24,6 +24,7 @@ from bnerr.io import (
     write_frame,
     write_png,
 )
+from bnerr.outputs import OutputPathError
 
 H, W = 6, 9
 
@@ -211,14 +212,18 @@ def test_failed_exr_write_keeps_the_old_file(tmp_path, monkeypatch):
     write_exr(path, {"color": _rand(3, 0)})
     before = path.read_bytes()
 
-    def broken_write(self, name):
+    def broken_write(self, name):  # OpenEXR's own words on a full disk
         with open(name, "wb") as f:
             f.write(b"partial")
-        raise RuntimeError("disk full")
+        raise RuntimeError(
+            f'Failed to write pixel data to image file "{name}". No space left on device.'
+        )
 
     monkeypatch.setattr(OpenEXR.File, "write", broken_write)
-    with pytest.raises(RuntimeError, match="disk full"):
+    # one line naming the file the caller asked for (not the temporary), an OSError the CLI prints
+    with pytest.raises(OutputPathError) as err:
         write_exr(path, {"color": _rand(3, 1)})
+    assert str(err.value) == f"{path}: expected a writable file, got No space left on device"
     assert path.read_bytes() == before and len(list(tmp_path.iterdir())) == 1
 
 
@@ -305,8 +310,6 @@ def test_atomic_write_cleanup_never_masks_the_original_error(tmp_path, monkeypat
 
 
 def test_atomic_write_turns_an_os_error_into_one_line_naming_the_file(tmp_path):
-    from bnerr.outputs import OutputPathError
-
     with pytest.raises(OutputPathError, match=r"a\.exr: expected a writable file, got Permission"):
         with atomic_write(tmp_path / "a.exr"):
             raise PermissionError(13, "Permission denied")

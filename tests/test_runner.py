@@ -171,6 +171,17 @@ def test_a_run_resumes_after_an_append_cut_short(tiny, tmp_path):
     assert len(load_records(tmp_path)) == len(records)  # nothing lost, nothing twice
 
 
+def test_a_resume_that_kept_a_later_run_writes_the_file_in_plan_order(tiny, tmp_path):
+    # a Ray sweep killed after its temporal run finished first kept only that run's cells
+    out, cache, records, _ = tiny
+    lines = (out / RESULTS_FILE).read_bytes().splitlines(keepends=True)
+    (tmp_path / RESULTS_FILE).write_bytes(b"".join(lines[2:]))
+    assert {r.cell.strategy for r in load_records(tmp_path)} == {"temporal"}
+    run_suite(_suite(), tmp_path, cache_dir=cache, resume=True, progress=False)
+    strip = lambda recs: [(r.key, r.raw, r.den, r.denoiser_params) for r in recs]  # noqa: E731
+    assert strip(load_records(tmp_path)) == strip(records)  # white first, as uninterrupted
+
+
 def test_a_fresh_run_refuses_a_folder_with_finished_cells_unless_told_to_overwrite(tiny, tmp_path):
     out, cache, records, _ = tiny
     (tmp_path / RESULTS_FILE).write_bytes((out / RESULTS_FILE).read_bytes())

@@ -13,6 +13,11 @@ set ``--seed-set``: the strategy's warmup frames first (temporal strategies), th
 (``--cache``). ``<scene>.mp4`` holds every frame at full size, ``<scene>.gif`` the first
 ``--gif-frames`` frames of a ``--gif-crop`` centre crop of each tile (benchmarks.animate).
 
+``--params`` names a ``tuned_params.json`` or the ``bnerr bench`` folder holding one; omitted, it
+is ``results/quality/tuned_params.json`` when that exists, else the denoiser's defaults (a note
+says so). A given path that holds no such file, or a file that is not valid, is a one-line error
+before any rendering: a mistyped path should not quietly animate untuned denoisers.
+
 Every name, number and the output folder are checked before any rendering; the command holds
 the folder's lock while it writes.
 """
@@ -25,7 +30,7 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.animate import Animation, animate, default_strategies
+from benchmarks.animate import Animation, animate, default_strategies, load_store
 from benchmarks.commands._args import (
     names,
     nonnegative_int,
@@ -34,7 +39,8 @@ from benchmarks.commands._args import (
     seed_int,
 )
 from benchmarks.sweep.parts import known_names
-from bnerr.errors import check_positive_int
+from benchmarks.sweep.runner import TUNED_PARAMS_FILE
+from bnerr.errors import FileFormatError, check_positive_int
 from bnerr.strategies import parse_variant
 from renderers import get_scene
 from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
@@ -83,8 +89,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add(
         "--params",
         type=Path,
-        default=Path("results/quality/tuned_params.json"),
-        help="tuned denoiser parameters (default results/quality/tuned_params.json)",
+        help=f"tuned denoiser parameters: a tuned_params.json, or the bnerr bench folder holding "
+        f"one (default {DEFAULT_PARAMS} if it exists, else the denoiser's defaults)",
     )
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
     add("--out", type=Path, default=Path("results/animations"), help="output folder")
@@ -143,12 +149,47 @@ def _check_time(specs: list[Animation]) -> None:
         print(f"bnerr animate: estimated {format_seconds(total)} of rendering", flush=True)
 
 
+#: The tuned parameters ``--params`` defaults to: those of the committed quality suite.
+DEFAULT_PARAMS = Path("results/quality/tuned_params.json")
+
+
+def params_file(given: Path | None) -> Path | None:
+    """The tuned-parameters file ``--params`` names, checked and read before any work.
+
+    Omitted: :data:`DEFAULT_PARAMS` if it exists, else None (the denoiser's defaults; a note
+    says so). Given: the file, or ``tuned_params.json`` in the folder it names (a ``bnerr bench``
+    output folder); a name that is neither is an error, not a silent fall back to defaults (a
+    mistyped path would otherwise animate untuned denoisers). A file that is not a valid
+    tuned-parameters file is an error either way.
+
+    Raises:
+        FileFormatError: a given path that is missing or holds no tuned_params.json, or a
+            file that is not valid JSON of the tuned-parameters format.
+    """
+    if given is None:
+        if not DEFAULT_PARAMS.is_file():
+            print(f"bnerr animate: no {DEFAULT_PARAMS} here; the denoiser runs with its defaults")
+            return None
+        path = DEFAULT_PARAMS
+    else:
+        path = given / TUNED_PARAMS_FILE if given.is_dir() else given
+        if not path.is_file():
+            raise FileFormatError(
+                f"--params {given}: expected a {TUNED_PARAMS_FILE} or a bnerr bench folder "
+                f"holding one, got no such file (omit --params for {DEFAULT_PARAMS} or the "
+                "denoiser's defaults)"
+            )
+    load_store(path)  # a corrupt file: a one-line error now, not after the first scene
+    return path
+
+
 def run(args: argparse.Namespace) -> int:
     """Check everything, then render and write each scene, printing its files and timings."""
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     specs = _specs(args)
+    args.params = params_file(args.params)
     if not args.force:
         _check_time(specs)
     start = time.perf_counter()

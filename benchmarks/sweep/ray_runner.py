@@ -71,6 +71,7 @@ from bnerr.frame import Frame
 
 __all__ = [
     "CodeVersionError",
+    "WorkerLostError",
     "require_ray",
     "run_suite_ray",
 ]
@@ -131,13 +132,8 @@ class _GivenReferences:
 def _reference_task(run: Run, parts: Parts, cache_root: str, t_ref: int, version: str) -> Frame:
     """Read or render (and cache) ``run``'s reference at renderer frame ``t_ref``."""
     _task_setup(version)
-    scene = scene_for(run, parts)
-    try:
-        return ReferenceCache(cache_root, parts).get(run, scene, t_ref)
-    except OSError as err:  # a node that cannot write the cache: the object store carries it
-        if isinstance(err, BnerrError):
-            raise
-        return ReferenceCache(None, parts).get(run, scene, t_ref)
+    # a node that cannot write the cache warns and goes on: the object store carries the frame
+    return ReferenceCache(cache_root, parts).get(run, scene_for(run, parts), t_ref)
 
 
 def _tune_task(
@@ -310,9 +306,15 @@ def _connect(ray: ModuleType, address: str) -> bool:
     return True
 
 
+class WorkerLostError(BnerrError, RuntimeError):
+    """A Ray worker or node died under a task (killed, out of memory, a lost machine)."""
+
+
 def _handle(ray: ModuleType, scheduler: _Scheduler, ref: Any) -> None:
     """``scheduler.handle(ref)``; a task's error of our own kind (bad input, a file) is raised as
-    itself (one line on the command line), any other with the task's traceback."""
+    itself (one line on the command line), a dead worker as :class:`WorkerLostError`, any other
+    with the task's traceback."""
+    kind = scheduler.inflight[ref].kind
     try:
         scheduler.handle(ref)
     except ray.exceptions.RayTaskError as err:
@@ -320,6 +322,13 @@ def _handle(ray: ModuleType, scheduler: _Scheduler, ref: Any) -> None:
         if isinstance(cause, BnerrError):
             raise cause from None
         raise
+    except ray.exceptions.RayError as err:  # the task never returned: its worker is gone
+        reason = str(err).strip().splitlines()[0] if str(err).strip() else ""
+        raise WorkerLostError(
+            f"expected every Ray task to finish, got a {kind} task's worker lost "
+            f"({type(err).__name__}: {reason[:200]}); the {len(scheduler.sweep.written or [])} "
+            f"cells written to {scheduler.sweep.out} are kept: rerun with --resume"
+        ) from None
 
 
 def run_suite_ray(
@@ -346,6 +355,8 @@ def run_suite_ray(
     Raises:
         MissingExtraError: ray is not installed.
         ResultsExistError, FileFormatError: as ``run_suite``.
+        WorkerLostError: a worker died under a task (killed, out of memory, a lost node); the
+            finished runs' cells are kept for ``--resume``.
         Any error of a task, on the driver, after the others are cancelled.
     """
 

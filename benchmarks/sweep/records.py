@@ -32,6 +32,7 @@ seed set x measured frame:
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
@@ -44,6 +45,7 @@ from typing import Any
 from benchmarks.sweep.plan import Cell
 from bnerr.errors import BnerrError, FileFormatError
 from bnerr.io import atomic_write
+from bnerr.outputs import OutputPathError
 
 __all__ = [
     "RESULTS_FILE",
@@ -229,7 +231,14 @@ def append_records(out_dir: str | Path, records: Iterable[Record]) -> None:
     :func:`write_records` leaves it), in one ``write`` and synced to disk before returning.
 
     A crash during the write can leave only a last line without its newline (a torn tail, which
-    ``load_records(..., torn_tail=True)`` drops), never a whole line lost or written twice.
+    ``load_records(..., torn_tail=True)`` drops), never a whole line lost or written twice. A
+    write the file system refuses (a full disk) is undone: the file is cut back to its length
+    before the call.
+
+    Raises:
+        OutputPathError: the file system refused the write (no room, read-only); nothing of
+            ``records`` remains in the file.
+        FileFormatError: the file does not end with a whole line.
     """
     data = _lines(records)
     if not data:
@@ -243,12 +252,28 @@ def append_records(out_dir: str | Path, records: Iterable[Record]) -> None:
                 f"{path}: expected a results file ending with a whole line before appending, "
                 "got a last line without its newline (rewrite it with write_records first)"
             )
-        view = memoryview(data)
-        while view:  # a regular file takes the whole write at once; loop in case it does not
-            view = view[os.write(fd, view) :]
-        os.fsync(fd)
+        _write_all(fd, data, size, path)
     finally:
         os.close(fd)
+
+
+def _write_all(fd: int, data: bytes, size: int, path: Path) -> None:
+    """Write and sync ``data`` at the end of ``fd`` (``size`` bytes long before it); if the file
+    system refuses (a full disk), cut the file back to ``size`` and raise
+    :class:`~bnerr.outputs.OutputPathError`: what was there stays whole, nothing half-written."""
+    try:
+        view = memoryview(data)
+        while view:  # a regular file takes the whole write at once, or part of it on a full disk
+            view = view[os.write(fd, view) :]
+        os.fsync(fd)
+    except OSError as err:
+        with contextlib.suppress(OSError):
+            os.ftruncate(fd, size)
+        raise OutputPathError(
+            f"{path}: expected room to append {len(data)} bytes of results, got "
+            f"{err.strerror or err}; the cells before them are kept whole (rerun with --resume "
+            "once there is room)"
+        ) from err
 
 
 def check_no_results(out_dir: str | Path) -> None:

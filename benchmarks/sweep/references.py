@@ -33,16 +33,19 @@ Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
 
 from __future__ import annotations
 
+import errno
+import warnings
 from pathlib import Path
 
 import torch
 
 from benchmarks.sweep.parts import Parts, Scene
 from benchmarks.sweep.plan import Run
-from bnerr.errors import FileFormatError
+from bnerr.errors import BnerrError, FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
 from bnerr.io import read_frame, write_frame
+from bnerr.outputs import clean_stale_temporaries
 
 __all__ = [
     "REFERENCE_COMPILE_PATHS",
@@ -84,14 +87,26 @@ def reference_compile(height: int, width: int, spp: int) -> bool:
     return height * width * spp >= REFERENCE_COMPILE_PATHS
 
 
+#: The errors of a cache folder that refuses writes (read-only, full, not ours): the sweep goes
+#: on with its references in memory. Any other (``--cache`` names a file) is raised.
+_REFUSALS = frozenset({errno.EROFS, errno.EACCES, errno.EPERM, errno.ENOSPC, errno.EDQUOT})
+
+
+def _errno(err: OSError) -> int | None:
+    """``err``'s errno, or that of the OSError it was raised from (atomic_write's one-liners)."""
+    cause = err.__cause__
+    return err.errno if err.errno is not None else getattr(cause, "errno", None)
+
+
 class ReferenceCache:
     """High-spp references, rendered on first use and kept as EXR files (and the last few in
     memory).
 
     Args:
         root: cache folder (``cache/references`` by default in the CLI; git-ignored), or None to
-            keep references in memory only (a Ray worker whose node cannot write the cache
-            folder: its references travel through the object store).
+            keep references in memory only. A folder that refuses writes (read-only, a full
+            disk, permissions) is still read; the references it lacks are rendered and kept in
+            memory, with one warning (on a Ray node they travel through the object store).
         parts: the parts that render; ``parts.code_version`` enters every key.
     """
 
@@ -99,6 +114,32 @@ class ReferenceCache:
         self.root = Path(root) if root is not None else None
         self.parts = parts
         self._memory: dict[str, Frame] = {}
+        self.unwritable: str | None = None  # why the cache folder refused a write, if it did
+        self._cleaned: set[Path] = set()
+
+    def _store(self, path: Path, frame: Frame) -> None:
+        """Write ``frame`` to the cache file ``path`` (atomically). A folder that refuses (read
+        only, a full disk) is said once, in a warning, and not tried again: the sweep goes on
+        with its references in memory, which measures the same cells (only a later sweep renders
+        them again)."""
+        if self.root is None or self.unwritable is not None:
+            return
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if path.parent not in self._cleaned:  # what writers killed mid-write left
+                clean_stale_temporaries(path.parent)
+                self._cleaned.add(path.parent)
+            write_frame(path, frame)
+        except OSError as err:  # OutputPathError among them: atomic_write left no partial file
+            if _errno(err) not in _REFUSALS:  # a file where the folder should be: the user's
+                raise
+            plain = f"{err.filename or path}: {err.strerror or err}"  # mkdir's, without [Errno]
+            self.unwritable = str(err) if isinstance(err, BnerrError) else plain
+            warnings.warn(
+                f"--cache {self.root}: expected a writable reference cache, got "
+                f"{self.unwritable}; references are kept in memory for this run only",
+                stacklevel=3,
+            )
 
     def path(self, run: Run, t_render: int) -> Path:
         """The cache file of ``run``'s reference at renderer frame ``t_render``."""
@@ -134,9 +175,7 @@ class ReferenceCache:
             spp = run.reference_spp
             compile = reference_compile(run.height, run.width, spp)
             frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
-            if self.root is not None:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                write_frame(path, frame)
+            self._store(path, frame)
         if len(self._memory) >= _REFERENCES_IN_MEMORY:
             self._memory.pop(next(iter(self._memory)))
         self._memory[key] = frame

@@ -24,6 +24,7 @@ Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,8 +33,9 @@ from tqdm import tqdm
 from benchmarks.suites import Suite
 from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Parts, real_parts
-from benchmarks.sweep.plan import Run, pending
+from benchmarks.sweep.plan import Run, pending, plan
 from benchmarks.sweep.records import (
+    RESULTS_FILE,
     Record,
     append_records,
     check_no_results,
@@ -42,6 +44,8 @@ from benchmarks.sweep.records import (
 )
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.tuning import TuningStore, tune_denoisers
+from bnerr.errors import FileFormatError
+from bnerr.outputs import clean_stale_temporaries
 from denoisers.tuning import ParamStore
 
 __all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
@@ -54,11 +58,13 @@ TUNED_PARAMS_FILE = "tuned_params.json"
 class SweepState:
     """A sweep in progress: its output folder, parts, records, tuned parameters and pending runs.
 
-    Records are written in one order whatever the order runs finish in: those kept from the
-    results file first, then the pending runs' cells in plan order. The first write replaces the
-    file atomically (so a fresh run keeps the old file until a run has finished); later ones
-    append the run's lines, and :meth:`finish` rewrites the file once if runs finished out of
-    plan order (Ray), so the file ends the same either way.
+    Records are written in one order whatever the order runs finish in, and whatever a resumed
+    sweep kept: the kept records of cells outside the suite's plan first (in file order), then
+    every planned cell in plan order. The first write replaces the file atomically (so a fresh
+    run keeps the old file until a run has finished); later ones append the run's lines, and
+    :meth:`finish` rewrites the file once if runs finished out of plan order (Ray, or a resumed
+    Ray sweep whose first pass finished them so), so the file ends as an uninterrupted serial
+    run leaves it.
     """
 
     out: Path
@@ -88,7 +94,8 @@ class SweepState:
         self.written.extend(r.key for r in fresh)
 
     def ordered(self) -> list[Record]:
-        """The records, kept ones first, then the pending runs' cells in plan order."""
+        """The records: kept ones outside the plan first, then the planned cells in plan
+        order."""
         rank = {key: i for i, key in enumerate(self.order)}
         keys = sorted(self.records, key=lambda k: rank.get(k, len(rank)))
         return [self.records[k] for k in keys]
@@ -105,15 +112,33 @@ class SweepState:
             self.write()
 
 
+def _load_params(path: Path) -> ParamStore:
+    """The tuned parameters a resumed sweep keeps: ``path``'s, an empty store if there is no
+    such file, and an empty one with a warning if it is not a valid tuned-parameters file (the
+    denoisers are tuned again, deterministically, so the same parameters come back; the file is
+    replaced atomically at the next save)."""
+    if not path.exists():
+        return ParamStore()
+    try:
+        return ParamStore.load(path)
+    except FileFormatError as err:
+        warnings.warn(f"{err}; the denoisers are tuned again", stacklevel=3)
+        return ParamStore()
+
+
 def start_sweep(
     suite: Suite, out_dir: str | Path, parts: Parts | None, *, resume: bool, overwrite: bool
 ) -> SweepState:
     """Check the output folder, load what ``resume`` keeps and plan the pending runs.
 
+    The temporaries of the results and parameters files that a killed writer left are removed
+    (the caller is the folder's one writer).
+
     Raises:
         ResultsExistError: finished cells in ``out_dir`` and neither ``resume`` nor
             ``overwrite``; nothing is written.
-        FileFormatError: with ``resume``, a results or tuned-parameters file that is not valid.
+        FileFormatError: with ``resume``, a results file that is not valid (a tuned-parameters
+            file that is not valid is a warning: the denoisers are tuned again).
     """
     out = Path(out_dir)
     if not resume and not overwrite:
@@ -121,10 +146,11 @@ def start_sweep(
     records = {r.key: r for r in load_records(out, torn_tail=True)} if resume else {}
     parts = real_parts() if parts is None else parts
     out.mkdir(parents=True, exist_ok=True)
-    params_path = out / TUNED_PARAMS_FILE
-    store = ParamStore.load(params_path) if resume and params_path.exists() else ParamStore()
+    clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
+    store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     todo = pending(suite, records)
-    order = list(records) + [c.key() for run in todo for c in run.cells() if c.key() not in records]
+    planned = {c.key(): None for run in plan(suite) for c in run.cells()}  # ordered, no repeats
+    order = [k for k in records if k not in planned] + list(planned)
     return SweepState(out=out, parts=parts, records=records, store=store, todo=todo, order=order)
 
 
