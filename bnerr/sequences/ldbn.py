@@ -1,6 +1,6 @@
 """LDBN (Heitz, Belcour, Ostromoukhov, Coeurjolly, Iehl 2019): one shared sequence read through
 per-pixel ranking and scrambling keys, so that each pixel keeps a low-discrepancy sequence and
-neighbouring pixels make different errors (docs/SEQUENCES.md, "LDBN").
+neighbouring pixels make different errors (docs/METHODS.md, section 10).
 
 The lookup, for sample ``i`` of dimension ``d`` at pixel ``(y, x)`` with the keys of level ``l``
 (the tile optimized for ``N = 2^l`` samples):
@@ -15,8 +15,8 @@ the shared sequence is a (0, 2)-sequence, so the first 2^m samples of every pair
 net. A ranking key ``< N`` maps the first 2^m indices (``2^m <= N``) onto one aligned block of
 2^m indices, itself a (0, m, 2)-net; XOR by a constant word is a digital shift, which keeps every
 elementary interval's count. So every power-of-two prefix of every pixel is stratified in every
-pair, the property the authors' table lacks beyond dims (0, 1) (docs/SEQUENCES.md measures it
-against a rank-1 lattice).
+pair, the property the authors' table lacks beyond dims (0, 1) (docs/METHODS.md, section 10,
+measures it against a rank-1 lattice).
 
 Rules beyond the tiles:
 
