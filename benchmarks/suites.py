@@ -201,7 +201,10 @@ class Suite:
 
 _ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
 #: The a-priori patterns and the temporal method over ZSobol (issue 13), measured against the rest.
-RIVALS: tuple[str, ...] = ("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol")
+RIVALS: tuple[str, ...] = (
+    *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
+    *("ldbn", "ldbn_st", "ldbn_fast"),
+)
 _ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle", *RIVALS)
 _ALL_DENOISERS = (
     "gaussian",

@@ -35,6 +35,7 @@ BASE = {
     ],
     "bench": ["bench", "--suite", "quick", "--out", "{tmp}/bench", "--quiet", "--no-charts"],
     "denoise": ["denoise", "--denoiser", "box", "--in", "{tmp}/frame.exr", "--out", "{tmp}/o.exr"],
+    "export": ["export", "--fast", "--format", "npy", "--out", "{tmp}/x"],
     "mask": ["mask", "--size", "8", "--out", "{tmp}/m.npy"],
     "render": ["render", "--scene", "direct", "--res", "4x4", "--spp", "1", "--out", "{tmp}/r"],
     "retarget": ["retarget", "--size", "16", "--out", "{tmp}/r.npy"],
@@ -55,7 +56,10 @@ PATHS = {
     ("denoise", "--tuned"): "file",
 }
 #: What the Path-typed options name (every other Path option is a file).
-DIRS = {("animate", "--cache"), ("animate", "--out"), ("bench", "--cache"), ("bench", "--out")}
+DIRS = {
+    *(("animate", "--cache"), ("animate", "--out"), ("bench", "--cache"), ("bench", "--out")),
+    ("export", "--out"),
+}
 
 #: Cases that are valid by design, each with why. They are parsed, not run: a valid value starts
 #: the command's real work (a bench suite, a minute), which the test files of each command cover.
@@ -83,6 +87,8 @@ VALID = {
     ("animate", "--out", "dir_for_file"): "a folder named *.exr is still a folder",
     ("bench", "--warmup", "zero"): "no frames rendered before the measured ones",
     ("bench", "--out", "missing"): "the output folder is created, parents included",
+    ("export", "--out", "missing"): "the output folder is created, parents included",
+    ("export", "--out", "dir_for_file"): "a folder named *.exr is still a folder",
     ("bench", "--out", "dir_for_file"): "a folder named *.exr is still a folder",
     ("bench", "--cache", "missing"): "the cache folder is created, parents included",
     ("bench", "--cache", "dir_for_file"): "a folder named *.exr is still a folder",

@@ -120,3 +120,28 @@ def test_frames_output_and_arguments_are_checked_before_generating(
     assert main(["mask", *argv]) == 2
     assert message in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["file.txt"]
+
+
+def test_ldbn_writes_the_keys_it_optimized_and_removes_its_checkpoint(tmp_path, capsys):
+    from bnerr.ldbn.keys import KeyOptions, optimize_keys
+
+    out = tmp_path / "k.npy"
+    argv = ["mask", "--ldbn", "--size", "8", "--spp", "2", "--dims", "2", "--iterations", "3"]
+    assert main([*argv, "--out", str(out)]) == 0
+    saved = np.load(out)
+    scramble, rank = optimize_keys(KeyOptions(size=8, levels=2, dims=2, iterations=3))
+    assert np.array_equal(saved, np.concatenate([scramble, rank], -1))
+    assert not (tmp_path / "k.ckpt.npz").exists()
+    printed = capsys.readouterr().out
+    assert "LDBN keys 8x8x1, spp 1..2, D=2" in printed and "sigma-2 blur keeps" in printed
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [(["--spp", "3"], "power of two"), (["--dims", "3"], "even"), (["--out-png"], ".npy")],
+)
+def test_ldbn_refuses_bad_arguments(tmp_path, capsys, argv, message):
+    out = tmp_path / ("k.png" if argv == ["--out-png"] else "k.npy")
+    argv = [] if argv == ["--out-png"] else argv
+    assert main(["mask", "--ldbn", "--size", "8", *argv, "--out", str(out)]) == 2
+    assert message in capsys.readouterr().err

@@ -98,6 +98,7 @@ def test_names_are_sorted_and_complete():
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
+        *("ldbn", "ldbn_st", "ldbn_fast"),
         *VARIANTS,
     }
     for name in VARIANTS:
@@ -472,7 +473,10 @@ def test_retargeting_carries_the_gain_to_the_sigma2_scale(analytic):
 # --------------------------------------------------------------------------------------------------
 # The rivals: Z-order keys, Cycles' blue noise, STBN dithering, the temporal method over ZSobol
 
-RIVALS = ("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol")
+RIVALS = (
+    *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
+    *("ldbn", "ldbn_st", "ldbn_fast"),
+)
 
 
 def _pixels(h: int, w: int) -> torch.Tensor:
@@ -530,6 +534,28 @@ def test_zsobol_keys_are_the_identity_morton_image_and_the_scramble_is_fresh_per
                      seed=sampler.seed, width=9, height=6, spp=4)  # fmt: skip
     got = sampler.sample(seeds[3, 4].reshape(1), torch.tensor([1]), 0, 2, _pixels(1, 1))
     assert torch.equal(got[0], want)
+
+
+def test_ldbn_strategies_read_their_key_sets_at_the_frames_offset_or_slice():
+    from bnerr.strategies.ldbn import LDBN_SETS
+
+    for name in ("ldbn", "ldbn_fast", "ldbn_st"):
+        record: list = []
+        strategy = make_strategy(name, 6, 9, seed=2, spp=3)
+        for t in range(5):
+            strategy.frame(t, _hash_render(record))
+        frames = LDBN_SETS[name][1]
+        first = record[0][1]
+        assert first.level == 2 and first.spp == 3  # the tile for 4 spp serves 3
+        for t, (_, sampler) in enumerate(record):
+            assert sampler.name == "ldbn" and sampler.keys.dims == 8
+            if name == "ldbn_st":  # slice t mod F at one offset per seed set
+                assert sampler.keys is strategy.keys[t % frames] and sampler.offset == first.offset
+            else:  # one tile shifted by the R2 step per frame
+                dy, dx = frame_offset(t, 64)
+                assert sampler.keys is strategy.keys[0]
+                assert sampler.offset == ((first.offset[0] + dy) % 64, (first.offset[1] + dx) % 64)
+        assert len({int(s[0, 0]) for s, _ in record}) == 5  # fresh per-pixel seeds per frame
 
 
 def test_zsobol_t_keeps_one_scramble_and_moves_to_the_frames_block():

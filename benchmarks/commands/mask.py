@@ -8,9 +8,11 @@ fraction (bnerr.spectrum; white noise measures about 0.049; for a spatiotemporal
 and the mean over slices, and the fraction of each pixel's series over t) and the time the
 generation took. With ``--fast SIGMA`` the scalar void-and-cluster mask it would make is then
 annealed into a FAST mask for a Gaussian filter of SIGMA pixels (bnerr.fast: same values,
-rearranged for that filter), and the FAST energy before and after is printed too. The output path
-is checked before the generation starts. The shipped masks in ``bnerr/data`` were made with it
-(see its README.md).
+rearranged for that filter), and the FAST energy before and after is printed too. With ``--ldbn`` it
+optimizes LDBN key tiles instead (bnerr.ldbn; ``--spp``, ``--dims``, ``--size``, ``--frames`` for
+the spatiotemporal set, ``--fast SIGMA`` for the filter-adapted set; resumable from
+``--checkpoint``). The output path is checked before the generation starts. The shipped masks
+in ``bnerr/data`` were made with it (see its README.md).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ import numpy as np
 import torch
 
 from benchmarks.commands._args import positive_float, positive_int, seed_int
+from benchmarks.commands._mask_ldbn import add_ldbn_arguments, run_ldbn
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
 from bnerr.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
 from bnerr.io import IMAGE_SUFFIXES, atomic_write, image_format, write_exr, write_png
@@ -45,10 +48,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("--size", type=positive_int, default=64, help="tile size T (default 64)")
     parser.add_argument(
-        "--dims",
-        type=positive_int,
-        default=1,
-        help="1: scalar void-and-cluster mask; D >= 2: vector mask",
+        "--dims", type=positive_int, default=1, help="1: scalar mask; D >= 2: vector mask"
     )
     parser.add_argument("--seed", type=seed_int, default=0, help="random seed (default 0)")
     parser.add_argument(
@@ -92,6 +92,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help=f"candidate swaps per pixel (vector masks, default 64; --fast, default "
         f"{DEFAULT_ITERATIONS})",
     )
+    add_ldbn_arguments(parser)
     parser.add_argument(
         "--out", type=Path, required=True, help="output file: .npy (float32), .exr or .png"
     )
@@ -102,6 +103,10 @@ def run(args: argparse.Namespace) -> int:
     image_format(args.out, "--out", _FORMATS)
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
+    if args.ldbn:
+        return run_ldbn(args)
+    if args.spp is not None or args.checkpoint is not None:
+        raise ValueRangeError("--spp, --checkpoint: expected only with --ldbn")
     if args.fast is not None and (args.frames is not None or args.dims != 1):
         raise ValueRangeError(
             f"--fast: expected a scalar 2D mask (--dims 1, no --frames), got --dims {args.dims}"

@@ -4,8 +4,9 @@ Each sampler fills ``count`` dimensions for ``n`` lanes (distinct seeds, 64 samp
 of a 1024-wide image), the way the renderer calls it. One warm-up call (tables, allocations),
 then ``repeats`` calls; the median is reported as seconds per call and values per second.
 ``bnds`` uses a random 8-channel 64 x 64 mask: its first 8 dimensions are rotated, the rest are
-white noise. The Z-order samplers (``zsobol``, ``zsobol_t``, ``cycles_*``) read the lane's seed as
-the pixel's key, built for a film 1024 wide and 64 spp.
+white noise; ``ldbn`` random 64 x 64 key tiles for 8 dimensions (level 64 spp), the rest the
+pixel's own Owen-Sobol. The Z-order samplers (``zsobol``, ``zsobol_t``, ``cycles_*``) read the
+lane's seed as the pixel's key, built for a film 1024 wide and 64 spp.
 
 Timings depend on the machine, on the number of torch threads and on what else runs on it;
 report them with the machine.
@@ -23,7 +24,7 @@ import torch
 
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import fmt, get, number, ratio
-from bnerr.sequences import SAMPLERS, make_sampler
+from bnerr.sequences import SAMPLERS, LDBNKeys, make_sampler
 from bnerr.timing import Stopwatch, sync
 
 __all__ = ["table", "main", "measure"]
@@ -35,6 +36,14 @@ def _lanes(n: int, device: torch.device):
     index = lane % 64
     pixel = torch.stack([(lane // 64) // 1024, (lane // 64) % 1024], dim=1)
     return seed, index, pixel
+
+
+def _ldbn_keys() -> LDBNKeys:
+    """Random 64 x 64 key tiles for 8 dimensions and levels 1 .. 64 spp."""
+    gen = torch.Generator().manual_seed(0)
+    scramble = torch.randint(0, 1 << 24, (7, 64, 64, 8), generator=gen, dtype=torch.int32)
+    rank = torch.stack([torch.randint(0, 1 << lv, (64, 64, 4), generator=gen) for lv in range(7)])
+    return LDBNKeys(scramble, rank.to(torch.int32))
 
 
 def measure(
@@ -58,6 +67,7 @@ def measure(
         "zsobol_t": {**film, "frame": 3},
         "cycles_pure": {"spp": 64},
         "cycles_first": {"spp": 64},
+        "ldbn": {"keys": _ldbn_keys(), "spp": 64},
     }
     results: dict[str, dict[int, float]] = {}
     for name in names if names is not None else sorted(SAMPLERS):

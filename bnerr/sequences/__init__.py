@@ -19,6 +19,8 @@ sequence:
   :class:`ZSobolSampler`, pbrt-v4's ``ZSobolSampler`` bit for bit (Ahmed & Wonka 2020).
 - :mod:`~bnerr.sequences.cycles`: :class:`CyclesPureSampler` / :class:`CyclesFirstSampler`,
   Blender Cycles 4.2's ``BLUE_NOISE_PURE`` and ``BLUE_NOISE_FIRST`` indexing over Owen-Sobol.
+- :mod:`~bnerr.sequences.ldbn`: :class:`LDBNSampler`, Heitz et al. 2019's per-pixel ranking and
+  scrambling keys over one shared padded Owen-Sobol sequence (LDBN), keys from :mod:`bnerr.ldbn`.
 - :mod:`~bnerr.sequences.zsobol_t`: :class:`ZSobolTSampler`, temporal Z-order (a base-8 digit
   scramble of the 3D Morton code of (x, y, t), after tauray's ``sobol-z3``).
 
@@ -40,6 +42,7 @@ from bnerr.hashing import srl32 as _srl
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
+from bnerr.sequences.ldbn import LDBNKeys, LDBNSampler
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
 from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
@@ -50,6 +53,8 @@ __all__ = [
     "BNDSSampler",
     "CyclesFirstSampler",
     "CyclesPureSampler",
+    "LDBNKeys",
+    "LDBNSampler",
     "ONE_MINUS_EPS",
     "OwenSobolSampler",
     "SAMPLERS",
@@ -75,6 +80,7 @@ SAMPLERS: dict[str, type[Sampler]] = {
     "bnds": BNDSSampler,
     "cycles_first": CyclesFirstSampler,
     "cycles_pure": CyclesPureSampler,
+    "ldbn": LDBNSampler,
     "owen_sobol": OwenSobolSampler,
     "white": WhiteSampler,
     "zsobol": ZSobolSampler,
@@ -88,7 +94,8 @@ def make_sampler(name: str, **options: object) -> Sampler:
     Names and options: ``white``, ``owen_sobol`` (none); ``bnds`` (``mask [D, T, T]``,
     ``offset (oy, ox)``, ``seed0``); ``zsobol`` (``width``, ``height``, ``spp``, ``seed``,
     ``randomizer``); ``zsobol_t`` (``width``, ``height``, ``spp``, ``frame``, ``frames``,
-    ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``). The Z-order samplers read
+    ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``); ``ldbn`` (``keys``,
+    ``spp``, ``offset``). The Z-order samplers read
     the lane's seed as the pixel's key (:func:`zsobol_keys`, :func:`cycles_keys`). An unknown name
     raises :class:`UnknownNameError` listing the known ones.
     """

@@ -11,6 +11,9 @@ sections 3, 4, 5, 7 and 8):
 - ``dithered``: ``bnds``, ``bnds_st``, one sequence rotated per pixel by a blue-noise mask;
 - ``zorder``: ``zsobol``, ``cycles_blue``, ``zsobol_t``: pbrt-v4's ZSobol, Cycles' blue-noise
   pattern, temporal Z-order;
+- ``ldbn``: ``ldbn``, ``ldbn_st``, ``ldbn_fast``: per-pixel ranking and scrambling keys over one
+  shared sequence (Heitz et al. 2019), optimized here for the screen, for time and for the
+  denoiser;
 - ``temporal``: ``temporal``, ``temporal_sort``, ``temporal_zsobol``: Heitz & Belcour 2019's sort
   and retarget passes, and their variants ``temporal+option...`` (``variants``);
 - ``oracle``: ``oracle``, K renders per frame, the a-posteriori bound.
@@ -53,6 +56,7 @@ from bnerr.strategies.base import (
     stream_key,
 )
 from bnerr.strategies.dithered import STBN_MASK, BNDSStrategy, BNDSSTStrategy
+from bnerr.strategies.ldbn import LDBNFastStrategy, LDBNStrategy, LDBNSTStrategy
 from bnerr.strategies.oracle import OracleStrategy
 from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.temporal import (
@@ -81,6 +85,9 @@ __all__ = [
     "BNDSStrategy",
     "BuildOptions",
     "CyclesBlueStrategy",
+    "LDBNFastStrategy",
+    "LDBNSTStrategy",
+    "LDBNStrategy",
     "OracleStrategy",
     "RenderFn",
     "Strategy",
@@ -184,7 +191,8 @@ def make_strategy(
             ``"owen_sobol"`` (default) or ``"white"``; the strategies of :data:`OWN_SAMPLERS`
             ignore it (their ``sampler_name`` says what they render with).
         spp: samples per pixel the renders will take: required by zsobol, zsobol_t and
-            temporal_zsobol (a power of two) and cycles_blue; ignored by the others.
+            temporal_zsobol (a power of two), cycles_blue and the ldbn strategies; ignored by the
+            others.
         mask_size: T of the shipped masks (scalar for temporal and its kin and oracle, FAST with
             ``fast``, vector for bnds) and of the shipped retargeting fields.
         block: the sorting pass's block size (2..8).

@@ -1,0 +1,211 @@
+"""LDBN (Heitz, Belcour, Ostromoukhov, Coeurjolly, Iehl 2019): one shared sequence read through
+per-pixel ranking and scrambling keys, so that each pixel keeps a low-discrepancy sequence and
+neighbouring pixels make different errors (docs/METHODS.md, section 10).
+
+The lookup, for sample ``i`` of dimension ``d`` at pixel ``(y, x)`` with the keys of level ``l``
+(the tile optimized for ``N = 2^l`` samples):
+
+1. ``(ty, tx) = ((y + oy) mod T, (x + ox) mod T)``, the frame's toroidal offset ``(oy, ox)``;
+2. ``i' = i XOR rank[l, ty, tx, d // 2]`` (one ranking key per dimension pair, ``< N``);
+3. ``w = top24(owen_sobol(seed0, i', d))``, the shared padded Owen-Sobol sequence as a 24-bit word;
+4. ``v = (w XOR scramble[l, ty, tx, d]) * 2^-24``: a digital shift at full float32 precision.
+
+Why padded Owen-Sobol pairs and not the authors' true Sobol table: every pair ``(2k, 2k+1)`` of
+the shared sequence is a (0, 2)-sequence, so the first 2^m samples of every pair form a (0, m, 2)-
+net. A ranking key ``< N`` maps the first 2^m indices (``2^m <= N``) onto one aligned block of
+2^m indices, itself a (0, m, 2)-net; XOR by a constant word is a digital shift, which keeps every
+elementary interval's count. So every power-of-two prefix of every pixel is stratified in every
+pair, the property the authors' table lacks beyond dims (0, 1) (docs/METHODS.md, section 10,
+measures it against a rank-1 lattice).
+
+Rules beyond the tiles:
+
+- **Level.** ``spp`` selects the smallest level with ``2^l >= spp``, or the largest level.
+- **Past the tile's spp** (``i >= 2^l``): the same XOR; since the key is ``< 2^l`` it permutes
+  every aligned block of ``2^l`` indices within itself, so every power-of-two prefix stays one
+  aligned block (stratified), and blocks after the first are not optimized.
+- **Past the optimized dimensions** (``d >= D``): the pixel's own Owen-Sobol sequence,
+  ``owen_sobol(seed_p, i, d)`` with the lane's seed, like ``white`` (no blue noise designed there,
+  nothing worse than the baseline either).
+
+Not for: odd ``D`` (the keys come in pairs), or keys optimized for another shared sequence: keys
+only work with the point set (``seed0``) they were optimized for.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import torch
+
+from bnerr.errors import (
+    DtypeError,
+    ShapeError,
+    ValueRangeError,
+    check_dtype,
+    check_offset,
+    check_positive_int,
+    check_shape,
+)
+from bnerr.sequences.base import Sampler, _columns, _to_unit
+from bnerr.sequences.owen_sobol import _owen_sobol_columns
+
+__all__ = ["LDBNKeys", "LDBNSampler", "ldbn_level", "shared_words"]
+
+_TWO_24 = 1 << 24
+# The shared-sequence table is built over the indices 0 .. M - 1 when M is at most this (else
+# each lane is evaluated directly): 2^16 indices x 8 dims is 2 MB.
+_TABLE_LIMIT = 1 << 16
+
+
+@dataclass(frozen=True)
+class LDBNKeys:
+    """The key tiles of one LDBN sampler.
+
+    Attributes:
+        scramble: ``[L, T, T, D]`` int32, the scrambling keys (24-bit words, ``[0, 2^24)``) of
+            level ``l`` (tile optimized for ``2^l`` samples), pixel ``(y, x)``, dimension ``d``.
+        rank: ``[L, T, T, D // 2]`` int32, the ranking keys, ``rank[l] < 2^l``, one per pair.
+        seed0: the seed of the shared Owen-Sobol sequence the keys were optimized for.
+    """
+
+    scramble: torch.Tensor
+    rank: torch.Tensor
+    seed0: int = 0
+
+    def __post_init__(self) -> None:
+        size = check_shape(self.scramble, "L T T D", "scramble")
+        check_dtype(self.scramble, torch.int32, "scramble")
+        check_shape(self.rank, "L T T *", "rank")
+        check_dtype(self.rank, torch.int32, "rank")
+        if size["D"] % 2 or size["D"] < 2:
+            raise ShapeError(f"scramble: expected an even number of dims D >= 2, got {size['D']}")
+        if self.rank.shape != (size["L"], size["T"], size["T"], size["D"] // 2):
+            raise ShapeError(
+                f"rank: expected shape {[size['L'], size['T'], size['T'], size['D'] // 2]} "
+                f"(one key per pair), got {list(self.rank.shape)}"
+            )
+        if isinstance(self.seed0, bool) or not isinstance(self.seed0, int):
+            raise DtypeError(f"seed0: expected an int, got {type(self.seed0).__name__}")
+        _check_key_ranges(self.scramble, self.rank)
+
+    @property
+    def levels(self) -> int:
+        return self.scramble.shape[0]
+
+    @property
+    def size(self) -> int:
+        return self.scramble.shape[1]
+
+    @property
+    def dims(self) -> int:
+        return self.scramble.shape[3]
+
+
+def _check_key_ranges(scramble: torch.Tensor, rank: torch.Tensor) -> None:
+    if scramble.numel() and (int(scramble.min()) < 0 or int(scramble.max()) >= _TWO_24):
+        raise ValueRangeError("scramble: expected 24-bit words in [0, 2^24)")
+    for level in range(rank.shape[0]):
+        r = rank[level]
+        if r.numel() and (int(r.min()) < 0 or int(r.max()) >= 1 << level):
+            raise ValueRangeError(
+                f"rank: expected level {level}'s keys in [0, {1 << level}), "
+                f"got min {int(r.min())} max {int(r.max())}"
+            )
+
+
+def ldbn_level(spp: int, levels: int) -> int:
+    """The level the sampler reads for ``spp`` samples: the smallest ``l < levels`` with
+    ``2^l >= spp``, else the last one."""
+    spp = check_positive_int(spp, "spp")
+    levels = check_positive_int(levels, "levels")
+    return min((spp - 1).bit_length(), levels - 1)
+
+
+def shared_words(seed0: int, index: torch.Tensor, dim: int, count: int) -> torch.Tensor:
+    """``[count, N]`` int32: the top 24 bits of ``owen_sobol(seed0, index, d)``, one row per d."""
+    shared = torch.tensor(seed0 & 0xFFFFFFFF, dtype=torch.int64, device=index.device)
+    out = _columns(index.shape[0], count, index.device)
+    _owen_sobol_columns(shared, index, dim, out)
+    # values are k * 2^-24 exactly, so the product is an exact integer
+    return (out * _TWO_24).to(torch.int32)
+
+
+class LDBNSampler(Sampler):
+    """The LDBN lookup (module docstring): shared Owen-Sobol read through per-pixel keys.
+
+    Args:
+        keys: the key tiles (:class:`LDBNKeys`).
+        spp: the frame's samples per pixel; selects the level (:func:`ldbn_level`).
+        offset: the frame's toroidal offset ``(oy, ox)`` of the tiles.
+
+    The lane's ``seed`` is read only past the optimized dimensions (``d >= D``).
+    """
+
+    name = "ldbn"
+    needs_pixel = True
+
+    def __init__(self, keys: LDBNKeys, spp: int = 1, offset: tuple[int, int] = (0, 0)) -> None:
+        if not isinstance(keys, LDBNKeys):
+            raise DtypeError(f"keys: expected LDBNKeys, got {type(keys).__name__}")
+        self.keys = keys
+        self.spp = check_positive_int(spp, "spp")
+        self.level = ldbn_level(self.spp, keys.levels)
+        oy, ox = check_offset(offset)
+        self.offset = (oy % keys.size, ox % keys.size)
+        tile = keys.size * keys.size
+        # dimension-major flat tiles: [D, T * T] and [P, T * T]
+        self._scramble = keys.scramble[self.level].reshape(tile, -1).T.contiguous()
+        self._rank = keys.rank[self.level].reshape(tile, -1).T.to(torch.int64).contiguous()
+
+    def _sample(self, seed, index, dim, count, pixel):
+        out = _columns(seed.shape[0], count, seed.device)
+        keyed = max(min(dim + count, self.keys.dims) - dim, 0)
+        if keyed:
+            flat = self._texels(pixel)
+            self._keyed(index, flat, dim, out[:keyed])
+        if keyed < count:
+            _owen_sobol_columns(seed, index, dim + keyed, out[keyed:])
+        return out.T
+
+    def _texels(self, pixel: torch.Tensor) -> torch.Tensor:
+        size = self.keys.size
+        y = (pixel[:, 0] + self.offset[0]) % size
+        x = (pixel[:, 1] + self.offset[1]) % size
+        return y * size + x
+
+    def _keyed(self, index: torch.Tensor, flat: torch.Tensor, dim: int, out: torch.Tensor) -> None:
+        """Write the keyed dimensions ``dim .. dim + len(out) - 1`` into the rows of ``out``."""
+        device = index.device
+        scramble, rank = (t.to(device) for t in (self._scramble, self._rank))
+        end = dim + out.shape[0]
+        table = self._table(index, end, device)
+        for pair in range(dim // 2, (end - 1) // 2 + 1):
+            first = max(2 * pair, dim)
+            count = min(2 * pair + 2, end) - first
+            permuted = index ^ rank[pair].index_select(0, flat)
+            if table is not None:
+                words = table[first : first + count].index_select(1, permuted)
+            else:
+                words = shared_words(self.keys.seed0, permuted, first, count)
+            words = words ^ scramble[first : first + count].index_select(1, flat)
+            _to_unit(words, out=out[first - dim : first - dim + count])
+
+    def _table(self, index: torch.Tensor, end: int, device: torch.device) -> torch.Tensor | None:
+        """The shared words of dims ``0 .. end - 1`` over indices ``0 .. M - 1``, M the power of
+        two above every index (and at least the level's block), or None when M is too large."""
+        if not index.numel():
+            return None
+        lo, hi = (int(v) for v in torch.aminmax(index))
+        span = 1 << max(hi.bit_length(), self.level)
+        if lo < 0 or span > max(_TABLE_LIMIT, index.shape[0]):
+            return None
+        indices = torch.arange(span, dtype=torch.int64, device=device)
+        return shared_words(self.keys.seed0, indices, 0, end)
+
+    def __repr__(self) -> str:
+        k = self.keys
+        return (
+            f"LDBNSampler(keys=[{k.levels}, {k.size}, {k.size}, {k.dims}], spp={self.spp}, "
+            f"offset={self.offset}, seed0={k.seed0})"
+        )

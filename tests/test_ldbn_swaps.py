@@ -1,0 +1,97 @@
+"""Tests of bnerr.ldbn.swaps: the kernel, the energy against a double loop, the matchings, and
+both descents (each a permutation or a choice that lowers the energy)."""
+
+from __future__ import annotations
+
+import itertools
+
+import pytest
+import torch
+
+from bnerr.errors import ShapeError
+from bnerr.ldbn.swaps import _matching, energy, energy_kernel, flip_descent, swap_descent
+
+
+def _slow_energy(x: torch.Tensor, kernel: torch.Tensor) -> float:
+    f, t = kernel.shape[0], kernel.shape[1]
+    coords = list(itertools.product(range(f), range(t), range(t)))
+    total = 0.0
+    for p, (a, b, c) in enumerate(coords):
+        for q, (d, e, g) in enumerate(coords):
+            if p != q:
+                w = float(kernel[(a - d) % f, (b - e) % t, (c - g) % t])
+                total += w * float(x[p].double() @ x[q].double())
+    return total
+
+
+def test_kernel_is_zero_at_the_origin_symmetric_and_toroidal():
+    k = energy_kernel(8, 4, sigma=2.1, sigma_t=1.9)
+    assert k.shape == (4, 8, 8) and float(k[0, 0, 0]) == 0.0
+    assert torch.equal(k[0, 1:, :], k[0, 1:, :].flip(0).roll(0, 0)[torch.arange(6, -1, -1)])
+    assert float(k[0, 0, 1]) == pytest.approx(torch.exp(torch.tensor(-1 / 2.1**2)).item())
+    assert (
+        float(k[1, 0, 0])
+        == float(k[3, 0, 0])
+        == pytest.approx(torch.exp(torch.tensor(-1 / 1.9**2)).item())
+    )
+    assert float(k[1, 0, 1]) == 0.0  # separable 2D x 1D: no cross terms
+    auto = energy_kernel(8, sigma=0.75, autocorrelation=True)
+    assert float(auto[0, 0, 1]) == pytest.approx(torch.exp(torch.tensor(-1 / 2.25)).item())
+
+
+@pytest.mark.parametrize("frames", [1, 2])
+def test_energy_matches_the_double_loop(frames):
+    k = energy_kernel(4, frames)
+    x = torch.randn(16 * frames, 3, generator=torch.Generator().manual_seed(frames))
+    assert energy(x, k) == pytest.approx(_slow_energy(x, k), rel=1e-9, abs=1e-9)
+    with pytest.raises(ShapeError):
+        energy(x[:5], k)
+
+
+@pytest.mark.parametrize("shape", [(1, 8, 8), (4, 4, 4), (1, 6, 6), (1, 5, 5)])
+def test_matchings_are_disjoint_pairs(shape):
+    gen = torch.Generator().manual_seed(0)
+    n = shape[0] * shape[1] * shape[2]
+    for _ in range(20):
+        a, b = _matching(shape, gen)
+        both = torch.cat([a, b])
+        assert both.unique().numel() == both.numel() == n - n % 2
+
+
+def test_swap_descent_permutes_and_lowers_the_energy():
+    gen = torch.Generator().manual_seed(1)
+    k = energy_kernel(16)
+    x = torch.randn(256, 4, generator=gen)
+    perm = swap_descent(x, k, 60, gen)
+    assert torch.equal(perm.sort().values, torch.arange(256))
+    before, after = energy(x, k), energy(x[perm], k)
+    # the descent moves the energy far below random arrangements' (measured: 7.7 of their
+    # standard deviations below the start after 60 iterations)
+    shuffled = [energy(x[torch.randperm(256, generator=gen)], k) for _ in range(8)]
+    spread = torch.tensor(shuffled).std().item()
+    assert after < before - 5 * spread
+
+
+def test_swap_descent_is_deterministic():
+    k = energy_kernel(8)
+    x = torch.randn(64, 3, generator=torch.Generator().manual_seed(2))
+    a = swap_descent(x, k, 20, torch.Generator().manual_seed(3))
+    b = swap_descent(x, k, 20, torch.Generator().manual_seed(3))
+    assert torch.equal(a, b)
+
+
+def test_flip_descent_chooses_and_lowers_the_energy():
+    gen = torch.Generator().manual_seed(4)
+    k = energy_kernel(16)
+    options = torch.randn(2, 256, 4, generator=gen)
+    choice = flip_descent(options, k, 60, gen)
+    assert set(choice.unique().tolist()) <= {0, 1}
+    picked = options[choice, torch.arange(256)]
+    randoms = [
+        energy(options[torch.randint(0, 2, (256,), generator=gen), torch.arange(256)], k)
+        for _ in range(8)
+    ]
+    spread = torch.tensor(randoms).std().item()
+    assert energy(picked, k) < min(randoms) - 5 * spread
+    with pytest.raises(ShapeError):
+        flip_descent(options[0], k, 5, gen)
