@@ -39,6 +39,7 @@ from benchmarks.commands._args import (
     positive_int,
 )
 from benchmarks.reports import write_report
+from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES
 from benchmarks.sweep import runner
@@ -219,6 +220,7 @@ def run(args: argparse.Namespace) -> int:
             text = _run_speed(args, suite, out)
         else:
             text = _run_cells(args, suite, out)
+    write_index(Path(out).resolve().parent)  # the results page of every suite beside it
     if not args.quiet:
         print(text)
     print(f"results written to {out}")
