@@ -15,6 +15,8 @@ from benchmarks.reports.groups import group_key
 from benchmarks.reports.table import COLUMNS, markdown_table, summarize, table_columns
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import (
+    RESULTS_ARCHIVE,
+    RESULTS_FILE,
     Record,
     ReferenceInfo,
     Spectrum,
@@ -288,7 +290,8 @@ def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_pat
     # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
     # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
     folder = _RESULTS / suite
-    shutil.copy(folder / "cells.jsonl", tmp_path / "cells.jsonl")
+    cells = next(folder / n for n in (RESULTS_FILE, RESULTS_ARCHIVE) if (folder / n).exists())
+    shutil.copy(cells, tmp_path / cells.name)
     write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
     committed = [name for name in _TABLES if (folder / name).exists()]
     assert "table.md" in committed and "decision.md" in committed
@@ -304,7 +307,7 @@ _COMMITTED = [
 
 @pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
 def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed_results(folder):
-    if not (folder / "cells.jsonl").exists():
+    if not load_records(folder):
         pytest.skip(f"no committed results in {folder.name}")
     rows = summarize(load_records(folder), resamples=200)
     best = decision.best_rows(rows)
