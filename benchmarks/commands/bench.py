@@ -143,12 +143,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
     add("--no-charts", action="store_true", help="write the tables only")
-    add(
-        "--compress",
-        action="store_true",
-        help="keep the cells as cells.jsonl.gz once the report is written (a folder already "
-        "holding cells.jsonl.gz keeps it so without the flag; the committed results/ are kept so)",
-    )
+    compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
+    add("--compress", action="store_true", help=compress)
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)
 

@@ -13,8 +13,10 @@ panels, right of them (constrained layout keeps titles, labels and ticks apart):
 - ``oracle_share_<group>.png``: each strategy's share of the white-to-oracle gap
   (:mod:`benchmarks.reports.gap`) against spp, one panel per measure;
 - ``spectra_<group>.png``: radially averaged power spectrum of the raw and denoised error per
-  strategy;
-- ``crops_<group>.png``: reference, raw and denoised crops side by side (key denoisers).
+  strategy.
+
+The crops are shown by the results page (:mod:`benchmarks.reports.page`), where any two can be
+compared with a slider or a flip, instead of a chart of them.
 
 :func:`error_vs_time_figure` and :func:`oracle_share_figure` return the figures unsaved, for the
 test that no text overlaps text or data.
@@ -69,8 +71,8 @@ def key_denoisers(denoisers: Sequence[str]) -> list[str]:
     return keys or sorted(present)
 
 
-def _save(fig, path: Path, quantize: bool = True) -> None:
-    """Save as PNG; line charts in 256 colours (a third of the bytes, no visible change)."""
+def _save(fig, path: Path) -> None:
+    """Save as PNG in 256 colours (a third of the bytes of a line chart, no visible change)."""
     from PIL import Image
 
     buffer = io.BytesIO()
@@ -78,8 +80,7 @@ def _save(fig, path: Path, quantize: bool = True) -> None:
     buffer.seek(0)
     with Image.open(buffer) as image:
         image = image.convert("RGB")
-        if quantize:
-            image = image.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=0)
+        image = image.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=0)
         with atomic_write(path) as tmp:
             image.save(tmp, format="PNG", optimize=True)
 
@@ -267,45 +268,6 @@ def _spectra(
     return path
 
 
-def _crops(
-    slug: str, title: str, rows: list[dict], records: dict[tuple, Record], out: Path
-) -> Path | None:
-    from matplotlib.figure import Figure  # 2 s to import: only when charts are drawn
-
-    from benchmarks.reports.previews import load_crop
-
-    spp = min(r["spp"] for r in rows)
-    denoiser = sorted({r["denoiser"] for r in rows})[0]
-    images = []
-    for s in strategy_order(r["strategy"] for r in rows):
-        rec = records.get((slug, s, spp, denoiser))
-        crop = None if rec is None else load_crop(out, rec.crop)
-        if crop:
-            images.append((s, crop))
-    if not images:
-        return None
-    names = key_denoisers(
-        [k.removeprefix("denoised/") for k in images[0][1] if k.startswith("denoised/")]
-    )
-    columns = ["reference", "raw"] + [f"denoised/{d}" for d in names]
-    fig = Figure(figsize=(1.3 * len(columns), 1.3 * len(images) + 0.4), layout="constrained")
-    for i, (strategy, crop) in enumerate(images):
-        for j, col in enumerate(columns):
-            ax = fig.add_subplot(len(images), len(columns), i * len(columns) + j + 1)
-            if col in crop:
-                ax.imshow(crop[col], interpolation="nearest")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            if i == 0:
-                ax.set_title(col.removeprefix("denoised/"), fontsize=7)
-            if j == 0:
-                ax.set_ylabel(strategy, fontsize=7, color=strategy_style(strategy)["color"])
-    fig.suptitle(f"{title}, {spp} spp: centre crops", fontsize=9)
-    path = out / f"crops_{slug}.png"
-    _save(fig, path, quantize=False)
-    return path
-
-
 def _by_group(rows: Sequence[dict], records: Sequence[Record]) -> tuple[dict, dict]:
     by_slug: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
@@ -341,8 +303,8 @@ def write_charts(
             path = out / f"oracle_share_{slug}.png"
             _save(oracle_share_figure(title, share_groups[slug]), path)
             written.append(path)
-        for chart in (_spectra, _crops):
-            path = chart(slug, title, group, lookup, out)
-            if path is not None:
-                written.append(path)
+        path = _spectra(slug, title, group, lookup, out)
+        if path is not None:
+            written.append(path)
+        (out / f"crops_{slug}.png").unlink(missing_ok=True)  # a former chart: the page shows them
     return written

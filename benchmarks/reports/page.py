@@ -7,9 +7,9 @@ inlined, :mod:`benchmarks.reports.html`), linking every file of the folder:
   tables sortable by column;
 - per group (scene and condition): the interactive error-against-time charts
   (:mod:`benchmarks.reports.svgchart`), the PNG charts, the image comparison of its crops (the
-  preview strips of :mod:`benchmarks.reports.previews`: reference, each strategy raw and
-  denoised, error maps; a slider or a flip between any two, a lens following the cursor) and the
-  scene's animation when ``../animations`` holds one.
+  strips of :mod:`benchmarks.reports.previews`: reference, each strategy raw and after each key
+  denoiser, and their error maps; a slider or a flip between any two, a lens following the
+  cursor) and the scene's animation when ``../animations`` holds one.
 
 :func:`write_index` writes ``<results>/index.html``: a link to each suite's page, the other
 folders' reports, and the animations.
@@ -33,7 +33,7 @@ from benchmarks.reports.groups import (
     strategy_order,
 )
 from benchmarks.reports.html import markdown_html, page
-from benchmarks.reports.previews import PREVIEWS, write_previews
+from benchmarks.reports.previews import ERROR_GAIN, crop_strip
 from benchmarks.reports.svgchart import legend_html, ratio_svg
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
@@ -43,7 +43,7 @@ __all__ = ["PAGE", "write_index", "write_suite_page"]
 #: File name of every page.
 PAGE = "index.html"
 _REPORTS = ("table.md", "gap.md", "denoisers.md")
-_CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_", "crops_")
+_CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_")
 
 
 def _write(path: Path, text: str) -> None:
@@ -59,20 +59,31 @@ def _files(out: Path) -> str:
     return f"<p>Files: {links}</p>"
 
 
-def _comparison(out: Path, slug: str, records: list[Record], denoisers: list[str]) -> str:
-    """The comparison widget of one group's crops, or '' when it has none."""
-    options = []
+def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tuple[str, str]]:
+    """(value, label) of every image a comparison offers: the reference once, then per strategy
+    the raw frame and each key denoiser's, each also as an error map. A value is
+    ``strip|tile|tiles|reference tile`` (-1: not an error map) for the page script."""
+    options: list[tuple[str, str]] = []
     order = strategy_order(r.cell.strategy for r in records)
     for rec in sorted(records, key=lambda r: order.index(r.cell.strategy)):
-        written = write_previews(out, rec.crop, denoisers) if rec.crop else None
-        if written is None:
+        found = crop_strip(out, rec.crop)
+        if found is None or "reference" not in found[1]:
             continue
-        rel, names = written
-        for i, name in enumerate(names):
-            if name == "reference" and options:
-                continue  # one reference is enough
-            label = name if name == "reference" else f"{rec.cell.strategy}: {name}"
-            options.append((f"{rel}|{i}|{len(names)}", label))
+        rel, names = found
+        ref = names.index("reference")
+        if not options:
+            options.append((f"{rel}|{ref}|{len(names)}|-1", "reference"))
+        for name in ["raw"] + [f"denoised/{d}" for d in denoisers]:
+            if name in names:
+                label = f"{rec.cell.strategy}: {name}"
+                value = f"{rel}|{names.index(name)}|{len(names)}"
+                options += [(f"{value}|-1", label), (f"{value}|{ref}", f"{label}, error")]
+    return options
+
+
+def _comparison(out: Path, slug: str, records: list[Record], denoisers: list[str]) -> str:
+    """The comparison widget of one group's crops, or '' when it has none."""
+    options = _options(out, records, denoisers)
     if len(options) < 2:
         return ""
     spp = records[0].cell.spp
@@ -92,7 +103,7 @@ def _comparison(out: Path, slug: str, records: list[Record], denoisers: list[str
         f'<div class="cmp-controls">{select("a", chosen_a)}{select("b", chosen_b)}'
         '<label>slider <input type="range" min="0" max="100" value="50"></label>'
         '<button class="flip" type="button">flip A / B (key f)</button>'
-        "<small>Error maps: |image - reference| x4. Hover for a 4x lens.</small></div>"
+        f"<small>Error: |image - reference| x{ERROR_GAIN}. Hover for a 4x lens.</small></div>"
         '<div class="cmp-view"><div class="cmp-layer a"></div><div class="cmp-layer b"></div>'
         '<div class="cmp-lens"></div><span class="cmp-label a"></span>'
         '<span class="cmp-label b"></span></div></div>'
@@ -139,7 +150,7 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
 def write_suite_page(
     out_dir: str | Path, rows: Sequence[dict], records: Sequence[Record], title: str
 ) -> Path:
-    """Write ``<out_dir>/index.html`` (and the preview strips it shows); return its path."""
+    """Write ``<out_dir>/index.html`` (and the crops' strips it shows); return its path."""
     out = Path(out_dir)
     by_slug: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
@@ -177,7 +188,7 @@ def _folder_entry(folder: Path) -> str:
 def write_index(results_dir: str | Path) -> Path:
     """Write ``<results_dir>/index.html``: every suite page, report and animation there."""
     root = Path(results_dir)
-    folders = sorted(p for p in root.iterdir() if p.is_dir() and p.name != PREVIEWS)
+    folders = sorted(p for p in root.iterdir() if p.is_dir())
     items = "".join(_folder_entry(f) for f in folders)
     gifs = sorted((root / "animations").glob("*.gif")) if (root / "animations").is_dir() else []
     anims = "".join(

@@ -6,11 +6,16 @@ The script does three things, each on the elements the page marks for it:
   (``0.93 [0.90, 0.96]`` sorts by 0.93), a second click reverses;
 - ``.cmp``: the image comparison. Two choices (A and B) among the preview tiles; a slider shows A
   left of it and B right of it, the flip button (or the ``f`` key over the image) shows one whole
-  and then the other; a lens follows the cursor with the visible image four times larger;
+  and then the other; a lens follows the cursor with the visible image four times larger. A
+  choice ``src|tile|tiles|ref`` with ``ref >= 0`` is an error map: the tile and the reference
+  tile of the same strip blended with CSS ``difference``, brightened by
+  :data:`~benchmarks.reports.previews.ERROR_GAIN`;
 - SVG charts need nothing: each point carries a ``<title>`` that the browser shows on hover.
 
 Not for: anything that reads image pixels (pages opened from disk may not).
 """
+
+from benchmarks.reports.previews import ERROR_GAIN
 
 __all__ = ["SCRIPT", "STYLE"]
 
@@ -63,10 +68,15 @@ document.querySelectorAll('table.sortable').forEach(function(table){
   });
  });
 });
-function tile(layer,value,size){var p=value.split('|'),n=+p[2];
- layer.style.backgroundImage='url("'+p[0]+'")';
- layer.style.backgroundSize=(n*size)+'px '+size+'px';
- layer.style.backgroundPosition=(-(+p[1])*size)+'px 0px';}
+function tile(layer,value,size,z,dx,dy){
+ var p=value.split('|'),n=+p[2],err=+p[3]>=0,url='url("'+p[0]+'")';
+ z=z||1;dx=dx||0;dy=dy||0;
+ function at(i){return(-i*size*z+dx)+'px '+dy+'px';}
+ layer.style.backgroundImage=err?url+','+url:url;
+ layer.style.backgroundSize=(n*size*z)+'px '+(size*z)+'px';
+ layer.style.backgroundPosition=err?at(+p[1])+','+at(+p[3]):at(+p[1]);
+ layer.style.backgroundBlendMode=err?'difference':'normal';
+ layer.style.filter=err?'brightness(GAIN)':'none';}
 document.querySelectorAll('.cmp').forEach(function(cmp){
  var view=cmp.querySelector('.cmp-view'),a=cmp.querySelector('.cmp-layer.a'),
   b=cmp.querySelector('.cmp-layer.b'),lens=cmp.querySelector('.cmp-lens'),
@@ -89,13 +99,11 @@ document.querySelectorAll('.cmp').forEach(function(cmp){
  view.addEventListener('mousemove',function(e){
   var r=view.getBoundingClientRect(),x=e.clientX-r.left,y=e.clientY-r.top,z=4,
    src=(mode==='a'||(mode==='slider'&&x<r.width*slider.value/100))?sa.value:sb.value,
-   p=src.split('|'),n=+p[2],w=lens.offsetWidth/2;
+   w=lens.offsetWidth/2;
   lens.style.display='block';lens.style.left=(x-w)+'px';lens.style.top=(y-w)+'px';
-  lens.style.backgroundImage='url("'+p[0]+'")';
-  lens.style.backgroundSize=(n*size*z)+'px '+(size*z)+'px';
-  lens.style.backgroundPosition=(-(+p[1])*size*z-x*z+w)+'px '+(-y*z+w)+'px';});
+  tile(lens,src,size,z,-x*z+w,-y*z+w);});
  view.addEventListener('mouseleave',function(){lens.style.display='none';});
  show();
 });
 })();
-"""
+""".replace("GAIN", str(ERROR_GAIN))

@@ -1,19 +1,22 @@
-"""The preview images of the results page: one PNG strip per run's crops, with error maps.
+"""The crops of a results folder as PNG strips, what the results page and the charts show.
 
 A run with crops (:mod:`benchmarks.sweep.measure`) saves ``crops/<run>.npz``: the sRGB previews
-of the reference, the raw frame and every denoised frame of its first measured frame, at the
-rendered size of the crop. :func:`write_previews` turns each into ``previews/<run>.png``, the
-tiles side by side in :func:`tile_names` order: the reference, the raw frame and its error map,
-then for each key denoiser (:func:`benchmarks.reports.charts.key_denoisers`) the denoised frame and
-its error map. An error map is ``|image - reference|`` in sRGB, times :data:`ERROR_GAIN`, so the
-page shows it without reading pixels (which a browser forbids for pages opened from disk).
+(uint8, at the crop's rendered size) of the reference, the raw frame and every denoised frame of
+its first measured frame. The report keeps them as ``crops/<run>.png`` instead
+(:func:`crop_strip`): the same tiles side by side, lossless, their names in the PNG's ``tiles``
+text chunk, which a browser can show directly; the ``.npz`` is removed once the strip reads back
+equal (the record still names the ``.npz``: :func:`load_crop` reads the strip in its place).
 
-Not for: the crops chart (:func:`load_crop` reads the same arrays for it).
+The page draws the error maps itself, ``|image - reference|`` in sRGB times :data:`ERROR_GAIN`,
+by blending two tiles of the strip in CSS (``difference``, then a brightness filter): no script
+reads a pixel (a browser forbids it for pages opened from disk) and no error image is stored.
+
+Not for: choosing what to show (:mod:`benchmarks.reports.page`, :mod:`benchmarks.reports.charts`).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import json
 from pathlib import Path
 
 import numpy as np
@@ -21,24 +24,14 @@ import numpy as np
 from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
 
-__all__ = ["ERROR_GAIN", "PREVIEWS", "load_crop", "tile_names", "write_previews"]
+__all__ = ["ERROR_GAIN", "crop_strip", "load_crop"]
 
 #: Amplification of the error maps (an error of 1/4 of the range reaches white).
 ERROR_GAIN = 4
-#: Folder of the preview strips in a results folder.
-PREVIEWS = "previews"
+_TILES = "tiles"
 
 
-def load_crop(out_dir: str | Path, crop: str | None) -> dict[str, np.ndarray] | None:
-    """The crops of a record (``reference``, ``raw``, ``denoised/<name>``: uint8 ``H x W x 3``),
-    or None when it has none or its file is missing.
-
-    Raises:
-        FileFormatError: the file is not a readable ``.npz``.
-    """
-    if not crop or not (Path(out_dir) / crop).exists():
-        return None
-    path = Path(out_dir) / crop
+def _read_npz(path: Path) -> dict[str, np.ndarray]:
     try:
         with np.load(path) as data:
             return {k.replace("__", "/"): data[k] for k in data.files}
@@ -46,38 +39,63 @@ def load_crop(out_dir: str | Path, crop: str | None) -> dict[str, np.ndarray] | 
         raise FileFormatError(f"{path}: expected the crops of a run (.npz), got {err}") from None
 
 
-def tile_names(crop: dict[str, np.ndarray], denoisers: Sequence[str]) -> list[str]:
-    """The tiles of a preview strip, in order: ``reference``, ``raw``, ``raw/error``, then
-    ``denoised/<d>`` and ``denoised/<d>/error`` for each of ``denoisers`` the crop holds."""
-    names = ["reference", "raw", "raw/error"]
-    for d in denoisers:
-        if f"denoised/{d}" in crop:
-            names += [f"denoised/{d}", f"denoised/{d}/error"]
-    return names
-
-
-def _tile(crop: dict[str, np.ndarray], name: str) -> np.ndarray:
-    if not name.endswith("/error"):
-        return crop[name]
-    diff = np.abs(crop[name.removesuffix("/error")].astype(np.int16) - crop["reference"])
-    return np.clip(diff * ERROR_GAIN, 0, 255).astype(np.uint8)
-
-
-def write_previews(
-    out_dir: str | Path, crop: str, denoisers: Sequence[str]
-) -> tuple[str, list[str]] | None:
-    """Write the preview strip of one record's ``crop`` (a path relative to ``out_dir``); return
-    its path relative to ``out_dir`` and its tile names, or None when the crop is missing."""
+def _read_png(path: Path) -> dict[str, np.ndarray]:
     from PIL import Image
 
+    try:
+        with Image.open(path) as image:
+            names = json.loads(image.text[_TILES])
+            strip = np.asarray(image.convert("RGB"))
+    except (OSError, ValueError, KeyError) as err:
+        raise FileFormatError(f"{path}: expected a strip of crops (.png), got {err!r}") from None
+    width = strip.shape[1] // max(len(names), 1)
+    return {n: strip[:, i * width : (i + 1) * width] for i, n in enumerate(names)}
+
+
+def _strip_path(out_dir: str | Path, crop: str) -> Path:
+    return (Path(out_dir) / crop).with_suffix(".png")
+
+
+def load_crop(out_dir: str | Path, crop: str | None) -> dict[str, np.ndarray] | None:
+    """The crops of a record (``reference``, ``raw``, ``denoised/<name>``: uint8 ``H x W x 3``),
+    from its ``.npz`` or the strip that replaced it; None when it has none or both are missing.
+
+    Raises:
+        FileFormatError: the file is not a readable ``.npz`` or strip.
+    """
+    if not crop:
+        return None
+    path = Path(out_dir) / crop
+    if path.suffix == ".npz" and path.exists():
+        return _read_npz(path)
+    strip = _strip_path(out_dir, crop)
+    return _read_png(strip) if strip.exists() else None
+
+
+def crop_strip(out_dir: str | Path, crop: str | None) -> tuple[str, list[str]] | None:
+    """The strip of a record's crops (path relative to ``out_dir``, tile names in order),
+    written from its ``.npz`` first if need be (which is then removed); None without crops."""
+    from PIL import Image
+    from PIL.PngImagePlugin import PngInfo
+
+    if not crop:
+        return None
+    strip = _strip_path(out_dir, crop)
+    rel = str(Path(crop).with_suffix(".png"))
+    if strip.exists() and not (Path(out_dir) / crop).with_suffix(".npz").exists():
+        return rel, list(_read_png(strip))
     images = load_crop(out_dir, crop)
     if images is None:
         return None
-    names = tile_names(images, denoisers)
-    strip = np.concatenate([_tile(images, n) for n in names], axis=1)
-    rel = f"{PREVIEWS}/{Path(crop).stem}.png"
-    path = Path(out_dir) / rel
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with atomic_write(path) as tmp:
-        Image.fromarray(strip).save(tmp, format="PNG", optimize=True)
+    names = list(images)
+    info = PngInfo()
+    info.add_text(_TILES, json.dumps(names))
+    with atomic_write(strip) as tmp:
+        Image.fromarray(np.concatenate(list(images.values()), axis=1)).save(
+            tmp, format="PNG", pnginfo=info, optimize=True
+        )
+    back = _read_png(strip)
+    if any(not np.array_equal(back[n], images[n]) for n in names):
+        raise FileFormatError(f"{strip}: expected the crops to read back equal, got a difference")
+    (Path(out_dir) / crop).with_suffix(".npz").unlink(missing_ok=True)
     return rel, names
