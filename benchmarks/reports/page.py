@@ -124,11 +124,14 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
         for suffix in ("", "_other")
         if (out / f"{prefix}{slug}{suffix}.png").exists()
     )
-    spp = min(r.cell.spp for r in records) if records else None
-    crops = [r for r in records if r.cell.spp == spp and r.crop]
-    first = {}
-    for r in crops:  # one record per run: its crop holds every denoiser
-        first.setdefault(r.cell.strategy, r)
+    runs: dict[int, dict[str, Record]] = defaultdict(dict)
+    for r in records:  # one record per run: its crop holds every denoiser
+        if r.crop:
+            runs[r.cell.spp].setdefault(r.cell.strategy, r)
+    images = "".join(
+        _comparison(out, f"{slug}-{spp}", list(runs[spp].values()), denoisers)
+        for spp in sorted(runs)
+    )
     scene = rows[0]["scene"]
     anim = out.parent / "animations" / f"{scene}.gif"
     animation = (
@@ -143,7 +146,7 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
         "hover a point for its strategy, spp, ratio and interval.</p>"
         f'<div class="svgs">{svgs}</div>{legend_html({r["strategy"] for r in rows})}'
         f'<details><summary>Charts</summary><div class="charts">{charts}</div></details>'
-        f"{_comparison(out, slug, list(first.values()), denoisers)}{animation}"
+        f"{images}{animation}"
     )
 
 
