@@ -23,8 +23,9 @@ STYLE = """
 body{font:14px/1.45 system-ui,sans-serif;margin:1.5em auto;max-width:1200px;padding:0 1em;
 color:#222}
 h1{font-size:1.6em}h2{border-bottom:1px solid #ccc;margin-top:2em}h3,h4{margin-top:1.4em}
-table{border-collapse:collapse;margin:.6em 0;font-size:12px}
-td,th{border:1px solid #ddd;padding:2px 6px;text-align:right}
+table{border-collapse:collapse;margin:.6em 0;font-size:12px;display:block;overflow-x:auto;
+max-width:100%}
+td,th{border:1px solid #ddd;padding:2px 6px;text-align:right;white-space:nowrap}
 th{background:#f3f3f3;cursor:pointer;position:sticky;top:0}
 th.asc::after{content:" \\25B2"}th.desc::after{content:" \\25BC"}
 td:first-child,th:first-child{text-align:left}
