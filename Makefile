@@ -6,13 +6,15 @@
 # be installed. The extras: dev (pytest, pytest-xdist, hypothesis, ruff, mypy), reference
 # (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
 # Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it installs
-# libllvm19 (best effort; without it the tests that need it skip and say why).
+# libllvm19 (best effort; without it the tests that need it skip and say why). Likewise the
+# browser tests of the results pages (tests/test_page.py) drive Debian's chromium through
+# Playwright; `make chromium` installs it as root on Debian, elsewhere those tests skip.
 PYTHON ?= python3.11
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test bench clean llvm
+.PHONY: run test bench clean llvm chromium
 
 llvm:
 	@if ldconfig -p 2>/dev/null | grep -q 'libLLVM.so.19\|libLLVM-19'; then :; \
@@ -22,12 +24,21 @@ llvm:
 	  echo "note: libllvm19 not installed; tests of Mitsuba's LLVM variants will skip"; \
 	else echo "note: no libLLVM 19 (Debian: apt-get install libllvm19); tests of Mitsuba's LLVM variants will skip"; fi
 
+chromium:
+	@if [ -x /usr/bin/chromium ]; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+	  (apt-get install -y -qq chromium >/dev/null 2>&1 || \
+	   (apt-get update -qq >/dev/null 2>&1 && apt-get install -y -qq chromium >/dev/null 2>&1)) || \
+	  echo "note: chromium not installed; the browser tests of the results pages will skip"; \
+	else echo "note: no /usr/bin/chromium (Debian: apt-get install chromium); the browser tests will skip"; fi
+
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	if $(BIN)/python -m pip install --quiet uv; then \
 	  $(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev,reference,cluster]'; \
 	else $(BIN)/python -m pip install --quiet -e '.[dev,reference,cluster]'; fi
 	@$(MAKE) --no-print-directory llvm
+	@$(MAKE) --no-print-directory chromium
 	touch $(STAMP)
 
 # The quick suite writes to out/quick (ignored by git), so running it never edits the

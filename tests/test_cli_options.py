@@ -40,6 +40,7 @@ BASE = {
     "render": ["render", "--scene", "direct", "--res", "4x4", "--spp", "1", "--out", "{tmp}/r"],
     "retarget": ["retarget", "--size", "16", "--out", "{tmp}/r.npy"],
     "scenes": ["scenes"],
+    "view": ["view", "{tmp}/no_results"],
     "train": [
         "train", "--out", "{tmp}/w.pt", "--scenes", "2", "--size", "8", "--reference-spp", "2",
         "--steps", "2", "--crop", "8", "--batch-size", "2", "--checkpoint-every", "2",
@@ -92,6 +93,7 @@ VALID = {
     ("bench", "--out", "dir_for_file"): "a folder named *.exr is still a folder",
     ("bench", "--cache", "missing"): "the cache folder is created, parents included",
     ("bench", "--cache", "dir_for_file"): "a folder named *.exr is still a folder",
+    ("view", "--port", "zero"): "port 0: any free port (its help says so)",
 }
 
 

@@ -9,7 +9,7 @@ import sys
 import pytest
 
 from benchmarks.cli import main
-from benchmarks.sweep.records import RESULTS_FILE, load_records
+from benchmarks.sweep.records import RESULTS_ARCHIVE, RESULTS_FILE, load_records
 from bnerr.outputs import output_lock
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -168,6 +168,12 @@ def test_report_only_rewrites_the_tables_without_measuring(tmp_path, capsys):
     assert sorted(p.name for p in cache.rglob("*")) == before
     assert (out / "table.md").read_text() == table  # the same title and figures
     assert (out / "decision.md").exists()
+    # --compress keeps the cells gzipped, and a folder holding them so keeps them so
+    assert main([*args, "--report-only", "--no-charts", "--compress"]) == 0
+    assert not (out / RESULTS_FILE).exists() and (out / RESULTS_ARCHIVE).exists()
+    assert main([*args, "--report-only", "--no-charts"]) == 0
+    assert (out / RESULTS_ARCHIVE).exists() and (out / "table.md").read_text() == table
+    assert (out / "index.html").exists() and (tmp_path / "index.html").exists()  # the pages
 
 
 def test_report_only_refuses_overrides_and_an_empty_folder(tmp_path, capsys):

@@ -8,6 +8,7 @@ import pytest
 
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import (
+    RESULTS_ARCHIVE,
     RESULTS_FILE,
     Record,
     ReferenceInfo,
@@ -16,6 +17,7 @@ from benchmarks.sweep.records import (
     Timings,
     append_records,
     check_no_results,
+    compress_records,
     load_records,
     write_records,
 )
@@ -72,13 +74,18 @@ def test_write_and_load_keep_order_and_values(tmp_path):
 
 @pytest.mark.parametrize("suite", ["quick", "quality", "stability", "gap"])
 def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
-    path = _RESULTS / suite / RESULTS_FILE
-    if not path.exists():
+    folder = _RESULTS / suite
+    records = load_records(folder)  # cells.jsonl, or the committed cells.jsonl.gz
+    if not records:
         pytest.skip(f"no committed {suite} results")
-    records = load_records(path.parent)
-    assert records and all(isinstance(r, Record) for r in records)
+    assert all(isinstance(r, Record) for r in records)
     write_records(tmp_path, records)
-    assert (tmp_path / RESULTS_FILE).read_bytes() == path.read_bytes()
+    plain = folder / RESULTS_FILE
+    if plain.exists():
+        assert (tmp_path / RESULTS_FILE).read_bytes() == plain.read_bytes()
+    else:
+        compress_records(tmp_path)
+        assert (tmp_path / RESULTS_ARCHIVE).read_bytes() == (folder / RESULTS_ARCHIVE).read_bytes()
 
 
 @pytest.mark.parametrize(
@@ -150,3 +157,29 @@ def test_check_no_results_refuses_a_folder_with_finished_cells(tmp_path):
     with pytest.raises(ResultsExistError, match=r"got 2; pass --resume .* or --overwrite") as err:
         check_no_results(tmp_path)
     assert isinstance(err.value, BnerrError) and isinstance(err.value, FileExistsError)
+
+
+def test_compressed_results_read_back_and_restore_before_an_append(tmp_path):
+    records = [_record("white"), _record("temporal"), _record("oracle")]
+    write_records(tmp_path, records[:1])
+    plain = (tmp_path / RESULTS_FILE).read_bytes()
+    archive = compress_records(tmp_path)
+    assert archive == tmp_path / RESULTS_ARCHIVE and not (tmp_path / RESULTS_FILE).exists()
+    assert compress_records(tmp_path) is None  # nothing plain left to compress
+    first = archive.read_bytes()
+    assert load_records(tmp_path) == records[:1]
+    with pytest.raises(ResultsExistError):
+        check_no_results(tmp_path)
+    append_records(tmp_path, records[1:])  # the plain file comes back, then grows
+    assert not archive.exists() and (tmp_path / RESULTS_FILE).read_bytes().startswith(plain)
+    assert load_records(tmp_path) == records
+    write_records(tmp_path, records[:1])
+    assert compress_records(tmp_path).read_bytes() == first  # reproducible: no time stamp
+    write_records(tmp_path, records)
+    assert not archive.exists()  # a rewritten plain file supersedes the compressed one
+
+
+def test_a_broken_compressed_file_is_a_typed_error(tmp_path):
+    (tmp_path / RESULTS_ARCHIVE).write_bytes(b"not gzip")
+    with pytest.raises(FileFormatError, match="cells.jsonl.gz"):
+        load_records(tmp_path)

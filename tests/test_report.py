@@ -15,6 +15,8 @@ from benchmarks.reports.groups import group_key
 from benchmarks.reports.table import COLUMNS, markdown_table, summarize, table_columns
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import (
+    RESULTS_ARCHIVE,
+    RESULTS_FILE,
     Record,
     ReferenceInfo,
     Spectrum,
@@ -167,8 +169,9 @@ def test_write_report_writes_csv_markdown_and_charts(tmp_path):
     assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(
         np.mean(_WHITE)
     )
-    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops_direct.png"):
-        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops/c.png", "index.html"):
+        assert (tmp_path / name).exists(), name
+    assert not (tmp_path / "crops" / "c.npz").exists()  # kept as the strip the page shows
     assert not list(tmp_path.glob(".*.tmp*"))  # atomic writes leave no temporary files
 
 
@@ -288,7 +291,8 @@ def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_pat
     # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
     # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
     folder = _RESULTS / suite
-    shutil.copy(folder / "cells.jsonl", tmp_path / "cells.jsonl")
+    cells = next(folder / n for n in (RESULTS_FILE, RESULTS_ARCHIVE) if (folder / n).exists())
+    shutil.copy(cells, tmp_path / cells.name)
     write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
     committed = [name for name in _TABLES if (folder / name).exists()]
     assert "table.md" in committed and "decision.md" in committed
@@ -304,7 +308,7 @@ _COMMITTED = [
 
 @pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
 def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed_results(folder):
-    if not (folder / "cells.jsonl").exists():
+    if not load_records(folder):
         pytest.skip(f"no committed results in {folder.name}")
     rows = summarize(load_records(folder), resamples=200)
     best = decision.best_rows(rows)

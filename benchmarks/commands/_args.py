@@ -27,6 +27,7 @@ __all__ = [
     "names",
     "nonnegative_int",
     "parse_resolution",
+    "port_int",
     "positive_float",
     "positive_int",
     "seed_int",
@@ -81,6 +82,8 @@ positive_int = _integer(1, MAX_COUNT, "a positive integer")
 nonnegative_int = _integer(0, MAX_COUNT, "a non-negative integer")
 #: A seed (or seed set): an integer in [0, MAX_SEED].
 seed_int = _integer(0, MAX_SEED, "a seed")
+#: A TCP port: an integer in [0, 65535], 0 for any free one.
+port_int = _integer(0, 65535, "a port number")
 
 
 def positive_float(hi: float) -> Callable[[str], float]:

@@ -8,12 +8,14 @@ Examples::
     bnerr bench --suite quality --ray HEAD:6379      # every seed set a task on a Ray cluster
 
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
-records), ``table.csv``, ``table.md`` and the charts (:mod:`benchmarks.reports`). References are
-cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the results already in
-the output folder and measures only the missing cells; without it, a folder that already holds
-finished cells is refused unless ``--overwrite`` says to discard them. The command holds the
-output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a second
-``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
+records; ``cells.jsonl.gz`` with ``--compress`` or where the folder held it already, as the
+committed ``results/`` do), ``table.csv``, ``table.md``, the charts and the page ``index.html``
+(:mod:`benchmarks.reports`); the folder above gets ``index.html``, linking every suite's page.
+References are cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the
+results already in the output folder and measures only the missing cells; without it, a folder that
+already holds finished cells is refused unless ``--overwrite`` says to discard them. The command
+holds the output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a
+second ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
@@ -39,12 +41,13 @@ from benchmarks.commands._args import (
     positive_int,
 )
 from benchmarks.reports import write_report
+from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import known_names
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
-from benchmarks.sweep.records import load_records
+from benchmarks.sweep.records import RESULTS_ARCHIVE, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 from bnerr.outputs import output_lock
 
@@ -140,6 +143,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
     add("--no-charts", action="store_true", help="write the tables only")
+    compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
+    add("--compress", action="store_true", help=compress)
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     parser.set_defaults(func=run)
 
@@ -215,10 +220,14 @@ def run(args: argparse.Namespace) -> int:
     suite = suites.get_suite(args.suite)
     out = args.out or Path("results") / suite.name
     with output_lock(out, "bnerr bench"):
+        compress = args.compress or (Path(out) / RESULTS_ARCHIVE).exists()
         if suite.scripts:
             text = _run_speed(args, suite, out)
         else:
             text = _run_cells(args, suite, out)
+            if compress:
+                compress_records(out)
+    write_index(Path(out).resolve().parent)  # the results page of every suite beside it
     if not args.quiet:
         print(text)
     print(f"results written to {out}")

@@ -12,7 +12,11 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
   white-to-oracle distance, when the records hold white and the oracle;
 - ``denoisers.md`` (:mod:`~benchmarks.reports.denoisers`): how each denoiser responds to each
   strategy's noise, when the records hold the denoisers it compares;
-- the PNG charts (:mod:`~benchmarks.reports.charts`).
+- the PNG charts (:mod:`~benchmarks.reports.charts`), in one colour per strategy
+  (:mod:`~benchmarks.reports.palette`);
+- ``index.html`` (:mod:`~benchmarks.reports.page`): the suite's results page, with the preview
+  strips it shows (:mod:`~benchmarks.reports.previews`); the index of the whole results folder is
+  :func:`~benchmarks.reports.page.write_index`, which ``bnerr bench`` calls.
 
 Every report groups and orders its rows through :mod:`~benchmarks.reports.groups` and writes its
 Markdown tables with :mod:`~benchmarks.reports.markdown`.
@@ -30,6 +34,7 @@ from benchmarks.reports.charts import write_charts
 from benchmarks.reports.decision import decision_table
 from benchmarks.reports.denoisers import write_denoise_tables
 from benchmarks.reports.gap import write_gap_tables
+from benchmarks.reports.page import write_suite_page
 from benchmarks.reports.table import csv_text, markdown_table, summarize
 from benchmarks.sweep.records import Record, load_records
 from bnerr.io import atomic_write
@@ -44,8 +49,8 @@ def write_report(
     charts: bool = True,
 ) -> str:
     """Write ``table.csv``, ``table.md``, ``decision.md``, ``gap.md`` / ``gap.csv`` (when the
-    records hold white and the oracle: :mod:`benchmarks.reports.gap`) and the charts into
-    ``out_dir``; return the Markdown of ``table.md``.
+    records hold white and the oracle: :mod:`benchmarks.reports.gap`), the charts and the page
+    ``index.html`` into ``out_dir``; return the Markdown of ``table.md``.
 
     Args:
         out_dir: the suite's output folder (holding ``cells.jsonl`` unless ``records`` is given).
@@ -63,8 +68,9 @@ def write_report(
         Path(tmp).write_text(text)
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
-    write_gap_tables(out, records)
+    shares = write_gap_tables(out, records)
     write_denoise_tables(out, records, rows)
     if charts:
-        write_charts(rows, records, out)
+        write_charts(rows, records, out, shares)
+    write_suite_page(out, rows, records, title or f"bnerr bench: {out.name}")
     return text

@@ -9,6 +9,12 @@ without its newline, which the resuming runner drops (``load_records(..., torn_t
 measures again. :func:`load_records` reads the file back; any other line that is not UTF-8, not
 JSON or not a record raises :class:`~bnerr.errors.FileFormatError` naming the file and the line.
 
+A finished folder may hold the same lines gzip-compressed instead, ``<out>/cells.jsonl.gz``
+(:func:`compress_records`, which ``bnerr bench`` calls once the report is written: a sixth of the
+bytes, so that the committed ``results/`` stays small). :func:`load_records` and
+:func:`check_no_results` read either (the plain file first); :func:`append_records` restores the
+plain file before appending, and :func:`write_records` removes a compressed copy it supersedes.
+
 The schema is the dataclasses below. Arrays are nested lists (JSON numbers); ``[S][F]`` is
 seed set x measured frame:
 
@@ -34,6 +40,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import gzip
 import json
 import os
 import warnings
@@ -48,6 +55,7 @@ from bnerr.io import atomic_write
 from bnerr.outputs import OutputPathError
 
 __all__ = [
+    "RESULTS_ARCHIVE",
     "RESULTS_FILE",
     "ReferenceInfo",
     "Record",
@@ -56,12 +64,15 @@ __all__ = [
     "Timings",
     "append_records",
     "check_no_results",
+    "compress_records",
     "load_records",
     "write_records",
 ]
 
 #: Name of the per-cell results file inside the output folder.
 RESULTS_FILE = "cells.jsonl"
+#: Name of its gzip-compressed form (:func:`compress_records`).
+RESULTS_ARCHIVE = RESULTS_FILE + ".gz"
 
 #: Metric name -> ``[S][F][2]`` per-frame pairs.
 MetricPairs = dict[str, list[list[list[float]]]]
@@ -175,6 +186,45 @@ def _parse_line(path: Path, number: int, line: bytes) -> Record:
         raise FileFormatError(f"{path}: line {number}: {err}") from None
 
 
+def _read_results(out_dir: str | Path) -> tuple[Path, bytes] | None:
+    """The path and bytes of the folder's results (the plain file, else the compressed one,
+    decompressed), or None when it has neither."""
+    for name in (RESULTS_FILE, RESULTS_ARCHIVE):
+        path = Path(out_dir) / name
+        if not path.exists():
+            continue
+        try:
+            data = path.read_bytes()
+            return path, gzip.decompress(data) if name == RESULTS_ARCHIVE else data
+        except (OSError, EOFError, gzip.BadGzipFile) as err:
+            raise FileFormatError(f"{path}: expected a readable results file, got {err}") from None
+    return None
+
+
+def compress_records(out_dir: str | Path) -> Path | None:
+    """Replace ``<out_dir>/cells.jsonl`` by ``cells.jsonl.gz`` (the same bytes, compressed
+    reproducibly: no time stamp), atomically; return its path, or None without a plain file."""
+    path = Path(out_dir) / RESULTS_FILE
+    if not path.is_file():
+        return None
+    archive = Path(out_dir) / RESULTS_ARCHIVE
+    with atomic_write(archive) as tmp:
+        Path(tmp).write_bytes(gzip.compress(path.read_bytes(), compresslevel=9, mtime=0))
+    path.unlink()
+    return archive
+
+
+def _restore_plain(out_dir: str | Path) -> None:
+    """Turn a compressed results file back into ``cells.jsonl`` (before appending to it)."""
+    archive = Path(out_dir) / RESULTS_ARCHIVE
+    if archive.exists() and not (Path(out_dir) / RESULTS_FILE).exists():
+        found = _read_results(out_dir)
+        assert found is not None
+        with atomic_write(Path(out_dir) / RESULTS_FILE) as tmp:
+            Path(tmp).write_bytes(found[1])
+        archive.unlink()
+
+
 def load_records(out_dir: str | Path, *, torn_tail: bool = False) -> list[Record]:
     """The records in ``<out_dir>/cells.jsonl`` (empty if there is none), in file order.
 
@@ -188,13 +238,10 @@ def load_records(out_dir: str | Path, *, torn_tail: bool = False) -> list[Record
             line among them, unless ``torn_tail``) or not a record; the message names the file
             and the line.
     """
-    path = Path(out_dir) / RESULTS_FILE
-    if not path.exists():
+    found = _read_results(out_dir)
+    if found is None:
         return []
-    try:
-        data = path.read_bytes()
-    except OSError as err:
-        raise FileFormatError(f"{path}: expected a readable results file, got {err}") from None
+    path, data = found
     lines = data.split(b"\n")
     records = []
     for number, line in enumerate(lines, start=1):
@@ -224,6 +271,7 @@ def write_records(out_dir: str | Path, records: Iterable[Record]) -> None:
     data = _lines(records)
     with atomic_write(Path(out_dir) / RESULTS_FILE) as tmp:
         Path(tmp).write_bytes(data)
+    (Path(out_dir) / RESULTS_ARCHIVE).unlink(missing_ok=True)  # superseded
 
 
 def append_records(out_dir: str | Path, records: Iterable[Record]) -> None:
@@ -243,6 +291,7 @@ def append_records(out_dir: str | Path, records: Iterable[Record]) -> None:
     data = _lines(records)
     if not data:
         return
+    _restore_plain(out_dir)
     path = Path(out_dir) / RESULTS_FILE
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
@@ -279,10 +328,11 @@ def _write_all(fd: int, data: bytes, size: int, path: Path) -> None:
 def check_no_results(out_dir: str | Path) -> None:
     """Raise :class:`ResultsExistError` if ``<out_dir>/cells.jsonl`` holds any line (finished
     cells that a fresh run would discard); the file is not parsed."""
-    path = Path(out_dir) / RESULTS_FILE
-    if not path.is_file():
+    found = _read_results(out_dir)
+    if found is None:
         return
-    count = sum(1 for line in path.read_bytes().split(b"\n") if line.strip())
+    path, data = found
+    count = sum(1 for line in data.split(b"\n") if line.strip())
     if count:
         raise ResultsExistError(
             f"{path}: expected no finished cells in the output folder of a fresh run, got "

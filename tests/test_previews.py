@@ -1,0 +1,41 @@
+"""Tests of benchmarks.reports.previews: the crops kept as PNG strips."""
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from benchmarks.reports.previews import crop_strip, load_crop
+from bnerr.errors import FileFormatError
+
+
+def _crop(tmp_path):
+    (tmp_path / "crops").mkdir()
+    images = {
+        "reference": np.full((4, 4, 3), 100, np.uint8),
+        "raw": np.arange(48, dtype=np.uint8).reshape(4, 4, 3),
+        "denoised__oidn": np.full((4, 4, 3), 95, np.uint8),
+    }
+    np.savez_compressed(tmp_path / "crops" / "c.npz", **images)
+    return "crops/c.npz", {k.replace("__", "/"): v for k, v in images.items()}
+
+
+def test_the_npz_becomes_a_lossless_strip_that_loads_in_its_place(tmp_path):
+    crop, images = _crop(tmp_path)
+    rel, names = crop_strip(tmp_path, crop)
+    assert rel == "crops/c.png" and names == ["reference", "raw", "denoised/oidn"]
+    assert not (tmp_path / "crops" / "c.npz").exists()
+    assert np.asarray(Image.open(tmp_path / rel)).shape == (4, 12, 3)  # at the crop's size
+    loaded = load_crop(tmp_path, crop)  # the record still names the .npz
+    assert list(loaded) == names and all(np.array_equal(loaded[n], images[n]) for n in names)
+    assert crop_strip(tmp_path, crop) == (rel, names)  # the second time: read, not written
+
+
+def test_missing_crops_are_none_and_bad_files_are_typed_errors(tmp_path):
+    assert load_crop(tmp_path, None) is None and load_crop(tmp_path, "crops/x.npz") is None
+    assert crop_strip(tmp_path, "crops/x.npz") is None and crop_strip(tmp_path, None) is None
+    (tmp_path / "bad.npz").write_text("not a zip")
+    with pytest.raises(FileFormatError, match="bad.npz"):
+        load_crop(tmp_path, "bad.npz")
+    Image.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "plain.png")
+    with pytest.raises(FileFormatError, match="plain.png"):
+        load_crop(tmp_path, "plain.npz")  # a PNG without the tile names
