@@ -1,5 +1,5 @@
 """Tests of bnerr/sequences/native.py: the C kernels of the Owen-Sobol, ZSobol, temporal Z-order
-and (through Owen-Sobol) Cycles samplers against their torch paths, bit for bit, over several
+and Cycles samplers against their torch paths, bit for bit, over several
 films, spp, first dimensions, dimension counts, seeds and lane orders; the dispatch (CPU only) and
 the fallback when the library is unavailable.
 
@@ -17,7 +17,8 @@ from bnerr.sequences import cycles_keys, make_sampler, native, zsobol_keys
 owen_sobol_module = importlib.import_module("bnerr.sequences.owen_sobol")
 zsobol_module = importlib.import_module("bnerr.sequences.zsobol")
 zsobol_t_module = importlib.import_module("bnerr.sequences.zsobol_t")
-SELF_CHECKED = (owen_sobol_module, zsobol_module, zsobol_t_module)
+cycles_module = importlib.import_module("bnerr.sequences.cycles")
+SELF_CHECKED = (owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module)
 
 
 @pytest.fixture

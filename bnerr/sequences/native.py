@@ -1,9 +1,9 @@
 """Bindings of ``samplers.c``: the native CPU kernels of the Owen-Sobol, ZSobol and temporal
-Z-order samplers (and so of Cycles' patterns, which index Owen-Sobol).
+Z-order samplers and Cycles' patterns (which index Owen-Sobol).
 
 The C source ``samplers.c`` (package data of this package) is built, cached and loaded by
 :func:`bnerr.native.library`, with the same compiler search, hash check and single warning as the
-permutation kernels. This module binds its three functions and wraps them for tensors; each
+permutation kernels. This module binds its four functions and wraps them for tensors; each
 sampler module owns its dispatch, its self-check against its torch path and the fallback.
 
 Why C: the torch paths make one full pass over the lanes per operation, and a ZSobol pair is
@@ -28,6 +28,7 @@ __all__ = [
     "LIBRARY",
     "TORCH_PATH_COST",
     "SamplerKernels",
+    "native_cycles",
     "native_owen_sobol",
     "native_zsobol",
     "threads_for",
@@ -36,7 +37,7 @@ __all__ = [
 
 #: What the torch path costs instead, quoted in the warnings.
 TORCH_PATH_COST = "the ZSobol and temporal Z-order samplers run 10-50x slower on the CPU"
-_SYMBOLS = ("bnerr_owen_sobol", "bnerr_zsobol", "bnerr_zsobol_t")
+_SYMBOLS = ("bnerr_owen_sobol", "bnerr_zsobol", "bnerr_zsobol_t", "bnerr_cycles")
 
 
 @dataclass(frozen=True)
@@ -46,6 +47,7 @@ class SamplerKernels:
     owen_sobol: Callable[..., int]
     zsobol: Callable[..., int]
     zsobol_t: Callable[..., int]
+    cycles: Callable[..., int]
     why: str
 
 
@@ -58,9 +60,12 @@ def _bind(library: ctypes.CDLL, why: str) -> SamplerKernels:
     zsobol.argtypes = [p, p, i64, i64, i64, c_int, c_int, u64, p, p, p, c_int]
     temporal = library.bnerr_zsobol_t
     temporal.argtypes = [p, p, i64, i64, i64, c_int, c_int, u64, u64, u64, p, p, p, c_int]
-    for function in (owen, zsobol, temporal):
+    cycles = library.bnerr_cycles
+    u32 = ctypes.c_uint32
+    cycles.argtypes = [p, p, i64, i64, i64, u32, c_int, u32, u32, p, p, c_int]
+    for function in (owen, zsobol, temporal, cycles):
         function.restype = c_int
-    return SamplerKernels(owen, zsobol, temporal, why)
+    return SamplerKernels(owen, zsobol, temporal, cycles, why)
 
 
 #: The library of ``samplers.c``: ``LIBRARY.load()`` gives the bound :class:`SamplerKernels`
@@ -145,4 +150,35 @@ def native_zsobol(
         code = kernels.zsobol(*args, *tail)
     else:
         code = kernels.zsobol_t(*args, *frame, *tail)
+    return code == 0
+
+
+def native_cycles(
+    kernels: SamplerKernels,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    pattern: tuple[int, bool, int, int],
+    keys: Sequence[int],
+    out: torch.Tensor,
+) -> bool:
+    """Cycles' blue-noise indexing over Owen-Sobol into the rows of ``out``.
+
+    Args:
+        lanes: int64 ``[N]`` each: the pixel's key and the sample index.
+        pattern: ``(spp, first, seed0, first_seed)``: FIRST when ``first``, else PURE.
+        keys: as :func:`native_owen_sobol`.
+        out: float32 ``[count, N]``, contiguous.
+
+    Returns:
+        False when the kernel refused the sizes.
+    """
+    key, index = (t.contiguous() for t in lanes)
+    table = _u32(keys)
+    count, n = out.shape
+    spp, first, seed0, first_seed = pattern
+    code = kernels.cycles(
+        key.data_ptr(), index.data_ptr(), n, dim, count, spp & 0xFFFFFFFF, int(first),
+        seed0 & 0xFFFFFFFF, first_seed & 0xFFFFFFFF, table.data_ptr(), out.data_ptr(),
+        threads_for(n),
+    )  # fmt: skip
     return code == 0

@@ -1,7 +1,7 @@
 /* bnerr's native CPU kernels of the samplers (bnerr.sequences): per-pixel Owen-Sobol padded by
-   2D pairs (bnerr_owen_sobol, also Cycles' blue-noise patterns, which index it), pbrt-v4's ZSobol
-   with its FastOwen value scramble (bnerr_zsobol) and the temporal Z-order sampler
-   (bnerr_zsobol_t).
+   2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles),
+   pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol) and the temporal Z-order
+   sampler (bnerr_zsobol_t).
 
    Built by bnerr.native at first use, like permute.c. Each function writes dimensions
    dim .. dim + count - 1 of n lanes into out, a [count, n] float32 buffer (one row per
@@ -97,11 +97,12 @@ static inline uint32_t reversed_sobol(const sobol1_t *s, uint64_t a, int c) {
 }
 
 typedef struct {
-    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t */
+    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles */
     const int64_t *seed;     /* owen_sobol: per-lane seeds (stride seed_stride) */
     const int64_t *index;    /* sample indices */
     int64_t seed_stride, n, lo, hi, dim, count;
-    uint64_t key_mask, t;    /* zsobol(_t): the Morton key's bits; zsobol_t: the frame mod F */
+    uint64_t key_mask, t;    /* zsobol(_t): the Morton key's bits; zsobol_t: the frame mod F;
+                                Cycles: (seed0, first sequence's seed) and (spp, first) */
     const uint32_t *keys;    /* per pair from dim / 2: owen_sobol 3 hashes, zsobol(_t) 2 seeds */
     const uint8_t *perm;     /* zsobol: 24 x 4; zsobol_t: 40320 x 8 */
     int log2spp, n_digits;
@@ -114,11 +115,30 @@ static inline void put(const sjob_t *j, int64_t d, int64_t i, float v) {
     if (d >= j->dim && d < j->dim + j->count) j->out[(d - j->dim) * j->n + i] = v;
 }
 
+/* Cycles' blue-noise indexing of lane i: the sequence's seed and index from the pixel's key.
+   PURE: seed0, index + key spp; FIRST: sample 0 is index key of the first sequence, sample i
+   index (i - 1) + key (spp - 1) of seed0's (all mod 2^32). */
+static inline void cycles_lane(const sjob_t *j, int64_t i, uint32_t *seed, uint32_t *index) {
+    uint32_t key = (uint32_t)j->seed[i], at = (uint32_t)j->index[i];
+    uint32_t spp = (uint32_t)j->t, first = (uint32_t)(j->t >> 32);
+    *seed = (uint32_t)j->key_mask;
+    if (!first) {
+        *index = at + key * spp;
+    } else if (at == 0) {
+        *seed = (uint32_t)(j->key_mask >> 32);
+        *index = key;
+    } else {
+        *index = (at - 1) + key * (spp - 1);
+    }
+}
+
 static void owen_sobol_lanes(const sjob_t *j) {
     int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2;
     for (int64_t i = j->lo; i < j->hi; ++i) {
-        uint32_t seed_hash = lowbias32((uint32_t)j->seed[i * j->seed_stride] ^ 0xC2B2AE35u);
-        uint32_t rindex = rev32((uint32_t)j->index[i]);
+        uint32_t seed = (uint32_t)j->seed[i * j->seed_stride], index = (uint32_t)j->index[i];
+        if (j->kind == 3) cycles_lane(j, i, &seed, &index);
+        uint32_t seed_hash = lowbias32(seed ^ 0xC2B2AE35u);
+        uint32_t rindex = rev32(index);
         for (int64_t p = p0; p <= p1; ++p) {
             const uint32_t *k = j->keys + 3 * (p - p0);
             uint32_t y = laine_karras(rindex, lowbias32(seed_hash ^ k[2]));
@@ -228,7 +248,7 @@ static void zsobol_lanes(const sjob_t *j) {
 
 static void *run_lanes(void *arg) {
     const sjob_t *j = (const sjob_t *)arg;
-    if (j->kind == 0) owen_sobol_lanes(j);
+    if (j->kind == 0 || j->kind == 3) owen_sobol_lanes(j);
     else zsobol_lanes(j);
     return 0;
 }
@@ -266,6 +286,16 @@ static int run(sjob_t base, int threads) {
 int bnerr_owen_sobol(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
                      int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
     sjob_t j = {0, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out};
+    return run(j, threads);
+}
+
+/* Cycles' PURE (first 0) and FIRST (first 1) patterns over Owen-Sobol: key and index per lane,
+   seeds: the global sequence's and the first sample's (low 32 bits); keys as bnerr_owen_sobol. */
+int bnerr_cycles(const int64_t *key, const int64_t *index, int64_t n, int64_t dim, int64_t count,
+                 uint32_t spp, int first, uint32_t seed0, uint32_t first_seed,
+                 const uint32_t *keys, float *out, int threads) {
+    uint64_t seeds = seed0 | ((uint64_t)first_seed << 32), mode = spp | ((uint64_t)!!first << 32);
+    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out};
     return run(j, threads);
 }
 
