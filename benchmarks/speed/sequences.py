@@ -8,6 +8,13 @@ white noise; ``ldbn`` random 64 x 64 key tiles for 8 dimensions (level 64 spp), 
 pixel's own Owen-Sobol. The Z-order samplers (``zsobol``, ``zsobol_t``, ``cycles_*``) read the
 lane's seed as the pixel's key, built for a film 1024 wide and 64 spp.
 
+The render figure (:func:`measure_render`) is what the goal of issue 27 is stated in: each
+sampler drives an eager ``renderers.render`` of the Cornell box (128 x 128, 16 spp) with the seed
+image its strategy uses (Morton keys for the Z-order samplers, Cycles' scrambled keys for its
+patterns, the shipped screen-space keys for ``ldbn``, random seeds for the others); the renders
+take turns, so every sampler sees the same load, and the ratio is over per-pixel
+``owen_sobol``'s time (goal: at most 1.2x).
+
 Timings depend on the machine, on the number of torch threads and on what else runs on it;
 report them with the machine.
 """
@@ -24,10 +31,16 @@ import torch
 
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import fmt, get, number, ratio
-from bnerr.sequences import SAMPLERS, LDBNKeys, make_sampler
+from bnerr.sequences import SAMPLERS, LDBNKeys, cycles_keys, make_sampler, zsobol_keys
+from bnerr.strategies import make_strategy
 from bnerr.timing import Stopwatch, sync
 
-__all__ = ["table", "main", "measure"]
+__all__ = ["table", "main", "measure", "measure_render", "measure_samples"]
+
+#: The samplers of the render figure, in the order of the table.
+RENDERED = ("white", "owen_sobol", "zsobol", "zsobol_t", "cycles_pure", "cycles_first", "ldbn")
+#: The render figure's goal: at most this times per-pixel Owen-Sobol's render time.
+RENDER_GOAL = 1.2
 
 
 def _lanes(n: int, device: torch.device):
@@ -46,7 +59,46 @@ def _ldbn_keys() -> LDBNKeys:
     return LDBNKeys(scramble, rank.to(torch.int32))
 
 
-def measure(
+def measure() -> dict[str, Any]:
+    """Median seconds per sampler call (``sample``: ``{name: {count: s}}``) and per eager render
+    driven by each sampler (``render``: ``{name: s}``, the Cornell box at 128 x 128, 16 spp)."""
+    return {"sample": measure_samples(), "render": measure_render()}
+
+
+def _render_setups(size: int, spp: int) -> dict[str, tuple[Any, torch.Tensor]]:
+    """Each rendered sampler with the seed image its strategy gives it."""
+    seeds = torch.randint(0, 2**32, (size, size), generator=torch.Generator().manual_seed(0))
+    film = {"width": size, "height": size, "spp": spp}
+    morton = zsobol_keys(size, size)
+    return {
+        "white": (make_sampler("white"), seeds),
+        "owen_sobol": (make_sampler("owen_sobol"), seeds),
+        "zsobol": (make_sampler("zsobol", **film), morton),
+        "zsobol_t": (make_sampler("zsobol_t", **film, frame=3), morton),
+        "cycles_pure": (make_sampler("cycles_pure", spp=spp), cycles_keys(size, size)),
+        "cycles_first": (make_sampler("cycles_first", spp=spp), cycles_keys(size, size)),
+        "ldbn": (make_strategy("ldbn", size, size, seed=0, spp=spp).sampler(0), seeds),
+    }
+
+
+def measure_render(size: int = 128, spp: int = 16, repeats: int = 3) -> dict[str, float]:
+    """Median seconds of an eager Cornell-box render driven by each of :data:`RENDERED`, the
+    renders taking turns (one warm-up each first)."""
+    from renderers import get_scene, render
+
+    scene = get_scene("cornell")
+    setups = _render_setups(size, spp)
+    times: dict[str, list[float]] = {name: [] for name in setups}
+    for round_ in range(repeats + 1):
+        for name, (sampler, seeds) in setups.items():
+            watch = Stopwatch()
+            render(scene, 0, seeds, sampler, spp, compile=False)
+            if round_:
+                times[name].append(watch.ms(torch.device("cpu")) / 1e3)
+    return {name: statistics.median(values) for name, values in times.items()}
+
+
+def measure_samples(
     names: Sequence[str] | None = None,
     n: int = 1 << 20,
     counts: Sequence[int] = (2, 8),
@@ -86,8 +138,17 @@ def measure(
 
 
 def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
-    """The samplers against independent white values."""
-    lanes = inspect.signature(measure).parameters["n"].default
+    """The samplers against independent white values, then in a render against Owen-Sobol."""
+    samples = values.get("sample", values) if "render" in values else values
+    lines = _sample_table(samples)
+    render = values.get("render")
+    if isinstance(render, Mapping):
+        lines += _render_table(render)
+    return lines
+
+
+def _sample_table(values: Mapping[str, Any]) -> list[str]:
+    lanes = inspect.signature(measure_samples).parameters["n"].default
     counts = sorted(
         {c for row in values.values() if isinstance(row, Mapping) for c in row}, key=int
     )
@@ -117,6 +178,24 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     return lines + table_lines(header, rows) + [""]
 
 
+def _render_table(values: Mapping[str, Any]) -> list[str]:
+    lines = [
+        "## Samplers in a render (`speed.sequences`)",
+        "",
+        "Median seconds of an eager `renderers.render` of the Cornell box, 128 x 128, 16 spp, "
+        "driven by each sampler with its strategy's seed image, the renders taking turns; "
+        f"goal: at most {RENDER_GOAL}x per-pixel `owen_sobol`'s time.",
+        "",
+    ]
+    anchor = number(values.get("owen_sobol"))
+    rows = []
+    for name, seconds in values.items():
+        s = number(seconds)
+        met = "-" if s is None or anchor is None else ("yes" if s <= RENDER_GOAL * anchor else "no")
+        rows.append([name, fmt(s), ratio(s, anchor), met])
+    return lines + table_lines(["sampler", "s", "/ owen_sobol", "goal met"], rows) + [""]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m benchmarks.speed.sequences", description=__doc__.split("\n\n")[0]
@@ -127,6 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sampler", action="append", help="only these (repeatable)")
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--threads", type=int, help="torch threads (default: torch's choice)")
+    parser.add_argument("--render", action="store_true", help="also time a render per sampler")
     args = parser.parse_args(argv)
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -135,11 +215,13 @@ def main(argv: list[str] | None = None) -> int:
         f"sampler time, {args.n} lanes on {args.device}, {torch.get_num_threads()} torch threads, "
         f"median of {args.repeats}"
     )
-    results = measure(args.sampler, args.n, counts, args.repeats, args.device)
+    results = measure_samples(args.sampler, args.n, counts, args.repeats, args.device)
     for name, by_count in results.items():
         for count, seconds in by_count.items():
             rate = args.n * count / seconds / 1e6
             print(f"  {name:12s} count {count:3d}  {seconds * 1e3:9.2f} ms  {rate:9.1f} M values/s")
+    if args.render:
+        print("\n".join(_render_table(measure_render())))
     return 0
 
 

@@ -35,8 +35,10 @@ import torch
 
 from bnerr.errors import DtypeError, check_positive_int
 from bnerr.hashing import MASK32, lowbias32_host, signed32
+from bnerr.native import SelfCheckedKernels
+from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _check_index_below, _columns
-from bnerr.sequences.owen_sobol import _owen_sobol_columns
+from bnerr.sequences.owen_sobol import _owen_sobol_columns, _pair_keys
 from bnerr.sequences.tables import _tables
 
 __all__ = ["CyclesFirstSampler", "CyclesPureSampler", "cycles_keys", "morton2d_cycles"]
@@ -132,9 +134,14 @@ class _CyclesSampler(Sampler):
     def _sample(self, seed, index, dim, count, pixel):
         _check_index_below(index, self.spp, f"{self.name} spp")
         out = _columns(seed.shape[0], count, seed.device)
+        if not _native_values(self, (seed, index), dim, out):
+            self._values_torch(seed, index, dim, out)
+        return out.T
+
+    def _values_torch(self, seed, index, dim, out):
+        """The torch path: the lanes' indices, then :func:`_owen_sobol_columns`."""
         sequence_seed, sequence_index = self._indices(seed & MASK32, index)
         _owen_sobol_columns(sequence_seed, sequence_index, dim, out)
-        return out.T
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(spp={self.spp}, seed0={self.seed0})"
@@ -162,3 +169,49 @@ class CyclesFirstSampler(_CyclesSampler):
 
     name = "cycles_first"
     first = True
+
+
+def _native_values(
+    sampler: _CyclesSampler,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    out: torch.Tensor,
+    kernels: native.SamplerKernels | None = None,
+) -> bool:
+    """The values of the lanes' (key, index) in C into ``out``; False when the native path does
+    not apply."""
+    if not native.uses_native(*lanes, out):
+        return False
+    kernels = kernels if kernels is not None else _native_kernels()
+    if kernels is None:
+        return False
+    first_seed = sampler.seed0 ^ FIRST_SEQUENCE_SALT
+    pattern = (sampler.spp, sampler.first, sampler.seed0, first_seed)
+    keys = _pair_keys(dim, out.shape[0])
+    return native.native_cycles(kernels, lanes, dim, pattern, keys, out)
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path for both patterns, spp 1 and odd spp, odd first
+    dimensions, negative seeds and keys above 32 bits: True if bit-identical."""
+    gen = torch.Generator().manual_seed(47)
+    key = torch.randint(-(2**40), 2**40, (257,), generator=gen)
+    for sampler_type, spp, seed0, dim, count in (
+        (CyclesPureSampler, 16, 0, 0, 6), (CyclesFirstSampler, 5, -9, 3, 4),
+        (CyclesFirstSampler, 1, 7, 1, 1), (CyclesPureSampler, 3, 2**31, 2, 3),
+    ):  # fmt: skip
+        sampler = sampler_type(spp, seed0)
+        index = torch.randint(0, spp, (257,), generator=gen)
+        want, got = (_columns(257, count, key.device) for _ in range(2))
+        sampler._values_torch(key, index, dim, want)
+        if not _native_values(sampler, (key, index), dim, got, kernels) or not torch.equal(
+            got, want
+        ):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.cycles: the native Cycles kernel", native.LIBRARY
+)

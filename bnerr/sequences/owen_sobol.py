@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import torch
 
-from bnerr.hashing import lowbias32, signed32, srl32
+from bnerr.hashing import lowbias32, lowbias32_host, signed32, srl32
+from bnerr.native import SelfCheckedKernels
+from bnerr.sequences import native
 from bnerr.sequences.base import (
     Sampler,
     _columns,
@@ -113,10 +115,30 @@ def _owen_sobol_columns(
 ) -> None:
     """Write :func:`owen_sobol` of dims ``dim .. dim + len(out) - 1`` into the rows of ``out``.
 
-    ``seed`` may be ``[N]`` or a 0-dim tensor (one seed for every lane, as in BNDS). The seed
-    hash and the reversed index are shared by every pair, the shuffled index by both
-    coordinates of a pair.
+    ``seed`` may be ``[N]`` or a 0-dim tensor (one seed for every lane, as in BNDS). On the CPU
+    the native kernel (:mod:`bnerr.sequences.native`) writes the same bits when it loads and
+    passes its self-check; else :func:`_owen_sobol_columns_torch`.
     """
+    if native.uses_native(seed, index, out) and out.is_contiguous():
+        kernels = _native_kernels()
+        if kernels is not None:
+            keys = _pair_keys(dim, out.shape[0])
+            if native.native_owen_sobol(kernels, seed, index, dim, keys, out):
+                return
+    _owen_sobol_columns_torch(seed, index, dim, out)
+
+
+def _pair_keys(dim: int, count: int) -> list[int]:
+    """The host hashes of roles 0, 1, 2 of every pair that dims ``dim .. dim + count - 1`` touch."""
+    pairs = range(dim // 2, (dim + count - 1) // 2 + 1)
+    return [lowbias32_host((4 * p + role) ^ _SALT_SOBOL_KEY) for p in pairs for role in (0, 1, 2)]
+
+
+def _owen_sobol_columns_torch(
+    seed: torch.Tensor, index: torch.Tensor, dim: int, out: torch.Tensor
+) -> None:
+    """The torch path of :func:`_owen_sobol_columns`: the seed hash and the reversed index are
+    shared by every pair, the shuffled index by both coordinates of a pair."""
     tables = _tables(index.device)
     seed_hash = lowbias32(_words(seed, index.device) ^ signed32(_SALT_SOBOL_SEED))
     rindex = tables.reverse(_words(index, index.device))
@@ -127,6 +149,29 @@ def _owen_sobol_columns(
             if dim <= 2 * pair + role < end:
                 word = _owen_coordinate(tables, seed_hash, y, pair, role)
                 _to_unit(word, out=out[2 * pair + role - dim])
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path on random lanes, odd and even first dimensions,
+    a shared 0-dim seed and extreme words: True if bit-identical."""
+    gen = torch.Generator().manual_seed(97)
+    seed = torch.randint(-(2**40), 2**40, (301,), generator=gen)
+    index = torch.randint(0, 2**33, (301,), generator=gen)
+    seed[:3], index[:3] = torch.tensor([0, -1, 2**32 - 1]), torch.tensor([0, 2**32 - 1, 1])
+    for lanes_seed, dim, count in ((seed, 0, 8), (seed, 5, 4), (seed[7], 3, 1), (seed, 64, 3)):
+        want = torch.empty(count, 301)
+        got = torch.empty(count, 301)
+        _owen_sobol_columns_torch(lanes_seed, index, dim, want)
+        ok = native.native_owen_sobol(kernels, lanes_seed, index, dim, _pair_keys(dim, count), got)
+        if not ok or not torch.equal(got, want):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.owen_sobol: the native Owen-Sobol kernel", native.LIBRARY
+)
 
 
 class OwenSobolSampler(Sampler):

@@ -50,6 +50,8 @@ from bnerr.errors import (
     check_tensor,
 )
 from bnerr.hashing import MASK32, signed32, srl32
+from bnerr.native import SelfCheckedKernels
+from bnerr.sequences import native
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler, _broadcast, _check_index_below, _columns
 from bnerr.sequences.tables import _tables
 
@@ -421,15 +423,19 @@ class ZSobolSampler(Sampler):
     def _sample(self, seed, index, dim, count, pixel):
         _check_index_below(index, self.samples_per_pixel, f"{self.name} spp")
         out = _columns(seed.shape[0], count, seed.device)
-        morton = self._morton(seed, index)
-        end = dim + count
+        if not (self.randomizer == "fastowen" and _native_words(self, (seed, index), dim, out)):
+            self._words_torch(self._morton(seed, index), dim, out)
+        return out.T
+
+    def _words_torch(self, morton: torch.Tensor, dim: int, out: torch.Tensor) -> None:
+        """The torch path: every pair's values into the rows of ``out``."""
+        end = dim + out.shape[0]
         for pair in range(dim // 2, (end - 1) // 2 + 1):
             wanted = [c for c in (0, 1) if dim <= 2 * pair + c < end]
             words = _zsobol_words(morton, 2 * pair, 2, wanted, self.layout, self.seed,
                                   self.randomizer)  # fmt: skip
             for c, word in zip(wanted, words, strict=True):
                 out[2 * pair + c - dim] = _to_float(word)
-        return out.T
 
     def __repr__(self) -> str:
         lay = self.layout
@@ -437,3 +443,58 @@ class ZSobolSampler(Sampler):
             f"ZSobolSampler(width={lay.width}, height={lay.height}, spp={lay.spp}, "
             f"seed={self.seed}, randomizer={self.randomizer!r})"
         )
+
+
+def _pair_seeds(dim: int, count: int, seed: int) -> list[int]:
+    """The value scramble's two seeds of every pair that dims ``dim .. dim + count - 1`` touch."""
+    pairs = range(dim // 2, (dim + count - 1) // 2 + 1)
+    return [word for p in pairs for word in _scramble_seeds(2 * p + 2, seed)]
+
+
+def _native_words(
+    sampler: ZSobolSampler,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    out: torch.Tensor,
+    kernels: native.SamplerKernels | None = None,
+) -> bool:
+    """The FastOwen values of the lanes' (key, index) in C into ``out``; False when the native
+    path does not apply."""
+    if not native.uses_native(*lanes, out):
+        return False
+    kernels = kernels if kernels is not None else _native_kernels()
+    if kernels is None:
+        return False
+    lay = sampler.layout
+    perm = _perm_table(out.device).to(torch.uint8)
+    seeds = _pair_seeds(dim, out.shape[0], sampler.seed)
+    digits = (lay.log2spp, lay.n_digits, lay.log2r)
+    return native.native_zsobol(kernels, lanes, dim, seeds, perm, digits, out)
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path for odd and even log2 spp, odd first dimensions
+    and negative seeds: True if bit-identical."""
+    gen = torch.Generator().manual_seed(41)
+    for width, height, spp, seed, dim, count in (
+        (37, 21, 8, -3, 0, 6), (300, 5, 16, 2**31 - 1, 3, 4), (1, 1, 1, 0, 1, 2),
+    ):  # fmt: skip
+        sampler = ZSobolSampler(width, height, spp, seed)
+        keys = zsobol_keys(height, width).reshape(-1)
+        # pixel-major like the renderer's lanes, so that the kernel's reuse of a pixel's digits runs
+        lanes = torch.randint(0, keys.numel(), (257,), generator=gen).sort().values
+        index = torch.randint(0, spp, (257,), generator=gen)
+        key = keys[lanes] + (torch.arange(257) << 40)  # bits above the key are dropped
+        want, got = (_columns(257, count, key.device) for _ in range(2))
+        sampler._words_torch(sampler._morton(key, index), dim, want)
+        if not _native_words(sampler, (key, index), dim, got, kernels) or not torch.equal(
+            got, want
+        ):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.zsobol: the native ZSobol kernel", native.LIBRARY
+)

@@ -42,23 +42,28 @@ import torch
 
 from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.hashing import MASK32
+from bnerr.native import SelfCheckedKernels
+from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _check_index_below, _columns
 from bnerr.sequences.zsobol import (
     _SALT,
     _check_seed,
     _Layout,
     _mix_bits,
+    _pair_seeds,
     _randomize,
     _reversed_sobol,
     _scramble_seeds,
     _srl64,
     _to_float,
+    zsobol_keys,
 )
 
 __all__ = ["ZSobolTSampler", "morton3"]
 
 _PERM8_COUNT = 40320
 _PERM8_TABLES: dict[torch.device, torch.Tensor] = {}
+_PERM8_BYTES: list[torch.Tensor] = []
 
 
 def _perm8_table(device: torch.device) -> torch.Tensor:
@@ -67,6 +72,13 @@ def _perm8_table(device: torch.device) -> torch.Tensor:
         rows = list(itertools.permutations(range(8)))
         _PERM8_TABLES[device] = torch.tensor(rows, dtype=torch.int64).reshape(-1).to(device)
     return _PERM8_TABLES[device]
+
+
+def _perm8_bytes() -> torch.Tensor:
+    """:func:`_perm8_table` on the CPU as uint8, for the native kernel (built once)."""
+    if not _PERM8_BYTES:
+        _PERM8_BYTES.append(_perm8_table(torch.device("cpu")).to(torch.uint8))
+    return _PERM8_BYTES[0]
 
 
 def _compact2(v: torch.Tensor) -> torch.Tensor:
@@ -150,21 +162,28 @@ class ZSobolTSampler(Sampler):
         t = self.frame % self.frames
         return (morton3(_compact2(key), _compact2(key >> 1), t) << self.layout.log2spp) | index
 
+    def _epoch(self) -> int:
+        """The salt bits above 32: ``(t div F) << 32``."""
+        return ((self.frame // self.frames) & 0x7FFFFFFF) << 32
+
     def _sample(self, seed, index, dim, count, pixel):
         _check_index_below(index, self.layout.samples_per_pixel, f"{self.name} spp")
         out = _columns(seed.shape[0], count, seed.device)
-        base = self._index(seed, index)
-        epoch = ((self.frame // self.frames) & 0x7FFFFFFF) << 32
-        end = dim + count
+        if not _native_words(self, (seed, index), dim, out):
+            self._words_torch(self._index(seed, index), dim, out)
+        return out.T
+
+    def _words_torch(self, base: torch.Tensor, dim: int, out: torch.Tensor) -> None:
+        """The torch path: every pair's values into the rows of ``out``."""
+        end = dim + out.shape[0]
         for pair in range(dim // 2, (end - 1) // 2 + 1):
-            salt = ((2 * pair * _SALT) & MASK32) ^ epoch
+            salt = ((2 * pair * _SALT) & MASK32) ^ self._epoch()
             a = _scramble_index(base, salt, self.layout.log2spp, self.n_digits)
             seeds = _scramble_seeds(2 * pair + 2, self.seed)
             for c in (0, 1):
                 if dim <= 2 * pair + c < end:
                     word = _randomize(_reversed_sobol(a, c), seeds[c], "fastowen")
                     out[2 * pair + c - dim] = _to_float(word)
-        return out.T
 
     def __repr__(self) -> str:
         lay = self.layout
@@ -172,3 +191,52 @@ class ZSobolTSampler(Sampler):
             f"ZSobolTSampler(width={lay.width}, height={lay.height}, spp={lay.spp}, "
             f"frame={self.frame}, frames={self.frames}, seed={self.seed})"
         )
+
+
+def _native_words(
+    sampler: ZSobolTSampler,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    out: torch.Tensor,
+    kernels: native.SamplerKernels | None = None,
+) -> bool:
+    """The values of the lanes' (key, index) in C into ``out``; False when the native path does
+    not apply."""
+    if not native.uses_native(*lanes, out):
+        return False
+    kernels = kernels if kernels is not None else _native_kernels()
+    if kernels is None:
+        return False
+    seeds = _pair_seeds(dim, out.shape[0], sampler.seed)
+    lay = sampler.layout
+    digits = (lay.log2spp, sampler.n_digits, lay.log2r)
+    frame = (sampler.frame % sampler.frames, sampler._epoch())
+    return native.native_zsobol(kernels, lanes, dim, seeds, _perm8_bytes(), digits, out, frame)
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path for several films, frames (a later epoch
+    included), spp and first dimensions: True if bit-identical."""
+    gen = torch.Generator().manual_seed(43)
+    for width, height, spp, frame, frames, dim, count in (
+        (37, 21, 8, 5, 16, 0, 6), (300, 5, 1, 2**20 + 3, 1024, 3, 4), (1, 1, 4, 0, 1, 1, 2),
+    ):  # fmt: skip
+        sampler = ZSobolTSampler(width, height, spp, frame, frames, seed=-7)
+        keys = zsobol_keys(height, width).reshape(-1)
+        # pixel-major like the renderer's lanes, so that the kernel's reuse of a pixel's digits runs
+        lanes = torch.randint(0, keys.numel(), (257,), generator=gen).sort().values
+        index = torch.randint(0, spp, (257,), generator=gen)
+        key = keys[lanes] + (torch.arange(257) << 40)  # bits above the key are dropped
+        want, got = (_columns(257, count, key.device) for _ in range(2))
+        sampler._words_torch(sampler._index(key, index), dim, want)
+        if not _native_words(sampler, (key, index), dim, got, kernels) or not torch.equal(
+            got, want
+        ):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.zsobol_t: the native temporal Z-order kernel", native.LIBRARY
+)

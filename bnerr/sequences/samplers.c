@@ -1,0 +1,323 @@
+/* bnerr's native CPU kernels of the samplers (bnerr.sequences): per-pixel Owen-Sobol padded by
+   2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles),
+   pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol) and the temporal Z-order
+   sampler (bnerr_zsobol_t).
+
+   Built by bnerr.native at first use, like permute.c. Each function writes dimensions
+   dim .. dim + count - 1 of n lanes into out, a [count, n] float32 buffer (one row per
+   dimension), with the same bits as the torch path of its module: integer-only arithmetic in
+   unsigned 32- and 64-bit words (wrapping, as torch's int32 and int64 tensors do), and one
+   float rounding at the end (the same as torch's). Every host-side constant (the per-pair hash
+   keys and scramble seeds, the digit permutation tables) comes in as an argument, computed by
+   the Python caller with the module's own functions. Threads split the lanes; each lane is
+   independent, so the result does not depend on the thread count. Return codes: 0 success,
+   1 bad sizes. */
+
+#include <stdint.h>
+#include <pthread.h>
+
+static inline uint32_t lowbias32(uint32_t x) {
+    x ^= x >> 16;
+    x *= 0x7FEB352Du;
+    x ^= x >> 15;
+    x *= 0x846CA68Bu;
+    return x ^ (x >> 16);
+}
+
+static inline uint32_t rev32(uint32_t x) {
+    x = __builtin_bswap32(x);
+    x = ((x >> 4) & 0x0F0F0F0Fu) | ((x & 0x0F0F0F0Fu) << 4);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    return ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+}
+
+/* Sobol dimension 1 in the reversed domain (P y of bnerr.sequences.tables): four byte tables of
+   the XOR of the columns rev32(v_(32-b)) over the set bits b, v the Pascal direction numbers. */
+typedef struct { uint32_t t[4][256]; } sobol1_t;
+
+static void sobol1_init(sobol1_t *s) {
+    uint32_t v[32], col[32];
+    v[0] = 1u << 31;
+    for (int k = 1; k < 32; ++k) v[k] = v[k - 1] ^ (v[k - 1] >> 1);
+    for (int b = 0; b < 32; ++b) col[b] = rev32(v[31 - b]);
+    for (int q = 0; q < 4; ++q)
+        for (int x = 0; x < 256; ++x) {
+            uint32_t w = 0;
+            for (int b = 0; b < 8; ++b)
+                if ((x >> b) & 1) w ^= col[8 * q + b];
+            s->t[q][x] = w;
+        }
+}
+
+static inline uint32_t sobol1(const sobol1_t *s, uint32_t y) {
+    return s->t[0][y & 255] ^ s->t[1][(y >> 8) & 255] ^ s->t[2][(y >> 16) & 255] ^
+           s->t[3][y >> 24];
+}
+
+/* The Laine-Karras permutation (Burley 2020, Listing 2). */
+static inline uint32_t laine_karras(uint32_t x, uint32_t key) {
+    x += key;
+    x ^= x * 0x6C50B47Cu;
+    x ^= x * 0xB82F1E52u;
+    x ^= x * 0xC7AFE638u;
+    x ^= x * 0x8D22F6E6u;
+    return x;
+}
+
+/* pbrt's MixBits. */
+static inline uint64_t mix_bits(uint64_t v) {
+    v ^= v >> 31;
+    v *= 0x7FB5D329728EA185ull;
+    v ^= v >> 27;
+    v *= 0x81DADEF4BC2DD44Dull;
+    return v ^ (v >> 33);
+}
+
+/* pbrt's FastOwen randomizer of the reversed Sobol word x with the 32-bit seed s. */
+static inline uint32_t fast_owen(uint32_t x, uint32_t s) {
+    x ^= x * 0x3D20ADEAu;
+    x += s;
+    x *= (s >> 16) | 1u;
+    x ^= x * 0x05526C56u;
+    return rev32(x ^ (x * 0x53A22864u));
+}
+
+/* pbrt's min(float32(v) * 2^-32, 0x1.fffffep-1). */
+static inline float word_to_float(uint32_t v) {
+    float f = (float)v * 0x1p-32f;
+    return f < 0x1.fffffep-1f ? f : 0x1.fffffep-1f;
+}
+
+/* rev32(Sobol_c(a)) for pbrt's dims 0 and 1 (52 stored columns; dim 1's columns 32..51 repeat
+   columns 0..19). */
+static inline uint32_t reversed_sobol(const sobol1_t *s, uint64_t a, int c) {
+    uint32_t low = (uint32_t)a;
+    if (c == 0) return low;
+    return sobol1(s, rev32(low)) ^ sobol1(s, rev32((uint32_t)(a >> 32) & 0xFFFFFu));
+}
+
+typedef struct {
+    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles */
+    const int64_t *seed;     /* owen_sobol: per-lane seeds (stride seed_stride) */
+    const int64_t *index;    /* sample indices */
+    int64_t seed_stride, n, lo, hi, dim, count;
+    uint64_t key_mask, t;    /* zsobol(_t): the Morton key's bits; zsobol_t: the frame mod F;
+                                Cycles: (seed0, first sequence's seed) and (spp, first) */
+    const uint32_t *keys;    /* per pair from dim / 2: owen_sobol 3 hashes, zsobol(_t) 2 seeds */
+    const uint8_t *perm;     /* zsobol: 24 x 4; zsobol_t: 40320 x 8 */
+    int log2spp, n_digits;
+    uint64_t epoch;
+    const sobol1_t *s1;
+    float *out;
+} sjob_t;
+
+static inline void put(const sjob_t *j, int64_t d, int64_t i, float v) {
+    if (d >= j->dim && d < j->dim + j->count) j->out[(d - j->dim) * j->n + i] = v;
+}
+
+/* Cycles' blue-noise indexing of lane i: the sequence's seed and index from the pixel's key.
+   PURE: seed0, index + key spp; FIRST: sample 0 is index key of the first sequence, sample i
+   index (i - 1) + key (spp - 1) of seed0's (all mod 2^32). */
+static inline void cycles_lane(const sjob_t *j, int64_t i, uint32_t *seed, uint32_t *index) {
+    uint32_t key = (uint32_t)j->seed[i], at = (uint32_t)j->index[i];
+    uint32_t spp = (uint32_t)j->t, first = (uint32_t)(j->t >> 32);
+    *seed = (uint32_t)j->key_mask;
+    if (!first) {
+        *index = at + key * spp;
+    } else if (at == 0) {
+        *seed = (uint32_t)(j->key_mask >> 32);
+        *index = key;
+    } else {
+        *index = (at - 1) + key * (spp - 1);
+    }
+}
+
+static void owen_sobol_lanes(const sjob_t *j) {
+    int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2;
+    for (int64_t i = j->lo; i < j->hi; ++i) {
+        uint32_t seed = (uint32_t)j->seed[i * j->seed_stride], index = (uint32_t)j->index[i];
+        if (j->kind == 3) cycles_lane(j, i, &seed, &index);
+        uint32_t seed_hash = lowbias32(seed ^ 0xC2B2AE35u);
+        uint32_t rindex = rev32(index);
+        for (int64_t p = p0; p <= p1; ++p) {
+            const uint32_t *k = j->keys + 3 * (p - p0);
+            uint32_t y = laine_karras(rindex, lowbias32(seed_hash ^ k[2]));
+            uint32_t z0 = laine_karras(rev32(y), lowbias32(seed_hash ^ k[0]));
+            uint32_t z1 = laine_karras(sobol1(j->s1, y), lowbias32(seed_hash ^ k[1]));
+            put(j, 2 * p, i, (float)(rev32(z0) >> 8) * 0x1p-24f);
+            put(j, 2 * p + 1, i, (float)(rev32(z1) >> 8) * 0x1p-24f);
+        }
+    }
+}
+
+/* pbrt's SampleIndex (base-4 digit permutation of the Morton index m at salt), in two parts
+   whose bits are disjoint: high != 0 gives the digits at or above bit log2spp (they and their
+   prefixes depend only on m >> log2spp, the pixel), high == 0 the digits below and the odd bit. */
+static inline uint64_t zsobol_digits(const sjob_t *j, uint64_t m, uint64_t salt, int high) {
+    int odd = j->log2spp & 1;
+    uint64_t out = 0;
+    for (int i = j->n_digits - 1; i >= odd; --i) {
+        int shift = 2 * i - odd;
+        if ((shift >= j->log2spp) != high) continue;
+        uint64_t digit = (m >> shift) & 3;
+        uint64_t p = (mix_bits((m >> (shift + 2)) ^ salt) >> 24) % 24;
+        out |= (uint64_t)j->perm[p * 4 + digit] << shift;
+    }
+    if (!high && odd) out |= (m & 1) ^ (mix_bits((m >> 1) ^ salt) & 1);
+    return out;
+}
+
+/* The temporal sampler's scramble in the same two parts: high != 0 the base-8 digit permutation
+   above log2spp, high == 0 the binary nested scramble below it. */
+static inline uint64_t zsobol_t_digits(const sjob_t *j, uint64_t m, uint64_t salt, int high) {
+    uint64_t out = 0;
+    if (high) {
+        for (int q = j->n_digits - 1; q >= 0; --q) {
+            int shift = j->log2spp + 3 * q;
+            uint64_t digit = (m >> shift) & 7;
+            uint64_t p = (mix_bits((m >> (shift + 3)) ^ salt) >> 24) % 40320;
+            out |= (uint64_t)j->perm[p * 8 + digit] << shift;
+        }
+        return out;
+    }
+    for (int b = j->log2spp - 1; b >= 0; --b) {
+        uint64_t flip = mix_bits((m >> (b + 1)) ^ salt) & 1;
+        out |= (((m >> b) & 1) ^ flip) << b;
+    }
+    return out;
+}
+
+static inline uint64_t digits(const sjob_t *j, uint64_t m, uint64_t salt, int high) {
+    return j->kind == 1 ? zsobol_digits(j, m, salt, high) : zsobol_t_digits(j, m, salt, high);
+}
+
+static inline uint64_t compact2(uint64_t v) {
+    v &= 0x5555555555555555ull;
+    v = (v | (v >> 1)) & 0x3333333333333333ull;
+    v = (v | (v >> 2)) & 0x0F0F0F0F0F0F0F0Full;
+    v = (v | (v >> 4)) & 0x00FF00FF00FF00FFull;
+    v = (v | (v >> 8)) & 0x0000FFFF0000FFFFull;
+    return (v | (v >> 16)) & 0xFFFFFFFFull;
+}
+
+static inline uint64_t spread3(uint64_t v) {
+    v &= 0x1FFFFF;
+    v = (v | (v << 32)) & 0x1F00000000FFFFull;
+    v = (v | (v << 16)) & 0x1F0000FF0000FFull;
+    v = (v | (v << 8)) & 0x100F00F00F00F00Full;
+    v = (v | (v << 4)) & 0x10C30C30C30C30C3ull;
+    return (v | (v << 2)) & 0x1249249249249249ull;
+}
+
+/* The unscrambled global index of lane i: ZSobol's (key << log2spp) | index, the temporal
+   sampler's (Morton3(x, y, t) << log2spp) | index with (x, y) the key's even and odd bits. */
+static inline uint64_t base_index(const sjob_t *j, int64_t i) {
+    uint64_t key = (uint64_t)j->seed[i] & j->key_mask, index = (uint64_t)j->index[i];
+    if (j->kind == 2)
+        key = spread3(compact2(key)) | (spread3(compact2(key >> 1)) << 1) | (spread3(j->t) << 2);
+    return (key << j->log2spp) | index;
+}
+
+/* The renderer's lanes are pixel-major, so consecutive lanes usually share a pixel: the high
+   digits of each pair are kept from the previous lane when its pixel part (m >> log2spp) is the
+   same (exact reuse, so the result does not depend on the lane order or the thread split). */
+#define MEMO_PAIRS 64
+
+static void zsobol_lanes(const sjob_t *j) {
+    int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2;
+    int memo = p1 - p0 < MEMO_PAIRS, have = 0;
+    uint64_t high[MEMO_PAIRS], previous = 0;
+    for (int64_t i = j->lo; i < j->hi; ++i) {
+        uint64_t m = base_index(j, i), top = m >> j->log2spp;
+        int reuse = memo && have && top == previous;
+        for (int64_t p = p0; p <= p1; ++p) {
+            uint64_t salt = (uint32_t)(2 * p * 0x55555555ull);
+            if (j->kind == 2) salt ^= j->epoch;
+            uint64_t h = reuse ? high[p - p0] : digits(j, m, salt, 1);
+            if (memo) high[p - p0] = h;
+            uint64_t a = h | digits(j, m, salt, 0);
+            const uint32_t *s = j->keys + 2 * (p - p0);
+            put(j, 2 * p, i, word_to_float(fast_owen(reversed_sobol(j->s1, a, 0), s[0])));
+            if (2 * p + 1 < j->dim + j->count)
+                put(j, 2 * p + 1, i, word_to_float(fast_owen(reversed_sobol(j->s1, a, 1), s[1])));
+        }
+        previous = top;
+        have = 1;
+    }
+}
+
+static void *run_lanes(void *arg) {
+    const sjob_t *j = (const sjob_t *)arg;
+    if (j->kind == 0 || j->kind == 3) owen_sobol_lanes(j);
+    else zsobol_lanes(j);
+    return 0;
+}
+
+static int run(sjob_t base, int threads) {
+    sobol1_t s1;
+    sjob_t jobs[64];
+    pthread_t ids[64];
+    if (base.n < 0 || base.dim < 0 || base.count < 1 || base.n_digits < 0 || base.n_digits > 31 ||
+        base.log2spp < 0 || base.log2spp > 62)
+        return 1;
+    sobol1_init(&s1);
+    base.s1 = &s1;
+    if (threads < 1) threads = 1;
+    if (threads > 64) threads = 64;
+    if (threads > base.n) threads = base.n > 0 ? (int)base.n : 1;
+    for (int t = 0; t < threads; ++t) {
+        jobs[t] = base;
+        jobs[t].lo = base.n * t / threads;
+        jobs[t].hi = base.n * (t + 1) / threads;
+    }
+    int started = 0;
+    for (int t = 1; t < threads; ++t) {
+        if (pthread_create(&ids[t], 0, run_lanes, &jobs[t]) != 0) break;
+        started = t;
+    }
+    for (int t = started + 1; t < threads; ++t) run_lanes(&jobs[t]);
+    run_lanes(&jobs[0]);
+    for (int t = 1; t <= started; ++t) pthread_join(ids[t], 0);
+    return 0;
+}
+
+/* Owen-Sobol padded by 2D pairs; keys: 3 per pair from dim / 2, lowbias32(4 pair + role ^ salt)
+   for roles 0, 1, 2. seed_stride 0 gives every lane seed[0]. */
+int bnerr_owen_sobol(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
+                     int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
+    sjob_t j = {0, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out};
+    return run(j, threads);
+}
+
+/* Cycles' PURE (first 0) and FIRST (first 1) patterns over Owen-Sobol: key and index per lane,
+   seeds: the global sequence's and the first sample's (low 32 bits); keys as bnerr_owen_sobol. */
+int bnerr_cycles(const int64_t *key, const int64_t *index, int64_t n, int64_t dim, int64_t count,
+                 uint32_t spp, int first, uint32_t seed0, uint32_t first_seed,
+                 const uint32_t *keys, float *out, int threads) {
+    uint64_t seeds = seed0 | ((uint64_t)first_seed << 32), mode = spp | ((uint64_t)!!first << 32);
+    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out};
+    return run(j, threads);
+}
+
+/* ZSobol with FastOwen: the Morton index is ((key & key_mask) << log2spp) | index per lane;
+   seeds: (low32(H), high32(H)) of H = Hash(2 pair + 2, seed), per pair from dim / 2; perm:
+   pbrt's 24 x 4. */
+int bnerr_zsobol(const int64_t *key, const int64_t *index, int64_t n, int64_t dim, int64_t count,
+                 int log2spp, int n_digits, uint64_t key_mask, const uint32_t *seeds,
+                 const uint8_t *perm, float *out, int threads) {
+    sjob_t j = {1, key, index, 1, n, 0, n, dim, count, key_mask, 0, seeds, perm, log2spp,
+                n_digits, 0, 0, out};
+    return run(j, threads);
+}
+
+/* The temporal Z-order sampler: the index is (Morton3(x, y, t) << log2spp) | index per lane,
+   (x, y) the even and odd bits of key & key_mask; epoch is XORed into every salt; perm: the 8!
+   permutations of {0..7} in lexicographic order. */
+int bnerr_zsobol_t(const int64_t *key, const int64_t *index, int64_t n, int64_t dim,
+                   int64_t count, int log2spp, int n_digits, uint64_t key_mask, uint64_t t,
+                   uint64_t epoch, const uint32_t *seeds, const uint8_t *perm, float *out,
+                   int threads) {
+    sjob_t j = {2, key, index, 1, n, 0, n, dim, count, key_mask, t, seeds, perm, log2spp,
+                n_digits, epoch, 0, out};
+    return run(j, threads);
+}

@@ -1,0 +1,136 @@
+"""Tests of bnerr/sequences/native.py: the C kernels of the Owen-Sobol, ZSobol, temporal Z-order
+and Cycles samplers against their torch paths, bit for bit, over several
+films, spp, first dimensions, dimension counts, seeds and lane orders; the dispatch (CPU only) and
+the fallback when the library is unavailable.
+
+The native comparisons skip, with the reason, when the library cannot be built or loaded here
+(no C compiler, or ``BNERR_NATIVE=0``); the fallback test runs everywhere.
+"""
+
+import importlib
+
+import pytest
+import torch
+
+from bnerr.sequences import cycles_keys, make_sampler, native, zsobol_keys
+
+owen_sobol_module = importlib.import_module("bnerr.sequences.owen_sobol")
+zsobol_module = importlib.import_module("bnerr.sequences.zsobol")
+zsobol_t_module = importlib.import_module("bnerr.sequences.zsobol_t")
+cycles_module = importlib.import_module("bnerr.sequences.cycles")
+SELF_CHECKED = (owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module)
+
+
+@pytest.fixture
+def kernels():
+    loaded = native.LIBRARY.load()
+    if loaded is None:
+        pytest.skip(f"native sampler kernels unavailable: {native.LIBRARY.status()}")
+    return loaded
+
+
+def _torch_path(monkeypatch, sampler, *args):
+    """The sampler's values with the native path turned off."""
+    with monkeypatch.context() as patch:
+        patch.setattr(native, "uses_native", lambda *tensors: False)
+        return sampler.sample(*args)
+
+
+def _lanes(keys: torch.Tensor, spp: int, pixels: int, seed: int, pixel_major: bool):
+    gen = torch.Generator().manual_seed(seed)
+    flat = keys.reshape(-1)
+    pick = torch.randint(0, flat.numel(), (pixels,), generator=gen)
+    if pixel_major:  # the renderer's order: every sample of a pixel in a row
+        key = flat[pick].repeat_interleave(spp)
+        index = torch.arange(spp).repeat(pixels)
+    else:
+        key = flat[pick.repeat_interleave(spp)[torch.randperm(pixels * spp, generator=gen)]]
+        index = torch.randint(0, spp, (pixels * spp,), generator=gen)
+    return key, index
+
+
+CASES = [  # width, height, spp, dim, count, seed
+    (64, 64, 16, 0, 8, 0),
+    (37, 21, 8, 3, 5, -5),
+    (300, 7, 1, 1, 1, 2**31 - 1),
+    (1920, 1080, 32, 0, 12, 123),
+    (1, 1, 4, 6, 3, 9),
+]
+
+
+@pytest.mark.parametrize("pixel_major", [True, False])
+@pytest.mark.parametrize(("width", "height", "spp", "dim", "count", "seed"), CASES)
+def test_zsobol_samplers_match_torch_bit_for_bit(
+    kernels, monkeypatch, width, height, spp, dim, count, seed, pixel_major
+):
+    keys = zsobol_keys(height, width)
+    key, index = _lanes(keys, spp, 97, seed & 0xFFFF, pixel_major)
+    samplers = [
+        make_sampler("zsobol", width=width, height=height, spp=spp, seed=seed),
+        make_sampler("zsobol_t", width=width, height=height, spp=spp, frame=5, seed=seed),
+        make_sampler("zsobol_t", width=width, height=height, spp=spp, frame=2**11 + 1,
+                     frames=8, seed=seed),
+    ]  # fmt: skip
+    for sampler in samplers:
+        got = sampler.sample(key, index, dim, count)
+        want = _torch_path(monkeypatch, sampler, key, index, dim, count)
+        assert torch.equal(got, want), sampler
+
+
+@pytest.mark.parametrize(("width", "height", "spp", "dim", "count", "seed"), CASES)
+def test_owen_sobol_and_cycles_match_torch_bit_for_bit(
+    kernels, monkeypatch, width, height, spp, dim, count, seed
+):
+    key, index = _lanes(cycles_keys(height, width, seed), spp, 97, seed & 0xFFFF, True)
+    random_seeds = torch.randint(-(2**40), 2**40, key.shape, generator=torch.Generator())
+    runs = [
+        (make_sampler("owen_sobol"), random_seeds),
+        (make_sampler("cycles_pure", spp=spp, seed0=seed), key),
+        (make_sampler("cycles_first", spp=spp, seed0=seed), key),
+    ]
+    for sampler, seeds in runs:
+        got = sampler.sample(seeds, index, dim, count)
+        want = _torch_path(monkeypatch, sampler, seeds, index, dim, count)
+        assert torch.equal(got, want), sampler
+
+
+def test_results_do_not_depend_on_the_thread_count(kernels):
+    key, index = _lanes(zsobol_keys(256, 256), 16, 4096, 3, True)
+    sampler = make_sampler("zsobol", width=256, height=256, spp=16)
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(1)
+        one = sampler.sample(key, index, 0, 6)
+        torch.set_num_threads(max(2, before))
+        many = sampler.sample(key, index, 0, 6)
+    finally:
+        torch.set_num_threads(before)
+    assert torch.equal(one, many)
+
+
+def test_self_checks_pass(kernels):
+    for module in SELF_CHECKED:
+        assert module._self_check(kernels), module.__name__
+
+
+def test_kernel_refuses_bad_sizes(kernels):
+    out = torch.empty(2, 4)
+    seeds = torch.zeros(4, dtype=torch.int64)
+    assert not native.native_zsobol(
+        kernels, (seeds, seeds), 0, [0] * 4, torch.zeros(96, dtype=torch.uint8), (2, 40, 3), out
+    )
+
+
+def test_without_the_library_the_torch_path_runs(monkeypatch):
+    monkeypatch.setattr(native.LIBRARY, "load", lambda: None)
+    monkeypatch.setattr(zsobol_module, "_native_kernels", lambda: None)
+    sampler = make_sampler("zsobol", width=8, height=8, spp=4)
+    key, index = _lanes(zsobol_keys(8, 8), 4, 5, 0, True)
+    out = sampler.sample(key, index, 0, 4)
+    assert out.shape == (20, 4) and out.dtype == torch.float32
+
+
+def test_dispatch_is_cpu_only():
+    cpu = torch.zeros(3, dtype=torch.int64)
+    assert native.uses_native(cpu, cpu)
+    assert not native.uses_native(cpu, torch.zeros(3, device="meta"))
