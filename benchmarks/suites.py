@@ -368,6 +368,56 @@ SUITES: dict[str, Suite] = {
             ),
         ),
     ),
+    "seed": Suite(
+        name="seed",
+        coherent=True,
+        description=(
+            "the seed talk's conditions: sphere on a checkerboard (indirect) static and slowly "
+            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp (~15 minutes)"
+        ),
+        sweeps=(
+            # The talk's figure: direct + indirect light on a checkerboard, a slow camera and a
+            # static one, 1 to 64 spp; the oracle bounds every spp (its share of the dividend in
+            # the coherent region is the seed's claim at 16 and 64 spp).
+            Sweep(
+                scenes=("indirect",),
+                strategies=("white", "temporal", _BEST, "oracle"),
+                spp=(1, 4, 16, 64),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                conditions=(Condition(motion=0), Condition(motion=1)),
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+            # "Randomly assigned sequences": white per-pixel sequences, and 32 spp.
+            Sweep(
+                scenes=("indirect",),
+                strategies=("white", "temporal", _BEST),
+                spp=(1, 4, 16, 32, 64),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                conditions=(Condition(motion=1, sampler="white"),),
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+            # The fog box: many dimensions at 32 spp ("scales in sample count").
+            Sweep(
+                scenes=("medium",),
+                strategies=("white", "temporal", _BEST),
+                spp=(1, 32),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+        ),
+    ),
     "speed": Suite(
         name="speed",
         description=(
@@ -461,7 +511,8 @@ SUITES: dict[str, Suite] = {
 
 
 def get_suite(name: str) -> Suite:
-    """The suite called ``name`` (``quick``, ``quality``, ``gap``, ``speed``, ``stability``)."""
+    """The suite called ``name`` (``quick``, ``quality``, ``gap``, ``seed``, ``speed``,
+    ``stability``)."""
     return SUITES[check_name(name, tuple(SUITES), "suite")]
 
 

@@ -31,7 +31,7 @@ def _cells(suite):
 
 
 def test_every_suite_is_named_as_its_key_and_has_work():
-    assert sorted(SUITES) == ["gap", "quality", "quick", "speed", "stability"]
+    assert sorted(SUITES) == ["gap", "quality", "quick", "seed", "speed", "stability"]
     for name, suite in SUITES.items():
         assert suite.name == name and suite.description
         assert bool(suite.sweeps) != bool(suite.scripts), name  # cells or scripts, not both
@@ -239,3 +239,14 @@ def test_resolve_accepts_well_formed_temporal_variants():
         resolve(get_suite("quick"), strategies=["temporal+shift+groups"], known_strategies=known)
     with pytest.raises(UnknownNameError, match="unknown strategy 'oracle'"):
         resolve(get_suite("quick"), strategies=["oracle"], known_strategies=known)
+
+
+def test_seed_reproduces_the_talks_conditions():
+    suite = get_suite("seed")
+    cells = list(_cells(suite))
+    assert {c[0] for c in cells} == {"indirect", "medium"}
+    assert {c[2] for c in cells if c[0] == "indirect"} == {1, 4, 16, 32, 64}
+    conds = {c[4] for c in cells}
+    assert {c.sampler for c in conds} == set(SAMPLERS) and {c.motion for c in conds} == {0, 1}
+    assert {c[1] for c in cells} >= {"white", "temporal", GAP_BEST[0], "oracle"}
+    assert suite.coherent
