@@ -378,10 +378,11 @@ SUITES: dict[str, Suite] = {
         sweeps=(
             # The talk's figure: direct + indirect light on a checkerboard, a slow camera and a
             # static one, 1 to 64 spp; the oracle bounds every spp (its share of the dividend in
-            # the coherent region is the seed's claim at 16 and 64 spp).
+            # the coherent region is the seed's claim at 16 and 64 spp), and the vertical bound
+            # beside it (the same candidates, chosen for the whole image's blurred error).
             Sweep(
                 scenes=("indirect",),
-                strategies=("white", "temporal", _BEST, "oracle"),
+                strategies=("white", "temporal", _BEST, "oracle", "vertical"),
                 spp=(1, 4, 16, 64),
                 denoisers=("gaussian",),
                 res=(64, 64),

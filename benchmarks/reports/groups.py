@@ -37,6 +37,7 @@ STRATEGY_ORDER: tuple[str, ...] = (
     "temporal",
     "temporal_zsobol",
     "oracle",
+    "vertical",
 )
 
 
