@@ -82,7 +82,7 @@ __all__ = [
 ]
 
 #: Pixel regions the metrics can be restricted to.
-REGIONS: tuple[str, ...] = ("all", "edges")
+REGIONS: tuple[str, ...] = ("all", "edges", "coherent")
 
 #: Per-pixel samplers a strategy can draw its sequences from (the strategies with their own
 #: sampler, bnds and the rivals, ignore the choice).
@@ -100,7 +100,10 @@ class Condition:
         depth: ``scene.max_depth`` override in Mitsuba's convention (longest path in segments:
             2 is direct lighting, ``depth - 1`` scattering vertices), or None for the scene's own.
         region: ``"all"`` pixels, or ``"edges"``: pixels within one pixel of an object-id
-            discontinuity of the reference (:func:`bnerr.metrics.edge_mask`).
+            discontinuity of the reference (:func:`bnerr.metrics.edge_mask`), or
+            ``"coherent"``: the spatio-temporally coherent pixels where the seed paper says its
+            method works (:func:`bnerr.metrics.coherent_mask`). The named suites measure it in
+            every run (``Suite.coherent``): its renders are shared.
         sampler: the per-pixel sequences of white, temporal, temporal_sort and oracle:
             ``"owen_sobol"`` (the strategies' default) or ``"white"`` (a hash). The strategies
             with their own sampler (bnds and the rivals, ``bnerr.strategies.OWN_SAMPLERS``) ignore
@@ -190,6 +193,10 @@ class Suite:
         scripts: for the speed suite, module names under :mod:`benchmarks` (``speed.permute``)
             whose measuring function the runner calls.
         crops: whether the runner saves side-by-side crops for the report.
+        coherent: every run measures the coherent region too, besides its sweep's regions
+            (:func:`benchmarks.sweep.plan.plan`; the renders are shared, so it costs only the
+            metrics). True for every named suite; False keeps a hand-built suite's cells as
+            its sweeps' conditions say.
     """
 
     name: str
@@ -197,6 +204,7 @@ class Suite:
     sweeps: tuple[Sweep, ...] = ()
     scripts: tuple[str, ...] = ()
     crops: bool = True
+    coherent: bool = False
 
 
 _ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
@@ -271,6 +279,7 @@ _SETS = dict(seed_sets=4, frames=3, warmup=6)
 SUITES: dict[str, Suite] = {
     "quick": Suite(
         name="quick",
+        coherent=True,
         description=(
             "direct and indirect, white/temporal/oracle, 1 and 4 spp, gaussian and atrous, 128x128"
         ),
@@ -288,6 +297,7 @@ SUITES: dict[str, Suite] = {
     ),
     "quality": Suite(
         name="quality",
+        coherent=True,
         description=(
             "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (2.5-3.5 core-hours)"
         ),
@@ -320,6 +330,7 @@ SUITES: dict[str, Suite] = {
     ),
     "gap": Suite(
         name="gap",
+        coherent=True,
         description=(
             "ablation of the temporal variants: share of the white-to-oracle gap closed, every "
             "scene at 1, 4, 16 spp, sequences, static/x8 motion, edges (<= 60 minutes)"
@@ -366,6 +377,57 @@ SUITES: dict[str, Suite] = {
             ),
         ),
     ),
+    "seed": Suite(
+        name="seed",
+        coherent=True,
+        description=(
+            "the seed talk's conditions: sphere on a checkerboard (indirect) static and slowly "
+            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp (~15 minutes)"
+        ),
+        sweeps=(
+            # The talk's figure: direct + indirect light on a checkerboard, a slow camera and a
+            # static one, 1 to 64 spp; the oracle bounds every spp (its share of the dividend in
+            # the coherent region is the seed's claim at 16 and 64 spp), and the vertical bound
+            # beside it (the same candidates, chosen for the whole image's blurred error).
+            Sweep(
+                scenes=("indirect",),
+                strategies=("white", "temporal", _BEST, "oracle", "vertical"),
+                spp=(1, 4, 16, 64),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                conditions=(Condition(motion=0), Condition(motion=1)),
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+            # "Randomly assigned sequences": white per-pixel sequences, and 32 spp.
+            Sweep(
+                scenes=("indirect",),
+                strategies=("white", "temporal", _BEST),
+                spp=(1, 4, 16, 32, 64),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                conditions=(Condition(motion=1, sampler="white"),),
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+            # The fog box: many dimensions at 32 spp ("scales in sample count").
+            Sweep(
+                scenes=("medium",),
+                strategies=("white", "temporal", _BEST),
+                spp=(1, 32),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+        ),
+    ),
     "speed": Suite(
         name="speed",
         description=(
@@ -382,6 +444,7 @@ SUITES: dict[str, Suite] = {
     ),
     "stability": Suite(
         name="stability",
+        coherent=True,
         description=(
             "failure cases: texture, edges, motion, sequences, 1-64 spp, "
             "1-8 bounces; ratio to white"
@@ -458,7 +521,8 @@ SUITES: dict[str, Suite] = {
 
 
 def get_suite(name: str) -> Suite:
-    """The suite called ``name`` (``quick``, ``quality``, ``gap``, ``speed``, ``stability``)."""
+    """The suite called ``name`` (``quick``, ``quality``, ``gap``, ``seed``, ``speed``,
+    ``stability``)."""
     return SUITES[check_name(name, tuple(SUITES), "suite")]
 
 

@@ -38,8 +38,13 @@ def test_bench_writes_the_tables_and_charts_with_the_overrides(tmp_path, capsys)
     assert main(_two_strategies(tmp_path)) == 0
     out = tmp_path / "out"
     records = [json.loads(line) for line in (out / RESULTS_FILE).read_text().splitlines()]
-    got = sorted((r["cell"]["strategy"], r["cell"]["denoiser"]) for r in records)
-    assert got == [("temporal", "gaussian"), ("white", "gaussian")]
+    got = sorted(
+        (r["cell"]["strategy"], r["cell"]["denoiser"], r["cell"]["region"]) for r in records
+    )
+    # the named suites measure the coherent region beside each sweep's own (Suite.coherent)
+    assert got == [
+        (s, "gaussian", region) for s in ("temporal", "white") for region in ("all", "coherent")
+    ]
     cell = records[0]["cell"]
     keys = ("width", "height", "frames", "warmup", "reference_spp", "seed_sets")
     assert tuple(cell[k] for k in keys) == (16, 12, 2, 1, 8, 1)

@@ -29,6 +29,9 @@ def test_a_non_default_condition_is_named_in_title_and_slug():
     )
     assert group_slug(key) == "snooker_m8_d5_edges_white"
     assert group_title(group_key(_row(motion=0))) == "snooker (static camera)"
+    coherent = group_key(_row(region="coherent"))
+    assert group_title(coherent) == "snooker (coherent regions only)"
+    assert group_slug(coherent) == "snooker_coherent"
 
 
 def test_groups_sort_by_scene_then_condition_with_the_scenes_own_depth_first():

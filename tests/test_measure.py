@@ -38,9 +38,17 @@ class _Render:
         self.compiles.append(compile)
         u = ((seeds * 2654435761 + t) % 1000003).float() / 1000003
         color = torch.stack([u, u * u, 1 - u]) * 2.0
-        object_id = (torch.arange(seeds.numel()).view(seeds.shape) % 3).float()[None]
+        h, w = seeds.shape
+        object_id = torch.zeros(1, h, w)
+        object_id[:, :, 7:] = 1.0  # two objects: columns 0-6 and 7-9
         return Frame(
-            color=color, object_id=object_id, variance=color * 0.01, timings={"render": 7.0}
+            color=color,
+            albedo=torch.full((3, h, w), 0.5),
+            normal=torch.tensor([0.0, 0.0, 1.0])[:, None, None].expand(3, h, w).clone(),
+            depth=torch.full((1, h, w), 2.0),
+            object_id=object_id,
+            variance=color * 0.01,
+            timings={"render": 7.0},
         )
 
 
@@ -77,10 +85,10 @@ def _parts(render):
     )
 
 
-def _run(strategy, crops=True):
+def _run(strategy, crops=True, coherent=False):
     sweep = Sweep(scenes=("direct",), strategies=(strategy,), spp=(2,), denoisers=("gaussian",),
                   frames=2, warmup=3, res=(10, 8), reference_spp=4, seed_sets=2)  # fmt: skip
-    (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=crops))
+    (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=crops, coherent=coherent))
     return dataclasses.replace(run, denoisers=("half", "plain"))
 
 
@@ -100,6 +108,24 @@ def test_timings_are_the_frames_own_and_stateless_strategies_skip_the_warmup(tmp
         assert all(v >= 0 for row in rec.timings.perm_ms for v in row)
         assert rec.t == [3, 4] and rec.reference.version == "test" and rec.dimensions == 3
         assert rec.reference.floor > 0 and rec.crop is None  # no crops folder given
+
+
+def test_coherent_records_say_how_much_of_the_image_they_cover(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    run = _run("white", coherent=True)
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    assert [r.cell.region for r in records] == ["all", "coherent"] * 2
+    # 10 x 8 pixels, windows of 5 x 5 inside the image and inside columns 0-6: x in 2..4, y in 2..5
+    want = (3 * 4) / (10 * 8)
+    for rec in records:
+        if rec.cell.region == "all":
+            assert rec.coverage is None and "coverage" not in rec.to_json()
+        else:
+            assert rec.coverage == [[want, want], [want, want]]
+    whole, part = records[0].raw["mse"], records[1].raw["mse"]
+    assert part != whole  # measured over the coherent pixels only
 
 
 def test_records_hold_the_error_correlation_between_consecutive_measured_frames(tmp_path):

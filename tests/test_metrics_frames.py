@@ -7,7 +7,7 @@ import pytest
 import torch
 from _images import noisy_pair as _pair
 
-from bnerr.errors import ShapeError, UnknownNameError
+from bnerr.errors import ShapeError, UnknownNameError, ValueRangeError
 from bnerr.metrics import (
     METRIC_TABLE,
     METRICS,
@@ -174,3 +174,16 @@ def test_metrics_are_bit_identical_on_one_and_two_threads():
 
 def struct_bits(x: float) -> bytes:
     return struct.pack("<d", x)
+
+
+def test_an_empty_region_adds_a_weightless_frame():
+    full, gapped = FrameMetrics(["mse", "psnr"]), FrameMetrics(["mse", "psnr"])
+    gen = torch.Generator().manual_seed(3)
+    pred, ref = torch.rand(3, 8, 8, generator=gen), torch.rand(3, 8, 8, generator=gen)
+    full.update(pred, ref)
+    gapped.update(pred, ref)
+    gapped.update_empty()
+    assert len(gapped) == 2 and gapped.stats("mse")[0, 1].tolist() == [0.0, 0.0]
+    assert torch.equal(gapped.stats("mse").sum(1), full.stats("mse").sum(1))  # same pooled mean
+    with pytest.raises(ValueRangeError):
+        gapped.update_empty(group=-1)

@@ -4,7 +4,7 @@ cells."""
 import dataclasses
 import json
 
-from benchmarks.suites import Condition, Suite, Sweep
+from benchmarks.suites import Condition, Suite, Sweep, get_suite
 from benchmarks.sweep.plan import Cell, pending, plan
 
 
@@ -29,6 +29,18 @@ def test_plan_shares_renders_between_denoisers_regions_and_sweeps():
     )
     assert sum(len(r.cells()) for r in runs) == 2 * 2 * 2 + 2 * 1
     assert [r.crops for r in runs] == [True, False, True, False]  # crops at the lowest spp only
+
+
+def test_a_coherent_suite_measures_the_coherent_region_in_every_run_after_its_own():
+    suite = dataclasses.replace(_suite(), coherent=True)
+    runs = plan(suite)
+    assert [r.regions for r in runs] == [
+        (("all", "edges", "coherent") if r.motion == 1 else ("all", "coherent")) for r in runs
+    ]
+    bare = [dataclasses.replace(r, regions=()) for r in runs]  # the same renders as without
+    assert bare == [dataclasses.replace(r, regions=()) for r in plan(_suite())]
+    named = [get_suite(n) for n in ("quick", "quality", "gap", "stability")]
+    assert all(r.regions[-1] == "coherent" for s in named for r in plan(s))
 
 
 def test_cell_key_is_its_fields_as_sorted_json():

@@ -16,6 +16,7 @@ from benchmarks.suites import (
     get_suite,
     resolve,
 )
+from benchmarks.sweep.plan import ALWAYS_REGION
 from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 
 
@@ -30,7 +31,7 @@ def _cells(suite):
 
 
 def test_every_suite_is_named_as_its_key_and_has_work():
-    assert sorted(SUITES) == ["gap", "quality", "quick", "speed", "stability"]
+    assert sorted(SUITES) == ["gap", "quality", "quick", "seed", "speed", "stability"]
     for name, suite in SUITES.items():
         assert suite.name == name and suite.description
         assert bool(suite.sweeps) != bool(suite.scripts), name  # cells or scripts, not both
@@ -69,7 +70,8 @@ def test_stability_varies_each_failure_axis():
     scenes = {c[0] for c in cells}
     assert {"snooker", "snooker_plain"} <= scenes <= set(renderers.SCENES)
     conds = {c[4] for c in cells}
-    assert {c.region for c in conds} == set(REGIONS)
+    # the coherent region needs no condition: every planned run measures it
+    assert {c.region for c in conds} | {ALWAYS_REGION} == set(REGIONS)
     assert {c.sampler for c in conds} == set(SAMPLERS)
     assert {0, 1} < {c.motion for c in conds} and max(c.motion for c in conds) > 1
     depths = sorted(c.depth for c in conds if c.depth is not None)
@@ -179,7 +181,8 @@ def test_gap_is_an_ablation_bracketed_by_white_and_the_oracle_on_every_condition
     assert {c[0] for c in cells} == set(renderers.SCENES)
     assert {c[2] for c in cells} == {1, 4, 16}
     conds = {c[4] for c in cells}
-    assert {c.region for c in conds} == set(REGIONS)
+    # the coherent region needs no condition: every planned run measures it
+    assert {c.region for c in conds} | {ALWAYS_REGION} == set(REGIONS)
     assert {c.sampler for c in conds} == set(SAMPLERS)
     assert {c.motion for c in conds} == {0, 1, 8}
     for sweep in suite.sweeps:  # every share has its two bounds and its baseline
@@ -236,3 +239,14 @@ def test_resolve_accepts_well_formed_temporal_variants():
         resolve(get_suite("quick"), strategies=["temporal+shift+groups"], known_strategies=known)
     with pytest.raises(UnknownNameError, match="unknown strategy 'oracle'"):
         resolve(get_suite("quick"), strategies=["oracle"], known_strategies=known)
+
+
+def test_seed_reproduces_the_talks_conditions():
+    suite = get_suite("seed")
+    cells = list(_cells(suite))
+    assert {c[0] for c in cells} == {"indirect", "medium"}
+    assert {c[2] for c in cells if c[0] == "indirect"} == {1, 4, 16, 32, 64}
+    conds = {c[4] for c in cells}
+    assert {c.sampler for c in conds} == set(SAMPLERS) and {c.motion for c in conds} == {0, 1}
+    assert {c[1] for c in cells} >= {"white", "temporal", GAP_BEST[0], "oracle", "vertical"}
+    assert suite.coherent

@@ -131,7 +131,8 @@ ORACLE_K = 32
 def _animation_paths(spec: Animation) -> int:
     """Paths traced for ``spec``, at most: every strategy's warmup and shown frames (the
     oracle's K renders each) and the shown frames' references (counted even when cached)."""
-    renders = sum(ORACLE_K if parse_variant(n)[0] == "oracle" else 1 for n in spec.strategies)
+    many = ("oracle", "vertical")  # K renders per frame
+    renders = sum(ORACLE_K if parse_variant(n)[0] in many else 1 for n in spec.strategies)
     pixels = spec.width * spec.height
     strategies = pixels * spec.spp * (spec.warmup + spec.frames) * renders
     return strategies + pixels * spec.reference_spp * spec.frames

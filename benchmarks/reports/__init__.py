@@ -5,7 +5,8 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
 :func:`write_report` writes them all:
 
 - ``table.csv`` and ``table.md`` (:mod:`~benchmarks.reports.table`): one row per cell, and the
-  readable report (headline, one section per scene and condition, the flagged cells);
+  readable report (headline, one section per scene and condition, the flagged cells, and the
+  share of the image each restricted region covers, :mod:`~benchmarks.reports.regions`);
 - ``decision.md`` (:mod:`~benchmarks.reports.decision`): the strategy to use per scene,
   condition, spp and denoiser;
 - ``gap.md`` and ``gap.csv`` (:mod:`~benchmarks.reports.gap`): each strategy's share of the
@@ -21,6 +22,9 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
 Every report groups and orders its rows through :mod:`~benchmarks.reports.groups` and writes its
 Markdown tables with :mod:`~benchmarks.reports.markdown`.
 
+Records whose region held no pixel (a coherent region on a frame too small or too textured to
+have one: :attr:`benchmarks.sweep.records.Record.has_pixels`) are left out of every report.
+
 Not for: deciding anything. The reports state the measured ratios and their intervals; a cell is
 flagged "worse than white" only when the whole interval lies above 1.
 """
@@ -35,6 +39,7 @@ from benchmarks.reports.decision import decision_table
 from benchmarks.reports.denoisers import write_denoise_tables
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.page import write_suite_page
+from benchmarks.reports.regions import coverage_markdown
 from benchmarks.reports.table import csv_text, markdown_table, summarize
 from benchmarks.sweep.records import Record, load_records
 from bnerr.io import atomic_write
@@ -60,8 +65,11 @@ def write_report(
     """
     out = Path(out_dir)
     records = load_records(out) if records is None else list(records)
+    records = [r for r in records if r.has_pixels]  # an empty coherent region measured nothing
     rows = summarize(records)
     text = markdown_table(rows, title or f"bnerr bench: {out.name}")
+    regions = coverage_markdown(records)  # "" for results without coverage: table.md unchanged
+    text = text + "\n" + regions if regions else text
     with atomic_write(out / "table.csv") as tmp:
         Path(tmp).write_text(csv_text(rows))
     with atomic_write(out / "table.md") as tmp:

@@ -75,7 +75,7 @@ BEST_GOAL_SCENES: tuple[str, ...] = ("direct", "snooker_plain", "medium")
 _GOAL_SPP = 4
 _OWN = ":own"
 _LEARNED = ("gaussian", "oidn", "unet", "unet_blue")
-_BOUNDS = ("oracle",)
+_BOUNDS = ("oracle", "vertical")
 
 #: ``(value, lo, hi)`` of a ratio and its 95% paired interval (:func:`bnerr.metrics.paired_ratio`).
 Interval = tuple[float, float, float]

@@ -40,6 +40,7 @@ STRATEGY_ORDER: tuple[str, ...] = (
     "temporal",
     "temporal_zsobol",
     "oracle",
+    "vertical",
 )
 
 
@@ -60,6 +61,7 @@ def group_title(key: tuple) -> str:
         "static camera" if motion == 0 else (f"motion x{motion}" if motion != 1 else None),
         f"max depth {depth}" if depth is not None else None,
         "object edges only" if region == "edges" else None,
+        "coherent regions only" if region == "coherent" else None,
         f"{sampler} sequences" if sampler != "owen_sobol" else None,
     ]
     extra = [e for e in extra if e]

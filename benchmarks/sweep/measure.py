@@ -30,6 +30,7 @@ Not for: timing the parts in isolation at 1080p (the ``speed`` suite, :mod:`benc
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -46,7 +47,13 @@ from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from bnerr.metrics import FrameMetrics, PreparedReference, edge_mask, temporal_correlation
+from bnerr.metrics import (
+    FrameMetrics,
+    PreparedReference,
+    coherent_mask,
+    edge_mask,
+    temporal_correlation,
+)
 from bnerr.spectrum import radial_power_spectrum
 from bnerr.strategies import first_frame, play
 from bnerr.timing import Stopwatch
@@ -99,16 +106,28 @@ def t_reference(run: Run, t: int) -> int:
     return t_render(run, t) if run.motion else 0
 
 
-def _region_masks(run: Run, ref: Frame) -> dict[str, torch.Tensor | None]:
+def _coherent(run: Run, ref: Frame, prev: Frame | None) -> torch.Tensor:
+    """The reference's coherent pixels (:func:`bnerr.metrics.coherent_mask`); with motion, seen
+    at the same surface in the previous shown frame's reference (the renderer's motion buffer
+    covers one renderer frame: scaled by the speed-up, as the strategies see it)."""
+    if prev is None or not run.motion or ref.motion is None:
+        return coherent_mask(ref)
+    scaled = dataclasses.replace(ref, motion=ref.motion * max(run.motion, 1))
+    return coherent_mask(scaled, prev)
+
+
+def _region_masks(run: Run, ref: Frame, prev: Frame | None) -> dict[str, torch.Tensor | None]:
     masks: dict[str, torch.Tensor | None] = {}
     for region in run.regions:
         if region == "all":
             masks[region] = None
         elif ref.object_id is None:
             raise ValueRangeError(
-                f"reference of {run.scene!r}: expected an object_id buffer for region 'edges', "
-                "got none"
+                f"reference of {run.scene!r}: expected an object_id buffer for region "
+                f"{region!r}, got none"
             )
+        elif region == "coherent":
+            masks[region] = _coherent(run, ref, prev)
         else:
             masks[region] = edge_mask(ref.object_id, radius=1)
     return masks
@@ -133,6 +152,8 @@ class SeedSetResult:
     error's correlation with the previous measured frame's along the motion
     (:func:`bnerr.metrics.temporal_correlation`), ``[F - 1]``. ``crop``: the previews
     of the first measured frame (seed set 0 of a run with crops only), else empty.
+    ``coverage[region]``: the fraction of the pixels in the region per measured frame ``[F]``,
+    for every region but ``"all"``.
     """
 
     group: int
@@ -148,6 +169,7 @@ class SeedSetResult:
     denoiser_params: dict[str, dict] = field(default_factory=dict)
     crop: dict[str, np.ndarray] = field(default_factory=dict)
     tcorr: list[float] = field(default_factory=list)
+    coverage: dict[str, list[float]] = field(default_factory=dict)
 
 
 def _stateful(denoiser: Denoiser) -> bool:
@@ -158,6 +180,16 @@ def _denoise(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
     """A stateful denoiser is told the frame's index (it checks the order); a stateless one
     is called with the frame alone."""
     return denoiser(frame, t=t) if _stateful(denoiser) else denoiser(frame)
+
+
+def _update(
+    acc: FrameMetrics, pred: torch.Tensor, target: PreparedReference, mask: torch.Tensor | None
+) -> None:
+    """One frame's metrics over the region; a region without pixels adds a weightless frame."""
+    if mask is not None and not bool(mask.any()):
+        acc.update_empty()
+    else:
+        acc.update(pred, target, mask)
 
 
 class _SeedSetMeasurement:
@@ -181,6 +213,7 @@ class _SeedSetMeasurement:
         self.floors: list[float] = []
         self.crop: dict[str, np.ndarray] = {}
         self.tcorr: list[float] = []
+        self.coverage: dict[str, list[float]] = {r: [] for r in regions if r != "all"}
         self._prev_err: torch.Tensor | None = None
 
     def _spectrum(self, kind: str, err: torch.Tensor) -> None:
@@ -200,17 +233,21 @@ class _SeedSetMeasurement:
             if _stateful(denoiser):
                 denoiser(frame, t=t)
 
-    def add(self, t: int, frame: Frame, ref: Frame) -> None:
-        """Measure frame ``t`` (with its timings) against its reference."""
+    def add(self, t: int, frame: Frame, ref: Frame, prev: Frame | None = None) -> None:
+        """Measure frame ``t`` (with its timings) against its reference (``prev``: the previous
+        shown frame's reference, for the coherent region's disocclusion test)."""
         self.measured_t.append(t)
         if ref.variance is not None:
             self.floors.append(float(ref.variance.to(torch.float64).mean()))
-        masks = _region_masks(self.run, ref)
+        masks = _region_masks(self.run, ref, prev)
+        for region, mask in masks.items():
+            if mask is not None:
+                self.coverage[region].append(float(mask.double().mean()))
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         target = PreparedReference(ref.color)  # the reference's share of the metrics, once
         for region, mask in masks.items():
-            self.raw[region].update(frame.color, target, mask)
+            _update(self.raw[region], frame.color, target, mask)
         err = frame.color - ref.color
         self._spectrum("raw", err)
         if self._prev_err is not None:
@@ -224,7 +261,7 @@ class _SeedSetMeasurement:
             outputs[name] = out
             self._spectrum(name, out - ref.color)
             for region, mask in masks.items():
-                self.den[name, region].update(out, target, mask)
+                _update(self.den[name, region], out, target, mask)
         if self.run.crops and self.group == 0 and not self.crop:
             images = {"reference": ref.color, "raw": frame.color}
             images.update({f"denoised/{n}": o for n, o in outputs.items()})
@@ -250,6 +287,7 @@ class _SeedSetMeasurement:
             denoiser_params={name: _params(d) for name, d in self.denoisers.items()},
             crop=self.crop,
             tcorr=list(self.tcorr),
+            coverage={r: list(v) for r, v in self.coverage.items()},
         )
 
 
@@ -312,9 +350,20 @@ def merge_seed_sets(
             crop=crop_file,
             render_sampler=last.render_sampler,
             tcorr=[list(r.tcorr) for r in ordered],
+            coverage=(
+                [list(r.coverage[cell.region]) for r in ordered] if cell.region != "all" else None
+            ),
         )
         for cell in run.cells()
     ]
+
+
+def _previous_reference(run: Run, scene: Scene, references: References, t: int) -> Frame | None:
+    """The reference of shown frame ``t - 1`` where the coherent region needs it (a moving
+    camera), else None."""
+    if "coherent" not in run.regions or not run.motion:
+        return None
+    return references.get(run, scene, t_reference(run, t - 1))
 
 
 def measure_seed_set(
@@ -360,7 +409,8 @@ def measure_seed_set(
     for t, frame in play(strategy, render_at, shown, max(run.motion, 1), in_order=in_order):
         tick()
         if t >= run.warmup:
-            measurement.add(t, frame, references.get(run, scene, t_reference(run, t)))
+            ref = references.get(run, scene, t_reference(run, t))
+            measurement.add(t, frame, ref, _previous_reference(run, scene, references, t))
         else:
             measurement.feed_warmup(t, frame)
     sampler = getattr(strategy, "sampler_name", "") or run.sampler

@@ -19,7 +19,13 @@ from dataclasses import dataclass
 
 from benchmarks.suites import Suite, Sweep
 
-__all__ = ["Cell", "Run", "RunSpec", "pending", "plan"]
+__all__ = ["ALWAYS_REGION", "Cell", "Run", "RunSpec", "pending", "plan"]
+
+#: The region every run of a suite with ``coherent=True`` (every named suite) measures besides its
+#: sweep's: the spatio-temporally coherent pixels (:func:`bnerr.metrics.coherent_mask`), where the
+#: seed paper says the temporal method works. Its cells come after the sweep's regions', so the
+#: tables of the others keep their rows.
+ALWAYS_REGION = "coherent"
 
 
 @dataclass(frozen=True)
@@ -84,12 +90,15 @@ class Run(RunSpec):
         return f"{self.scene} {self.strategy} {self.spp}spp{extra}"
 
 
-def _sweep_runs(sweep: Sweep, crops: bool) -> list[Run]:
+def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool) -> list[Run]:
     renders: dict[tuple[int, int | None, str], list[str]] = {}
     for cond in sweep.conditions:
         regions = renders.setdefault((cond.motion, cond.depth, cond.sampler), [])
         if cond.region not in regions:
             regions.append(cond.region)
+    for regions in renders.values():  # the coherent pixels too: the renders are shared
+        if coherent and ALWAYS_REGION not in regions:
+            regions.append(ALWAYS_REGION)
     runs = []
     for scene in sweep.scenes:
         for (motion, depth, sampler), regions in renders.items():
@@ -122,7 +131,7 @@ def plan(suite: Suite) -> list[Run]:
     """The runs of a suite, in order, with duplicate runs (same renders) merged."""
     merged: dict[tuple, Run] = {}
     for sweep in suite.sweeps:
-        for run in _sweep_runs(sweep, suite.crops):
+        for run in _sweep_runs(sweep, suite.crops, suite.coherent):
             bare = dataclasses.replace(run, denoisers=(), regions=(), crops=False)
             key = dataclasses.astuple(bare)
             old = merged.get(key)

@@ -176,6 +176,13 @@ def _measured_refs(run: Run, count: int | None = None) -> list[int]:
     return list(dict.fromkeys(t_reference(run, t) for t in frames))
 
 
+def _measure_refs(run: Run) -> list[int]:
+    """The references a measuring task needs: the measured frames', and with a moving camera
+    and the coherent region the one before them (its disocclusion test)."""
+    before = [t_reference(run, run.warmup - 1)] if "coherent" in run.regions and run.motion else []
+    return list(dict.fromkeys(before + _measured_refs(run)))
+
+
 #: A tuning task: (tuning key, spp, the strategy whose frames it tunes on).
 _TuneKey = tuple[str, int, str]
 
@@ -248,7 +255,7 @@ class _Scheduler:
 
     def _submit_measures(self, run: Run) -> None:
         params = tuned_params(run, self.sweep.store)
-        t_refs = _measured_refs(run)
+        t_refs = _measure_refs(run)
         frames = self._references(run, t_refs)
         for group in range(run.seed_sets):
             ref = self.measure_fn.remote(
@@ -291,7 +298,7 @@ def _task_count(sweep: SweepState) -> int:
     naming = ReferenceCache(None, sweep.parts)
     refs, tunings = set(), set()
     for run in sweep.todo:
-        refs.update(naming.path(run, t) for t in _measured_refs(run))
+        refs.update(naming.path(run, t) for t in _measure_refs(run))
         for source in missing_tuning(run, sweep.store):
             tunings.add((tuning_key(run), run.spp, source))
     return len(refs) + len(tunings) + sum(r.seed_sets for r in sweep.todo)

@@ -27,7 +27,9 @@ seed set x measured frame:
   ``sampler`` condition or the strategy's own; None, and absent on disk, in files written
   before it was recorded) and ``tcorr`` (``[S][F - 1]``: the raw error's correlation with the
   previous measured frame's along the motion, :func:`bnerr.metrics.temporal_correlation`, what
-  temporal accumulation depends on; None, and absent on disk, in files written before it was).
+  temporal accumulation depends on; None, and absent on disk, in files written before it was)
+  and ``coverage`` (``[S][F]``: the fraction of the pixels the cell's region covers in each
+  measured frame; None, and absent on disk, for region ``all`` and in older files).
   On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
@@ -124,16 +126,30 @@ class Record:
     crop: str | None
     render_sampler: str | None = None
     tcorr: list[list[float]] | None = None
+    coverage: list[list[float]] | None = None
 
     @property
     def key(self) -> str:
         """The cell's key (:meth:`benchmarks.sweep.plan.Cell.key`)."""
         return self.cell.key()
 
+    @property
+    def has_pixels(self) -> bool:
+        """Whether the cell's region held any pixel in some measured frame (a coherent region can
+        be empty on a small or textured frame: its pairs are then all ``(0, 0)``, and the reports
+        leave the record out)."""
+        if self.coverage is None:
+            return True
+        return any(v > 0 for row in self.coverage for v in row)
+
     def to_json(self) -> dict[str, Any]:
         """The JSON object of one ``cells.jsonl`` line."""
         out = dataclasses.asdict(self)
-        for late in ("render_sampler", "tcorr"):  # files from before they were recorded stay
+        for late in (
+            "render_sampler",
+            "tcorr",
+            "coverage",
+        ):  # files from before they were recorded stay
             if out[late] is None:  # byte-identical
                 del out[late]
         out["key"] = self.key
@@ -162,6 +178,7 @@ class Record:
                 crop=data["crop"],
                 render_sampler=data.get("render_sampler"),
                 tcorr=data.get("tcorr"),
+                coverage=data.get("coverage"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)

@@ -5,6 +5,8 @@ One module per concern (docs/METHODS.md, section 6):
 - :mod:`bnerr.metrics.image`: the per-image metrics (``mse``, ``relmse``, ``psnr``, ``ssim``, the
   blurred MSEs, ``flip``, ``lowfreq``), the pixel mask of object edges, the error's correlation
   from frame to frame, and :class:`ImagePair`, the update half of every metric;
+- :mod:`bnerr.metrics.regions`: :func:`coherent_mask`, the spatio-temporally coherent pixels
+  (one object, similar normals, depth and albedo in a 5x5 window, no disocclusion);
 - :mod:`bnerr.metrics.frames`: the metrics' table (:data:`METRIC_TABLE`, name -> update and
   how summary tables show it) and :class:`FrameMetrics`, which updates every metric per frame and
   computes their pooled means with intervals;
@@ -35,6 +37,7 @@ from bnerr.metrics.image import (
     temporal_correlation,
 )
 from bnerr.metrics.power import resolve_power, seed_set_spread, seed_sets_needed
+from bnerr.metrics.regions import coherent_mask
 from bnerr.metrics.stats import (
     METHODS,
     Estimate,
@@ -74,6 +77,7 @@ __all__ = [
     "blurred_mse",
     "bootstrap_interval",
     "check_bootstrap",
+    "coherent_mask",
     "edge_mask",
     "equivalent",
     "flip",

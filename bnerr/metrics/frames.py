@@ -145,6 +145,15 @@ class FrameMetrics:
         self._groups.append(group)
         return {name: float(pooled_mean(stats)) for name, stats in row.items()}
 
+    def update_empty(self, group: int = 0) -> None:
+        """Add a frame in which the region measured holds no pixel (a coherent region that the
+        frame lacks): ``(0, 0)`` pairs, which keep the frame count of its seed set and weigh
+        nothing in the pooled means (all-empty frames pool to NaN: nothing was measured)."""
+        check_positive_int(group, "group", minimum=0)
+        for name in self.names:
+            self._stats[name].append(torch.zeros(2, dtype=torch.float64))
+        self._groups.append(group)
+
     def __len__(self) -> int:
         return len(self._groups)
 

@@ -17,6 +17,8 @@ sections 3, 4, 5, 7 and 8):
 - ``temporal``: ``temporal``, ``temporal_sort``, ``temporal_zsobol``: Heitz & Belcour 2019's sort
   and retarget passes, and their variants ``temporal+option...`` (``variants``);
 - ``oracle``: ``oracle``, K renders per frame, the a-posteriori bound.
+- ``vertical``: ``vertical``, the oracle's K renders chosen per pixel for the whole image's
+  sigma-2 blurred error (a second bound, :mod:`bnerr.vertical`).
 
 **Which sampler renders.** Every strategy has ``sampler_name``, the sampler its renders use.
 ``white``, ``temporal``, ``temporal_sort`` and ``oracle`` take the per-pixel sampler they are
@@ -72,6 +74,7 @@ from bnerr.strategies.variants import (
     check_strategy_name,
     parse_variant,
 )
+from bnerr.strategies.vertical import VerticalStrategy
 from bnerr.strategies.white import WhiteStrategy
 from bnerr.strategies.zorder import CyclesBlueStrategy, ZSobolStrategy, ZSobolTStrategy
 
@@ -96,6 +99,7 @@ __all__ = [
     "TemporalStrategy",
     "TemporalZSobolStrategy",
     "VARIANTS",
+    "VerticalStrategy",
     "WhiteStrategy",
     "ZSobolStrategy",
     "ZSobolTStrategy",

@@ -77,6 +77,17 @@ class OracleStrategy(Strategy):
         scalar = load_mask("scalar", build.mask_size)
         return cls(height, width, sampler=build.sampler, mask=scalar, K=build.K, **build.common)
 
+    def _choose(self, t: int, colors: list[torch.Tensor]) -> torch.Tensor:
+        """The candidate of every pixel ``[H, W]``: the histogram sampling of the candidates'
+        luminance at the mask's rank (a subclass may choose otherwise:
+        :class:`bnerr.strategies.vertical.VerticalStrategy`)."""
+        lum = torch.stack([luminance(c) for c in colors])
+        device = lum.device
+        b = tile_mask(
+            self.mask.to(device), self.height, self.width, frame_offset(t, self.mask_size)
+        )
+        return histogram_select(lum, b)
+
     def _frame(self, t: int, render: RenderFn) -> Frame:
         seeds = [
             pixel_seeds(
@@ -86,11 +97,7 @@ class OracleStrategy(Strategy):
         ]
         frames = render.batch(torch.stack(seeds), self.sampler)
         device = frames[0].color.device
-        lum = torch.stack([luminance(f.color.to(device)) for f in frames])
-        b = tile_mask(
-            self.mask.to(device), self.height, self.width, frame_offset(t, self.mask_size)
-        )
-        choice = histogram_select(lum, b)
+        choice = self._choose(t, [f.color.to(device) for f in frames])
         buffers = {}
         for name, first in frames[0].buffers().items():
             chosen = first.to(device).clone()
