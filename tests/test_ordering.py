@@ -321,7 +321,10 @@ def test_best_variant_keeps_whites_raw_mse(gap):
 # and each not worse than white in raw MSE by more than the permutations' equivalence margin
 # (_RAW_MARGIN["temporal"], 5 %: they are other samplers, not a permutation of white's seeds, so
 # equality is not the claim, but a raw excess beyond what 8 seed sets resolve is a finding).
-RIVAL_CLAIMS = ("zsobol", "cycles_blue")
+# LDBN (issue 25) with the keys shipped in bnerr/data, measured here: after the Gaussian 0.901
+# [0.855, 0.950] at 4 spp and 0.953 [0.916, 0.991] at 16; raw 1.006 [0.973, 1.039] and 0.927
+# [0.874, 0.983] (99.17 %, 8 seed sets), the lowest of the three at both sample counts.
+RIVAL_CLAIMS = ("zsobol", "cycles_blue", "ldbn")
 _RIVAL_SPP = (4, 16)
 _RIVAL_LEVEL = 1 - 0.05 / (2 * len(RIVAL_CLAIMS) * len(_RIVAL_SPP))  # den and raw per cell
 _RIVAL_16SPP = (
