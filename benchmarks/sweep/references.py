@@ -33,6 +33,7 @@ Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
@@ -99,6 +100,11 @@ class ReferenceCache:
         self.root = Path(root) if root is not None else None
         self.parts = parts
         self._memory: dict[str, Frame] = {}
+        #: Told what is being rendered before each reference render, and "" after it (the
+        #: progress bar's text: references render before a run's first frame, for a minute on
+        #: a fresh machine).
+        self.on_render: Callable[[str], None] | None = None
+        self._compiled = False
 
     def path(self, run: Run, t_render: int) -> Path:
         """The cache file of ``run``'s reference at renderer frame ``t_render``."""
@@ -112,6 +118,14 @@ class ReferenceCache:
             f"_{REFERENCE_FORMAT}_{version}.exr"
         )
         return (self.root if self.root is not None else Path()) / run.scene / name
+
+    def _tell(self, run: Run, t_render: int, compile: bool) -> None:
+        if self.on_render is None:
+            return
+        first = compile and not self._compiled  # the process's first compiled render warms up
+        self._compiled = self._compiled or compile
+        warm = ", compiling the tracer first (up to a minute)" if first else ""
+        self.on_render(f"reference t={t_render} at {run.reference_spp} spp{warm}")
 
     def get(self, run: Run, scene: Scene, t_render: int) -> Frame:
         """The reference Frame of ``scene`` at renderer frame ``t_render`` for ``run``'s settings.
@@ -133,7 +147,10 @@ class ReferenceCache:
             sampler = self.parts.reference_sampler()
             spp = run.reference_spp
             compile = reference_compile(run.height, run.width, spp)
+            self._tell(run, t_render, compile)
             frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
+            if self.on_render is not None:
+                self.on_render("")  # done: back to the caller's own text
             if self.root is not None:
                 path.parent.mkdir(parents=True, exist_ok=True)
                 write_frame(path, frame)
