@@ -834,11 +834,13 @@ def _lanes(
     otherwise.
     """
     device = pix.device
-    lane_pix = pix.repeat_interleave(ns)
     lane_index = torch.arange(s0, s0 + ns, device=device).repeat(pix.shape[0])
-    py, px = (lane_pix // job.width) % job.height, lane_pix % job.width  # frame k's pixel
+    # Per pixel first, then repeated per sample: the same integers, ns times fewer divisions
+    # and gathers (a sixth of direct's lane set-up).
+    py, px = ((pix // job.width) % job.height).repeat_interleave(ns), (pix % job.width)
+    px = px.repeat_interleave(ns)  # frame k's pixel
     u = job.sampler.sample(
-        job.seeds_flat[lane_pix],
+        job.seeds_flat[pix].repeat_interleave(ns),
         lane_index,
         0,
         job.layout.dimensions,
