@@ -32,6 +32,7 @@ run compiled had a package been there).
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import hashlib
 import os
@@ -39,6 +40,7 @@ import subprocess
 import sys
 import tempfile
 import warnings
+import zipfile
 from pathlib import Path
 
 import torch
@@ -129,18 +131,76 @@ def _flat(st: SceneTensors, names: list[str], args: tuple) -> list[torch.Tensor]
     return flat + list(ends)
 
 
+def _capsule_api() -> ctypes.PyDLL:
+    api = ctypes.pythonapi
+    api.PyCapsule_GetPointer.restype = ctypes.c_void_p
+    api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+    api.PyCapsule_New.restype = ctypes.py_object
+    api.PyCapsule_New.argtypes = [ctypes.c_void_p, ctypes.c_char_p, ctypes.c_void_p]
+    return api
+
+
+def _open_library(path: Path) -> ctypes.CDLL:
+    """The package's model library, copied out of the archive into a private file, opened and
+    unlinked (the loader keeps its mapping)."""
+    with zipfile.ZipFile(path) as archive:
+        (name,) = [n for n in archive.namelist() if n.endswith(".so")]
+        data = archive.read(name)
+    fd, tmp = tempfile.mkstemp(prefix="bnerr_aot_", suffix=".so")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        return ctypes.CDLL(tmp)
+    finally:
+        os.unlink(tmp)
+
+
 class AotStep:
     """A loaded package, called like :func:`~renderers.tracer.vertex_step` with ``ends`` (the
-    uniform convention of :func:`renderers.tracer.trace`), safe to call from several threads."""
+    uniform convention of :func:`renderers.tracer.trace`), safe to call from several threads.
+
+    The model library is called through ctypes, which lets go of the GIL while its kernels run
+    (``AOTIModelPackageLoader.run`` holds it: measured, a second Python thread ran at a tenth of
+    its speed during the calls), so :func:`renderers.render`'s worker threads trace their chunks
+    at once, as with ``torch.compile``. Inputs and outputs cross as ATen tensor handles
+    (``torch._C._aoti``), the way inductor's own C++ wrapper calls such a library.
+    """
 
     uniform = True
 
     def __init__(self, path: Path, names: list[str], runners: int) -> None:
-        self._loader = torch._C._aoti.AOTIModelPackageLoader(str(path), "model", False, runners, -1)
+        self._lib = _open_library(path)
+        self._api = _capsule_api()
+        self._handle = ctypes.c_void_p()
+        made = self._lib.AOTInductorModelContainerCreateWithDevice(
+            ctypes.byref(self._handle), ctypes.c_size_t(max(1, runners)), b"cpu", None
+        )
+        count, constants = ctypes.c_size_t(), ctypes.c_size_t()
+        self._lib.AOTInductorModelContainerGetNumOutputs(self._handle, ctypes.byref(count))
+        self._lib.AOTInductorModelContainerGetNumConstants(self._handle, ctypes.byref(constants))
+        if made != 0 or constants.value != 0:  # the stage has no weights: nothing to load
+            raise RuntimeError(f"the model library would not start (code {made})")
+        self._outputs = count.value
         self._names = names
 
     def __call__(self, st: SceneTensors, *args) -> tuple[torch.Tensor, ...]:
-        return tuple(self._loader.run(_flat(st, self._names, args)))
+        inputs = torch._C._aoti.unsafe_alloc_void_ptrs_from_tensors(_flat(st, self._names, args))
+        handles = (ctypes.c_void_p * len(inputs))(
+            *[self._api.PyCapsule_GetPointer(c, None) for c in inputs]
+        )  # the library takes these handles over (and frees them)
+        out = (ctypes.c_void_p * self._outputs)()
+        n_in, n_out = ctypes.c_size_t(len(inputs)), ctypes.c_size_t(self._outputs)
+        code = self._lib.AOTInductorModelContainerRun(
+            self._handle, handles, n_in, out, n_out, None, None
+        )
+        if code != 0:
+            raise RuntimeError(f"the compiled stage failed (code {code})")
+        capsules = [self._api.PyCapsule_New(h, None, None) for h in out]
+        return tuple(torch._C._aoti.alloc_tensors_by_stealing_from_void_ptrs(capsules))
+
+    def __del__(self) -> None:
+        if getattr(self, "_handle", None) and self._handle.value:
+            self._lib.AOTInductorModelContainerDelete(self._handle)
 
 
 def load(st: SceneTensors, runners: int = 1) -> AotStep | None:
@@ -150,7 +210,7 @@ def load(st: SceneTensors, runners: int = 1) -> AotStep | None:
         return None
     try:
         return AotStep(path, _split(st)[0], runners)
-    except RuntimeError as err:  # a package of another build of torch, a damaged file
+    except (OSError, ValueError, RuntimeError, zipfile.BadZipFile) as err:  # damaged, foreign
         warnings.warn(f"renderers: ignoring {path} ({err})", RuntimeWarning, stacklevel=2)
         return None
 
