@@ -183,7 +183,7 @@ class AotStep:
         self._outputs = count.value
         self._names = names
 
-    def __call__(self, st: SceneTensors, *args) -> tuple[torch.Tensor, ...]:
+    def __call__(self, st: SceneTensors, *args: object) -> tuple[torch.Tensor, ...]:
         inputs = torch._C._aoti.unsafe_alloc_void_ptrs_from_tensors(_flat(st, self._names, args))
         handles = (ctypes.c_void_p * len(inputs))(
             *[self._api.PyCapsule_GetPointer(c, None) for c in inputs]

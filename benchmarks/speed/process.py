@@ -75,7 +75,9 @@ def _plain(value: Any) -> Any:
     return {"__matrix__": np.array(value.matrix, dtype=np.float64).tolist()}
 
 
-def _mitsuba_job(scene_name: str, width: int, height: int, spp: int, folder: Path):
+def _mitsuba_job(
+    scene_name: str, width: int, height: int, spp: int, folder: Path
+) -> tuple[list[str], dict[str, str]] | str:
     """The Mitsuba process's command and environment, or the reason it cannot run."""
     if not mitsuba_available():
         return "mitsuba is not installed (pip install 'bnerr[reference]')"
@@ -146,7 +148,7 @@ def _round(jobs: Mapping[str, Any], folder: Path, k: int) -> dict[str, float | s
 def _figures(rounds: list[dict[str, float | str]]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for name in rounds[0]:
-        ok = [r[name] for r in rounds if isinstance(r[name], float)]
+        ok = [v for r in rounds if isinstance(v := r[name], float)]
         if not ok:
             out[name] = {"error": next(str(r[name]) for r in rounds)}
             continue
