@@ -291,3 +291,24 @@ def test_an_eager_render_without_a_package_starts_its_build_in_the_background(
     monkeypatch.setenv("BNERR_BACKGROUND_BUILD", "0")
     started.clear()
     assert main(args) == 0 and started == []
+
+
+def test_a_small_compiled_render_skips_the_time_calibration(tmp_path, monkeypatch):
+    import benchmarks.commands.render as command
+    from renderers import aot
+
+    checked = []
+    monkeypatch.setattr(aot, "has_package", lambda name, static=False: True)
+    monkeypatch.setattr(command, "check_render_time", lambda *a, **k: checked.append(a) or 0.0)
+
+    def fake_render(scene, t, seeds, sampler, spp, *, compile=None):
+        raise SystemExit(0)
+
+    monkeypatch.setattr(command, "render", fake_render)
+    base = ["render", "--scene", "direct", "--res", "256x256", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit):
+        main([*base, "--spp", "32"])  # 2^21 paths compiled: under a few seconds
+    assert checked == []
+    with pytest.raises(SystemExit):
+        main([*base, "--spp", "64"])  # 2^22: estimated
+    assert len(checked) == 1

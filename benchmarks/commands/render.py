@@ -31,7 +31,8 @@ Before rendering, the resolution is checked against the memory it needs and ``DI
 kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR``'s lock
 (:func:`bnerr.outputs.output_lock`), so a second writer into ``DIR`` refuses. Its time is
 estimated too, from the tracer's throughput measured on this machine for the scene
-(:mod:`renderers.budget`, a fraction of a second, skipped for renders of under 2^18 paths): an
+(:mod:`renderers.budget`, a fraction of a second, skipped for renders of under 2^18 paths, 2^22
+compiled): an
 estimate over 10 s is printed, one over an hour refused unless ``--force``.
 """
 
@@ -78,6 +79,11 @@ SAMPLER_NAMES = ("white", "owen_sobol")
 #: when its package is cached (loading it takes milliseconds; it pays from about 2^18 paths,
 #: kept at 2^21 so that small renders never start a background build).
 AUTO_COMPILE_PATHS = 1 << 21
+#: Compiled renders of fewer paths are not estimated (as eager ones below
+#: :data:`renderers.budget.UNMEASURED_PATHS`): at the slowest scene's compiled rate here (about
+#: 1.6 M paths/s) they take under 3 s, and a cached 256x256, 32 spp render's process spent 7 % of
+#: its time calibrating.
+COMPILED_UNMEASURED_PATHS = 1 << 22
 #: Seconds building the compiled package takes when it is not cached (measured 45 s of CPU, up
 #: to 2 min on the loaded 2-core machine): renders whose eager time exceeds this plus their
 #: compiled time build it first.
@@ -155,6 +161,8 @@ def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: i
     paths = width * height * args.spp * (frames.stop - first) * renders
     what = f"--res {width}x{height} --spp {args.spp} --frames {args.frames}"
     compiled = bool(args.compile_now)
+    if compiled and paths < COMPILED_UNMEASURED_PATHS:
+        return  # seconds at most: the calibration (0.2-0.3 s) would cost more than it tells
     seconds = check_render_time(scene, paths, what, limit_s=TIME_LIMIT_S, compile=compiled)
     if seconds > SHOW_ESTIMATE_S:
         print(f"bnerr render: estimated {format_seconds(seconds)} ({paths:.3g} paths)", flush=True)
