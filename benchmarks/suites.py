@@ -431,10 +431,12 @@ SUITES: dict[str, Suite] = {
     "speed": Suite(
         name="speed",
         description=(
-            "renderer throughput against Mitsuba 3, the permutation op and each denoiser at 1080p"
+            "renderer throughput against Mitsuba 3 (in-process and as a new process), the "
+            "permutation op and each denoiser at 1080p"
         ),
         scripts=(
             "speed.tracer",
+            "speed.process",
             "speed.permute",
             "speed.denoise",
             "speed.masks",

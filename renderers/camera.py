@@ -90,10 +90,16 @@ def generate_rays(
         ``origin [3, N]`` and unit ``direction [3, N]`` (component-major, like every ray in
         :mod:`renderers`).
     """
-    sx = (2.0 * px / cam.width - 1.0) * cam.tan_x
-    sy = (1.0 - 2.0 * py / cam.height) * cam.tan_y
-    direction = sx * cam.right[:, None] + sy * cam.up[:, None] + cam.forward[:, None]
-    direction = direction * torch.rsqrt(sx * sx + sy * sy + 1.0)  # right, up, forward orthonormal
+    # The same operations in the same order as the plain expressions (kept in the comments), in
+    # place where a temporary can be reused: fewer fresh [3, N] buffers, bit-identical results.
+    sx = torch.mul(px, 2.0).div_(cam.width).sub_(1.0).mul_(cam.tan_x)  # (2 px / W - 1) tan_x
+    sy = torch.mul(py, 2.0).div_(cam.height).neg_().add_(1.0).mul_(cam.tan_y)  # (1 - 2 py / H) ..
+    # sx right + sy up + forward, then times rsqrt(sx^2 + sy^2 + 1) (right, up, forward orthonormal)
+    direction = sx * cam.right[:, None]
+    direction += sy * cam.up[:, None]
+    direction += cam.forward[:, None]
+    norm = torch.mul(sx, sx).add_(torch.mul(sy, sy)).add_(1.0).rsqrt_()
+    direction *= norm
     return cam.origin[:, None].expand_as(direction), direction
 
 

@@ -453,7 +453,7 @@ def _center_buffers(
 # The public entry point
 
 
-def _use_compile(compile: bool | None) -> bool:
+def _use_compile(compile: bool | StageSource | None) -> bool:
     """``compile`` if given, else True only when the environment sets ``BNERR_COMPILE=1``.
 
     Compiling is opt-in: a compiled render may differ from the eager one in the last bits
@@ -512,6 +512,21 @@ def _compiled_step() -> _CompiledStep:
     return _COMPILED
 
 
+#: What :func:`render`'s ``compile`` may be besides a bool or None: a callable
+#: ``(scene tensors, layout, workers) -> stage or None`` that gives the frame's vertex stage
+#: (:func:`renderers.aot.stage`, the ahead-of-time compiled one); None from it means eager.
+StageSource = Callable[[SceneTensors, Layout, int], Callable[..., tuple[torch.Tensor, ...]] | None]
+
+
+def _stage(
+    compile: bool | StageSource | None, st: SceneTensors, layout: Layout, workers: int
+) -> Callable[..., tuple[torch.Tensor, ...]]:
+    """The vertex stage :func:`render` runs (see its ``compile``)."""
+    if callable(compile):
+        return compile(st, layout, workers) or vertex_step
+    return _compiled_step() if _use_compile(compile) else vertex_step
+
+
 def _padded(n: int) -> int:
     """Lane count for the compiled stage: the next power of two (at least 1024)."""
     return max(1024, 1 << (n - 1).bit_length())
@@ -567,7 +582,7 @@ def render(
     spp: int,
     *,
     chunk: int = DEFAULT_CHUNK,
-    compile: bool | None = None,
+    compile: bool | StageSource | None = None,
 ) -> Frame:
     """Render frame ``t`` of ``scene``: the mean of ``spp`` paths per pixel.
 
@@ -589,6 +604,8 @@ def render(
             stage is used, with a warning. A compiled render may differ from the eager one in
             the last bits (measured: up to 3.6e-7 at 960x540, 16 spp, in 16 % of the values),
             since the fused kernels round differently; each mode is bit-identical between runs.
+            A callable (:data:`StageSource`, e.g. :func:`renderers.aot.stage`) gives the stage
+            instead: the ahead-of-time compiled package, loaded in milliseconds in a new process.
 
     Threads: ``torch.get_num_threads()`` chunks are traced at once, each by single-threaded ops
     (torch's thread count is 1 while ``render`` runs and is restored after). Torch's per-op
@@ -628,7 +645,7 @@ def render_batch(
     spp: int,
     *,
     chunk: int = DEFAULT_CHUNK,
-    compile: bool | None = None,
+    compile: bool | StageSource | None = None,
 ) -> list[Frame]:
     """``[render(scene, t, seeds[k], sampler, spp) for k in range(K)]``, bit for bit, faster.
 
@@ -703,7 +720,7 @@ def _render(
     sampler: Sampler,
     spp: int,
     chunk: int,
-    compile: bool | None,
+    compile: bool | StageSource | None,
     workers: int,
 ) -> list[Frame]:
     """:func:`render` of each seed image of ``seeds [K, H, W]`` after the checks, with torch's
@@ -712,7 +729,7 @@ def _render(
     device = seeds.device
     st = scene_tensors(scene, t, device)
     cam = camera_frame(scene.camera, t, width, height, device)
-    step = _compiled_step() if _use_compile(compile) else vertex_step
+    step = _stage(compile, st, scene.layout, workers)
     job = _PathJob(st, cam, scene.layout, seeds.reshape(-1), width, height, sampler, spp, step)
     n_pixels = height * width
     sums = _PixelSums.zeros(frames * n_pixels, device)
@@ -722,7 +739,7 @@ def _render(
     def work(pixel_range: tuple[int, int]) -> None:
         _trace_range(job, sums, pixel_range, per_chunk)
 
-    if step is vertex_step:
+    if not isinstance(step, _CompiledStep):
         _run_ranges(work, ranges, workers)
     else:
         with torch._dynamo.config.patch(recompile_limit=RECOMPILE_LIMIT):
@@ -817,18 +834,20 @@ def _lanes(
     otherwise.
     """
     device = pix.device
-    lane_pix = pix.repeat_interleave(ns)
     lane_index = torch.arange(s0, s0 + ns, device=device).repeat(pix.shape[0])
-    py, px = (lane_pix // job.width) % job.height, lane_pix % job.width  # frame k's pixel
+    # Per pixel first, then repeated per sample: the same integers, ns times fewer divisions
+    # and gathers (a sixth of direct's lane set-up).
+    py, px = ((pix // job.width) % job.height).repeat_interleave(ns), (pix % job.width)
+    px = px.repeat_interleave(ns)  # frame k's pixel
     u = job.sampler.sample(
-        job.seeds_flat[lane_pix],
+        job.seeds_flat[pix].repeat_interleave(ns),
         lane_index,
         0,
         job.layout.dimensions,
         torch.stack([py, px], dim=1),
     ).T.contiguous()
     n = u.shape[1]
-    if job.step is not vertex_step and _padded(n) != n:  # one compiled shape per render
+    if isinstance(job.step, _CompiledStep) and _padded(n) != n:  # one compiled shape per render
         pad = _padded(n) - n
         u = torch.cat([u, u[:, :1].expand(-1, pad)], dim=1)
         px = torch.cat([px, px[:1].expand(pad)])

@@ -224,20 +224,22 @@ def test_strategy_errors_are_one_line_before_anything_is_written(tmp_path, capsy
 
 
 @pytest.mark.parametrize(
-    ("extra", "compiled"),
+    ("extra", "cached", "compiled"),
     [
-        (["--res", "256x256", "--spp", "32"], True),  # 2^21 paths: compiled by default
-        (["--res", "256x256", "--spp", "16"], False),
-        (["--res", "256x256", "--spp", "16", "--frames", "2"], True),  # paths of all frames
-        (["--res", "256x256", "--spp", "32", "--no-compile"], False),
-        (["--res", "8x8", "--spp", "1", "--compile"], True),
-        (["--res", "256x256", "--spp", "32", "--strategy", "white"], False),  # bench's path
+        (["--res", "256x256", "--spp", "32"], True, True),  # 2^21 paths, package cached
+        (["--res", "256x256", "--spp", "32"], False, False),  # not cached: eager, build later
+        (["--res", "256x256", "--spp", "16"], True, False),
+        (["--res", "256x256", "--spp", "16", "--frames", "2"], True, True),  # all frames' paths
+        (["--res", "256x256", "--spp", "32", "--no-compile"], True, False),
+        (["--res", "8x8", "--spp", "1", "--compile"], False, True),  # built first if need be
+        (["--res", "256x256", "--spp", "32", "--strategy", "white"], True, False),  # bench's path
     ],
 )
-def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders(
-    tmp_path, capsys, monkeypatch, extra, compiled
+def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders_once_built(
+    tmp_path, capsys, monkeypatch, extra, cached, compiled
 ):
     import benchmarks.commands.render as command
+    from renderers import aot
 
     seen = []
 
@@ -246,9 +248,10 @@ def test_the_compiled_tracer_is_the_default_for_large_fixed_seed_renders(
         raise SystemExit(0)  # stop before rendering anything
 
     monkeypatch.setattr(command, "render", fake_render)
+    monkeypatch.setattr(aot, "has_package", lambda name, static=False: cached)
     with pytest.raises(SystemExit):
         main(["render", "--scene", "direct", *extra, "--out", str(tmp_path)])
-    assert seen == [compiled]
+    assert seen == [aot.stage if compiled else False]
 
 
 def _temporal(out, frames, res, *extra):
@@ -299,3 +302,63 @@ def test_a_long_temporal_run_keeps_memory_flat_and_the_seeds_a_permutation(tmp_p
     assert torch.equal(strategy.seeds.reshape(-1).sort().values, first.reshape(-1).sort().values)
     assert not torch.equal(strategy.seeds, first)  # they moved: the check is not vacuous
     assert len(strategy._plans) <= strategy._plan_slots  # the per-offset caches are bounded
+
+
+def test_a_render_that_repays_the_build_builds_it_first(tmp_path, monkeypatch):
+    import benchmarks.commands.render as command
+    from renderers import aot
+
+    seen = []
+
+    def fake_render(scene, t, seeds, sampler, spp, *, compile=None):
+        seen.append(compile)
+        raise SystemExit(0)
+
+    monkeypatch.setattr(command, "render", fake_render)
+    monkeypatch.setattr(aot, "has_package", lambda name, static=False: False)
+    monkeypatch.setattr(command, "estimate_seconds", lambda scene, paths, compile=False: 1e3)
+    args = ["render", "--scene", "direct", "--res", "256x256", "--spp", "32", "--force"]
+    with pytest.raises(SystemExit):
+        main([*args, "--out", str(tmp_path)])
+    assert seen == [aot.stage]
+
+
+def test_an_eager_render_without_a_package_starts_its_build_in_the_background(
+    tmp_path, capsys, monkeypatch
+):
+    import benchmarks.commands.render as command
+    from renderers import aot
+
+    started = []
+    monkeypatch.setattr(aot, "has_package", lambda name, static=False: False)
+    monkeypatch.setattr(aot, "start_background_build", lambda *a: started.append(a))
+    monkeypatch.setattr(command, "estimate_seconds", lambda scene, paths, compile=False: 1.0)
+    monkeypatch.setattr(command, "check_render_time", lambda *a, **k: 0.0)
+    monkeypatch.setattr(command, "AUTO_COMPILE_PATHS", 16)
+    args = ["render", "--scene", "direct", "--res", "4x4", "--spp", "1", "--out", str(tmp_path)]
+    assert main(args) == 0
+    assert started == [("direct", False)] and "in the background" in capsys.readouterr().out
+    monkeypatch.setenv("BNERR_BACKGROUND_BUILD", "0")
+    started.clear()
+    assert main(args) == 0 and started == []
+
+
+def test_a_small_compiled_render_skips_the_time_calibration(tmp_path, monkeypatch):
+    import benchmarks.commands.render as command
+    from renderers import aot
+
+    checked = []
+    monkeypatch.setattr(aot, "has_package", lambda name, static=False: True)
+    monkeypatch.setattr(command, "check_render_time", lambda *a, **k: checked.append(a) or 0.0)
+
+    def fake_render(scene, t, seeds, sampler, spp, *, compile=None):
+        raise SystemExit(0)
+
+    monkeypatch.setattr(command, "render", fake_render)
+    base = ["render", "--scene", "direct", "--res", "256x256", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit):
+        main([*base, "--spp", "32"])  # 2^21 paths compiled: under a few seconds
+    assert checked == []
+    with pytest.raises(SystemExit):
+        main([*base, "--spp", "64"])  # 2^22: estimated
+    assert len(checked) == 1

@@ -157,3 +157,21 @@ def test_the_cache_passes_the_compile_rule_to_the_renderer(tmp_path, res, spp, w
     run = dataclasses.replace(_run(), width=res[0], height=res[1], reference_spp=spp)
     ReferenceCache(tmp_path, parts).get(run, parts.get_scene("direct", True), 0)
     assert recording.compiles == [want]
+
+
+def test_the_progress_text_names_each_reference_render_and_the_first_compile(tmp_path):
+    parts = dataclasses.replace(real_parts(), render=_Recording())
+    run = dataclasses.replace(_run(), width=64, height=64, reference_spp=1024)
+    cache = ReferenceCache(tmp_path, parts)
+    told = []
+    cache.on_render = told.append
+    scene = parts.get_scene("direct", True)
+    cache.get(run, scene, 0)
+    cache.get(run, scene, 0)  # in memory: nothing rendered, nothing told
+    cache.get(run, scene, 1)
+    assert told == [
+        "reference t=0 at 1024 spp, compiling the tracer first (up to a minute)",
+        "",
+        "reference t=1 at 1024 spp",
+        "",
+    ]

@@ -135,3 +135,26 @@ def test_copy_anchor_moves_each_jobs_bytes():
         assert figures[job]["bytes"] == 16 * 8 * per_pixel and figures[job]["copy_ms"] > 0
     assert set(PASS_JOBS.values()) == set(JOB_BYTES)
     assert figures["size"] == "16x8" and figures["threads"] == 1
+
+
+def test_process_figures_ratio_each_round_to_mitsubas_process():
+    from benchmarks.speed.process import _figures, table
+
+    rounds = [
+        {"cold": 8.0, "warm": 4.0, "eager": 6.0, "mitsuba_llvm": 2.0},
+        {"cold": 9.0, "warm": 3.0, "eager": "exit code 1: boom", "mitsuba_llvm": 3.0},
+    ]
+    figures = _figures(rounds)
+    assert figures["warm"] == {"best_s": 3.0, "median_s": 3.5, "runs": 2, "ratio_to_mitsuba": 1.5}
+    assert figures["cold"]["ratio_to_mitsuba"] == pytest.approx(3.5)
+    assert "ratio_to_mitsuba" not in figures["mitsuba_llvm"]
+    assert figures["eager"]["runs"] == 1
+    text = "\n".join(table({"processes": figures, "settings": {"scene": "cornell"}}, {}))
+    assert (
+        "| warm | 3.00 | 3.50 | 1.50x |" in text
+        and "| mitsuba_llvm | 2.00 | 2.50 | anchor |" in text
+    )
+    missing = _figures([{"cold": 1.0, "mitsuba_llvm": "mitsuba is not installed"}])
+    assert missing["mitsuba_llvm"] == {"error": "mitsuba is not installed"}
+    assert "ratio_to_mitsuba" not in missing["cold"]
+    assert "(mitsuba is not installed)" in "\n".join(table({"processes": missing}, {}))

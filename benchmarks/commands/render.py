@@ -17,22 +17,24 @@ strategy chooses the seeds instead, its state carried from frame to frame: frame
 strategy (the temporal ones) renders frames ``0 .. --start - 1`` too, unwritten, to carry its
 state; a stateless one starts at ``--start``, as the benchmark skips its warmup.
 
-The tracer runs compiled (``torch.compile`` of its vertex stage, about 5x faster once built)
-when a fixed-seed render traces at least 2^21 paths in all (``W * H * spp * frames``, e.g.
-256x256 at 32 spp), and eagerly below; ``--compile`` / ``--no-compile`` decide instead. The
-first compiled render on a machine builds the kernels (tens of seconds); later processes find
-them in torch's on-disk cache and only trace the stage again (seconds). With ``--strategy`` the
-default is eager, the benchmark's path, so that its frames stay the benchmark's bit for bit.
-Each output line says which path ran.
+The tracer runs compiled (its vertex stage as an ahead-of-time compiled package,
+:mod:`renderers.aot`: fused C++ kernels, about 4x faster than eager, loaded in milliseconds) when
+a fixed-seed render traces at least 2^21 paths in all (``W * H * spp * frames``, e.g. 256x256 at
+32 spp) and the scene's package is cached; eagerly below. The first such render of a scene on a
+machine renders eagerly and then starts a niced background process that builds the package
+(about a minute), so that later processes start compiled; a render long enough to repay the
+build (:data:`AOT_BUILD_S`) builds it first instead. ``--compile`` (build if needed, then compiled)
+and ``--no-compile`` decide instead. With ``--strategy`` the default is eager, the benchmark's
+path, so that its frames stay the benchmark's bit for bit. Each output line says which path ran.
 
 Before rendering, the resolution is checked against the memory it needs and ``DIR`` against its
 kind, writability and free space; while it writes, ``bnerr render`` holds ``DIR``'s lock
 (:func:`bnerr.outputs.output_lock`), so a second writer into ``DIR`` refuses. Its time is
 estimated too, from the tracer's throughput measured on this machine for the scene
-(:mod:`renderers.budget`, a fraction of a second, skipped for renders of under 2^18 paths): an
-estimate over 10 s is printed, one over an hour refused unless ``--force``. From 2 frames on, a
-progress bar on stderr counts the frames written (``--no-progress``: none); the per-frame lines
-stay on stdout.
+(:mod:`renderers.budget`, a fraction of a second, skipped for renders of under 2^18 paths, 2^22
+compiled): an estimate over 10 s is printed, one over an hour refused unless ``--force``. From 2
+frames on, a progress bar on stderr counts the frames written (``--no-progress``: none); the
+per-frame lines stay on stdout.
 
 A long run keeps its memory flat: ``--strategy temporal --frames 1000`` at 64x64 measured 586.1
 MiB resident at frame 100 and 586.6 MiB at frame 1000 (the strategy's caches are bounded by
@@ -43,6 +45,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -64,16 +67,34 @@ from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
-from renderers import get_scene, render
-from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
+from renderers import aot, get_scene, render
+from renderers.budget import (
+    COMPILE_SPEEDUP,
+    SHOW_ESTIMATE_S,
+    TIME_LIMIT_S,
+    check_render_time,
+    estimate_seconds,
+    format_seconds,
+)
 from renderers.memory import render_bytes
+from renderers.tracer import StageSource
 
-__all__ = ["AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
+__all__ = ["AOT_BUILD_S", "AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
 
 SAMPLER_NAMES = ("white", "owen_sobol")
-#: Fixed-seed renders of at least this many paths in all run the compiled tracer by default:
-#: about where a warm start-up (tracing the stage again, seconds) costs less than it saves.
+#: Fixed-seed renders of at least this many paths in all run the compiled tracer by default
+#: when its package is cached (loading it takes milliseconds; it pays from about 2^18 paths,
+#: kept at 2^21 so that small renders never start a background build).
 AUTO_COMPILE_PATHS = 1 << 21
+#: Compiled renders of fewer paths are not estimated (as eager ones below
+#: :data:`renderers.budget.UNMEASURED_PATHS`): at the slowest scene's compiled rate here (about
+#: 1.6 M paths/s) they take under 3 s, and a cached 256x256, 32 spp render's process spent 7 % of
+#: its time calibrating.
+COMPILED_UNMEASURED_PATHS = 1 << 22
+#: Seconds building the compiled package takes when it is not cached (measured 45 s of CPU, up
+#: to 2 min on the loaded 2-core machine): renders whose eager time exceeds this plus their
+#: compiled time build it first.
+AOT_BUILD_S = 90.0
 
 
 #: Disk bytes per pixel and frame at most: 16 float32 EXR channels (ZIP never grows them much)
@@ -110,15 +131,28 @@ def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
     return width, height, check_output(args.out, "dir", need_bytes=need)
 
 
-def compile_choice(args: argparse.Namespace, width: int, height: int) -> bool:
-    """Whether to run the compiled tracer: ``--compile``/``--no-compile`` if given, else eager
-    with ``--strategy`` (the benchmark's path) and compiled from :data:`AUTO_COMPILE_PATHS`
-    paths in all otherwise."""
+def compile_choice(args: argparse.Namespace, width: int, height: int) -> bool | StageSource:
+    """The vertex stage to run, as :func:`renderers.render`'s ``compile``: eager (False) or the
+    ahead-of-time compiled package (:func:`renderers.aot.stage`).
+
+    ``--no-compile``: eager; ``--compile``: the package, built first if it is not cached. Else
+    eager with ``--strategy`` (the benchmark's path) and below :data:`AUTO_COMPILE_PATHS` paths
+    in all; above, the package when it is cached, and when it is not, whichever is faster:
+    building it now (:data:`AOT_BUILD_S`) and rendering compiled, or rendering eagerly while a
+    background process builds it for the next render (``args.build_later``)."""
+    args.build_later = False
     if args.compile is not None:
-        return bool(args.compile)
-    if args.strategy is not None:
+        return aot.stage if args.compile else False
+    paths = width * height * args.spp * args.frames
+    if args.strategy is not None or paths < AUTO_COMPILE_PATHS:
         return False
-    return width * height * args.spp * args.frames >= AUTO_COMPILE_PATHS
+    if aot.has_package(args.scene, args.static):
+        return aot.stage
+    eager = estimate_seconds(get_scene(args.scene, animated=not args.static), paths)
+    if eager > AOT_BUILD_S + eager / COMPILE_SPEEDUP:
+        return aot.stage
+    args.build_later = os.environ.get("BNERR_BACKGROUND_BUILD", "1") != "0"
+    return False
 
 
 def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: int) -> None:
@@ -133,7 +167,10 @@ def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: i
     renders = getattr(strategy, "K", 1)  # the oracle renders K candidates per frame
     paths = width * height * args.spp * (frames.stop - first) * renders
     what = f"--res {width}x{height} --spp {args.spp} --frames {args.frames}"
-    seconds = check_render_time(scene, paths, what, limit_s=TIME_LIMIT_S, compile=args.compile_now)
+    compiled = bool(args.compile_now)
+    if compiled and paths < COMPILED_UNMEASURED_PATHS:
+        return  # seconds at most: the calibration (0.2-0.3 s) would cost more than it tells
+    seconds = check_render_time(scene, paths, what, limit_s=TIME_LIMIT_S, compile=compiled)
     if seconds > SHOW_ESTIMATE_S:
         print(f"bnerr render: estimated {format_seconds(seconds)} ({paths:.3g} paths)", flush=True)
 
@@ -211,6 +248,13 @@ def run(args: argparse.Namespace) -> int:
             path = "compiled" if args.compile_now else "eager"
             _report(stem, seconds, width, height, args.spp, scene, path)
             bar.update(1)
+    if args.build_later:
+        aot.start_background_build(args.scene, args.static)
+        print(
+            f"bnerr render: building the compiled tracer for {scene.name} in the background "
+            f"(about a minute, niced; BNERR_BACKGROUND_BUILD=0 turns this off): later renders "
+            f"of it start compiled"
+        )
     return 0
 
 
@@ -247,7 +291,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--compile",
         action=argparse.BooleanOptionalAction,
         default=None,
-        help="torch.compile the tracer (default: from 2^21 paths in all, not with --strategy)",
+        help="the compiled tracer, built first if needed (default: from 2^21 paths in all if "
+        "built, not with --strategy)",
     )
     p.add_argument(
         "--force",

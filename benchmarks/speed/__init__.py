@@ -7,7 +7,8 @@ them as they come in ``speed.json``, under the script's name, and :func:`speed_m
 Each script carries the writer of its own table (its ``table(values, figures)``):
 
 - the tracer (:mod:`~benchmarks.speed.tracer`) against Mitsuba 3's ``scalar_rgb`` and
-  ``llvm_ad_rgb`` variants;
+  ``llvm_ad_rgb`` variants, and ``bnerr render`` as a whole new process, cold and warm
+  (:mod:`~benchmarks.speed.process`), against a Mitsuba LLVM process;
 - the permutation passes (:mod:`~benchmarks.speed.permute`) against a memory copy of the bytes
   each reads and writes (:mod:`~benchmarks.speed.copy`, which :func:`run_speed` runs right after
   ``speed.permute``, in the same run), and the closing-the-gap options (its ``gap`` figures)
@@ -55,6 +56,7 @@ ANCHOR_SCRIPTS: dict[str, str] = {"speed.permute": "speed.copy"}
 #: The order of the parts in ``speed.md`` (scripts not listed follow, in the figures' order).
 SECTION_ORDER: tuple[str, ...] = (
     "speed.tracer",
+    "speed.process",
     "speed.permute",
     "speed.sequences",
     "speed.masks",

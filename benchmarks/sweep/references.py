@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import errno
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
@@ -116,6 +117,11 @@ class ReferenceCache:
         self._memory: dict[str, Frame] = {}
         self.unwritable: str | None = None  # why the cache folder refused a write, if it did
         self._cleaned: set[Path] = set()
+        #: Told what is being rendered before each reference render, and "" after it (the
+        #: progress bar's text: references render before a run's first frame, for a minute on
+        #: a fresh machine).
+        self.on_render: Callable[[str], None] | None = None
+        self._compiled = False
 
     def _store(self, path: Path, frame: Frame) -> None:
         """Write ``frame`` to the cache file ``path`` (atomically). A folder that refuses (read
@@ -154,6 +160,14 @@ class ReferenceCache:
         )
         return (self.root if self.root is not None else Path()) / run.scene / name
 
+    def _tell(self, run: Run, t_render: int, compile: bool) -> None:
+        if self.on_render is None:
+            return
+        first = compile and not self._compiled  # the process's first compiled render warms up
+        self._compiled = self._compiled or compile
+        warm = ", compiling the tracer first (up to a minute)" if first else ""
+        self.on_render(f"reference t={t_render} at {run.reference_spp} spp{warm}")
+
     def get(self, run: Run, scene: Scene, t_render: int) -> Frame:
         """The reference Frame of ``scene`` at renderer frame ``t_render`` for ``run``'s settings.
 
@@ -174,7 +188,10 @@ class ReferenceCache:
             sampler = self.parts.reference_sampler()
             spp = run.reference_spp
             compile = reference_compile(run.height, run.width, spp)
+            self._tell(run, t_render, compile)
             frame = self.parts.render(scene, t_render, seeds, sampler, spp, compile=compile)
+            if self.on_render is not None:
+                self.on_render("")  # done: back to the caller's own text
             self._store(path, frame)
         if len(self._memory) >= _REFERENCES_IN_MEMORY:
             self._memory.pop(next(iter(self._memory)))

@@ -183,9 +183,16 @@ def run_suite(
     total = sum(r.seed_sets * (r.warmup + r.frames) for r in sweep.todo)
     with tqdm(total=total, unit="frame", disable=not progress, dynamic_ncols=True) as bar:
         for run in sweep.todo:
-            bar.set_description(run.label)
+            label = run.label  # bound now: the callback below reads it while this run measures
+
+            def say(what: str, label: str = label) -> None:
+                bar.set_description(f"{label}: {what}" if what else label, refresh=True)
+
+            references.on_render = say
+            say("tuning the denoisers")
             denoisers = tune_denoisers(run, sweep.parts, references, sweep.store)
             sweep.save_params()
+            say("")
             measured = measure_run(
                 run,
                 sweep.parts,
