@@ -46,6 +46,13 @@ The four suites (issue 6):
   development machine on one thread: 2 seed sets x 2 frames after 4 warmup frames (the sort
   converges within about 3), the two cheap denoisers (gaussian, atrous; ``--denoisers`` adds the
   others), only the MSE measures, no crops. The oracle's 32 renders per frame are half of it.
+- ``seed``: the seed talk's conditions (issue 26, docs/METHODS.md, section 11), 64x64, 3 seed
+  sets x 2 frames after 6 warmup frames, with crops at every spp for the figures of
+  :mod:`benchmarks.reports.seed`. Measured with ``--seed-sets 2``: 4.4 CPU-minutes on one thread
+  (10.5 minutes of wall time at load 9), so about 7 minutes unloaded with 3 seed sets. The
+  ``vertical`` bound, which renders the oracle's 32 candidates and searches, was 57 % of the
+  suite's time at every spp and both cameras (measured at 32x32 x 2 seed sets); it runs at 16
+  and 64 spp on the slow camera only.
 - ``stability``: the cases where the temporal method is expected to fail: textured against
   untextured snooker, object edges, static against fast camera motion, Owen-Sobol against white
   per-pixel sequences, 1 to 64 spp, 1 to 8 bounces; reported as each strategy's post-denoise MSE
@@ -387,7 +394,8 @@ SUITES: dict[str, Suite] = {
         crops_every_spp=True,
         description=(
             "the seed talk's conditions: sphere on a checkerboard (indirect) static and slowly "
-            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp (~15 minutes)"
+            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp; images, insets "
+            "and coherent-region spectra (~7 minutes on one unloaded core)"
         ),
         sweeps=(
             # The talk's figure: direct + indirect light on a checkerboard, a slow camera and a

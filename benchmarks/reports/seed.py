@@ -6,9 +6,9 @@ The ``seed`` suite (:data:`benchmarks.suites.SUITES`) saves crops at every spp
 pixels (``Record.spectrum["coherent"]``). From those alone:
 
 - :func:`seed_figure`: for one group (scene and condition) and spp, the reference and each
-  strategy's raw frame side by side, each with a 3x inset of the same square (nearest
-  neighbour), and a last panel with each strategy's coherent-region error spectrum, in the
-  strategies' colours (:mod:`benchmarks.reports.palette`);
+  strategy's raw frame side by side, each with an inset of the same square enlarged about
+  2x (nearest neighbour), and a last panel with each strategy's coherent-region error spectrum,
+  in the strategies' colours (:mod:`benchmarks.reports.palette`);
 - :func:`write_seed_report`: every figure as ``seed_<group>_<spp>spp.png`` and ``README.md``:
   per group, the share of the oracle's dividend each strategy keeps in the coherent region after
   a sigma-2 blur (:func:`benchmarks.reports.gap.gap_shares`, with its interval) at every spp,
@@ -50,7 +50,6 @@ __all__ = ["GOALS", "seed_figure", "write_seed_report"]
 #: coherent region).
 GOALS: dict[int, float] = {16: 0.5, 64: 1 / 3}
 _MEASURE = "raw mse_blur2"
-_ZOOM = 3
 
 
 def _inset_box(size: int) -> tuple[int, int, int]:
@@ -190,8 +189,8 @@ def write_seed_report(
         "# The seed talk's conditions",
         "",
         "Written by `bnerr bench --suite seed` from its records (do not edit). Each figure: the "
-        "reference and each strategy's raw frame (first measured frame of seed set 0), a 3x "
-        "inset of the yellow square, and the raw error's power spectrum over the coherent "
+        "reference and each strategy's raw frame (first measured frame of seed set 0), an "
+        "enlarged inset of the yellow square, and the raw error's power spectrum over the coherent "
         "pixels (blue noise: low power left of the dashed line at 1/8 cycle per pixel).",
         "",
     ]
