@@ -46,6 +46,13 @@ The four suites (issue 6):
   development machine on one thread: 2 seed sets x 2 frames after 4 warmup frames (the sort
   converges within about 3), the two cheap denoisers (gaussian, atrous; ``--denoisers`` adds the
   others), only the MSE measures, no crops. The oracle's 32 renders per frame are half of it.
+- ``seed``: the seed talk's conditions (issue 26, docs/METHODS.md, section 11), 64x64, 3 seed
+  sets x 2 frames after 6 warmup frames, with crops at every spp for the figures of
+  :mod:`benchmarks.reports.seed`. Measured with ``--seed-sets 2``: 4.4 CPU-minutes on one thread
+  (10.5 minutes of wall time at load 9), so about 7 minutes unloaded with 3 seed sets. The
+  ``vertical`` bound, which renders the oracle's 32 candidates and searches, was 57 % of the
+  suite's time at every spp and both cameras (measured at 32x32 x 2 seed sets); it runs at 16
+  and 64 spp on the slow camera only.
 - ``stability``: the cases where the temporal method is expected to fail: textured against
   untextured snooker, object edges, static against fast camera motion, Owen-Sobol against white
   per-pixel sequences, 1 to 64 spp, 1 to 8 bounces; reported as each strategy's post-denoise MSE
@@ -192,7 +199,10 @@ class Suite:
         sweeps: the cell sweeps.
         scripts: for the speed suite, module names under :mod:`benchmarks` (``speed.permute``)
             whose measuring function the runner calls.
-        crops: whether the runner saves side-by-side crops for the report.
+        crops: whether the runner saves side-by-side crops for the report (of each sweep's
+            smallest spp).
+        crops_every_spp: with ``crops``, save them at every spp of the sweeps (the seed
+            suite's figures, :mod:`benchmarks.reports.seed`, show every spp).
         coherent: every run measures the coherent region too, besides its sweep's regions
             (:func:`benchmarks.sweep.plan.plan`; the renders are shared, so it costs only the
             metrics). True for every named suite; False keeps a hand-built suite's cells as
@@ -204,6 +214,7 @@ class Suite:
     sweeps: tuple[Sweep, ...] = ()
     scripts: tuple[str, ...] = ()
     crops: bool = True
+    crops_every_spp: bool = False
     coherent: bool = False
 
 
@@ -380,23 +391,40 @@ SUITES: dict[str, Suite] = {
     "seed": Suite(
         name="seed",
         coherent=True,
+        crops_every_spp=True,
         description=(
             "the seed talk's conditions: sphere on a checkerboard (indirect) static and slowly "
-            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp (~15 minutes)"
+            "moving, 1-64 spp, Owen-Sobol and white sequences, fog at 32 spp; images, insets "
+            "and coherent-region spectra (~7 minutes on one unloaded core)"
         ),
         sweeps=(
             # The talk's figure: direct + indirect light on a checkerboard, a slow camera and a
             # static one, 1 to 64 spp; the oracle bounds every spp (its share of the dividend in
-            # the coherent region is the seed's claim at 16 and 64 spp), and the vertical bound
-            # beside it (the same candidates, chosen for the whole image's blurred error).
+            # the coherent region is the seed's claim at 16 and 64 spp).
             Sweep(
                 scenes=("indirect",),
-                strategies=("white", "temporal", _BEST, "oracle", "vertical"),
+                strategies=("white", "temporal", _BEST, "oracle"),
                 spp=(1, 4, 16, 64),
                 denoisers=("gaussian",),
                 res=(64, 64),
                 reference_spp=1024,
                 conditions=(Condition(motion=0), Condition(motion=1)),
+                seed_sets=3,
+                frames=2,
+                warmup=6,
+            ),
+            # The vertical bound beside the oracle (the same candidates, chosen for the whole
+            # image's blurred error) only where the claim is made, 16 and 64 spp on the slow
+            # camera: at 1-64 spp and both cameras it was 57 % of the suite's time (measured at
+            # 32x32 x 2 seed sets), and its cost does not fall with spp.
+            Sweep(
+                scenes=("indirect",),
+                strategies=("vertical",),
+                spp=(16, 64),
+                denoisers=("gaussian",),
+                res=(64, 64),
+                reference_spp=1024,
+                conditions=(Condition(motion=1),),
                 seed_sets=3,
                 frames=2,
                 warmup=6,

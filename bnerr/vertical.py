@@ -5,7 +5,7 @@ The histogram oracle (:mod:`bnerr.strategies.oracle`) picks, per pixel, the cand
 the blue-noise mask gives: a choice made pixel by pixel, blind to the reference. Here the choice
 knows a target (the reference, or the best estimate a renderer holding the K renders has: their
 mean) and is made for the whole image at once, with no permutation constraint: it bounds what any
-per-pixel choice of sequence can reach (docs/METHODS.md, section 10).
+per-pixel choice of sequence can reach (docs/METHODS.md, section 11).
 
 **Objective.** With ``x`` the chosen image and ``r`` the target,
 ``J = sum_c sum_q (G * (x - r))_c(q)^2`` where ``G`` is a normalized Gaussian of ``sigma`` with

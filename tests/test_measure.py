@@ -126,6 +126,10 @@ def test_coherent_records_say_how_much_of_the_image_they_cover(tmp_path):
             assert rec.coverage == [[want, want], [want, want]]
     whole, part = records[0].raw["mse"], records[1].raw["mse"]
     assert part != whole  # measured over the coherent pixels only
+    # the raw error's spectrum over the coherent pixels too, the same in every cell of the run
+    spectra = [r.spectrum["coherent"] for r in records]
+    assert spectra[0].freq == records[0].spectrum["raw"].freq and spectra.count(spectra[0]) == 4
+    assert spectra[0].power != records[0].spectrum["raw"].power
 
 
 def test_records_hold_the_error_correlation_between_consecutive_measured_frames(tmp_path):

@@ -29,6 +29,8 @@ def test_plan_shares_renders_between_denoisers_regions_and_sweeps():
     )
     assert sum(len(r.cells()) for r in runs) == 2 * 2 * 2 + 2 * 1
     assert [r.crops for r in runs] == [True, False, True, False]  # crops at the lowest spp only
+    every = plan(dataclasses.replace(_suite(), crops_every_spp=True))
+    assert [r.crops for r in every] == [True] * 4  # the seed suite's figures show every spp
 
 
 def test_a_coherent_suite_measures_the_coherent_region_in_every_run_after_its_own():

@@ -64,6 +64,16 @@ def test_the_frame_to_frame_correlation_round_trips_and_is_absent_when_not_recor
     assert "tcorr" not in plain and Record.from_json(plain).tcorr is None
 
 
+def test_the_coherent_spectrum_round_trips_when_measured():
+    import dataclasses
+
+    spectra = {**_record().spectrum, "coherent": Spectrum([0.0, 0.5], [3.0, 4.0])}
+    rec = dataclasses.replace(_record(), spectrum=spectra)
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["spectrum"]["coherent"]["power"] == [3.0, 4.0] and Record.from_json(data) == rec
+    assert "coherent" not in Record.from_json(_record().to_json()).spectrum
+
+
 def test_write_and_load_keep_order_and_values(tmp_path):
     records = [_record("white"), _record("temporal")]
     write_records(tmp_path, records)

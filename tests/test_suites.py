@@ -249,4 +249,7 @@ def test_seed_reproduces_the_talks_conditions():
     conds = {c[4] for c in cells}
     assert {c.sampler for c in conds} == set(SAMPLERS) and {c.motion for c in conds} == {0, 1}
     assert {c[1] for c in cells} >= {"white", "temporal", GAP_BEST[0], "oracle", "vertical"}
-    assert suite.coherent
+    assert suite.coherent and suite.crops_every_spp  # its figures show every spp
+    # the vertical bound, most of the suite's time, only where the claim is made
+    vertical = {(c[2], c[4].motion) for c in cells if c[1] == "vertical"}
+    assert vertical == {(16, 1), (64, 1)}

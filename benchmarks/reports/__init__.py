@@ -15,6 +15,8 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
   strategy's noise, when the records hold the denoisers it compares;
 - the PNG charts (:mod:`~benchmarks.reports.charts`), in one colour per strategy
   (:mod:`~benchmarks.reports.palette`);
+- the seed suite's figures and ``README.md`` (:mod:`~benchmarks.reports.seed`), when the
+  records hold crops and the error's spectrum over the coherent region;
 - ``index.html`` (:mod:`~benchmarks.reports.page`): the suite's results page, with the preview
   strips it shows (:mod:`~benchmarks.reports.previews`); the index of the whole results folder is
   :func:`~benchmarks.reports.page.write_index`, which ``bnerr bench`` calls.
@@ -40,6 +42,7 @@ from benchmarks.reports.denoisers import write_denoise_tables
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.page import write_suite_page
 from benchmarks.reports.regions import coverage_markdown
+from benchmarks.reports.seed import write_seed_report
 from benchmarks.reports.table import csv_text, markdown_table, summarize
 from benchmarks.sweep.records import Record, load_records
 from bnerr.io import atomic_write
@@ -80,5 +83,6 @@ def write_report(
     write_denoise_tables(out, records, rows)
     if charts:
         write_charts(rows, records, out, shares)
+        write_seed_report(out, records, shares)
     write_suite_page(out, rows, records, title or f"bnerr bench: {out.name}")
     return text

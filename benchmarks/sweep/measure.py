@@ -221,6 +221,15 @@ class _SeedSetMeasurement:
         self.freq = freq.tolist()
         self.power[kind].append(power.cpu())
 
+    def _coherent_spectrum(self, err: torch.Tensor, mask: torch.Tensor) -> None:
+        """The error's spectrum over the coherent pixels: the error zeroed elsewhere, scaled by
+        ``1 / sqrt(share)`` so that the power is per coherent pixel (the mask's own spectrum
+        convolves it; a frame without coherent pixels adds nothing)."""
+        share = float(mask.double().mean())
+        if share > 0:
+            self.power.setdefault("coherent", [])
+            self._spectrum("coherent", err * mask.to(err.dtype) / share**0.5)
+
     def reset(self) -> None:
         """Start a sequence: every stateful denoiser forgets the frames it saw."""
         for denoiser in self.denoisers.values():
@@ -250,6 +259,8 @@ class _SeedSetMeasurement:
             _update(self.raw[region], frame.color, target, mask)
         err = frame.color - ref.color
         self._spectrum("raw", err)
+        if masks.get("coherent") is not None:
+            self._coherent_spectrum(err, masks["coherent"])
         if self._prev_err is not None:
             self.tcorr.append(temporal_correlation(err, self._prev_err, frame.motion))
         self._prev_err = err
@@ -330,7 +341,7 @@ def merge_seed_sets(
         return [list(r.timings[name]) for r in ordered]
 
     def spectrum(kind: str) -> Spectrum:
-        return _mean_spectrum(first.freq, [p for r in ordered for p in r.power[kind]])
+        return _mean_spectrum(first.freq, [p for r in ordered for p in r.power.get(kind, [])])
 
     return [
         Record(
@@ -346,7 +357,11 @@ def merge_seed_sets(
                 denoise_ms=series(f"denoise_ms/{cell.denoiser}"),
             ),
             reference=reference,
-            spectrum={"raw": spectrum("raw"), "den": spectrum(cell.denoiser)},
+            spectrum={
+                "raw": spectrum("raw"),
+                "den": spectrum(cell.denoiser),
+                **({"coherent": spectrum("coherent")} if "coherent" in run.regions else {}),
+            },
             crop=crop_file,
             render_sampler=last.render_sampler,
             tcorr=[list(r.tcorr) for r in ordered],

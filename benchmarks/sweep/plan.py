@@ -90,7 +90,7 @@ class Run(RunSpec):
         return f"{self.scene} {self.strategy} {self.spp}spp{extra}"
 
 
-def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool) -> list[Run]:
+def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool, every_spp: bool = False) -> list[Run]:
     renders: dict[tuple[int, int | None, str], list[str]] = {}
     for cond in sweep.conditions:
         regions = renders.setdefault((cond.motion, cond.depth, cond.sampler), [])
@@ -121,7 +121,7 @@ def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool) -> list[Run]:
                             denoisers=sweep.denoisers,
                             regions=tuple(regions),
                             metrics=sweep.metrics,
-                            crops=crops and spp == min(sweep.spp),
+                            crops=crops and (every_spp or spp == min(sweep.spp)),
                         )
                     )
     return runs
@@ -131,7 +131,7 @@ def plan(suite: Suite) -> list[Run]:
     """The runs of a suite, in order, with duplicate runs (same renders) merged."""
     merged: dict[tuple, Run] = {}
     for sweep in suite.sweeps:
-        for run in _sweep_runs(sweep, suite.crops, suite.coherent):
+        for run in _sweep_runs(sweep, suite.crops, suite.coherent, suite.crops_every_spp):
             bare = dataclasses.replace(run, denoisers=(), regions=(), crops=False)
             key = dataclasses.astuple(bare)
             old = merged.get(key)

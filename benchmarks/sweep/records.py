@@ -21,7 +21,8 @@ seed set x measured frame:
 - :class:`Record`: ``cell`` (:class:`benchmarks.sweep.plan.Cell`), ``dimensions`` (the scene's D),
   ``t`` (the measured frame indices ``[F]``), ``raw`` and ``den`` (metric name -> per-frame pairs
   ``[S][F][2]`` of :class:`bnerr.metrics.FrameMetrics`, before and after denoising),
-  ``denoiser_params``, ``timings``, ``reference``, ``spectrum`` (``"raw"`` and ``"den"``) and
+  ``denoiser_params``, ``timings``, ``reference``, ``spectrum`` (``"raw"`` and ``"den"``;
+  ``"coherent"``, the raw error's over the coherent region, when the run measured it) and
   ``crop`` (the crops file relative to the output folder, or None) and ``render_sampler`` (the
   sampler the strategy's renders used, ``strategy.sampler_name``: the cell's per-pixel
   ``sampler`` condition or the strategy's own; None, and absent on disk, in files written
@@ -174,7 +175,7 @@ class Record:
                 denoiser_params=dict(data["denoiser_params"]),
                 timings=Timings(**data["timings"]),
                 reference=ReferenceInfo(**data["reference"]),
-                spectrum={kind: Spectrum(**data["spectrum"][kind]) for kind in ("raw", "den")},
+                spectrum=_spectra(data["spectrum"]),
                 crop=data["crop"],
                 render_sampler=data.get("render_sampler"),
                 tcorr=data.get("tcorr"),
@@ -183,6 +184,12 @@ class Record:
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
             raise FileFormatError(f"expected a benchmark record, got {what}") from None
+
+
+def _spectra(data: dict) -> dict[str, Spectrum]:
+    """The spectra of a record: ``raw`` and ``den`` always, ``coherent`` when measured."""
+    kinds = ("raw", "den") + (("coherent",) if "coherent" in data else ())
+    return {kind: Spectrum(**data[kind]) for kind in kinds}
 
 
 def _parse_line(path: Path, number: int, line: bytes) -> Record:

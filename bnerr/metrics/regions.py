@@ -2,7 +2,7 @@
 
 Heitz & Belcour's talk shows the error distributed as blue noise "in spatio-temporally coherent
 regions" (the checkerboard's squares, the middle of the teapot) and as white noise at object
-borders (docs/METHODS.md, section 10). :func:`coherent_mask` makes that region a measurable set of
+borders (docs/METHODS.md, section 11). :func:`coherent_mask` makes that region a measurable set of
 pixels from a frame's auxiliary buffers, so that every metric can be restricted to it, as it can
 to object edges (:func:`bnerr.metrics.edge_mask`).
 
