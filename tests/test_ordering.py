@@ -402,7 +402,7 @@ _COHERENT_LEVEL = 1 - 0.05 / 2
 _COHERENT_FAILURE = (
     "In coherent regions of direct at 16 spp the sort key ranks the shading, not the error: inside "
     "coherent 4x4 blocks the reference's spread is 7.5x the error's and the key's rank "
-    "correlation with the error 0.05 (python -m benchmarks.causes; docs/METHODS.md, section 10). "
+    "correlation with the error 0.05 (python -m benchmarks.causes; docs/METHODS.md, section 11). "
     "Measured through the bench at 64x64 with 3 seed sets: temporal / white after a sigma-2 blur "
     "0.93 [0.38, 2.28], against the oracle's 0.23."
 )
