@@ -417,11 +417,22 @@ def _unit_normals(normal: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
 
 
 def _spatial_variance(lum: torch.Tensor) -> torch.Tensor:
-    """Variance ``[1, H, W]`` of ``lum`` in a 7 x 7 box window (SVGF's estimate without history)."""
-    k = (_VARIANCE_WINDOW, _VARIANCE_WINDOW)
-    mean = KF.box_blur(lum[None], k, border_type=_BORDER)
-    mean_sq = KF.box_blur(lum[None].square(), k, border_type=_BORDER)
-    return (mean_sq - mean.square()).clamp_min(0.0)[0]
+    """Variance ``[1, H, W]`` of ``lum`` in a 7 x 7 box window (SVGF's estimate without history).
+
+    The box sums of ``lum`` and its square are 6 + 6 in-place sums of shifted views of one
+    replicate-padded copy: kornia's ``box_blur`` (two single-channel 1 x 7 and 7 x 1
+    convolutions each) took 0.35 s of a 1.0 s a-trous filter at 1080p, these about a third of
+    that. Same values within a few float32 ulps (another order of the same sums)."""
+    r, (h, w) = _VARIANCE_WINDOW // 2, lum.shape[1:]
+    padded = F.pad(torch.cat([lum, lum.square()])[None], (r, r, r, r), mode=_BORDER)[0]
+    rows = padded[:, :, 0:w].clone()
+    for i in range(1, _VARIANCE_WINDOW):
+        rows += padded[:, :, i : i + w]
+    box = rows[:, 0:h].clone()
+    for i in range(1, _VARIANCE_WINDOW):
+        box += rows[:, i : i + h]
+    box *= 1.0 / _VARIANCE_WINDOW**2
+    return (box[1:2] - box[0:1].square()).clamp_min_(0.0)
 
 
 # Edge-stopping weights below exp(-80) are set to exp(-80) (1.8e-35, a normal float32): exp and log

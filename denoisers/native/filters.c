@@ -100,7 +100,12 @@ static inline int64_t clamp64(int64_t v, int64_t lo, int64_t hi) {
    all are inside, else a copy in tmp. */
 static inline const float *span(const float *row, int64_t x, int64_t n, int64_t W, float *tmp) {
     if (x >= 0 && x + n <= W) return row + x;
-    for (int64_t i = 0; i < n; ++i) tmp[i] = row[clamp64(x + i, 0, W - 1)];
+    /* The columns left of the image, those inside, those right of it: two fills and one copy
+       (a clamp per element made these copies a third of a pass's instructions at 1080p). */
+    const int64_t lo = clamp64(-x, 0, n), hi = clamp64(W - x, lo, n);
+    for (int64_t i = 0; i < lo; ++i) tmp[i] = row[0];
+    if (hi > lo) memcpy(tmp + lo, row + x + lo, sizeof(float) * (size_t)(hi - lo));
+    for (int64_t i = hi; i < n; ++i) tmp[i] = row[W - 1];
     return tmp;
 }
 
@@ -138,6 +143,41 @@ typedef struct {
     const float *blur; /* 3 x 3 variance blur */
 } ajob_t;
 
+/* 1 / (sigma_color sqrt(s) + 1e-6), s = the 3 x 3 blur of the variance rows (above, at, below
+   the row) around columns x0 .. x1 - 1, clamped at the borders. */
+static void blur_columns(const float *const *rows, const float *blur, int64_t W, int64_t x0,
+                         int64_t x1, float sigma_color, float *inv) {
+    for (int64_t x = x0; x < x1; ++x) {
+        float s = 0.0f;
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) s = s + blur[a * 3 + b] * rows[a][clamp64(x + b - 1, 0, W - 1)];
+        inv[x] = 1.0f / (sigma_color * sqrtf(s) + 1e-6f);
+    }
+}
+
+/* blur_columns for columns 1 .. W - 2 (no clamps needed). */
+__attribute__((noinline)) static void blur_inner(const float *restrict r0,
+                                                 const float *restrict r1,
+                                                 const float *restrict r2, const float *blur,
+                                                 int64_t W, float sigma_color,
+                                                 float *restrict inv) {
+    const float b0 = blur[0], b1 = blur[1], b2 = blur[2], b3 = blur[3], b4 = blur[4];
+    const float b5 = blur[5], b6 = blur[6], b7 = blur[7], b8 = blur[8];
+    for (int64_t x = 1; x < W - 1; ++x) {
+        float s = 0.0f;
+        s = s + b0 * r0[x - 1];
+        s = s + b1 * r0[x];
+        s = s + b2 * r0[x + 1];
+        s = s + b3 * r1[x - 1];
+        s = s + b4 * r1[x];
+        s = s + b5 * r1[x + 1];
+        s = s + b6 * r2[x - 1];
+        s = s + b7 * r2[x];
+        s = s + b8 * r2[x + 1];
+        inv[x] = 1.0f / (sigma_color * sqrtf(s) + 1e-6f);
+    }
+}
+
 /* Phase 1 of a pass, rows y0 .. y1: luminance and 1 / (sigma_color sqrt(g3x3(var)) + 1e-6). */
 static void *atrous_prepare(void *arg) {
     const ajob_t *j = (const ajob_t *)arg;
@@ -147,14 +187,13 @@ static void *atrous_prepare(void *arg) {
         float *lum = j->lum + y * W, *inv = j->inv_lum + y * W;
         for (int64_t x = 0; x < W; ++x)
             lum[x] = (j->lw[0] * c[x] + j->lw[1] * c[P + x]) + j->lw[2] * c[2 * P + x];
-        for (int64_t x = 0; x < W; ++x) {
-            float s = 0.0f;
-            for (int a = 0; a < 3; ++a) {
-                const float *row = j->var + clamp64(y + a - 1, 0, H - 1) * W;
-                for (int b = 0; b < 3; ++b) s = s + j->blur[a * 3 + b] * row[clamp64(x + b - 1, 0, W - 1)];
-            }
-            inv[x] = 1.0f / (j->sigma_color * sqrtf(s) + 1e-6f);
-        }
+        const float *rows[3];
+        for (int a = 0; a < 3; ++a) rows[a] = j->var + clamp64(y + a - 1, 0, H - 1) * W;
+        /* The border columns with clamped indices, the others in a loop without clamps (which
+           the compiler vectorises); the same sums in the same order either way. */
+        blur_columns(rows, j->blur, W, 0, W < 2 ? W : 1, j->sigma_color, inv);
+        blur_inner(rows[0], rows[1], rows[2], j->blur, W, j->sigma_color, inv);
+        if (W > 1) blur_columns(rows, j->blur, W, W - 1, W, j->sigma_color, inv);
     }
     return 0;
 }
