@@ -1,5 +1,6 @@
 /* bnerr's native CPU kernels for three filters of denoisers/filters.py: the edge-avoiding
-   a-trous filter (bnerr_atrous: every pass of it, the color and the variance) and the
+   a-trous filter (bnerr_atrous: every pass of it, the color and the variance;
+   bnerr_luminance_variance: its spatial variance estimate) and the
    bilateral / joint bilateral filter (bnerr_bilateral: any image and guide channel counts).
 
    Package data of denoisers.native, which binds it; built by bnerr.native's machinery at first
@@ -403,6 +404,87 @@ int bnerr_atrous(const float *color, const float *variance, const float *normal4
         v = ov;
     }
     free(buf);
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Spatial variance of the luminance: box(l^2) - box(l)^2 (at least 0) in a (2r+1)^2 window with a
+   replicate border, l = (w0 R + w1 G) + w2 B (SVGF's estimate without history). */
+
+typedef struct {
+    const float *color, *lw;
+    float *lum, *out; /* lum: [2, H, W] scratch, luminance and its square */
+    float *row;       /* this job's scratch: 2 (W + 2r) + 2 W floats */
+    int64_t H, W, r, y0, y1;
+} vjob_t;
+
+static void *variance_lum(void *arg) {
+    const vjob_t *j = (const vjob_t *)arg;
+    const int64_t W = j->W, P = j->H * W;
+    for (int64_t i = j->y0 * W; i < j->y1 * W; ++i) {
+        const float l = (j->lw[0] * j->color[i] + j->lw[1] * j->color[P + i]) + j->lw[2] * j->color[2 * P + i];
+        j->lum[i] = l;
+        j->lum[P + i] = l * l;
+    }
+    return 0;
+}
+
+/* Sums of 2r + 1 consecutive values of pad (W + 2r values) into out (W values). */
+__attribute__((noinline)) static void window_sums(const float *restrict pad, int64_t W, int64_t r,
+                                                  float *restrict out) {
+    for (int64_t x = 0; x < W; ++x) out[x] = pad[x];
+    for (int64_t d = 1; d <= 2 * r; ++d)
+        for (int64_t x = 0; x < W; ++x) out[x] = out[x] + pad[x + d];
+}
+
+static void *variance_rows(void *arg) {
+    const vjob_t *j = (const vjob_t *)arg;
+    const int64_t W = j->W, H = j->H, P = H * W, r = j->r;
+    float *buf = j->row;
+    float *pad[2] = {buf, buf + W + 2 * r}, *box[2] = {buf + 2 * (W + 2 * r), buf + 2 * (W + 2 * r) + W};
+    const float scale = 1.0f / (float)((2 * r + 1) * (2 * r + 1));
+    for (int64_t y = j->y0; y < j->y1; ++y) {
+        for (int c = 0; c < 2; ++c) {
+            /* Column sums of the window's rows, then window sums along the padded row. */
+            float *col = pad[c] + r;
+            const float *src = j->lum + c * P;
+            memcpy(col, src + clamp64(y - r, 0, H - 1) * W, sizeof(float) * (size_t)W);
+            for (int64_t d = -r + 1; d <= r; ++d) {
+                const float *row = src + clamp64(y + d, 0, H - 1) * W;
+                for (int64_t x = 0; x < W; ++x) col[x] = col[x] + row[x];
+            }
+            for (int64_t i = 0; i < r; ++i) {
+                pad[c][i] = col[0];
+                col[W + i] = col[W - 1];
+            }
+            window_sums(pad[c], W, r, box[c]);
+        }
+        float *out = j->out + y * W;
+        for (int64_t x = 0; x < W; ++x) {
+            const float m = box[0][x] * scale, v = box[1][x] * scale - m * m;
+            out[x] = v > 0.0f ? v : 0.0f;
+        }
+    }
+    return 0;
+}
+
+/* color [3, H, W] -> out [H, W]; lum_weights [3]; radius r >= 0. */
+int bnerr_luminance_variance(const float *color, float *out, int64_t H, int64_t W, int64_t r,
+                             const float *lum_weights, int threads) {
+    if (H < 1 || W < 1 || r < 0 || r > 64) return 1;
+    threads = clamp_threads(threads, H);
+    const int64_t per_job = 2 * (W + 2 * r) + 2 * W;
+    float *lum = (float *)malloc(sizeof(float) * (size_t)(2 * H * W + threads * per_job));
+    if (!lum) return 1;
+    vjob_t jobs[MAX_THREADS];
+    for (int i = 0; i < threads; ++i) {
+        vjob_t jb = {color, lum_weights, lum, out, lum + 2 * H * W + i * per_job,
+                     H, W, r, H * i / threads, H * (i + 1) / threads};
+        jobs[i] = jb;
+    }
+    run_parallel(variance_lum, (char *)jobs, sizeof(vjob_t), threads);
+    run_parallel(variance_rows, (char *)jobs, sizeof(vjob_t), threads);
+    free(lum);
     return 0;
 }
 
