@@ -13,7 +13,7 @@ from _twins import atrous_reference, guided_reference
 
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.frame import Frame
-from denoisers import get_denoiser
+from denoisers import get_denoiser, native
 from denoisers.filters import (
     ATrous,
     Bilateral,
@@ -210,7 +210,8 @@ def test_atrous_variance_nan_is_the_spatial_estimate_and_none_the_default():
     plain = atrous_filter(*args)
     h, w = frame.color.shape[1:]
     assert torch.equal(atrous_filter(*args, variance=torch.full((h, w), float("nan"))), plain)
-    spatial = atrous_planes(*args, None)[1][0]  # the variance every pass starts from
+    # The variance every pass starts from (the native kernel's where atrous_filter runs it).
+    spatial = atrous_planes(*args, None, native.FILTERS.load())[1][0]
     given = torch.rand(h, w, generator=torch.Generator().manual_seed(5))
     mixed = torch.where(torch.arange(w) < w // 2, given, float("nan"))
     want = atrous_filter(*args, variance=torch.where(mixed.isnan(), spatial, mixed))

@@ -10,6 +10,8 @@ import torch
 from benchmarks.speed import run_speed, speed_markdown
 from benchmarks.speed.copy import JOB_BYTES, PASS_JOBS
 from benchmarks.speed.copy import measure as measure_copy
+from benchmarks.speed.denoise import goal_met
+from benchmarks.speed.denoise import table as denoise_table
 from benchmarks.speed.formatting import fmt, ratio
 from benchmarks.speed.masks import WHITE_LOW_FREQUENCY
 from benchmarks.suites import Suite, get_suite
@@ -158,3 +160,14 @@ def test_process_figures_ratio_each_round_to_mitsubas_process():
     assert missing["mitsuba_llvm"] == {"error": "mitsuba is not installed"}
     assert "ratio_to_mitsuba" not in missing["cold"]
     assert "(mitsuba is not installed)" in "\n".join(table({"processes": missing}, {}))
+
+
+def test_denoise_table_shows_each_goal_met_or_not():
+    values = {"oidn": 1.0, "atrous": 0.4, "unet": 0.8, "gaussian": 0.1}
+    text = "\n".join(denoise_table(values, {}))
+    assert "| atrous | 0.400 | 2.50 | 0.400x | 0.500 s: yes |" in text
+    assert "| unet | 0.800 | 1.25 | 0.800x | 0.700x OIDN: no |" in text
+    assert "| gaussian | 0.100 | 10.0 | 0.100x | - |" in text
+    assert goal_met("atrous", 0.6, None) == "0.500 s: no"  # an absolute goal needs no OIDN
+    assert goal_met("unet", 0.5, None) == "0.700x OIDN: -"
+    assert goal_met("unet", None, 1.0) == "0.700x OIDN: -"

@@ -29,7 +29,11 @@ from bnerr.frame import Frame
 from bnerr.timing import Stopwatch
 from denoisers import DENOISERS, get_denoiser
 
-__all__ = ["table", "main", "measure", "synthetic_frame"]
+__all__ = ["GOALS", "goal_met", "table", "main", "measure", "synthetic_frame"]
+
+#: The goals of issue 27 at 1080p: ``{name: (bound, anchored)}``, at most ``bound`` seconds per
+#: frame (``anchored`` False) or ``bound`` times OIDN's time in the same run (True).
+GOALS: dict[str, tuple[float, bool]] = {"atrous": (0.5, False), "unet": (0.7, True)}
 
 
 def synthetic_frame(height: int = 1080, width: int = 1920, seed: int = 0) -> Frame:
@@ -76,6 +80,20 @@ def measure(
     return results
 
 
+def goal_met(name: str, seconds: Any, oidn: Any) -> str:
+    """The goal of ``name`` ("0.5 s", "0.7x OIDN") and whether ``seconds`` met it ("-" for a
+    denoiser without a goal or a missing figure)."""
+    if name not in GOALS:
+        return "-"
+    bound, anchored = GOALS[name]
+    s, anchor = number(seconds), number(oidn)
+    goal = f"{fmt(bound)}x OIDN" if anchored else f"{fmt(bound)} s"
+    limit = None if anchored and anchor is None else bound * (anchor if anchored else 1.0)
+    if s is None or limit is None:
+        return f"{goal}: -"
+    return f"{goal}: {'yes' if s <= limit else 'no'}"
+
+
 def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     """The denoisers against OIDN."""
     defaults = inspect.signature(measure).parameters
@@ -86,7 +104,8 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
         "",
         f"Median seconds per {width} x {height} frame of each denoiser with its default "
         "parameters (a stateful one with its history); ratio: over OIDN's time in the same run "
-        '(below 1: faster than OIDN). "-": not available on the machine that ran it.',
+        '(below 1: faster than OIDN). "-": not available on the machine that ran it. Goals of '
+        "issue 27: a-trous at most 0.5 s, the U-Net at most 0.7x OIDN's time.",
         "",
     ]
     rows = []
@@ -97,7 +116,9 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
             if name != "oidn"
             else [name, fmt(s), fmt(None if s is None else 1 / s), "1 (anchor)"]
         )
-    return lines + table_lines(["denoiser", "s / frame", "frames / s", "/ OIDN"], rows) + [""]
+        rows[-1].append(goal_met(name, s, anchor))
+    header = ["denoiser", "s / frame", "frames / s", "/ OIDN", "goal met"]
+    return lines + table_lines(header, rows) + [""]
 
 
 def main(argv: list[str] | None = None) -> int:

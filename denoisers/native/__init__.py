@@ -7,7 +7,8 @@ The C sources live here as package data, beside their only users' bindings (gspl
 them off), reading them by package and file name, so the library ships no denoiser code.
 
 - ``filters.c``, bound by :mod:`denoisers.native.filters`: the edge-avoiding a-trous filter
-  (:func:`native_atrous`) and the (joint) bilateral filter (:func:`native_bilateral`).
+  (:func:`native_atrous`, its spatial variance estimate :func:`native_luminance_variance`) and
+  the (joint) bilateral filter (:func:`native_bilateral`).
 - ``guided.c``, bound by :mod:`denoisers.native.guided`: the guided filter
   (:func:`native_guided`).
 - :data:`FILTERS` and :data:`GUIDED`: the two libraries (``load()``, ``status()``,
@@ -26,7 +27,12 @@ from __future__ import annotations
 import torch
 
 from denoisers.native.filters import LIBRARY as FILTERS
-from denoisers.native.filters import FilterKernels, native_atrous, native_bilateral
+from denoisers.native.filters import (
+    FilterKernels,
+    native_atrous,
+    native_bilateral,
+    native_luminance_variance,
+)
 from denoisers.native.guided import LIBRARY as GUIDED
 from denoisers.native.guided import GuidedKernels, native_guided
 
@@ -39,6 +45,7 @@ __all__ = [
     "native_atrous",
     "native_bilateral",
     "native_guided",
+    "native_luminance_variance",
     "threads_for",
 ]
 

@@ -1,5 +1,6 @@
 /* bnerr's native CPU kernels for three filters of denoisers/filters.py: the edge-avoiding
-   a-trous filter (bnerr_atrous: every pass of it, the color and the variance) and the
+   a-trous filter (bnerr_atrous: every pass of it, the color and the variance;
+   bnerr_luminance_variance: its spatial variance estimate) and the
    bilateral / joint bilateral filter (bnerr_bilateral: any image and guide channel counts).
 
    Package data of denoisers.native, which binds it; built by bnerr.native's machinery at first
@@ -100,7 +101,12 @@ static inline int64_t clamp64(int64_t v, int64_t lo, int64_t hi) {
    all are inside, else a copy in tmp. */
 static inline const float *span(const float *row, int64_t x, int64_t n, int64_t W, float *tmp) {
     if (x >= 0 && x + n <= W) return row + x;
-    for (int64_t i = 0; i < n; ++i) tmp[i] = row[clamp64(x + i, 0, W - 1)];
+    /* The columns left of the image, those inside, those right of it: two fills and one copy
+       (a clamp per element made these copies a third of a pass's instructions at 1080p). */
+    const int64_t lo = clamp64(-x, 0, n), hi = clamp64(W - x, lo, n);
+    for (int64_t i = 0; i < lo; ++i) tmp[i] = row[0];
+    if (hi > lo) memcpy(tmp + lo, row + x + lo, sizeof(float) * (size_t)(hi - lo));
+    for (int64_t i = hi; i < n; ++i) tmp[i] = row[W - 1];
     return tmp;
 }
 
@@ -134,9 +140,45 @@ typedef struct {
     float *lum, *inv_lum, *out_color, *out_var;
     int64_t H, W, step, y0, y1;
     float sigma_color, sigma_normal, sigma_depth, floor;
+    int squarings; /* k where sigma_normal = 2^k, 1 <= k <= MAX_SQUARINGS; else 0 */
     const float *lw;   /* luminance weights [3] */
     const float *blur; /* 3 x 3 variance blur */
 } ajob_t;
+
+/* 1 / (sigma_color sqrt(s) + 1e-6), s = the 3 x 3 blur of the variance rows (above, at, below
+   the row) around columns x0 .. x1 - 1, clamped at the borders. */
+static void blur_columns(const float *const *rows, const float *blur, int64_t W, int64_t x0,
+                         int64_t x1, float sigma_color, float *inv) {
+    for (int64_t x = x0; x < x1; ++x) {
+        float s = 0.0f;
+        for (int a = 0; a < 3; ++a)
+            for (int b = 0; b < 3; ++b) s = s + blur[a * 3 + b] * rows[a][clamp64(x + b - 1, 0, W - 1)];
+        inv[x] = 1.0f / (sigma_color * sqrtf(s) + 1e-6f);
+    }
+}
+
+/* blur_columns for columns 1 .. W - 2 (no clamps needed). */
+__attribute__((noinline)) static void blur_inner(const float *restrict r0,
+                                                 const float *restrict r1,
+                                                 const float *restrict r2, const float *blur,
+                                                 int64_t W, float sigma_color,
+                                                 float *restrict inv) {
+    const float b0 = blur[0], b1 = blur[1], b2 = blur[2], b3 = blur[3], b4 = blur[4];
+    const float b5 = blur[5], b6 = blur[6], b7 = blur[7], b8 = blur[8];
+    for (int64_t x = 1; x < W - 1; ++x) {
+        float s = 0.0f;
+        s = s + b0 * r0[x - 1];
+        s = s + b1 * r0[x];
+        s = s + b2 * r0[x + 1];
+        s = s + b3 * r1[x - 1];
+        s = s + b4 * r1[x];
+        s = s + b5 * r1[x + 1];
+        s = s + b6 * r2[x - 1];
+        s = s + b7 * r2[x];
+        s = s + b8 * r2[x + 1];
+        inv[x] = 1.0f / (sigma_color * sqrtf(s) + 1e-6f);
+    }
+}
 
 /* Phase 1 of a pass, rows y0 .. y1: luminance and 1 / (sigma_color sqrt(g3x3(var)) + 1e-6). */
 static void *atrous_prepare(void *arg) {
@@ -147,14 +189,13 @@ static void *atrous_prepare(void *arg) {
         float *lum = j->lum + y * W, *inv = j->inv_lum + y * W;
         for (int64_t x = 0; x < W; ++x)
             lum[x] = (j->lw[0] * c[x] + j->lw[1] * c[P + x]) + j->lw[2] * c[2 * P + x];
-        for (int64_t x = 0; x < W; ++x) {
-            float s = 0.0f;
-            for (int a = 0; a < 3; ++a) {
-                const float *row = j->var + clamp64(y + a - 1, 0, H - 1) * W;
-                for (int b = 0; b < 3; ++b) s = s + j->blur[a * 3 + b] * row[clamp64(x + b - 1, 0, W - 1)];
-            }
-            inv[x] = 1.0f / (j->sigma_color * sqrtf(s) + 1e-6f);
-        }
+        const float *rows[3];
+        for (int a = 0; a < 3; ++a) rows[a] = j->var + clamp64(y + a - 1, 0, H - 1) * W;
+        /* The border columns with clamped indices, the others in a loop without clamps (which
+           the compiler vectorises); the same sums in the same order either way. */
+        blur_columns(rows, j->blur, W, 0, W < 2 ? W : 1, j->sigma_color, inv);
+        blur_inner(rows[0], rows[1], rows[2], j->blur, W, j->sigma_color, inv);
+        if (W > 1) blur_columns(rows, j->blur, W, W - 1, W, j->sigma_color, inv);
     }
     return 0;
 }
@@ -168,10 +209,57 @@ typedef struct {
     float c[3][BLOCK], v[BLOCK], w[BLOCK];
 } aacc_t;
 
+/* c = c^(2^k) over n values (k squarings); k is a constant where this is inlined. */
+static inline __attribute__((always_inline)) void square_k(int64_t n, float *restrict c, int k) {
+    for (int64_t i = 0; i < n; ++i) {
+        float v = c[i];
+        for (int t = 0; t < k; ++t) v = v * v;
+        c[i] = v;
+    }
+}
+
+/* square_k with k = 1 .. MAX_SQUARINGS, each a loop of its own with the squarings unrolled. */
+#define MAX_SQUARINGS 8
+static void power_of_two(int64_t n, float *restrict c, int k) {
+    switch (k) {
+    case 1: square_k(n, c, 1); break;
+    case 2: square_k(n, c, 2); break;
+    case 3: square_k(n, c, 3); break;
+    case 4: square_k(n, c, 4); break;
+    case 5: square_k(n, c, 5); break;
+    case 6: square_k(n, c, 6); break;
+    case 7: square_k(n, c, 7); break;
+    default: square_k(n, c, 8); break;
+    }
+}
+
+/* The sums of one tap: weight (exp(a) * f) * h (f NULL: exp(a) * h), its color and its squared
+   variance added to the accumulators. */
+static inline __attribute__((always_inline)) void tap_sums(
+    int64_t n, const float *restrict a, const float *restrict f, const float *restrict qc0,
+    const float *restrict qc1, const float *restrict qc2, const float *restrict qv,
+    float *restrict s0, float *restrict s1, float *restrict s2, float *restrict sv,
+    float *restrict sw, float h) {
+    for (int64_t i = 0; i < n; ++i) {
+        const float wt = (f ? exp_poly(a[i]) * f[i] : exp_poly(a[i])) * h;
+        sw[i] = sw[i] + wt;
+        s0[i] = s0[i] + wt * qc0[i];
+        s1[i] = s1[i] + wt * qc1[i];
+        s2[i] = s2[i] + wt * qc2[i];
+        sv[i] = sv[i] + (wt * wt) * qv[i];
+    }
+}
+
 /* One tap over n pixels (n <= BLOCK): weight h * exp(max(-80, sigma_n log(max(cos, floor)) - e)),
-   e = |l_p - l_q| / phi_l + |z_p - z_q| / phi_z; sigma_n 0: -80 |esc_p - esc_q| - e. Three short
-   loops (exponent terms, log, exp and sums) instead of one: each has a shorter dependency chain,
-   so the CPU overlaps more pixels (about twice as fast as the single loop). */
+   e = |l_p - l_q| / phi_l + |z_p - z_q| / phi_z; sigma_n 0: -80 |esc_p - esc_q| - e. Short loops
+   (exponent terms, log, exp and sums) instead of one: each has a shorter dependency chain, so the
+   CPU overlaps more pixels (about twice as fast as the single loop).
+
+   sigma_n = 2^k (squarings k, 1 .. MAX_SQUARINGS; 128, the default and every tuned filter's, is
+   2^7): h * exp(max(-80, -e)) * max(cos, floor)^sigma_n, the power by k squarings instead of a
+   log and a multiplication (a quarter fewer instructions per tap). The same weight within
+   float32 rounding (k squarings: about 2^k / 2 ulps, the log's path about as many), except one
+   that the log's path raises to exp(-80) (1.8e-35, below any output's ulp) may be smaller. */
 __attribute__((noinline)) static void atrous_tap(
     int64_t n, const float *restrict qc0, const float *restrict qc1, const float *restrict qc2,
     const float *restrict ql, const float *restrict qv, const float *restrict qn0,
@@ -180,7 +268,7 @@ __attribute__((noinline)) static void atrous_tap(
     const float *restrict pn0, const float *restrict pn1, const float *restrict pn2,
     const float *restrict pn3, const float *restrict inv_l, const float *restrict inv_z,
     float *restrict s0, float *restrict s1, float *restrict s2, float *restrict sv,
-    float *restrict sw, float h, float sigma_n, float floor) {
+    float *restrict sw, float h, float sigma_n, float floor, int squarings) {
     float ea[BLOCK], cosa[BLOCK];
     float *restrict e = ea, *restrict cs = cosa;
     for (int64_t i = 0; i < n; ++i) {
@@ -195,6 +283,12 @@ __attribute__((noinline)) static void atrous_tap(
             c = c + qn3[i] * pn3[i];
             cs[i] = c < floor ? floor : c;
         }
+        if (squarings > 0) {
+            power_of_two(n, cs, squarings);
+            for (int64_t i = 0; i < n; ++i) e[i] = -e[i] < -80.0f ? -80.0f : -e[i];
+            tap_sums(n, e, cs, qc0, qc1, qc2, qv, s0, s1, s2, sv, sw, h);
+            return;
+        }
         for (int64_t i = 0; i < n; ++i) {
             const float a = log_poly(cs[i]) * sigma_n - e[i];
             cs[i] = a < -80.0f ? -80.0f : a;
@@ -205,14 +299,7 @@ __attribute__((noinline)) static void atrous_tap(
             cs[i] = a < -80.0f ? -80.0f : a;
         }
     }
-    for (int64_t i = 0; i < n; ++i) {
-        const float wt = exp_poly(cs[i]) * h;
-        sw[i] = sw[i] + wt;
-        s0[i] = s0[i] + wt * qc0[i];
-        s1[i] = s1[i] + wt * qc1[i];
-        s2[i] = s2[i] + wt * qc2[i];
-        sv[i] = sv[i] + (wt * wt) * qv[i];
-    }
+    tap_sums(n, cs, 0, qc0, qc1, qc2, qv, s0, s1, s2, sv, sw, h);
 }
 
 /* Pointers to the 10 planes of row y, columns x .. x + n - 1 (clamped copies in tmp). */
@@ -254,7 +341,7 @@ static void atrous_block(const ajob_t *j, int64_t y, int64_t x0, int64_t n, aacc
             atrous_tap(n, q.c[0], q.c[1], q.c[2], q.lum, q.var, q.n[0], q.n[1], q.n[2], q.n[3],
                        q.z, j->lum + o, j->depth + o, pn[0], pn[1], pn[2], pn[3],
                        j->inv_lum + o, inv_z[k], acc->c[0], acc->c[1], acc->c[2], acc->v, acc->w,
-                       B3[iy] * B3[ix], j->sigma_normal, j->floor);
+                       B3[iy] * B3[ix], j->sigma_normal, j->floor, j->squarings);
         }
     }
 }
@@ -298,6 +385,9 @@ int bnerr_atrous(const float *color, const float *variance, const float *normal4
        between buf's color and out, in the order that ends in out. */
     float *col[2] = {out, buf}, *var[2] = {buf + 3 * P, buf + 4 * P};
     threads = clamp_threads(threads, H);
+    int squarings = 0;
+    for (int k = 1; k <= MAX_SQUARINGS; ++k)
+        if (sigma_normal == (float)(1 << k)) squarings = k;
     ajob_t jobs[MAX_THREADS];
     const float *c = color, *v = variance;
     for (int it = 0; it < iterations; ++it) {
@@ -305,7 +395,8 @@ int bnerr_atrous(const float *color, const float *variance, const float *normal4
         for (int i = 0; i < threads; ++i) {
             ajob_t jb = {c, v, normal4, depth, depth_width, buf + 5 * P, buf + 6 * P, oc, ov,
                          H, W, (int64_t)1 << it, H * i / threads, H * (i + 1) / threads,
-                         sigma_color, sigma_normal, sigma_depth, floor, lum_weights, blur};
+                         sigma_color, sigma_normal, sigma_depth, floor, squarings,
+                         lum_weights, blur};
             jobs[i] = jb;
         }
         atrous_pass(jobs, threads);
@@ -313,6 +404,87 @@ int bnerr_atrous(const float *color, const float *variance, const float *normal4
         v = ov;
     }
     free(buf);
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Spatial variance of the luminance: box(l^2) - box(l)^2 (at least 0) in a (2r+1)^2 window with a
+   replicate border, l = (w0 R + w1 G) + w2 B (SVGF's estimate without history). */
+
+typedef struct {
+    const float *color, *lw;
+    float *lum, *out; /* lum: [2, H, W] scratch, luminance and its square */
+    float *row;       /* this job's scratch: 2 (W + 2r) + 2 W floats */
+    int64_t H, W, r, y0, y1;
+} vjob_t;
+
+static void *variance_lum(void *arg) {
+    const vjob_t *j = (const vjob_t *)arg;
+    const int64_t W = j->W, P = j->H * W;
+    for (int64_t i = j->y0 * W; i < j->y1 * W; ++i) {
+        const float l = (j->lw[0] * j->color[i] + j->lw[1] * j->color[P + i]) + j->lw[2] * j->color[2 * P + i];
+        j->lum[i] = l;
+        j->lum[P + i] = l * l;
+    }
+    return 0;
+}
+
+/* Sums of 2r + 1 consecutive values of pad (W + 2r values) into out (W values). */
+__attribute__((noinline)) static void window_sums(const float *restrict pad, int64_t W, int64_t r,
+                                                  float *restrict out) {
+    for (int64_t x = 0; x < W; ++x) out[x] = pad[x];
+    for (int64_t d = 1; d <= 2 * r; ++d)
+        for (int64_t x = 0; x < W; ++x) out[x] = out[x] + pad[x + d];
+}
+
+static void *variance_rows(void *arg) {
+    const vjob_t *j = (const vjob_t *)arg;
+    const int64_t W = j->W, H = j->H, P = H * W, r = j->r;
+    float *buf = j->row;
+    float *pad[2] = {buf, buf + W + 2 * r}, *box[2] = {buf + 2 * (W + 2 * r), buf + 2 * (W + 2 * r) + W};
+    const float scale = 1.0f / (float)((2 * r + 1) * (2 * r + 1));
+    for (int64_t y = j->y0; y < j->y1; ++y) {
+        for (int c = 0; c < 2; ++c) {
+            /* Column sums of the window's rows, then window sums along the padded row. */
+            float *col = pad[c] + r;
+            const float *src = j->lum + c * P;
+            memcpy(col, src + clamp64(y - r, 0, H - 1) * W, sizeof(float) * (size_t)W);
+            for (int64_t d = -r + 1; d <= r; ++d) {
+                const float *row = src + clamp64(y + d, 0, H - 1) * W;
+                for (int64_t x = 0; x < W; ++x) col[x] = col[x] + row[x];
+            }
+            for (int64_t i = 0; i < r; ++i) {
+                pad[c][i] = col[0];
+                col[W + i] = col[W - 1];
+            }
+            window_sums(pad[c], W, r, box[c]);
+        }
+        float *out = j->out + y * W;
+        for (int64_t x = 0; x < W; ++x) {
+            const float m = box[0][x] * scale, v = box[1][x] * scale - m * m;
+            out[x] = v > 0.0f ? v : 0.0f;
+        }
+    }
+    return 0;
+}
+
+/* color [3, H, W] -> out [H, W]; lum_weights [3]; radius r >= 0. */
+int bnerr_luminance_variance(const float *color, float *out, int64_t H, int64_t W, int64_t r,
+                             const float *lum_weights, int threads) {
+    if (H < 1 || W < 1 || r < 0 || r > 64) return 1;
+    threads = clamp_threads(threads, H);
+    const int64_t per_job = 2 * (W + 2 * r) + 2 * W;
+    float *lum = (float *)malloc(sizeof(float) * (size_t)(2 * H * W + threads * per_job));
+    if (!lum) return 1;
+    vjob_t jobs[MAX_THREADS];
+    for (int i = 0; i < threads; ++i) {
+        vjob_t jb = {color, lum_weights, lum, out, lum + 2 * H * W + i * per_job,
+                     H, W, r, H * i / threads, H * (i + 1) / threads};
+        jobs[i] = jb;
+    }
+    run_parallel(variance_lum, (char *)jobs, sizeof(vjob_t), threads);
+    run_parallel(variance_rows, (char *)jobs, sizeof(vjob_t), threads);
+    free(lum);
     return 0;
 }
 

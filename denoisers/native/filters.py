@@ -28,7 +28,14 @@ import torch
 
 from bnerr import native
 
-__all__ = ["LIBRARY", "TORCH_PATH_COST", "FilterKernels", "native_atrous", "native_bilateral"]
+__all__ = [
+    "LIBRARY",
+    "TORCH_PATH_COST",
+    "FilterKernels",
+    "native_atrous",
+    "native_bilateral",
+    "native_luminance_variance",
+]
 
 #: What the torch path costs instead, quoted in the warnings. Measured at 1920x1080 on 2 threads
 #: of a shared 2-core machine, old and new side by side (more under heavier load): the torch
@@ -38,7 +45,7 @@ TORCH_PATH_COST = (
     "at 1080p the a-trous filter runs about 6-15x, the joint bilateral about 13x and the "
     "bilateral about 6-9x slower on the CPU"
 )
-_SYMBOLS = ("bnerr_atrous", "bnerr_bilateral")
+_SYMBOLS = ("bnerr_atrous", "bnerr_bilateral", "bnerr_luminance_variance")
 
 
 @dataclass(frozen=True)
@@ -47,6 +54,7 @@ class FilterKernels:
 
     atrous: ctypes._CFuncPtr
     bilateral: ctypes._CFuncPtr
+    variance: ctypes._CFuncPtr
     why: str
 
 
@@ -59,7 +67,10 @@ def _bind(library: ctypes.CDLL, why: str) -> FilterKernels:
     bilateral = library.bnerr_bilateral
     bilateral.argtypes = [p, i64, p, i64, p, i64, i64, f32, p, i64, i64, c_int]
     bilateral.restype = c_int
-    return FilterKernels(atrous, bilateral, why)
+    variance = library.bnerr_luminance_variance
+    variance.argtypes = [p, p, i64, i64, i64, p, c_int]
+    variance.restype = c_int
+    return FilterKernels(atrous, bilateral, variance, why)
 
 
 #: The library of ``filters.c``: ``LIBRARY.load()`` gives the bound :class:`FilterKernels`
@@ -104,6 +115,27 @@ def native_atrous(
         depth_width.data_ptr(), out.data_ptr(), h, w, iterations, *sigmas, floor,
         weights.data_ptr(), blur.data_ptr(), threads,
     )  # fmt: skip
+    return out if code == 0 else None
+
+
+def native_luminance_variance(
+    kernels: FilterKernels,
+    color: torch.Tensor,
+    radius: int,
+    weights: tuple[float, float, float],
+    threads: int,
+) -> torch.Tensor | None:
+    """The a-trous filter's spatial variance estimate in C: the variance ``[1, H, W]`` of the
+    luminance ``(w0 R + w1 G) + w2 B`` of ``color [3, H, W]`` (float32, CPU) in a
+    ``2 radius + 1`` square window with a replicate border, at least 0. None when the kernel
+    refuses the sizes (``radius`` above 64)."""
+    color = color.contiguous()
+    h, w = color.shape[1:]
+    out = torch.empty((1, h, w), dtype=torch.float32)
+    lum_weights = _floats(weights)
+    code = kernels.variance(
+        color.data_ptr(), out.data_ptr(), h, w, radius, lum_weights.data_ptr(), threads
+    )
     return out if code == 0 else None
 
 
