@@ -61,17 +61,23 @@ def test_bad_input_is_refused():
         error_features(torch.rand(1, 4))
 
 
-def test_4d_tests_are_unit_hyperplanes_and_bumps_on_4d_points():
+def test_4d_tests_are_edges_in_the_pair_moving_a_little_with_the_jitter():
     tests = make_integrands(40, 5, dims=4)
     assert tests.dims == 4 and tests.normal.shape == (20, 4) and tests.centre.shape == (20, 4)
-    assert torch.allclose(tests.normal.norm(dim=1), torch.ones(20), atol=1e-6)
+    assert torch.allclose(tests.normal[:, 2:].norm(dim=1), torch.ones(20), atol=1e-6)
+    coupling = tests.normal[:, :2].norm(dim=1)
+    assert float(coupling.max()) <= 0.5 and float(coupling.min()) >= 0
     points = torch.rand(3, 7, 4, generator=torch.Generator().manual_seed(6))
     values = tests(points)
-    # each hyperplane splits the cube: points on its positive side count 1
     side = (points @ tests.normal.T > tests.offset).float()
     assert torch.equal(values[..., :20], side)
+    # bumps: width s in the pair's square, 1 in the jitter's; 1 at the centre
+    at_centre = tests(tests.centre)[torch.arange(20), 20 + torch.arange(20)]
+    assert torch.allclose(at_centre, torch.ones(20), atol=1e-5)
+    moved = tests.centre + torch.tensor([0.5, 0.0, 0.0, 0.0])
+    expected = torch.exp(torch.tensor(-0.125)).expand(20)
     assert torch.allclose(
-        tests(tests.centre)[torch.arange(20), 20 + torch.arange(20)], torch.ones(20)
+        tests(moved)[torch.arange(20), 20 + torch.arange(20)], expected, atol=1e-5
     )
     assert torch.allclose(estimates(points, tests), values.mean(1))
     with pytest.raises(ShapeError, match="4 coordinates"):
