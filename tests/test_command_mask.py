@@ -103,6 +103,7 @@ def test_frames_with_dims_writes_the_vector_stbn(tmp_path):
         (["--fast", "0.5", "--dims", "2", "--out", "m.npy"], "--fast: expected a scalar 2D mask"),
         (["--fast", "0.5", "--frames", "2", "--out", "m.npy"], "--fast: expected a scalar"),
         (["--fast", "0.5", "--out", "file.txt/m.npy"], "file.txt"),
+        (["--joint", "--out", "m.npy"], "--joint: expected only with --ldbn"),
     ],
 )
 def test_frames_output_and_arguments_are_checked_before_generating(
@@ -134,6 +135,18 @@ def test_ldbn_writes_the_keys_it_optimized_and_removes_its_checkpoint(tmp_path, 
     assert not (tmp_path / "k.ckpt.npz").exists()
     printed = capsys.readouterr().out
     assert "LDBN keys 8x8x1, spp 1..2, D=2" in printed and "sigma-2 blur keeps" in printed
+
+
+def test_ldbn_joint_writes_the_joint_keys(tmp_path, capsys):
+    from bnerr.ldbn.keys import KeyOptions, optimize_keys
+
+    out = tmp_path / "k.npy"
+    argv = ["mask", "--ldbn", "--joint", "--size", "8", "--spp", "2", "--dims", "4"]
+    assert main([*argv, "--iterations", "3", "--out", str(out)]) == 0
+    opts = KeyOptions(size=8, levels=2, dims=4, iterations=3, joint=True)
+    scramble, rank = optimize_keys(opts)
+    assert np.array_equal(np.load(out), np.concatenate([scramble, rank], -1))
+    assert "D=4, joint" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(

@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from bnerr.errors import ShapeError, ValueRangeError
-from bnerr.ldbn.integrands import error_features, estimates, make_integrands
+from bnerr.ldbn.integrands import error_features, estimates, feature_basis, make_integrands
 
 
 def test_integrands_are_half_edges_half_bumps_and_deterministic():
@@ -59,3 +59,40 @@ def test_bad_input_is_refused():
         estimates(torch.rand(3, 2), make_integrands(4))
     with pytest.raises(ShapeError, match="at least 2 keys"):
         error_features(torch.rand(1, 4))
+
+
+def test_4d_tests_are_edges_in_the_pair_moving_a_little_with_the_jitter():
+    tests = make_integrands(40, 5, dims=4)
+    assert tests.dims == 4 and tests.normal.shape == (20, 4) and tests.centre.shape == (20, 4)
+    assert torch.allclose(tests.normal[:, 2:].norm(dim=1), torch.ones(20), atol=1e-6)
+    coupling = tests.normal[:, :2].norm(dim=1)
+    assert float(coupling.max()) <= 0.5 and float(coupling.min()) >= 0
+    points = torch.rand(3, 7, 4, generator=torch.Generator().manual_seed(6))
+    values = tests(points)
+    side = (points @ tests.normal.T > tests.offset).float()
+    assert torch.equal(values[..., :20], side)
+    # bumps: width s in the pair's square, 1 in the jitter's; 1 at the centre
+    at_centre = tests(tests.centre)[torch.arange(20), 20 + torch.arange(20)]
+    assert torch.allclose(at_centre, torch.ones(20), atol=1e-5)
+    moved = tests.centre + torch.tensor([0.5, 0.0, 0.0, 0.0])
+    expected = torch.exp(torch.tensor(-0.125)).expand(20)
+    assert torch.allclose(
+        tests(moved)[torch.arange(20), 20 + torch.arange(20)], expected, atol=1e-5
+    )
+    assert torch.allclose(estimates(points, tests), values.mean(1))
+    with pytest.raises(ShapeError, match="4 coordinates"):
+        estimates(points[..., :2], tests)
+    with pytest.raises(ValueRangeError, match="2 or 4"):
+        make_integrands(8, 0, dims=3)
+
+
+def test_a_fixed_basis_projects_other_vectors_as_it_projects_its_own():
+    gen = torch.Generator().manual_seed(8)
+    values = torch.rand(50, 12, generator=gen)
+    basis = feature_basis(values, 5)
+    assert torch.equal(basis.project(values), error_features(values, 5))
+    other = torch.rand(7, 12, generator=gen)
+    both = basis.project(torch.cat([values[:3], other]))
+    assert torch.equal(both[:3], basis.project(values[:3]))
+    expected = ((other.double() - basis.mean) / basis.scale) @ basis.axes.T
+    assert torch.allclose(both[3:].double(), expected, atol=1e-5)

@@ -69,3 +69,19 @@ def test_shipped_key_sets_load_and_are_blue_on_held_out_tests(name):
 def test_a_missing_key_set_is_a_file_format_error():
     with pytest.raises(FileFormatError):
         load_ldbn_keys("screen", 32)
+
+
+def test_joint_pairs_share_the_first_ranks_and_keep_its_keys():
+    joint = KeyOptions(size=8, levels=3, dims=4, tests=16, components=8, iterations=8, joint=True)
+    scramble, rank = optimize_keys(joint)
+    plain_scramble, plain_rank = optimize_keys(SMALL)
+    # the first pair is optimized as without --joint; the second takes its ranks
+    assert np.array_equal(scramble[..., :2], plain_scramble[..., :2])
+    assert np.array_equal(rank[..., 0], plain_rank[..., 0])
+    assert np.array_equal(rank[..., 1], rank[..., 0])
+    assert not np.array_equal(scramble[..., 2:], plain_scramble[..., 2:])
+    assert scramble.min() >= 0 and scramble.max() < 1 << 24
+    again = optimize_keys(joint)
+    assert np.array_equal(scramble, again[0]) and np.array_equal(rank, again[1])
+    # one scrambling stage per joint job, 1 + level per plain one
+    assert joint.steps() == 8 * (1 + 2 + 3 + 3)

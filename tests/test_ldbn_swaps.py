@@ -9,7 +9,14 @@ import pytest
 import torch
 
 from bnerr.errors import ShapeError
-from bnerr.ldbn.swaps import _matching, energy, energy_kernel, flip_descent, swap_descent
+from bnerr.ldbn.swaps import (
+    _matching,
+    energy,
+    energy_kernel,
+    flip_descent,
+    joint_swap_descent,
+    swap_descent,
+)
 
 
 def _slow_energy(x: torch.Tensor, kernel: torch.Tensor) -> float:
@@ -95,3 +102,36 @@ def test_flip_descent_chooses_and_lowers_the_energy():
     assert energy(picked, k) < min(randoms) - 5 * spread
     with pytest.raises(ShapeError):
         flip_descent(options[0], k, 5, gen)
+
+
+def _texel_features(seed: int) -> tuple[torch.Tensor, torch.Tensor]:
+    """Keys whose features depend on the texel: key row r in texel p gives a[r] + b[p] * a[r]."""
+    gen = torch.Generator().manual_seed(seed)
+    return torch.randn(256, 4, generator=gen), torch.rand(256, 1, generator=gen)
+
+
+def test_joint_swap_descent_permutes_and_lowers_the_texel_dependent_energy():
+    a, b = _texel_features(5)
+
+    def evaluate(texels, rows):
+        return a[rows] * (1 + b[texels])
+
+    gen = torch.Generator().manual_seed(6)
+    k = energy_kernel(16)
+    perm = joint_swap_descent(evaluate, k, 60, gen)
+    assert torch.equal(perm.sort().values, torch.arange(256))
+    every = torch.arange(256)
+    after = energy(evaluate(every, perm), k)
+    shuffled = [energy(evaluate(every, torch.randperm(256, generator=gen)), k) for _ in range(8)]
+    spread = torch.tensor(shuffled).std().item()
+    assert after < min(shuffled) - 5 * spread
+    again = joint_swap_descent(evaluate, k, 60, torch.Generator().manual_seed(6))
+    assert torch.equal(perm, again)
+
+
+def test_joint_swap_descent_is_swap_descent_when_features_ignore_the_texel():
+    x = torch.randn(64, 3, generator=torch.Generator().manual_seed(7))
+    k = energy_kernel(8)
+    plain = swap_descent(x, k, 20, torch.Generator().manual_seed(9))
+    joint = joint_swap_descent(lambda t, r: x[r], k, 20, torch.Generator().manual_seed(9))
+    assert torch.equal(plain, joint)

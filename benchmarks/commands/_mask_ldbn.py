@@ -4,7 +4,9 @@
 optimized dimensions (even); ``--size T`` the tile. ``--frames F`` adds a frame axis (keys blue in
 space and along t at each pixel, the ``ldbn_st`` set); ``--fast SIGMA`` targets a Gaussian filter
 of SIGMA pixels (its autocorrelation as the kernel, the ``ldbn_fast`` set) instead of Heitz et
-al.'s weight of width 2.1. A progress bar counts descent iterations; ``--checkpoint`` (default:
+al.'s weight of width 2.1; ``--joint`` optimizes every pair past the first (the pixel jitter) on 4D
+test integrands of both pairs, the first pair's keys fixed and its ranks shared (bnerr.ldbn.keys).
+A progress bar counts descent iterations; ``--checkpoint`` (default:
 the output's name with ``.ckpt.npz``) is written after each (level, pair) job, and a rerun with
 the same options resumes from it (it is removed once the output is written). The command prints
 the time taken and, per level, the share of the error variance a sigma-2 blur keeps on held-out
@@ -43,6 +45,11 @@ def add_ldbn_arguments(parser: argparse.ArgumentParser) -> None:
         help="--ldbn: the largest sample count, a power of two (default 16)",
     )
     parser.add_argument(
+        "--joint",
+        action="store_true",
+        help="--ldbn: optimize the pairs past the pixel jitter jointly with it (4D tests)",
+    )
+    parser.add_argument(
         "--checkpoint",
         type=Path,
         default=None,
@@ -64,6 +71,7 @@ def _options(args: argparse.Namespace) -> KeyOptions:
         autocorrelation=args.fast is not None,
         iterations=600 if args.iterations is None else args.iterations,
         seed=args.seed,
+        joint=args.joint,
     )
 
 
@@ -82,7 +90,7 @@ def run_ldbn(args: argparse.Namespace) -> int:
     Path(checkpoint).unlink(missing_ok=True)
     print(
         f"LDBN keys {opts.size}x{opts.size}x{opts.frames}, spp 1..{1 << (opts.levels - 1)}, "
-        f"D={opts.dims}: {seconds:.1f} s -> {args.out}"
+        f"D={opts.dims}{', joint' if opts.joint else ''}: {seconds:.1f} s -> {args.out}"
     )
     print(f"sigma-2 blur keeps (held-out tests, pair 0; white {white_share(opts.size):.4f}):")
     for level in range(opts.levels):

@@ -105,8 +105,8 @@ def run(args: argparse.Namespace) -> int:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
     if args.ldbn:
         return run_ldbn(args)
-    if args.spp is not None or args.checkpoint is not None:
-        raise ValueRangeError("--spp, --checkpoint: expected only with --ldbn")
+    if args.spp is not None or args.checkpoint is not None or args.joint:
+        raise ValueRangeError("--spp, --checkpoint, --joint: expected only with --ldbn")
     if args.fast is not None and (args.frames is not None or args.dims != 1):
         raise ValueRangeError(
             f"--fast: expected a scalar 2D mask (--dims 1, no --frames), got --dims {args.dims}"

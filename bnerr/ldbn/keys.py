@@ -11,6 +11,14 @@
    half of the 2m-block the larger prefixes chose (:func:`bnerr.ldbn.swaps.flip_descent`), so every
    power-of-two prefix is blue given the larger ones.
 
+With ``joint`` every pair past the first (the pixel jitter) is optimized *with* it: its ranking
+keys are the first pair's (sample i reads index ``i XOR rank`` in both pairs, so each texel's 4D
+point set is fixed once its light keys are), and its scrambling keys are permuted over the tile
+on 4D test integrands of both pairs, the first pair's keys fixed
+(:func:`bnerr.ldbn.swaps.joint_swap_descent`): with several jittered samples each light sample
+meets another shading point, and the 2D tests do not see that interaction (docs/METHODS.md,
+section 10).
+
 After each job the checkpoint (``.npz``, written atomically) holds every finished job; a rerun
 with the same arguments skips them, so an interrupted run resumes where it stopped. With the same
 arguments on one torch thread the result is the same bit for bit.
@@ -28,8 +36,20 @@ import torch
 
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
 from bnerr.io import atomic_write
-from bnerr.ldbn.integrands import Integrands, error_features, estimates, make_integrands
-from bnerr.ldbn.swaps import Progress, energy_kernel, flip_descent, swap_descent
+from bnerr.ldbn.integrands import (
+    Integrands,
+    error_features,
+    estimates,
+    feature_basis,
+    make_integrands,
+)
+from bnerr.ldbn.swaps import (
+    Progress,
+    energy_kernel,
+    flip_descent,
+    joint_swap_descent,
+    swap_descent,
+)
 from bnerr.resources import load_array, shipped_files
 from bnerr.sequences.ldbn import LDBNKeys, shared_words
 
@@ -63,6 +83,7 @@ class KeyOptions:
         sigma_t: the temporal kernel's width in frames (F > 1).
         tests: test integrands; components: principal components kept; iterations: per stage.
         seed: random start and test integrands; seed0: the shared sequence's seed.
+        joint: optimize the pairs past the first jointly with it (module docstring).
     """
 
     size: int = 64
@@ -77,6 +98,7 @@ class KeyOptions:
     iterations: int = 600
     seed: int = 0
     seed0: int = SHIPPED_SEED0
+    joint: bool = False
 
     def __post_init__(self) -> None:
         check_positive_int(self.size, "size", minimum=2)
@@ -89,10 +111,22 @@ class KeyOptions:
         if self.levels > 12:
             raise ValueRangeError(f"levels: expected at most 12 (4096 spp), got {self.levels}")
 
+    def is_joint(self, pair: int) -> bool:
+        """Whether ``pair`` is optimized jointly with the first (module docstring)."""
+        return self.joint and pair > 0
+
+    def stages(self, level: int, pair: int) -> int:
+        """Descent runs of one job: the scrambling keys, then one per ranking bit (none when
+        the pair is joint: it takes the first pair's ranks)."""
+        return 1 if self.is_joint(pair) else 1 + level
+
     def steps(self) -> int:
         """Descent iterations of the whole run (the progress bar's total)."""
-        per_pair = sum(1 + level for level in range(self.levels))
-        return per_pair * (self.dims // 2) * self.iterations
+        return self.iterations * sum(
+            self.stages(level, pair)
+            for level in range(self.levels)
+            for pair in range(self.dims // 2)
+        )
 
 
 class _Job:
@@ -108,6 +142,7 @@ class _Job:
             opts.size, opts.frames, opts.sigma, opts.sigma_t, opts.autocorrelation
         )
         self.opts = opts
+        self.pair = pair
 
     def features(self, indices: torch.Tensor, keys: torch.Tensor) -> torch.Tensor:
         """Error features of point sets ``shared[indices [K, m]] XOR keys [K, 2]``: ``[K, C]``."""
@@ -119,6 +154,33 @@ class _Job:
         indices = torch.arange(self.n).expand(self.texels, -1)
         perm = swap_descent(
             self.features(indices, keys), self.kernel, self.opts.iterations, self.gen, progress
+        )
+        return keys[perm]
+
+    def joint_scramble(
+        self, first: torch.Tensor, rank: torch.Tensor, progress: Progress | None
+    ) -> torch.Tensor:
+        """This pair's scrambling keys on 4D tests of it and the first pair, whose keys
+        ``first [P, 2]`` and ranks ``rank [P]`` (shared by both pairs) are fixed."""
+        keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
+        index = torch.arange(self.n)[None, :] ^ rank[:, None]  # [P, N]
+        words0 = shared_words(self.opts.seed0, torch.arange(self.n), 0, 2).T.long()
+        jitter = (words0[index] ^ first[:, None, :]).float() / _TWO_24  # [P, N, 2]
+        words = self.shared[index]  # [P, N, 2]
+        tests = make_integrands(self.opts.tests, self.opts.seed * 7919 + 104729 + self.pair, 4)
+
+        def values(texels: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
+            light = (words[texels] ^ keys[rows][:, None, :]).float() / _TWO_24
+            return estimates(torch.cat([jitter[texels], light], 2), tests)
+
+        every = torch.arange(self.texels)
+        basis = feature_basis(values(every, every), self.opts.components)
+        perm = joint_swap_descent(
+            lambda t, r: basis.project(values(t, r)),
+            self.kernel,
+            self.opts.iterations,
+            self.gen,
+            progress,
         )
         return keys[perm]
 
@@ -169,6 +231,22 @@ def _save_checkpoint(path: Path, opts: KeyOptions, state: dict[str, np.ndarray])
         np.savez(f, **arrays, **state)  # type: ignore[arg-type]
 
 
+def _run_job(
+    job: _Job, state: dict[str, np.ndarray], level: int, progress: Progress | None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """One (level, pair) job's scrambling keys ``[P, 2]`` and ranking keys ``[P]``."""
+    if not job.opts.is_joint(job.pair):
+        keys = job.scramble(progress)
+        return keys, job.rank(keys, progress)
+    if not state["done"][level, 0]:
+        raise ValueRangeError(
+            f"level {level}: the first pair must be optimized before pair {job.pair}"
+        )
+    first = torch.from_numpy(state["scramble"][level, ..., 0:2].reshape(-1, 2)).long()
+    rank = torch.from_numpy(state["rank"][level, ..., 0].reshape(-1)).long()
+    return job.joint_scramble(first, rank, progress), rank
+
+
 def optimize_keys(
     opts: KeyOptions,
     checkpoint: str | Path | None = None,
@@ -194,11 +272,9 @@ def optimize_keys(
         for pair in range(opts.dims // 2):
             if state["done"][level, pair]:
                 if progress is not None:
-                    progress((1 + level) * opts.iterations)
+                    progress(opts.stages(level, pair) * opts.iterations)
                 continue
-            job = _Job(opts, level, pair)
-            keys = job.scramble(progress)
-            rank = job.rank(keys, progress)
+            keys, rank = _run_job(_Job(opts, level, pair), state, level, progress)
             pairs = slice(2 * pair, 2 * pair + 2)
             state["scramble"][level, ..., pairs] = keys.reshape(*shape, 2).numpy()
             state["rank"][level, ..., pair] = rank.reshape(shape).numpy()

@@ -17,7 +17,12 @@ matching of the texels (swaps) or every texel (flips), and evaluates each move's
 alone:
 
 - swap of a and b, ``d = x_b - x_a``: ``dE = 2 <d, phi_a - phi_b> - 2 w(a - b) |d|^2``;
-- flip of a from ``x_a`` to ``y_a``: ``dE = 2 <y_a - x_a, phi_a>``.
+- flip of a from ``x_a`` to ``y_a``: ``dE = 2 <y_a - x_a, phi_a>``;
+- swap of a and b when a key's error vector depends on the texel it sits in (the joint
+  optimization: the light pair's keys meet each texel's own fixed jitter samples), a from ``x_a``
+  to ``y_a`` and b from ``x_b`` to ``y_b`` at once:
+  ``dE = 2 <d_a, phi_a> + 2 <d_b, phi_b> + 2 w(a - b) <d_a, d_b>``, ``d = y - x``
+  (:func:`joint_swap_descent`; with ``y_a = x_b``, ``y_b = x_a`` it is the plain swap's).
 
 Moves with ``dE < 0`` are kept, each with probability ``q``: moves made at once interact through
 their neighbours, and ``q`` (halved whenever an iteration raised the energy, raised slowly
@@ -38,9 +43,20 @@ import torch
 
 from bnerr.errors import ShapeError, check_positive_int, check_shape
 
-__all__ = ["Progress", "energy", "energy_kernel", "flip_descent", "swap_descent"]
+__all__ = [
+    "Evaluate",
+    "Progress",
+    "energy",
+    "energy_kernel",
+    "flip_descent",
+    "joint_swap_descent",
+    "swap_descent",
+]
 
 Progress = Callable[[int], None]
+#: ``evaluate(texels [M], rows [M]) -> [M, C]``: the features of key ``rows[i]`` in texel
+#: ``texels[i]`` (:func:`joint_swap_descent`).
+Evaluate = Callable[[torch.Tensor, torch.Tensor], torch.Tensor]
 
 
 def energy_kernel(
@@ -211,4 +227,47 @@ def flip_descent(
     cur = opts[choice, :, cols].T
     if float((cur * _field(cur, kfft, shape)).sum()) < best_e:
         best = choice
+    return best
+
+
+def joint_swap_descent(
+    evaluate: Evaluate,
+    kernel: torch.Tensor,
+    iterations: int,
+    gen: torch.Generator,
+    progress: Progress | None = None,
+) -> torch.Tensor:
+    """Permute P keys over the tile to lower :func:`energy` when a key's features depend on the
+    texel that holds it (module docstring): ``evaluate`` gives them.
+
+    Returns:
+        ``perm [P]`` int64: texel p takes key ``perm[p]``, starting from the identity.
+    """
+    shape = tuple(kernel.shape)
+    n = math.prod(shape)
+    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
+    perm = torch.arange(n)
+    cur = evaluate(perm, perm).double().T.contiguous()  # [C, P]
+    best, best_e, acc = perm.clone(), math.inf, _Acceptance()
+    for _ in range(check_positive_int(iterations, "iterations")):
+        field = _field(cur, kfft, shape)
+        e = float((cur * field).sum())
+        if e < best_e:
+            best, best_e = perm.clone(), e
+        acc.update(e)
+        a, b = _matching(shape, gen)
+        da = evaluate(a, perm[b]).double().T - cur[:, a]
+        db = evaluate(b, perm[a]).double().T - cur[:, b]
+        w = _offsets_weight(a, b, kernel.double(), shape)
+        change = 2 * ((da * field[:, a]).sum(0) + (db * field[:, b]).sum(0))
+        change = change + 2 * w * (da * db).sum(0)
+        keep = (change < 0) & (torch.rand(a.shape, generator=gen, dtype=torch.float64) < acc.q)
+        a, b, da, db = a[keep], b[keep], da[:, keep], db[:, keep]
+        cur[:, a] += da
+        cur[:, b] += db
+        perm[a], perm[b] = perm[b].clone(), perm[a].clone()
+        if progress is not None:
+            progress(1)
+    if float((cur * _field(cur, kfft, shape)).sum()) < best_e:
+        best = perm
     return best
