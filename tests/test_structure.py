@@ -398,6 +398,21 @@ def test_no_file_refers_to_a_document_outside_the_repository():
     assert not offenders, "references to documents outside the repository:\n" + "\n".join(offenders)
 
 
+_CONFLICT = re.compile(r"^(<{7} |>{7} |={7}$)")
+
+
+def test_no_file_keeps_a_merge_conflict_marker():
+    # A conflict left in a Markdown file breaks no import and no other test: only this finds it.
+    offenders = [
+        f"{path.relative_to(ROOT)}:{number}"
+        for path in repository_files()
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1)
+        if _CONFLICT.match(line)
+    ]
+    assert not offenders, "merge conflict markers:\n" + "\n".join(offenders)
+    assert _CONFLICT.match("<" * 7 + " HEAD") and not _CONFLICT.match("=" * 8)
+
+
 @pytest.mark.parametrize("name", ["METHODS", "ARCHITECTURE", "INTERFACES"])
 def test_the_project_docs_exist(name):
     assert (ROOT / "docs" / f"{name}.md").is_file()
