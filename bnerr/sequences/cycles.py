@@ -180,9 +180,7 @@ def _native_values(
 ) -> bool:
     """The values of the lanes' (key, index) in C into ``out``; False when the native path does
     not apply."""
-    if not native.uses_native(*lanes, out):
-        return False
-    kernels = kernels if kernels is not None else _native_kernels()
+    kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
     if kernels is None:
         return False
     first_seed = sampler.seed0 ^ FIRST_SEQUENCE_SALT

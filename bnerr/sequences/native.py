@@ -28,6 +28,7 @@ __all__ = [
     "LIBRARY",
     "TORCH_PATH_COST",
     "SamplerKernels",
+    "kernels_for",
     "native_cycles",
     "native_owen_sobol",
     "native_zsobol",
@@ -76,6 +77,19 @@ LIBRARY = native.library(__package__, "samplers.c", _bind, _SYMBOLS, TORCH_PATH_
 def uses_native(*tensors: torch.Tensor) -> bool:
     """Whether the native path applies: every tensor on the CPU and outside ``torch.compile``."""
     return all(t.device.type == "cpu" for t in tensors) and not torch.compiler.is_compiling()
+
+
+def kernels_for(
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    out: torch.Tensor,
+    kernels: SamplerKernels | None,
+    load: Callable[[], SamplerKernels | None],
+) -> SamplerKernels | None:
+    """The kernels to fill ``out`` for ``lanes`` with: ``kernels`` if given, else ``load()``;
+    None when the native path does not apply (:func:`uses_native`) or no kernel loaded."""
+    if not uses_native(*lanes, out):
+        return None
+    return kernels if kernels is not None else load()
 
 
 def threads_for(n: int) -> int:

@@ -460,9 +460,7 @@ def _native_words(
 ) -> bool:
     """The FastOwen values of the lanes' (key, index) in C into ``out``; False when the native
     path does not apply."""
-    if not native.uses_native(*lanes, out):
-        return False
-    kernels = kernels if kernels is not None else _native_kernels()
+    kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
     if kernels is None:
         return False
     lay = sampler.layout

@@ -202,9 +202,7 @@ def _native_words(
 ) -> bool:
     """The values of the lanes' (key, index) in C into ``out``; False when the native path does
     not apply."""
-    if not native.uses_native(*lanes, out):
-        return False
-    kernels = kernels if kernels is not None else _native_kernels()
+    kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
     if kernels is None:
         return False
     seeds = _pair_seeds(dim, out.shape[0], sampler.seed)
