@@ -73,9 +73,11 @@ def test_the_shipped_figures_give_one_table_per_part():
     headings = [line for line in text.splitlines() if line.startswith("## ")]
     assert [h.split(" (")[0] for h in headings] == [
         "## Tracer against Mitsuba 3",
+        "## `bnerr render` as a new process",
         "## Permutation passes against a memory copy",
         "## Closing-the-gap options against the sort pass",
         "## Samplers against independent values",
+        "## Samplers in a render",
         "## Masks",
         "## Denoisers against OIDN",
     ]
@@ -84,9 +86,8 @@ def test_the_shipped_figures_give_one_table_per_part():
     assert f"| oidn | {fmt(oidn)} | {fmt(1 / oidn)} | 1 (anchor) |" in text
     for name, seconds in figures["speed.denoise"].items():
         if name != "oidn":
-            assert (
-                f"| {name} | {fmt(seconds)} | {fmt(1 / seconds)} | {ratio(seconds, oidn)} |" in text
-            )
+            row = f"| {name} | {fmt(seconds)} | {fmt(1 / seconds)} | {ratio(seconds, oidn)} |"
+            assert row in text
     llvm = figures["speed.tracer"]["direct"]["ratio_llvm_ad_rgb"]
     assert "| direct | Mitsuba llvm_ad_rgb |" in text and f"| {fmt(1 / llvm)}x |" in text
     assert "No memory-copy anchor in these figures" not in text  # this run measured the copy
