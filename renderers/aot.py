@@ -45,7 +45,7 @@ from pathlib import Path
 
 import torch
 
-from bnerr.native.build import cache_dir, cpu_identity, secure_dir
+from bnerr.native.build import cache_dir, cpu_identity, open_library_bytes, secure_dir
 from renderers.catalog import get_scene
 from renderers.geometry import SceneTensors, scene_tensors
 from renderers.layout import Layout
@@ -146,13 +146,7 @@ def _open_library(path: Path) -> ctypes.CDLL:
     with zipfile.ZipFile(path) as archive:
         (name,) = [n for n in archive.namelist() if n.endswith(".so")]
         data = archive.read(name)
-    fd, tmp = tempfile.mkstemp(prefix="bnerr_aot_", suffix=".so")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        return ctypes.CDLL(tmp)
-    finally:
-        os.unlink(tmp)
+    return open_library_bytes(data, None, "bnerr_aot_")
 
 
 class AotStep:

@@ -52,6 +52,7 @@ __all__ = [
     "cache_dir",
     "find_compiler",
     "obtain",
+    "open_library_bytes",
     "source_text",
 ]
 
@@ -262,7 +263,14 @@ def load_verified(path: Path, sha256: str) -> ctypes.CDLL | None:
         os.close(fd)
     if hashlib.sha256(data).hexdigest() != sha256:
         return None
-    handle, copy = tempfile.mkstemp(dir=path.parent, prefix=f".load-{sha256[:16]}-", suffix=".so")
+    return open_library_bytes(data, path.parent, f".load-{sha256[:16]}-")
+
+
+def open_library_bytes(data: bytes, folder: Path | None, prefix: str) -> ctypes.CDLL:
+    """Open the shared library ``data`` through a private copy in ``folder`` (the system's temporary
+    folder when None), unlinked once open: the loader keeps its mapping, and nobody can swap the
+    file between a check of its bytes and the load."""
+    handle, copy = tempfile.mkstemp(dir=folder, prefix=prefix, suffix=".so")
     try:
         with os.fdopen(handle, "wb") as f:
             f.write(data)
