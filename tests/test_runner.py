@@ -10,8 +10,9 @@ import json
 
 import pytest
 import torch
+from _suites import tiny_suite
 
-from benchmarks.suites import Condition, Suite, Sweep
+from benchmarks.suites import Condition
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.plan import Cell
@@ -39,22 +40,6 @@ def _parts(**changes):
     return dataclasses.replace(real_parts(), **changes)
 
 
-def _suite(**sweep):
-    base = dict(
-        scenes=("direct",),
-        strategies=("white", "temporal"),
-        spp=(1,),
-        denoisers=("gaussian", "median"),
-        frames=2,
-        warmup=1,
-        res=(16, 12),
-        reference_spp=16,
-        seed_sets=2,
-    )
-    base.update(sweep)
-    return Suite(name="tiny", description="test", sweeps=(Sweep(**base),))
-
-
 # -- end to end ---------------------------------------------------------------------------------
 
 
@@ -65,7 +50,7 @@ def tiny(tmp_path_factory):
     cache = tmp_path_factory.mktemp("cache")
     counting = _Counting(real_parts().render)
     records = run_suite(
-        _suite(), out, parts=_parts(render=counting), cache_dir=cache, progress=False
+        tiny_suite(), out, parts=_parts(render=counting), cache_dir=cache, progress=False
     )
     return out, cache, records, counting.calls
 
@@ -78,7 +63,7 @@ def test_every_cell_gets_a_record_with_per_frame_pairs(tiny):
         assert isinstance(rec, Record) and isinstance(rec.cell, Cell)
         assert rec.key == rec.cell.key()
         assert rec.t == [1, 2]  # warmup frame 0 is rendered, not measured
-        assert set(rec.raw) == set(rec.den) == set(_suite().sweeps[0].metrics)
+        assert set(rec.raw) == set(rec.den) == set(tiny_suite().sweeps[0].metrics)
         s = torch.tensor(rec.raw["mse"])
         assert s.shape == (2, 2, 2) and torch.all(
             s[..., 1] == 3 * 16 * 12
@@ -125,7 +110,12 @@ def test_rerun_with_resume_measures_nothing(tiny):
     out, cache, records, _ = tiny
     counting = _Counting(real_parts().render)
     again = run_suite(
-        _suite(), out, parts=_parts(render=counting), cache_dir=cache, resume=True, progress=False
+        tiny_suite(),
+        out,
+        parts=_parts(render=counting),
+        cache_dir=cache,
+        resume=True,
+        progress=False,
     )
     assert counting.calls == 0 and again == records
 
@@ -135,11 +125,11 @@ def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):
     # References are cached: 2 tuning frames + 2 x 2 white frames, then the temporal run dies.
     parts = _parts(render=_Counting(real_parts().render, fail_after=6))
     with pytest.raises(KeyboardInterrupt):
-        run_suite(_suite(), tmp_path, parts=parts, cache_dir=cache, progress=False)
+        run_suite(tiny_suite(), tmp_path, parts=parts, cache_dir=cache, progress=False)
     partial = load_records(tmp_path)
     assert len(partial) == 2 and {r.cell.strategy for r in partial} == {"white"}
     done = run_suite(
-        _suite(), tmp_path, parts=_parts(), cache_dir=cache, resume=True, progress=False
+        tiny_suite(), tmp_path, parts=_parts(), cache_dir=cache, resume=True, progress=False
     )
     strip = lambda recs: sorted((r.key, r.raw, r.den, r.denoiser_params) for r in recs)  # noqa: E731
     assert strip(done) == strip(
@@ -162,7 +152,7 @@ def test_a_run_resumes_after_an_append_cut_short(tiny, tmp_path):
     counting = _Counting(real_parts().render)
     with pytest.warns(UserWarning, match="cut short"):
         done = run_suite(
-            _suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache, resume=True,
+            tiny_suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache, resume=True,
             progress=False,
         )  # fmt: skip
     assert counting.calls > 0  # the torn cell's run is measured again
@@ -177,7 +167,7 @@ def test_a_resume_that_kept_a_later_run_writes_the_file_in_plan_order(tiny, tmp_
     lines = (out / RESULTS_FILE).read_bytes().splitlines(keepends=True)
     (tmp_path / RESULTS_FILE).write_bytes(b"".join(lines[2:]))
     assert {r.cell.strategy for r in load_records(tmp_path)} == {"temporal"}
-    run_suite(_suite(), tmp_path, cache_dir=cache, resume=True, progress=False)
+    run_suite(tiny_suite(), tmp_path, cache_dir=cache, resume=True, progress=False)
     strip = lambda recs: [(r.key, r.raw, r.den, r.denoiser_params) for r in recs]  # noqa: E731
     assert strip(load_records(tmp_path)) == strip(records)  # white first, as uninterrupted
 
@@ -191,11 +181,11 @@ def test_a_fresh_run_refuses_a_folder_with_finished_cells_unless_told_to_overwri
         ResultsExistError, match=r"expected no finished cells .* got 4; pass --resume"
     ):
         run_suite(
-            _suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache, progress=False
+            tiny_suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache, progress=False
         )
     assert counting.calls == 0 and (tmp_path / RESULTS_FILE).read_bytes() == before
     again = run_suite(
-        _suite(), tmp_path, parts=_parts(), cache_dir=cache, overwrite=True, progress=False
+        tiny_suite(), tmp_path, parts=_parts(), cache_dir=cache, overwrite=True, progress=False
     )
     strip = lambda recs: sorted((r.key, r.raw, r.den) for r in recs)  # noqa: E731
     assert strip(again) == strip(records)
@@ -208,7 +198,7 @@ def test_resume_from_a_garbled_results_file_names_the_file_and_line(tmp_path):
         FileFormatError, match=r"cells.jsonl: expected UTF-8 JSON records, got bad bytes on line 2"
     ):
         run_suite(
-            _suite(),
+            tiny_suite(),
             tmp_path,
             parts=_parts(),
             cache_dir=tmp_path / "c",
@@ -219,7 +209,7 @@ def test_resume_from_a_garbled_results_file_names_the_file_and_line(tmp_path):
 
 def test_static_scenes_share_one_reference_and_edges_restrict_pixels(tmp_path):
     cache = tmp_path / "cache"
-    suite = _suite(
+    suite = tiny_suite(
         strategies=("white",),
         denoisers=("gaussian",),
         conditions=(Condition(motion=0), Condition(motion=0, region="edges")),
@@ -232,7 +222,7 @@ def test_static_scenes_share_one_reference_and_edges_restrict_pixels(tmp_path):
 
 def test_stateful_denoisers_run_end_to_end_and_resume_to_the_same_output(tmp_path):
     cache = tmp_path / "cache"
-    suite = _suite(strategies=("white",), denoisers=("taa", "gaussian"), warmup=2)
+    suite = tiny_suite(strategies=("white",), denoisers=("taa", "gaussian"), warmup=2)
     records = run_suite(suite, tmp_path / "a", parts=_parts(), cache_dir=cache, progress=False)
     taa = next(r for r in records if r.cell.denoiser == "taa")
     assert taa.denoiser_params and torch.tensor(taa.den["mse"]).shape == (2, 2, 2)
@@ -253,7 +243,7 @@ def test_stateful_denoisers_run_end_to_end_and_resume_to_the_same_output(tmp_pat
 
 
 def test_own_tuning_column_beside_the_fair_one(tmp_path):
-    suite = _suite(denoisers=("gaussian", "gaussian:own"))
+    suite = tiny_suite(denoisers=("gaussian", "gaussian:own"))
     out = tmp_path / "out"
     records = run_suite(suite, out, parts=_parts(), cache_dir=tmp_path / "c", progress=False)
     by = {(r.cell.strategy, r.cell.denoiser): r for r in records}

@@ -29,8 +29,8 @@ from pathlib import Path
 
 import pytest
 from _disks import fill, no_space, read_only, small_disk
+from _suites import tiny_suite
 
-from benchmarks.suites import Suite, Sweep
 from benchmarks.sweep import records as records_module
 from benchmarks.sweep import references as references_module
 from benchmarks.sweep.parts import real_parts
@@ -44,21 +44,6 @@ ROOT = Path(__file__).resolve().parents[1]
 #: Renders of the white run with its references cached (2 tuning frames, 2 x 2 measured): the
 #: next render is the temporal run's first.
 WHITE_RENDERS = 6
-
-
-def _suite() -> Suite:
-    sweep = Sweep(
-        scenes=("direct",),
-        strategies=("white", "temporal"),
-        spp=(1,),
-        denoisers=("gaussian", "median"),
-        frames=2,
-        warmup=1,
-        res=(16, 12),
-        reference_spp=16,
-        seed_sets=2,
-    )
-    return Suite(name="tiny", description="test", sweeps=(sweep,))
 
 
 def _measured(records):
@@ -90,14 +75,14 @@ def _parts(render=None):
 
 
 def _resume(out, cache, **kwargs):
-    return run_suite(_suite(), out, cache_dir=cache, resume=True, progress=False, **kwargs)
+    return run_suite(tiny_suite(), out, cache_dir=cache, resume=True, progress=False, **kwargs)
 
 
 @pytest.fixture(scope="module")
 def whole(tmp_path_factory):
     """The uninterrupted sweep: (output dir, cache dir, records)."""
     out, cache = tmp_path_factory.mktemp("whole"), tmp_path_factory.mktemp("cache")
-    return out, cache, run_suite(_suite(), out, cache_dir=cache, progress=False)
+    return out, cache, run_suite(tiny_suite(), out, cache_dir=cache, progress=False)
 
 
 def _check_resumes(whole, out, cache, first=None):
@@ -121,7 +106,8 @@ import dataclasses, os, signal, sys
 import torch
 sys.path.insert(0, {tests!r})
 torch.set_num_threads(1)
-from test_sweep_faults import _suite, _parts, _Os
+from _suites import tiny_suite
+from test_sweep_faults import _parts, _Os
 from benchmarks.sweep import records
 from benchmarks.sweep.runner import run_suite
 
@@ -146,7 +132,7 @@ else:  # in the middle of the temporal run's append: half its bytes written
             die()
         return write(fd, data)
     records.os = _Os(write=torn)
-run_suite(_suite(), {out!r}, parts=_parts(render), cache_dir={cache!r}, progress=False)
+run_suite(tiny_suite(), {out!r}, parts=_parts(render), cache_dir={cache!r}, progress=False)
 """
 
 
@@ -175,7 +161,7 @@ def test_a_reference_write_cut_by_a_kill_leaves_a_temporary_the_next_sweep_remov
     stale = tmp_path / "cache" / "direct" / f".ref.exr.bnerr-tmp-{dead.pid}-0123abcd.exr"
     stale.parent.mkdir(parents=True)
     stale.write_bytes(b"half an EXR")
-    done = run_suite(_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
+    done = run_suite(tiny_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
     assert _measured(done) == _measured(records)
     assert not stale.exists() and list(stale.parent.glob("*.exr"))
 
@@ -220,7 +206,7 @@ def test_a_full_disk_during_an_append_keeps_whole_lines_and_resumes(
     with small_disk(out) if mode == "tmpfs" else nullcontext():
         render = _fill_at_append(monkeypatch, out, mode)
         with pytest.raises(OutputPathError) as err:
-            run_suite(_suite(), out, parts=_parts(render), cache_dir=cache, progress=False)
+            run_suite(tiny_suite(), out, parts=_parts(render), cache_dir=cache, progress=False)
         message = str(err.value)
         assert "No space left on device" in message and "--resume" in message
         assert RESULTS_FILE in message and "\n" not in message
@@ -238,7 +224,7 @@ def test_a_full_disk_during_a_reference_write_warns_and_leaves_no_partial_file(w
         (cache / "direct").mkdir()
         fill(cache, leave=0)
         with pytest.warns(UserWarning, match="No space left on device") as said:
-            done = run_suite(_suite(), tmp_path / "out", cache_dir=cache, progress=False)
+            done = run_suite(tiny_suite(), tmp_path / "out", cache_dir=cache, progress=False)
         assert len([w for w in said if "writable reference cache" in str(w.message)]) == 1
         assert _measured(done) == _measured(records)
         assert list((cache / "direct").iterdir()) == []  # nothing half-written, no temporaries
@@ -258,7 +244,7 @@ def test_an_injected_full_disk_at_the_reference_write_warns_once_and_goes_on(
     monkeypatch.setattr(references_module, "write_frame", refuse)
     cache = tmp_path / "cache"
     with pytest.warns(UserWarning, match="No space left on device"):
-        done = run_suite(_suite(), tmp_path / "out", cache_dir=cache, progress=False)
+        done = run_suite(tiny_suite(), tmp_path / "out", cache_dir=cache, progress=False)
     assert _measured(done) == _measured(records)
     assert len(tries) == 1  # said once, not tried for every reference
 
@@ -269,14 +255,14 @@ def test_an_injected_full_disk_at_the_reference_write_warns_once_and_goes_on(
 def test_a_cache_that_is_a_file_is_an_error_not_a_warning(tmp_path):
     (tmp_path / "cache").write_text("not a folder")
     with pytest.raises(OSError, match="cache"):
-        run_suite(_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
+        run_suite(tiny_suite(), tmp_path / "out", cache_dir=tmp_path / "cache", progress=False)
 
 
 def test_a_read_only_empty_cache_warns_and_measures_the_same_cells(whole, tmp_path):
     _, _, records = whole
     with read_only(tmp_path / "cache") as cache:
         with pytest.warns(UserWarning, match="expected a writable reference cache"):
-            done = run_suite(_suite(), tmp_path / "out", cache_dir=cache, progress=False)
+            done = run_suite(tiny_suite(), tmp_path / "out", cache_dir=cache, progress=False)
         assert _measured(done) == _measured(records)
         assert list(cache.iterdir()) == []
 
@@ -287,7 +273,7 @@ def test_a_read_only_cache_with_the_references_is_read_without_a_word(whole, tmp
     with read_only(tmp_path / "cache") as cache:
         counting = _OnRender(-1, lambda: None)
         done = run_suite(
-            _suite(), tmp_path / "out", parts=_parts(counting), cache_dir=cache, progress=False
+            tiny_suite(), tmp_path / "out", parts=_parts(counting), cache_dir=cache, progress=False
         )
     assert _measured(done) == _measured(records)
     assert (
