@@ -470,6 +470,18 @@ def _native_words(
     return native.native_zsobol(kernels, lanes, dim, seeds, perm, digits, out)
 
 
+def _check_lanes(
+    height: int, width: int, spp: int, gen: torch.Generator
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """257 random lanes ``(key, index)`` of a film for the native kernels' self-checks: pixel-major
+    like the renderer's lanes (so the kernel's reuse of a pixel's digits runs), with bits above
+    the Morton key set (the samplers drop them)."""
+    keys = zsobol_keys(height, width).reshape(-1)
+    lanes = torch.randint(0, keys.numel(), (257,), generator=gen).sort().values
+    index = torch.randint(0, spp, (257,), generator=gen)
+    return keys[lanes] + (torch.arange(257) << 40), index
+
+
 def _self_check(kernels: native.SamplerKernels) -> bool:
     """The native kernel against the torch path for odd and even log2 spp, odd first dimensions
     and negative seeds: True if bit-identical."""
@@ -478,11 +490,7 @@ def _self_check(kernels: native.SamplerKernels) -> bool:
         (37, 21, 8, -3, 0, 6), (300, 5, 16, 2**31 - 1, 3, 4), (1, 1, 1, 0, 1, 2),
     ):  # fmt: skip
         sampler = ZSobolSampler(width, height, spp, seed)
-        keys = zsobol_keys(height, width).reshape(-1)
-        # pixel-major like the renderer's lanes, so that the kernel's reuse of a pixel's digits runs
-        lanes = torch.randint(0, keys.numel(), (257,), generator=gen).sort().values
-        index = torch.randint(0, spp, (257,), generator=gen)
-        key = keys[lanes] + (torch.arange(257) << 40)  # bits above the key are dropped
+        key, index = _check_lanes(height, width, spp, gen)
         want, got = (_columns(257, count, key.device) for _ in range(2))
         sampler._words_torch(sampler._morton(key, index), dim, want)
         if not _native_words(sampler, (key, index), dim, got, kernels) or not torch.equal(

@@ -47,6 +47,7 @@ from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _check_index_below, _columns
 from bnerr.sequences.zsobol import (
     _SALT,
+    _check_lanes,
     _check_seed,
     _Layout,
     _mix_bits,
@@ -56,7 +57,6 @@ from bnerr.sequences.zsobol import (
     _scramble_seeds,
     _srl64,
     _to_float,
-    zsobol_keys,
 )
 
 __all__ = ["ZSobolTSampler", "morton3"]
@@ -220,11 +220,7 @@ def _self_check(kernels: native.SamplerKernels) -> bool:
         (37, 21, 8, 5, 16, 0, 6), (300, 5, 1, 2**20 + 3, 1024, 3, 4), (1, 1, 4, 0, 1, 1, 2),
     ):  # fmt: skip
         sampler = ZSobolTSampler(width, height, spp, frame, frames, seed=-7)
-        keys = zsobol_keys(height, width).reshape(-1)
-        # pixel-major like the renderer's lanes, so that the kernel's reuse of a pixel's digits runs
-        lanes = torch.randint(0, keys.numel(), (257,), generator=gen).sort().values
-        index = torch.randint(0, spp, (257,), generator=gen)
-        key = keys[lanes] + (torch.arange(257) << 40)  # bits above the key are dropped
+        key, index = _check_lanes(height, width, spp, gen)
         want, got = (_columns(257, count, key.device) for _ in range(2))
         sampler._words_torch(sampler._index(key, index), dim, want)
         if not _native_words(sampler, (key, index), dim, got, kernels) or not torch.equal(
