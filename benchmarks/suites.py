@@ -263,6 +263,11 @@ GAP_BEST: tuple[str, ...] = (
     "temporal+relative+demod+groups+reproject",
     "temporal_zsobol+relative+demod+groups",
 )
+#: The LDBN samplers (issue 25): a-priori rivals whose share of the gap the table shows beside the
+#: temporal variants' (stateless and cheap: one render per frame).
+#: Not ldbn_st, made for temporal accumulation, which the gap's denoisers are not; nor in the
+#: sequence and motion sweeps: an LDBN strategy dictates its own sampler and does not move seeds.
+_GAP_LDBN = ("ldbn", "ldbn_fast")
 _GAP_STRATEGIES = ("white", "temporal", *GAP_SINGLE, *GAP_BEST, "oracle")
 #: The stability suite's temporal variant: the best combination on hashed seeds (issue 14's goal:
 #: never worse than white beyond the interval on any of its failure cases).
@@ -337,6 +342,19 @@ SUITES: dict[str, Suite] = {
                 reference_spp=1024,
                 **_SETS,
             ),
+            # The vertical bound beside the oracle, with the oracle's denoisers, on the scenes and
+            # sample counts of the LDBN and seed-claim goals (direct, indirect at 4 and 16 spp):
+            # it renders the oracle's 32 candidates again and searches each frame (about 7 s a
+            # frame at 128x128), 25 core-minutes at every scene and spp against 6 here.
+            Sweep(
+                scenes=("direct", "indirect"),
+                strategies=("vertical",),
+                spp=(4, 16),
+                denoisers=_ORACLE_DENOISERS,
+                res=(128, 128),
+                reference_spp=1024,
+                **_SETS,
+            ),
         ),
     ),
     "gap": Suite(
@@ -350,7 +368,7 @@ SUITES: dict[str, Suite] = {
         sweeps=(
             Sweep(
                 scenes=_ALL_SCENES,
-                strategies=_GAP_STRATEGIES,
+                strategies=(*_GAP_STRATEGIES, *_GAP_LDBN),
                 spp=(1, 4),
                 denoisers=_CHEAP_DENOISERS,
                 conditions=(Condition(region="all"), Condition(region="edges")),
@@ -361,7 +379,21 @@ SUITES: dict[str, Suite] = {
             # without reprojection (which needs motion of a pixel or more per frame: see x8).
             Sweep(
                 scenes=_ALL_SCENES,
-                strategies=("white", "temporal", *_GAP_STILL, "oracle"),
+                strategies=("white", "temporal", *_GAP_STILL, *_GAP_LDBN, "oracle"),
+                spp=(16,),
+                denoisers=_CHEAP_DENOISERS,
+                conditions=(Condition(region="all"), Condition(region="edges")),
+                metrics=_GAP_METRICS,
+                **_GAP_SETS,
+            ),
+            # The vertical bound (issue 26), whose share past 1 says how far the oracle is from
+            # the best per-pixel choice of candidate: the goal scenes at 16 spp, where the seed
+            # claim and the LDBN goals are furthest from the oracle (it renders the oracle's 32
+            # candidates and searches about 3.6 s a frame; every scene and spp would add about 12
+            # core-minutes to a suite already at its hour).
+            Sweep(
+                scenes=("direct", "indirect"),
+                strategies=("vertical",),
                 spp=(16,),
                 denoisers=_CHEAP_DENOISERS,
                 conditions=(Condition(region="all"), Condition(region="edges")),
