@@ -1,6 +1,7 @@
 """Tests of bnerr.sequences.ldbn: the LDBN lookup against a slow per-lane twin, stratification of
 every power-of-two prefix per pixel and pair, the ranks' bijection, the rules past the tile's spp
-and dimensions, determinism and typed errors."""
+and dimensions, determinism and typed errors; the keyed lookup (texel read from the seed) against
+the plain one."""
 
 from __future__ import annotations
 
@@ -8,7 +9,14 @@ import pytest
 import torch
 
 from bnerr.errors import DtypeError, ShapeError, ValueRangeError
-from bnerr.sequences import LDBNKeys, LDBNSampler, make_sampler, owen_sobol
+from bnerr.sequences import (
+    LDBNKeyedSampler,
+    LDBNKeys,
+    LDBNSampler,
+    ldbn_key_image,
+    make_sampler,
+    owen_sobol,
+)
 from bnerr.sequences.ldbn import ldbn_level
 
 M32 = 0xFFFFFFFF
@@ -150,3 +158,64 @@ def test_registered_and_refuses_bad_input():
         LDBNKeys(keys.scramble | (1 << 24), keys.rank)
     with pytest.raises(DtypeError):
         LDBNKeys(keys.scramble.long(), keys.rank)
+
+
+# ------------------------------------------------------------------------------------------------
+# The keyed lookup: the texel comes from the seed
+
+
+def _image_lanes(seeds: torch.Tensor, spp: int):
+    """Every pixel of a seed image times spp samples: (seed, index, pixel) lanes."""
+    h, w = seeds.shape
+    ys, xs = torch.meshgrid(torch.arange(h), torch.arange(w), indexing="ij")
+    pixel = torch.stack([ys.reshape(-1), xs.reshape(-1)], 1).repeat_interleave(spp, 0)
+    index = torch.arange(spp).repeat(h * w)
+    return seeds.reshape(-1).repeat_interleave(spp), index, pixel
+
+
+@pytest.mark.parametrize("spp", [1, 4, 8])
+def test_keyed_sampler_on_the_key_image_is_the_plain_lookup_bit_for_bit(spp):
+    keys = _keys(size=4, dims=4)
+    gen = torch.Generator().manual_seed(3)
+    seeds = torch.randint(0, 1 << 32, (5, 7), generator=gen)
+    seeds[0, :2] = torch.tensor([0, (1 << 32) - 1])  # the extreme 32-bit seeds
+    image = ldbn_key_image(seeds, keys.size, (1, 6))
+    plain_lanes, keyed_lanes = _image_lanes(seeds, spp), _image_lanes(image, spp)
+    want = LDBNSampler(keys, spp=spp, offset=(1, 6)).sample(*plain_lanes[:2], 0, 7, plain_lanes[2])
+    got = LDBNKeyedSampler(keys, spp=spp).sample(*keyed_lanes[:2], 0, 7)  # 4 keyed dims, 3 past
+    assert torch.equal(got, want)
+
+
+def test_key_image_is_the_seed_above_the_texel_index():
+    seeds = torch.tensor([[5, 9, 0]], dtype=torch.int64)
+    image = ldbn_key_image(seeds, 64, (2, 63))
+    assert image.tolist() == [[5 << 12 | 2 * 64 + 63, 9 << 12 | 2 * 64 + 0, 0 << 12 | 2 * 64 + 1]]
+
+
+def test_keyed_sampler_moves_a_whole_sequence_with_its_seed():
+    keys = _keys(size=4, dims=4)
+    image = ldbn_key_image(torch.arange(16, dtype=torch.int64).view(4, 4) * 977, keys.size)
+    moved = image.reshape(-1).flip(0).view(4, 4)  # any permutation of the seed image
+    sampler = LDBNKeyedSampler(keys, spp=4)
+    a = sampler.sample(*_image_lanes(image, 4)[:2], 0, 6).view(16, 4, 6)
+    b = sampler.sample(*_image_lanes(moved, 4)[:2], 0, 6).view(16, 4, 6)
+    assert torch.equal(a.flip(0), b)  # the pixel (y, x) is not read
+
+
+def test_keyed_sampler_is_registered_and_its_image_refuses_bad_input():
+    keys = _keys()
+    sampler = make_sampler("ldbn_keyed", keys=keys, spp=2)
+    assert isinstance(sampler, LDBNKeyedSampler) and not sampler.needs_pixel
+    assert "LDBNKeyedSampler(keys=[4, 4, 4, 4], spp=2" in repr(sampler)
+    with pytest.raises(DtypeError):
+        LDBNKeyedSampler(keys.scramble)  # type: ignore[arg-type]
+    with pytest.raises(DtypeError, match="seeds"):
+        ldbn_key_image(torch.zeros(2, 2, dtype=torch.int32), 4)
+    with pytest.raises(ShapeError, match="seeds"):
+        ldbn_key_image(torch.zeros(2, dtype=torch.int64), 4)
+    with pytest.raises(ValueRangeError, match=r"seeds: expected 32-bit seeds"):
+        ldbn_key_image(torch.full((2, 2), 1 << 32), 4)
+    with pytest.raises(ValueRangeError, match=r"seeds: expected 32-bit seeds"):
+        ldbn_key_image(torch.full((2, 2), -1), 4)
+    with pytest.raises(ValueRangeError, match="size"):
+        ldbn_key_image(torch.zeros(2, 2, dtype=torch.int64), 0)

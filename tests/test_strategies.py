@@ -22,7 +22,7 @@ from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.metrics import Estimate, blurred_mse, equivalent, not_worse, t_quantile
 from bnerr.permute import histogram_select, luminance, sort_pass_reference
 from bnerr.retarget import load_retarget
-from bnerr.sequences import BNDSSampler, cycles_keys, zsobol_2d, zsobol_keys
+from bnerr.sequences import BNDSSampler, cycles_keys, ldbn_key_image, zsobol_2d, zsobol_keys
 from bnerr.stbn import load_stbn
 from bnerr.strategies import (
     OWN_SAMPLERS,
@@ -98,7 +98,7 @@ def test_names_are_sorted_and_complete():
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle", "vertical"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
-        *("ldbn", "ldbn_st", "ldbn_fast"),
+        *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
         *VARIANTS,
     }
     for name in VARIANTS:
@@ -477,7 +477,7 @@ def test_retargeting_carries_the_gain_to_the_sigma2_scale(analytic):
 
 RIVALS = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
-    *("ldbn", "ldbn_st", "ldbn_fast"),
+    *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
 )
 
 
@@ -620,6 +620,50 @@ def test_temporal_zsobol_keys_stay_a_permutation_over_100_frames():
     assert len({id(sampler) for _, sampler in record}) == 1  # one sequence per key for the run
 
 
+def test_temporal_ldbn_keys_stay_a_permutation_of_ldbns_first_frame():
+    record: list = []
+    strategy = make_strategy("temporal_ldbn", 21, 26, seed=1, spp=4)
+    for t in range(60):
+        strategy.frame(t, _hash_render(record, special=True))
+    ldbn = make_strategy("ldbn", 21, 26, seed=1, spp=4)
+    first = ldbn_key_image(ldbn.seeds(0), 64, ldbn.sampler(0).offset)
+    assert torch.equal(record[0][0], first)  # frame 0 reads ldbn's frame 0 (seeds, texels)
+    keys = first.reshape(-1).sort().values
+    for seeds, _ in record:
+        assert torch.equal(seeds.reshape(-1).sort().values, keys)
+    assert not torch.equal(record[-1][0], record[0][0]) and strategy.stateful
+    assert len({id(sampler) for _, sampler in record}) == 1  # one sequence per key for the run
+    assert record[0][1].name == "ldbn_keyed" and record[0][1].level == 2
+
+
+def test_temporal_ldbn_drives_the_renderer_and_its_frame_0_is_ldbns_bit_for_bit(one_thread):
+    import renderers
+
+    scene = renderers.get_scene("direct", animated=True)
+    frames = {}
+    for name in ("ldbn", "temporal_ldbn"):
+        strategy = make_strategy(name, 12, 16, seed=4, spp=4, dimensions=scene.dimensions)
+        frames[name] = [
+            strategy.frame(t, lambda s, smp, t=t: renderers.render(scene, t, s, smp, 4)).color
+            for t in range(3)
+        ]
+    assert torch.equal(frames["temporal_ldbn"][0], frames["ldbn"][0])
+    assert not torch.equal(frames["temporal_ldbn"][2], frames["ldbn"][2])
+    assert all(bool(torch.isfinite(c).all()) for c in frames["temporal_ldbn"])
+
+
+def test_temporal_ldbn_refuses_bad_input():
+    with pytest.raises(ValueRangeError, match=r"spp: expected the samples per pixel"):
+        make_strategy("temporal_ldbn", 8, 8)
+    with pytest.raises(ValueRangeError, match=r"spp: expected an integer >= 1"):
+        make_strategy("temporal_ldbn", 8, 8, spp=0)
+    passes = dict(mask=load_mask("scalar", 64), retarget=load_retarget(64))
+    with pytest.raises(DtypeError, match=r"keys: expected LDBNKeys, got list"):
+        strategies.TemporalLDBNStrategy(8, 8, keys=[], spp=4, **passes)
+    with pytest.raises(UnknownNameError):
+        make_strategy("temporal_ldbn+relative", 8, 8, spp=4)  # no variants of it
+
+
 def test_rivals_refuse_a_missing_or_unusable_spp():
     for name in ("zsobol", "zsobol_t", "temporal_zsobol"):
         with pytest.raises(ValueRangeError, match=rf"spp: expected a power of two for {name}"):
@@ -643,7 +687,8 @@ def test_rivals_refuse_absurd_sizes_before_allocating(monkeypatch, name):
                 monkeypatch.setattr(module, helper, lambda *a, **k: allocated.append(a))
     monkeypatch.setattr(errors, "available_memory", lambda device=None: 64 * 2**30)
     per_pixel = estimate_bytes(name, 1, 1)
-    like = {"temporal_zsobol": "temporal", "cycles_blue": None}.get(name, "white")
+    like = {"temporal_zsobol": "temporal", "temporal_ldbn": "temporal", "cycles_blue": None}
+    like = like.get(name, "white")
     assert per_pixel == (64 + 96 if like is None else estimate_bytes(like, 1, 1))
     with pytest.raises(MemoryLimitError) as err:
         make_strategy(name, 30000, 30000, spp=4)

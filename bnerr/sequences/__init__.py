@@ -20,7 +20,9 @@ sequence:
 - :mod:`~bnerr.sequences.cycles`: :class:`CyclesPureSampler` / :class:`CyclesFirstSampler`,
   Blender Cycles 4.2's ``BLUE_NOISE_PURE`` and ``BLUE_NOISE_FIRST`` indexing over Owen-Sobol.
 - :mod:`~bnerr.sequences.ldbn`: :class:`LDBNSampler`, Heitz et al. 2019's per-pixel ranking and
-  scrambling keys over one shared padded Owen-Sobol sequence (LDBN), keys from :mod:`bnerr.ldbn`.
+  scrambling keys over one shared padded Owen-Sobol sequence (LDBN), keys from :mod:`bnerr.ldbn`;
+  :class:`LDBNKeyedSampler`, the same lookup with the texel read from the seed
+  (:func:`ldbn_key_image`), for the temporal permutation of LDBN's keys.
 - :mod:`~bnerr.sequences.zsobol_t`: :class:`ZSobolTSampler`, temporal Z-order (a base-8 digit
   scramble of the 3D Morton code of (x, y, t), after tauray's ``sobol-z3``).
 
@@ -42,7 +44,7 @@ from bnerr.hashing import srl32 as _srl
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
-from bnerr.sequences.ldbn import LDBNKeys, LDBNSampler
+from bnerr.sequences.ldbn import LDBNKeyedSampler, LDBNKeys, LDBNSampler, ldbn_key_image
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
 from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
@@ -53,6 +55,7 @@ __all__ = [
     "BNDSSampler",
     "CyclesFirstSampler",
     "CyclesPureSampler",
+    "LDBNKeyedSampler",
     "LDBNKeys",
     "LDBNSampler",
     "ONE_MINUS_EPS",
@@ -66,6 +69,7 @@ __all__ = [
     "ZSobolSampler",
     "ZSobolTSampler",
     "cycles_keys",
+    "ldbn_key_image",
     "zsobol_1d",
     "zsobol_2d",
     "zsobol_keys",
@@ -81,6 +85,7 @@ SAMPLERS: dict[str, type[Sampler]] = {
     "cycles_first": CyclesFirstSampler,
     "cycles_pure": CyclesPureSampler,
     "ldbn": LDBNSampler,
+    "ldbn_keyed": LDBNKeyedSampler,
     "owen_sobol": OwenSobolSampler,
     "white": WhiteSampler,
     "zsobol": ZSobolSampler,
@@ -95,7 +100,7 @@ def make_sampler(name: str, **options: object) -> Sampler:
     ``offset (oy, ox)``, ``seed0``); ``zsobol`` (``width``, ``height``, ``spp``, ``seed``,
     ``randomizer``); ``zsobol_t`` (``width``, ``height``, ``spp``, ``frame``, ``frames``,
     ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``); ``ldbn`` (``keys``,
-    ``spp``, ``offset``). The Z-order samplers read
+    ``spp``, ``offset``); ``ldbn_keyed`` (``keys``, ``spp``). The Z-order samplers read
     the lane's seed as the pixel's key (:func:`zsobol_keys`, :func:`cycles_keys`). An unknown name
     raises :class:`UnknownNameError` listing the known ones.
     """

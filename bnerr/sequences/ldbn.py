@@ -46,11 +46,20 @@ from bnerr.errors import (
     check_offset,
     check_positive_int,
     check_shape,
+    check_tensor,
 )
+from bnerr.hashing import MASK32
 from bnerr.sequences.base import Sampler, _columns, _to_unit
 from bnerr.sequences.owen_sobol import _owen_sobol_columns
 
-__all__ = ["LDBNKeys", "LDBNSampler", "ldbn_level", "shared_words"]
+__all__ = [
+    "LDBNKeyedSampler",
+    "LDBNKeys",
+    "LDBNSampler",
+    "ldbn_key_image",
+    "ldbn_level",
+    "shared_words",
+]
 
 _TWO_24 = 1 << 24
 # The shared-sequence table is built over the indices 0 .. M - 1 when M is at most this (else
@@ -159,10 +168,15 @@ class LDBNSampler(Sampler):
         self._rank = keys.rank[self.level].reshape(tile, -1).T.to(torch.int64).contiguous()
 
     def _sample(self, seed, index, dim, count, pixel):
+        return self._lookup(seed, index, dim, count, self._texels(pixel))
+
+    def _lookup(
+        self, seed: torch.Tensor, index: torch.Tensor, dim: int, count: int, flat: torch.Tensor
+    ) -> torch.Tensor:
+        """The lookup of every lane at its flat tile position ``flat = ty * T + tx``."""
         out = _columns(seed.shape[0], count, seed.device)
         keyed = max(min(dim + count, self.keys.dims) - dim, 0)
         if keyed:
-            flat = self._texels(pixel)
             self._keyed(index, flat, dim, out[:keyed])
         if keyed < count:
             _owen_sobol_columns(seed, index, dim + keyed, out[keyed:])
@@ -208,4 +222,64 @@ class LDBNSampler(Sampler):
         return (
             f"LDBNSampler(keys=[{k.levels}, {k.size}, {k.size}, {k.dims}], spp={self.spp}, "
             f"offset={self.offset}, seed0={k.seed0})"
+        )
+
+
+def ldbn_key_image(
+    seeds: torch.Tensor, size: int, offset: tuple[int, int] = (0, 0)
+) -> torch.Tensor:
+    """The seed image of :class:`LDBNKeyedSampler`: ``seeds * T^2 + k`` (int64 ``[H, W]``).
+
+    ``k = ty * T + tx`` is the texel :class:`LDBNSampler` reads at pixel ``(y, x)`` with
+    ``offset``, and ``seeds`` the lanes' own seeds (int64 in ``[0, 2^32)``, e.g.
+    :func:`bnerr.strategies.pixel_seeds`), so that the keyed sampler renders this image exactly
+    as :class:`LDBNSampler` renders ``seeds`` at ``offset``. For T = 64: ``seed << 12 | k``.
+    """
+    seeds = check_tensor(seeds, "seeds")
+    check_shape(seeds, "H W", "seeds")
+    check_dtype(seeds, torch.int64, "seeds")
+    size = check_positive_int(size, "size")
+    if seeds.numel() and (int(seeds.min()) < 0 or int(seeds.max()) > MASK32):
+        raise ValueRangeError(
+            f"seeds: expected 32-bit seeds in [0, 2^32), got min {int(seeds.min())} "
+            f"max {int(seeds.max())}"
+        )
+    oy, ox = check_offset(offset)
+    height, width = seeds.shape
+    y = (torch.arange(height, device=seeds.device) + oy) % size
+    x = (torch.arange(width, device=seeds.device) + ox) % size
+    return seeds * (size * size) + (y[:, None] * size + x[None, :])
+
+
+class LDBNKeyedSampler(LDBNSampler):
+    """The LDBN lookup with the texel read from the lane's seed instead of its pixel.
+
+    The seed is ``s = u * T^2 + k`` (:func:`ldbn_key_image`): ``k = ty * T + tx`` says which
+    texel's ranking and scrambling keys the lane reads, ``u`` is the lane's own seed, read past
+    the optimized dimensions as :class:`LDBNSampler` reads its seed. So a strategy that moves
+    seeds between pixels (the temporal permutation of ``temporal_ldbn``) moves each texel's keys,
+    and the whole sample sequence they make, with them; at rest, the image of
+    :func:`ldbn_key_image` renders exactly as :class:`LDBNSampler` at the same offset. There is
+    no frame offset here: where a key lands is the strategy's business.
+
+    Args:
+        keys: the key tiles (:class:`LDBNKeys`).
+        spp: the frame's samples per pixel; selects the level (:func:`ldbn_level`).
+    """
+
+    name = "ldbn_keyed"
+    needs_pixel = False
+
+    def __init__(self, keys: LDBNKeys, spp: int = 1) -> None:
+        super().__init__(keys, spp)
+
+    def _sample(self, seed, index, dim, count, pixel):
+        texels = self.keys.size * self.keys.size
+        return self._lookup(seed // texels, index, dim, count, seed % texels)
+
+    def __repr__(self) -> str:
+        k = self.keys
+        return (
+            f"LDBNKeyedSampler(keys=[{k.levels}, {k.size}, {k.size}, {k.dims}], spp={self.spp}, "
+            f"seed0={k.seed0})"
         )

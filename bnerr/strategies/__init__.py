@@ -14,8 +14,9 @@ sections 3, 4, 5, 7 and 8):
 - ``ldbn``: ``ldbn``, ``ldbn_st``, ``ldbn_fast``: per-pixel ranking and scrambling keys over one
   shared sequence (Heitz et al. 2019), optimized here for the screen, for time and for the
   denoiser;
-- ``temporal``: ``temporal``, ``temporal_sort``, ``temporal_zsobol``: Heitz & Belcour 2019's sort
-  and retarget passes, and their variants ``temporal+option...`` (``variants``);
+- ``temporal``: ``temporal``, ``temporal_sort``, ``temporal_zsobol``, ``temporal_ldbn``: Heitz &
+  Belcour 2019's sort and retarget passes (over hashed seeds, ZSobol's keys, LDBN's keys), and
+  their variants ``temporal+option...`` (``variants``);
 - ``oracle``: ``oracle``, K renders per frame, the a-posteriori bound.
 - ``vertical``: ``vertical``, the oracle's K renders chosen per pixel for the whole image's
   sigma-2 blurred error (a second bound, :mod:`bnerr.vertical`).
@@ -62,6 +63,7 @@ from bnerr.strategies.ldbn import LDBNFastStrategy, LDBNStrategy, LDBNSTStrategy
 from bnerr.strategies.oracle import OracleStrategy
 from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.temporal import (
+    TemporalLDBNStrategy,
     TemporalSortStrategy,
     TemporalStrategy,
     TemporalZSobolStrategy,
@@ -94,6 +96,7 @@ __all__ = [
     "OracleStrategy",
     "RenderFn",
     "Strategy",
+    "TemporalLDBNStrategy",
     "TemporalOptions",
     "TemporalSortStrategy",
     "TemporalStrategy",

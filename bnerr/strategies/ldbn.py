@@ -92,9 +92,13 @@ class LDBNStrategy(Strategy):
             keys, (dy, dx) = self.keys[0], frame_offset(t, self.size)
         return LDBNSampler(keys, spp=self.spp, offset=(self.shift[0] + dy, self.shift[1] + dx))
 
-    def _frame(self, t: int, render: RenderFn) -> Frame:
+    def seeds(self, t: int) -> torch.Tensor:
+        """Frame ``t``'s fresh per-pixel seeds (read past the optimized dimensions)."""
         key = stream_key(self.seed, t, self.stream)
-        return render(pixel_seeds(self.height, self.width, key, self.device), self.sampler(t))
+        return pixel_seeds(self.height, self.width, key, self.device)
+
+    def _frame(self, t: int, render: RenderFn) -> Frame:
+        return render(self.seeds(t), self.sampler(t))
 
 
 class LDBNSTStrategy(LDBNStrategy):

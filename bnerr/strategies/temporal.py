@@ -10,6 +10,9 @@
   seeds: S_0 is the identity key image, the sampler is ``zsobol`` with one scramble seed per seed
   set (a key must keep its sequence from frame to frame for the sort to mean anything), and S_t
   stays a permutation of the keys.
+- ``temporal_ldbn``: the same passes permuting LDBN's per-pixel keys (which texel of the
+  screen-space key tile a pixel reads, :class:`bnerr.sequences.LDBNKeyedSampler`): S_0 is
+  ``ldbn``'s frame 0, and the tile is not shifted per frame, so that a key keeps its sequence.
 - ``temporal+option...``, ``temporal_zsobol+option...``: the variants of
   :mod:`bnerr.strategies.variants` (docs/METHODS.md, section 8).
 
@@ -24,14 +27,22 @@ import math
 
 import torch
 
-from bnerr.errors import ValueRangeError
+from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 from bnerr.fast import load_fast_mask, load_fast_retarget
 from bnerr.frame import Frame
+from bnerr.ldbn.keys import load_ldbn_keys
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.permute import SortPass, SortPlan, plan_sort
 from bnerr.reproject import collision_depth, reproject_seeds
 from bnerr.retarget import Retarget, load_retarget
-from bnerr.sequences import Sampler, make_sampler, zsobol_keys
+from bnerr.sequences import (
+    LDBNKeyedSampler,
+    LDBNKeys,
+    Sampler,
+    ldbn_key_image,
+    make_sampler,
+    zsobol_keys,
+)
 from bnerr.sortkeys import group_labels, sort_key
 from bnerr.strategies.base import (
     BuildOptions,
@@ -43,9 +54,15 @@ from bnerr.strategies.base import (
     power_of_two_spp,
     stream_key,
 )
+from bnerr.strategies.ldbn import LDBN_SETS, LDBNStrategy
 from bnerr.strategies.variants import TemporalOptions
 
-__all__ = ["TemporalSortStrategy", "TemporalStrategy", "TemporalZSobolStrategy"]
+__all__ = [
+    "TemporalLDBNStrategy",
+    "TemporalSortStrategy",
+    "TemporalStrategy",
+    "TemporalZSobolStrategy",
+]
 
 # Memory the temporal strategies may spend on cached per-offset tables (plans, gather indices).
 _CACHE_BYTES = 64 << 20
@@ -285,3 +302,84 @@ class TemporalZSobolStrategy(TemporalStrategy):
             "zsobol", width=self.width, height=self.height, spp=self.spp, seed=key
         )
         return zsobol_keys(self.height, self.width, self.device), zsobol
+
+
+class TemporalLDBNStrategy(TemporalStrategy):
+    """``temporal_ldbn``: the sort and retarget passes permuting LDBN's per-pixel keys.
+
+    The seed image holds, per pixel, ``u * T^2 + k`` (:func:`bnerr.sequences.ldbn_key_image`;
+    for the shipped 64 x 64 tile ``u << 12 | k``): ``k = ty * T + tx`` is the texel of the
+    screen-space key set (``ldbn``'s, :data:`bnerr.strategies.ldbn.LDBN_SETS`) whose ranking and
+    scrambling keys the pixel reads, ``u`` a distinct 32-bit seed that gives the dimensions past
+    the optimized ones the pixel's own Owen-Sobol sequence. S_0 is ``ldbn``'s frame 0 of the
+    same seed set (its seeds at its offset), bit for bit; the passes then move whole (k, u)
+    pairs, so S_t stays a permutation of S_0. Unlike ``ldbn``, the tile is **not** shifted per
+    frame and ``u`` is not drawn again: a key must keep its sample sequence from frame to frame
+    for the sort, which predicts a seed's error from the previous frame, to mean anything (as in
+    ``temporal_zsobol``). Memory as temporal's.
+
+    Args:
+        keys: the screen-space key tiles (:class:`LDBNKeys`, one slice).
+        spp: the samples per pixel the renders take (selects the tiles' level).
+        (the others as :class:`TemporalStrategy`; ``sampler`` is not taken: it is
+        ``ldbn_keyed``.)
+    """
+
+    name = "temporal_ldbn"
+    own_sampler = "ldbn_keyed"
+    stream = 23
+
+    def __init__(
+        self,
+        height: int,
+        width: int,
+        *,
+        seed: int = 0,
+        keys: LDBNKeys,
+        spp: int,
+        mask: torch.Tensor,
+        block: int = 4,
+        retarget: torch.Tensor,
+        options: TemporalOptions | None = None,
+        device: torch.device | str = "cpu",
+    ) -> None:
+        if spp is None:
+            raise ValueRangeError("spp: expected the samples per pixel for temporal_ldbn, got None")
+        self.spp = check_positive_int(spp, "spp")
+        if not isinstance(keys, LDBNKeys):
+            raise DtypeError(f"keys: expected LDBNKeys, got {type(keys).__name__}")
+        self.keys = keys
+        super().__init__(
+            height,
+            width,
+            seed=seed,
+            mask=mask,
+            block=block,
+            retarget=retarget,
+            options=options,
+            device=device,
+        )
+
+    @classmethod
+    def create(
+        cls, height: int, width: int, build: BuildOptions, options: TemporalOptions
+    ) -> Strategy:
+        passes = _passes(cls.name, build, options)
+        kind, frames, levels = LDBN_SETS["ldbn"]
+        keys = load_ldbn_keys(kind, build.mask_size, frames, levels)[0]
+        return cls(height, width, keys=keys, spp=build.spp, **passes, **build.common)  # type: ignore[arg-type]
+
+    def _variant(self, retarget: bool) -> str:
+        return "temporal_ldbn"
+
+    def _initial(self, sampler: str) -> tuple[torch.Tensor, Sampler]:
+        ldbn = LDBNStrategy(
+            self.height,
+            self.width,
+            seed=self.seed,
+            keys=[self.keys],
+            spp=self.spp,
+            device=self.device,
+        )
+        image = ldbn_key_image(ldbn.seeds(0), self.keys.size, ldbn.sampler(0).offset)
+        return image, LDBNKeyedSampler(self.keys, spp=self.spp)
