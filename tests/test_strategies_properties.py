@@ -25,6 +25,7 @@ PERMUTING = (
     "temporal",
     "temporal_sort",
     "temporal_zsobol",
+    "temporal_ldbn",
     "temporal+relative+demod+groups+shift_r2+reproject",
     "temporal+residual+groups_depth+shift",
     "temporal_zsobol+relative+groups+shift_r2+reproject",
@@ -104,7 +105,7 @@ def test_the_same_arguments_give_identical_seeds_and_frames(name, h, w, seed, n)
 
 
 @given(
-    st.sampled_from(sorted(STRATEGIES) + list(PERMUTING[3:])),
+    st.sampled_from(sorted(STRATEGIES) + list(PERMUTING[4:])),
     st.integers(1, 4),
     st.integers(0, 3),
     st.integers(1, 3),
@@ -145,7 +146,7 @@ def test_play_equals_frames_called_by_hand_for_any_motion_factor(name, motion, s
             assert torch.equal(a.motion, want)
 
 
-@pytest.mark.parametrize("name", ["temporal", "temporal_zsobol"])
+@pytest.mark.parametrize("name", ["temporal", "temporal_zsobol", "temporal_ldbn"])
 def test_the_stand_in_makes_the_permuting_strategies_move_seeds(name):
     # guard: the permutation property above is not vacuous (seeds do move between pixels)
     record: list = []

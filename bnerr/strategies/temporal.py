@@ -13,6 +13,8 @@
 - ``temporal_ldbn``: the same passes permuting LDBN's per-pixel keys (which texel of the
   screen-space key tile a pixel reads, :class:`bnerr.sequences.LDBNKeyedSampler`): S_0 is
   ``ldbn``'s frame 0, and the tile is not shifted per frame, so that a key keeps its sequence.
+  Measured: no better than ``ldbn`` after a Gaussian anywhere, worse on direct at 4 spp (the
+  class's docstring has the figures).
 - ``temporal+option...``, ``temporal_zsobol+option...``: the variants of
   :mod:`bnerr.strategies.variants` (docs/METHODS.md, section 8).
 
@@ -317,6 +319,29 @@ class TemporalLDBNStrategy(TemporalStrategy):
     frame and ``u`` is not drawn again: a key must keep its sample sequence from frame to frame
     for the sort, which predicts a seed's error from the previous frame, to mean anything (as in
     ``temporal_zsobol``). Memory as temporal's.
+
+    **Measured, and it does not help** (issue 25; kept for the record, in no suite). The passes
+    undo what LDBN's keys were optimized for, the arrangement of neighbouring texels: after the
+    first frame's passes only 0.6 % of the pixels of a 128 x 128 render (direct or snooker, 4 spp)
+    still read their own texel, 0.15 % after the seventh. What the sort puts in its place does
+    not carry the error at these spp on Owen-Sobol-like per-pixel sequences (as for ``temporal``,
+    tests/test_ordering.py), so the post-Gaussian error is white's on direct and no better than
+    ``ldbn``'s on snooker, where LDBN's gain is in the raw MSE (its per-pixel stratification,
+    which moves with the keys). Through the bench
+    (``quick`` suite overridden: direct and snooker 128x128, Gaussian, 8 seed sets x 3 frames after
+    6 warmups, 1024-spp references), ratios of pooled MSE with 95 % paired t-intervals over seed
+    sets (:func:`bnerr.metrics.paired_ratio`):
+
+    ======= === ========================= ========================= =========================
+    scene   spp temporal_ldbn / ldbn, den  temporal_ldbn / white, den temporal_ldbn / ldbn, raw
+    ======= === ========================= ========================= =========================
+    direct  4   1.100 [1.081, 1.119]       0.987 [0.966, 1.008]       1.013 [0.991, 1.035]
+    snooker 4   0.993 [0.978, 1.009]       0.831 [0.813, 0.850]       0.990 [0.969, 1.012]
+    direct  16  1.004 [0.974, 1.035]       0.985 [0.961, 1.010]       0.978 [0.945, 1.013]
+    snooker 16  0.992 [0.969, 1.016]       0.854 [0.827, 0.881]       0.999 [0.981, 1.017]
+    ======= === ========================= ========================= =========================
+
+    (``ldbn`` / white after the Gaussian in the same runs: 0.898, 0.837, 0.981, 0.860.)
 
     Args:
         keys: the screen-space key tiles (:class:`LDBNKeys`, one slice).
