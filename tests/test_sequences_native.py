@@ -188,6 +188,10 @@ def test_without_the_library_the_torch_path_runs(monkeypatch):
     key, index = _lanes(zsobol_keys(8, 8), 4, 5, 0, True)
     out = sampler.sample(key, index, 0, 4)
     assert out.shape == (20, 4) and out.dtype == torch.float32
+    monkeypatch.setattr(ldbn_module, "_native_kernels", lambda: None)
+    seeds, index, pixel = _ldbn_lanes(4, 5, 0, (0, 4))
+    out = LDBNSampler(_ldbn_keys(3, 4, 4, 0), spp=4).sample(seeds, index, 0, 6, pixel)
+    assert out.shape == (20, 6) and out.dtype == torch.float32
 
 
 def test_dispatch_is_cpu_only():
