@@ -1,7 +1,9 @@
 """Tests of bnerr.sequences.ldbn: the LDBN lookup against a slow per-lane twin, stratification of
 every power-of-two prefix per pixel and pair, the ranks' bijection, the rules past the tile's spp
 and dimensions, determinism and typed errors; the keyed lookup (texel read from the seed) against
-the plain one."""
+the plain one. The lookup's properties are checked on both paths (``path``: the native kernel,
+skipped without a compiler, and the torch path); tests/test_sequences_native.py compares the two
+bit for bit."""
 
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from bnerr.sequences import (
     LDBNSampler,
     ldbn_key_image,
     make_sampler,
+    native,
     owen_sobol,
 )
 from bnerr.sequences.ldbn import ldbn_level
@@ -40,6 +43,17 @@ def _lanes(size: int, spp: int, seed: int = 0):
     return seeds, index, pixel
 
 
+@pytest.fixture(params=["native", "torch"])
+def path(request, monkeypatch):
+    """The sampler's path under test: ``native`` (skipped when the kernels do not load) or
+    ``torch`` (the native dispatch turned off, as on CUDA or without a compiler)."""
+    if request.param == "torch":
+        monkeypatch.setattr(native, "uses_native", lambda *tensors: False)
+    elif native.LIBRARY.load() is None:
+        pytest.skip(f"native sampler kernels unavailable: {native.LIBRARY.status()}")
+    return request.param
+
+
 def twin(keys: LDBNKeys, spp: int, offset, seed: int, i: int, d: int, y: int, x: int) -> float:
     """The lookup, one lane at a time, from the docstring's four steps."""
     level = min((spp - 1).bit_length(), keys.levels - 1)
@@ -53,7 +67,7 @@ def twin(keys: LDBNKeys, spp: int, offset, seed: int, i: int, d: int, y: int, x:
 
 @pytest.mark.parametrize("spp", [1, 3, 8, 32])
 @pytest.mark.parametrize("dim,count", [(0, 6), (1, 2), (3, 3)])
-def test_sampler_matches_the_slow_twin_bit_for_bit(spp, dim, count):
+def test_sampler_matches_the_slow_twin_bit_for_bit(path, spp, dim, count):
     keys = _keys()
     sampler = LDBNSampler(keys, spp=spp, offset=(1, 2))
     seeds, index, pixel = _lanes(3, spp)
@@ -65,7 +79,7 @@ def test_sampler_matches_the_slow_twin_bit_for_bit(spp, dim, count):
             assert float(got[lane, j]) == want
 
 
-def test_indices_past_the_table_are_evaluated_lane_by_lane_exactly():
+def test_indices_past_the_table_are_evaluated_lane_by_lane_exactly(path):
     keys = _keys()
     seeds, index, pixel = _lanes(3, 4)
     far = index + (1 << 20)  # past the shared table's limit
@@ -91,7 +105,7 @@ def _stratified(points: torch.Tensor) -> bool:
 
 
 @pytest.mark.parametrize("spp", [4, 16])
-def test_every_power_of_two_prefix_of_every_pixel_and_pair_is_a_net(spp):
+def test_every_power_of_two_prefix_of_every_pixel_and_pair_is_a_net(path, spp):
     keys = _keys(levels=5, size=4, dims=6)
     sampler = LDBNSampler(keys, spp=spp)
     seeds, index, pixel = _lanes(4, 2 * spp)  # past the tile's spp too
@@ -102,7 +116,7 @@ def test_every_power_of_two_prefix_of_every_pixel_and_pair_is_a_net(spp):
                 assert _stratified(values[p, : 1 << m, 2 * pair : 2 * pair + 2]), (p, pair, m)
 
 
-def test_ranks_are_a_bijection_of_each_block_and_scrambling_is_a_digital_shift():
+def test_ranks_are_a_bijection_of_each_block_and_scrambling_is_a_digital_shift(path):
     keys = _keys(levels=4, size=4, dims=2)
     sampler = LDBNSampler(keys, spp=8)
     seeds, index, pixel = _lanes(4, 16)
@@ -117,7 +131,7 @@ def test_ranks_are_a_bijection_of_each_block_and_scrambling_is_a_digital_shift()
             assert got == sorted(shared[8 * block : 8 * block + 8].double().tolist())
 
 
-def test_past_the_optimized_dims_the_pixels_own_owen_sobol():
+def test_past_the_optimized_dims_the_pixels_own_owen_sobol(path):
     keys = _keys(dims=2)
     seeds, index, pixel = _lanes(3, 4)
     got = LDBNSampler(keys, spp=4).sample(seeds, index, 2, 3, pixel)
@@ -125,7 +139,7 @@ def test_past_the_optimized_dims_the_pixels_own_owen_sobol():
         assert torch.equal(got[:, j], owen_sobol(seeds, index, 2 + j))
 
 
-def test_deterministic_and_offset_is_a_toroidal_shift():
+def test_deterministic_and_offset_is_a_toroidal_shift(path):
     keys = _keys(size=4)
     seeds, index, pixel = _lanes(4, 2)
     a = LDBNSampler(keys, spp=2, offset=(1, 3)).sample(seeds, index, 0, 4, pixel)

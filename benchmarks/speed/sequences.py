@@ -207,6 +207,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--threads", type=int, help="torch threads (default: torch's choice)")
     parser.add_argument("--render", action="store_true", help="also time a render per sampler")
+    parser.add_argument(
+        "--render-repeats", type=int, default=3,
+        help="timed rounds of the renders (default 3; more on a loaded machine, where one render's "
+        "time varies by 20 %% with its page faults)",
+    )  # fmt: skip
     args = parser.parse_args(argv)
     if args.threads:
         torch.set_num_threads(args.threads)
@@ -221,7 +226,7 @@ def main(argv: list[str] | None = None) -> int:
             rate = args.n * count / seconds / 1e6
             print(f"  {name:12s} count {count:3d}  {seconds * 1e3:9.2f} ms  {rate:9.1f} M values/s")
     if args.render:
-        print("\n".join(_render_table(measure_render())))
+        print("\n".join(_render_table(measure_render(repeats=args.render_repeats))))
     return 0
 
 

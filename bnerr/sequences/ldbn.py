@@ -28,6 +28,10 @@ Rules beyond the tiles:
   ``owen_sobol(seed_p, i, d)`` with the lane's seed, like ``white`` (no blue noise designed there,
   nothing worse than the baseline either).
 
+On the CPU the lookup runs in the native sampler kernel (:mod:`bnerr.sequences.native`), which
+writes the same bits as the torch path here when it loads and passes its self-check; the torch
+path serves CUDA and machines without a C compiler.
+
 Not for: odd ``D`` (the keys come in pairs), or keys optimized for another shared sequence: keys
 only work with the point set (``seed0``) they were optimized for.
 """
@@ -49,8 +53,10 @@ from bnerr.errors import (
     check_tensor,
 )
 from bnerr.hashing import MASK32
+from bnerr.native import SelfCheckedKernels
+from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _columns, _to_unit
-from bnerr.sequences.owen_sobol import _owen_sobol_columns
+from bnerr.sequences.owen_sobol import _owen_sobol_columns, _pair_keys, _seeded_pair_keys
 
 __all__ = [
     "LDBNKeyedSampler",
@@ -163,24 +169,34 @@ class LDBNSampler(Sampler):
         oy, ox = check_offset(offset)
         self.offset = (oy % keys.size, ox % keys.size)
         tile = keys.size * keys.size
-        # dimension-major flat tiles: [D, T * T] and [P, T * T]
+        # the native kernel's texel-major tiles [T, T, D] and [T, T, D / 2] (one lane's keys
+        # together), the torch path's dimension-major flat ones [D, T * T] and [P, T * T]
+        self._tiles = (keys.scramble[self.level].contiguous(), keys.rank[self.level].contiguous())
         self._scramble = keys.scramble[self.level].reshape(tile, -1).T.contiguous()
         self._rank = keys.rank[self.level].reshape(tile, -1).T.to(torch.int64).contiguous()
 
     def _sample(self, seed, index, dim, count, pixel):
-        return self._lookup(seed, index, dim, count, self._texels(pixel))
-
-    def _lookup(
-        self, seed: torch.Tensor, index: torch.Tensor, dim: int, count: int, flat: torch.Tensor
-    ) -> torch.Tensor:
-        """The lookup of every lane at its flat tile position ``flat = ty * T + tx``."""
         out = _columns(seed.shape[0], count, seed.device)
+        if not _native_values(self, (seed, index, pixel), dim, out):
+            self._values_torch(seed, index, dim, pixel, out)
+        return out.T
+
+    def _values_torch(
+        self,
+        seed: torch.Tensor,
+        index: torch.Tensor,
+        dim: int,
+        pixel: torch.Tensor,
+        out: torch.Tensor,
+    ) -> None:
+        """The torch path: the keyed dimensions pair by pair, then the lane's own Owen-Sobol."""
+        count = out.shape[0]
         keyed = max(min(dim + count, self.keys.dims) - dim, 0)
         if keyed:
+            flat = self._texels(pixel)
             self._keyed(index, flat, dim, out[:keyed])
         if keyed < count:
             _owen_sobol_columns(seed, index, dim + keyed, out[keyed:])
-        return out.T
 
     def _texels(self, pixel: torch.Tensor) -> torch.Tensor:
         size = self.keys.size
@@ -274,8 +290,10 @@ class LDBNKeyedSampler(LDBNSampler):
         super().__init__(keys, spp)
 
     def _sample(self, seed, index, dim, count, pixel):
-        texels = self.keys.size * self.keys.size
-        return self._lookup(seed // texels, index, dim, count, seed % texels)
+        # The texel as the pixel that reads it at offset (0, 0): both paths then run unchanged.
+        size = self.keys.size
+        texel = seed % (size * size)
+        return super()._sample(seed // (size * size), index, dim, count, _texel_pixels(texel, size))
 
     def __repr__(self) -> str:
         k = self.keys
@@ -283,3 +301,65 @@ class LDBNKeyedSampler(LDBNSampler):
             f"LDBNKeyedSampler(keys=[{k.levels}, {k.size}, {k.size}, {k.dims}], spp={self.spp}, "
             f"seed0={k.seed0})"
         )
+
+
+def _texel_pixels(texel: torch.Tensor, size: int) -> torch.Tensor:
+    """``[N, 2]`` pixels ``(k // T, k % T)`` that read the flat texels ``k`` at offset (0, 0)."""
+    return torch.stack((texel // size, texel % size), dim=1)
+
+
+def _native_values(
+    sampler: LDBNSampler,
+    lanes: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
+    dim: int,
+    out: torch.Tensor,
+    kernels: native.SamplerKernels | None = None,
+) -> bool:
+    """The lookup of the lanes' (seed, index, pixel) in C into ``out``; False when the native
+    path does not apply."""
+    kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
+    if kernels is None:
+        return False
+    count = out.shape[0]
+    scramble, rank = (t.to(out.device) for t in sampler._tiles)
+    table = None
+    if dim < sampler.keys.dims:  # the keyed pairs' dims, whole pairs
+        end = min(dim + count + (dim + count) % 2, sampler.keys.dims)
+        table = sampler._table(lanes[1], end, out.device)
+    tiles = (scramble, rank, None if table is None else table.T.contiguous())
+    hashes = (_seeded_pair_keys(sampler.keys.seed0, dim, count), _pair_keys(dim, count))
+    return native.native_ldbn(kernels, lanes, dim, tiles, sampler.offset, hashes, out)
+
+
+def _check_sampler(gen: torch.Generator) -> LDBNSampler:
+    """Random keys of an odd tile (5 x 5, 3 levels, 4 dims) and seed0 above 32 bits, read at an
+    offset and a level below the last."""
+    scramble = torch.randint(0, _TWO_24, (3, 5, 5, 4), generator=gen, dtype=torch.int32)
+    rank = torch.stack([torch.randint(0, 1 << lv, (5, 5, 2), generator=gen) for lv in range(3)])
+    keys = LDBNKeys(scramble, rank.to(torch.int32), seed0=-(2**33) + 5)
+    return LDBNSampler(keys, spp=3, offset=(2, 4))
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path: pixels negative and off the tile, indices in
+    the shared table's range (with a table of a pair cut by the dims asked), past it and
+    negative, first dimensions inside, across and past the keys: True if bit-identical."""
+    gen = torch.Generator().manual_seed(59)
+    sampler = _check_sampler(gen)
+    seed = torch.randint(-(2**40), 2**40, (211,), generator=gen)
+    pixel = torch.randint(-300, 300, (211, 2), generator=gen)
+    for low, high, dim, count in ((0, 8, 0, 6), (0, 16, 1, 2), (-(2**33), 2**33, 1, 2),
+                                  (0, 2**20, 3, 4), (0, 4, 5, 1)):  # fmt: skip
+        index = torch.randint(low, high, (211,), generator=gen)
+        want, got = (_columns(211, count, seed.device) for _ in range(2))
+        sampler._values_torch(seed, index, dim, pixel, want)
+        ok = _native_values(sampler, (seed, index, pixel), dim, got, kernels)
+        if not ok or not torch.equal(got, want):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.ldbn: the native LDBN kernel", native.LIBRARY
+)

@@ -1,15 +1,18 @@
 """Bindings of ``samplers.c``: the native CPU kernels of the Owen-Sobol, ZSobol and temporal
-Z-order samplers and Cycles' patterns (which index Owen-Sobol).
+Z-order samplers, Cycles' patterns (which index Owen-Sobol) and the LDBN lookup (which reads one
+shared Owen-Sobol sequence through per-pixel keys).
 
 The C source ``samplers.c`` (package data of this package) is built, cached and loaded by
 :func:`bnerr.native.library`, with the same compiler search, hash check and single warning as the
-permutation kernels. This module binds its four functions and wraps them for tensors; each
+permutation kernels. This module binds its five functions and wraps them for tensors; each
 sampler module owns its dispatch, its self-check against its torch path and the fallback.
 
 Why C: the torch paths make one full pass over the lanes per operation, and a ZSobol pair is
 about 20 operations per base-4 digit (11 digits at 1080p) on int64 words: 2^20 lanes x 8
 dimensions took 17 s where Owen-Sobol took 1 s. The C loop keeps a lane's words in registers
-across all its digits and pairs and writes each value once.
+across all its digits and pairs and writes each value once. LDBN's torch path is three gathers,
+two XORs and a conversion per pair over the whole lane set; in C the lane's texel is found once
+and its keys (one level's tile, a few hundred KB at most) stay in cache.
 
 Not for: CUDA tensors (the samplers run their torch path there).
 """
@@ -30,6 +33,7 @@ __all__ = [
     "SamplerKernels",
     "kernels_for",
     "native_cycles",
+    "native_ldbn",
     "native_owen_sobol",
     "native_zsobol",
     "threads_for",
@@ -38,7 +42,7 @@ __all__ = [
 
 #: What the torch path costs instead, quoted in the warnings.
 TORCH_PATH_COST = "the ZSobol and temporal Z-order samplers run 10-50x slower on the CPU"
-_SYMBOLS = ("bnerr_owen_sobol", "bnerr_zsobol", "bnerr_zsobol_t", "bnerr_cycles")
+_SYMBOLS = ("bnerr_owen_sobol", "bnerr_zsobol", "bnerr_zsobol_t", "bnerr_cycles", "bnerr_ldbn")
 
 
 @dataclass(frozen=True)
@@ -49,6 +53,7 @@ class SamplerKernels:
     zsobol: Callable[..., int]
     zsobol_t: Callable[..., int]
     cycles: Callable[..., int]
+    ldbn: Callable[..., int]
     why: str
 
 
@@ -64,9 +69,11 @@ def _bind(library: ctypes.CDLL, why: str) -> SamplerKernels:
     cycles = library.bnerr_cycles
     u32 = ctypes.c_uint32
     cycles.argtypes = [p, p, i64, i64, i64, u32, c_int, u32, u32, p, p, c_int]
-    for function in (owen, zsobol, temporal, cycles):
+    ldbn = library.bnerr_ldbn
+    ldbn.argtypes = [p, p, p, i64, i64, i64, p, p, p, p, p, p, p, c_int]
+    for function in (owen, zsobol, temporal, cycles, ldbn):
         function.restype = c_int
-    return SamplerKernels(owen, zsobol, temporal, cycles, why)
+    return SamplerKernels(owen, zsobol, temporal, cycles, ldbn, why)
 
 
 #: The library of ``samplers.c``: ``LIBRARY.load()`` gives the bound :class:`SamplerKernels`
@@ -80,7 +87,7 @@ def uses_native(*tensors: torch.Tensor) -> bool:
 
 
 def kernels_for(
-    lanes: tuple[torch.Tensor, torch.Tensor],
+    lanes: tuple[torch.Tensor, ...],
     out: torch.Tensor,
     kernels: SamplerKernels | None,
     load: Callable[[], SamplerKernels | None],
@@ -194,5 +201,45 @@ def native_cycles(
         key.data_ptr(), index.data_ptr(), n, dim, count, spp & 0xFFFFFFFF, int(first),
         seed0 & 0xFFFFFFFF, first_seed & 0xFFFFFFFF, table.data_ptr(), out.data_ptr(),
         threads_for(n),
+    )  # fmt: skip
+    return code == 0
+
+
+def native_ldbn(
+    kernels: SamplerKernels,
+    lanes: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
+    dim: int,
+    tiles: tuple[torch.Tensor, torch.Tensor, torch.Tensor | None],
+    offset: tuple[int, int],
+    hashes: tuple[Sequence[int], Sequence[int]],
+    out: torch.Tensor,
+) -> bool:
+    """The LDBN lookup of one level into the rows of ``out``.
+
+    Args:
+        lanes: the lanes' seed and index (int64 ``[N]``) and pixel (int64 ``[N, 2]``, (y, x)).
+        tiles: the level's scrambling keys (int32 ``[T, T, D]``), ranking keys (int32
+            ``[T, T, D / 2]``) and the shared words of indices ``0 .. M - 1`` of its first dims
+            (int32 ``[M, E]``, E even), or None (every shared word evaluated).
+        offset: the frame's toroidal offset ``(oy, ox)``.
+        hashes: per pair from ``dim // 2``: the shared sequence's three seeded pair hashes, and
+            the three host hashes of :func:`native_owen_sobol` (for the pairs past the keys).
+        out: float32 ``[count, N]``, contiguous.
+
+    Returns:
+        False when the kernel refused the sizes.
+    """
+    seed, index, pixel = (t.contiguous() for t in lanes)
+    scramble, rank = (t.contiguous() for t in tiles[:2])
+    table = torch.zeros(0, 0, dtype=torch.int32) if tiles[2] is None else tiles[2].contiguous()
+    shared, keys = (_u32(h) for h in hashes)
+    geometry = torch.tensor(
+        [scramble.shape[0], scramble.shape[2], *offset, *table.shape], dtype=torch.int64
+    )
+    count, n = out.shape
+    code = kernels.ldbn(
+        seed.data_ptr(), index.data_ptr(), pixel.data_ptr(), n, dim, count, geometry.data_ptr(),
+        scramble.data_ptr(), rank.data_ptr(), table.data_ptr(), shared.data_ptr(),
+        keys.data_ptr(), out.data_ptr(), threads_for(n),
     )  # fmt: skip
     return code == 0

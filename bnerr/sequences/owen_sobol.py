@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import torch
 
-from bnerr.hashing import lowbias32, lowbias32_host, signed32, srl32
+from bnerr.hashing import MASK32, lowbias32, lowbias32_host, signed32, srl32
 from bnerr.native import SelfCheckedKernels
 from bnerr.sequences import native
 from bnerr.sequences.base import (
@@ -132,6 +132,14 @@ def _pair_keys(dim: int, count: int) -> list[int]:
     """The host hashes of roles 0, 1, 2 of every pair that dims ``dim .. dim + count - 1`` touch."""
     pairs = range(dim // 2, (dim + count - 1) // 2 + 1)
     return [lowbias32_host((4 * p + role) ^ _SALT_SOBOL_KEY) for p in pairs for role in (0, 1, 2)]
+
+
+def _seeded_pair_keys(seed: int, dim: int, count: int) -> list[int]:
+    """The three per-pair hashes ``lowbias32(seed_hash ^ key)`` that every lane of the one
+    ``seed`` shares, per pair as :func:`_pair_keys`: a kernel reading one sequence at many
+    indices (LDBN's shared sequence) takes them once instead of hashing them per lane."""
+    seed_hash = lowbias32_host((seed & MASK32) ^ _SALT_SOBOL_SEED)
+    return [lowbias32_host(seed_hash ^ key) for key in _pair_keys(dim, count)]
 
 
 def _owen_sobol_columns_torch(

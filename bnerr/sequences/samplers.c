@@ -1,7 +1,7 @@
 /* bnerr's native CPU kernels of the samplers (bnerr.sequences): per-pixel Owen-Sobol padded by
-   2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles),
-   pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol) and the temporal Z-order
-   sampler (bnerr_zsobol_t).
+   2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles), the
+   LDBN lookup into one shared Owen-Sobol sequence (bnerr_ldbn), pbrt-v4's ZSobol with its
+   FastOwen value scramble (bnerr_zsobol) and the temporal Z-order sampler (bnerr_zsobol_t).
 
    Built by bnerr.native at first use, like permute.c. Each function writes dimensions
    dim .. dim + count - 1 of n lanes into out, a [count, n] float32 buffer (one row per
@@ -96,8 +96,19 @@ static inline uint32_t reversed_sobol(const sobol1_t *s, uint64_t a, int c) {
     return sobol1(s, rev32(low)) ^ sobol1(s, rev32((uint32_t)(a >> 32) & 0xFFFFFu));
 }
 
+/* The LDBN sampler's level: its key tiles, texel-major, the frame's toroidal offset and the
+   shared sequence (a table of its first words, and its pair hashes for the indices past it). */
 typedef struct {
-    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles */
+    const int64_t *pixel;    /* per lane (y, x) */
+    const int32_t *scramble; /* [T, T, D] 24-bit scrambling keys */
+    const int32_t *rank;     /* [T, T, D / 2] ranking keys */
+    const int32_t *table;    /* [span, table_dims] the shared words of indices < span */
+    int64_t size, dims, oy, ox, span, table_dims;
+    const uint32_t *shared;  /* per pair from dim / 2: the shared sequence's 3 pair hashes */
+} ldbn_t;
+
+typedef struct {
+    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles, 4 LDBN */
     const int64_t *seed;     /* owen_sobol: per-lane seeds (stride seed_stride) */
     const int64_t *index;    /* sample indices */
     int64_t seed_stride, n, lo, hi, dim, count;
@@ -109,6 +120,7 @@ typedef struct {
     uint64_t epoch;
     const sobol1_t *s1;
     float *out;
+    const ldbn_t *ldbn;
 } sjob_t;
 
 static inline void put(const sjob_t *j, int64_t d, int64_t i, float v) {
@@ -132,20 +144,82 @@ static inline void cycles_lane(const sjob_t *j, int64_t i, uint32_t *seed, uint3
     }
 }
 
+/* The 24-bit words of one Owen-Sobol pair at the reversed index rindex, from the pair's three
+   seeded hashes h[r] = lowbias32(seed_hash ^ key of role r). */
+static inline void owen_pair(const sobol1_t *s1, uint32_t rindex, const uint32_t h[3],
+                             uint32_t w[2]) {
+    uint32_t y = laine_karras(rindex, h[2]);
+    w[0] = rev32(laine_karras(rev32(y), h[0])) >> 8;
+    w[1] = rev32(laine_karras(sobol1(s1, y), h[1])) >> 8;
+}
+
+/* The lane's own Owen-Sobol words of pair p (keys: the pair's three host hashes). */
+static inline void owen_seeded_pair(const sjob_t *j, uint32_t seed_hash, uint32_t rindex,
+                                    int64_t p, uint32_t w[2]) {
+    const uint32_t *k = j->keys + 3 * (p - j->dim / 2);
+    uint32_t h[3] = {lowbias32(seed_hash ^ k[0]), lowbias32(seed_hash ^ k[1]),
+                     lowbias32(seed_hash ^ k[2])};
+    owen_pair(j->s1, rindex, h, w);
+}
+
+static inline void put_pair(const sjob_t *j, int64_t p, int64_t i, const uint32_t w[2]) {
+    put(j, 2 * p, i, (float)w[0] * 0x1p-24f);
+    put(j, 2 * p + 1, i, (float)w[1] * 0x1p-24f);
+}
+
 static void owen_sobol_lanes(const sjob_t *j) {
     int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2;
     for (int64_t i = j->lo; i < j->hi; ++i) {
         uint32_t seed = (uint32_t)j->seed[i * j->seed_stride], index = (uint32_t)j->index[i];
         if (j->kind == 3) cycles_lane(j, i, &seed, &index);
-        uint32_t seed_hash = lowbias32(seed ^ 0xC2B2AE35u);
-        uint32_t rindex = rev32(index);
+        uint32_t seed_hash = lowbias32(seed ^ 0xC2B2AE35u), rindex = rev32(index), w[2];
         for (int64_t p = p0; p <= p1; ++p) {
-            const uint32_t *k = j->keys + 3 * (p - p0);
-            uint32_t y = laine_karras(rindex, lowbias32(seed_hash ^ k[2]));
-            uint32_t z0 = laine_karras(rev32(y), lowbias32(seed_hash ^ k[0]));
-            uint32_t z1 = laine_karras(sobol1(j->s1, y), lowbias32(seed_hash ^ k[1]));
-            put(j, 2 * p, i, (float)(rev32(z0) >> 8) * 0x1p-24f);
-            put(j, 2 * p + 1, i, (float)(rev32(z1) >> 8) * 0x1p-24f);
+            owen_seeded_pair(j, seed_hash, rindex, p, w);
+            put_pair(j, p, i, w);
+        }
+    }
+}
+
+/* a mod m in [0, m) (m > 0) of the wrapping sum a + b, as torch's int64 remainder gives it. */
+static inline int64_t wrap_mod(int64_t a, int64_t b, int64_t m) {
+    int64_t r = (int64_t)((uint64_t)a + (uint64_t)b) % m;
+    return r < 0 ? r + m : r;
+}
+
+/* The shared sequence's words of keyed pair p at index at: from the table when it holds them
+   (the renderer's indices are below a few hundred, a table of a few KB), else evaluated. */
+static inline void shared_pair(const sjob_t *j, uint32_t at, int64_t p, uint32_t w[2]) {
+    const ldbn_t *l = j->ldbn;
+    if ((int64_t)at < l->span && 2 * p + 1 < l->table_dims) {
+        const int32_t *t = l->table + (int64_t)at * l->table_dims + 2 * p;
+        w[0] = (uint32_t)t[0];
+        w[1] = (uint32_t)t[1];
+    } else {
+        owen_pair(j->s1, rev32(at), l->shared + 3 * (p - j->dim / 2), w);
+    }
+}
+
+/* LDBN: keyed pairs (p < D / 2) read the shared sequence at index ^ rank of the lane's texel
+   and XOR its scrambling keys; the pairs past them are the lane's own Owen-Sobol. The shared
+   sequence's seed is one for every lane, so its pair hashes come in precomputed. */
+static void ldbn_lanes(const sjob_t *j) {
+    const ldbn_t *l = j->ldbn;
+    int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2, keyed = l->dims / 2;
+    for (int64_t i = j->lo; i < j->hi; ++i) {
+        int64_t texel = wrap_mod(l->pixel[2 * i], l->oy, l->size) * l->size +
+                        wrap_mod(l->pixel[2 * i + 1], l->ox, l->size);
+        const int32_t *scramble = l->scramble + texel * l->dims, *rank = l->rank + texel * keyed;
+        uint32_t index = (uint32_t)j->index[i], w[2];
+        uint32_t seed_hash = lowbias32((uint32_t)j->seed[i] ^ 0xC2B2AE35u), rindex = rev32(index);
+        for (int64_t p = p0; p <= p1; ++p) {
+            if (p < keyed) {
+                shared_pair(j, index ^ (uint32_t)rank[p], p, w);
+                w[0] ^= (uint32_t)scramble[2 * p];
+                w[1] ^= (uint32_t)scramble[2 * p + 1];
+            } else {
+                owen_seeded_pair(j, seed_hash, rindex, p, w);
+            }
+            put_pair(j, p, i, w);
         }
     }
 }
@@ -249,6 +323,7 @@ static void zsobol_lanes(const sjob_t *j) {
 static void *run_lanes(void *arg) {
     const sjob_t *j = (const sjob_t *)arg;
     if (j->kind == 0 || j->kind == 3) owen_sobol_lanes(j);
+    else if (j->kind == 4) ldbn_lanes(j);
     else zsobol_lanes(j);
     return 0;
 }
@@ -285,7 +360,8 @@ static int run(sjob_t base, int threads) {
    for roles 0, 1, 2. seed_stride 0 gives every lane seed[0]. */
 int bnerr_owen_sobol(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
                      int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
-    sjob_t j = {0, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out};
+    sjob_t j = {0, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0,
+                out, 0};
     return run(j, threads);
 }
 
@@ -295,7 +371,24 @@ int bnerr_cycles(const int64_t *key, const int64_t *index, int64_t n, int64_t di
                  uint32_t spp, int first, uint32_t seed0, uint32_t first_seed,
                  const uint32_t *keys, float *out, int threads) {
     uint64_t seeds = seed0 | ((uint64_t)first_seed << 32), mode = spp | ((uint64_t)!!first << 32);
-    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out};
+    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out, 0};
+    return run(j, threads);
+}
+
+/* LDBN (bnerr.sequences.ldbn) at one level: lanes (seed, index, pixel (y, x)); geometry
+   (T, D, oy, ox, span, table_dims): the tiles' size and dims (D even), the offset and the
+   table's shape; scramble [T, T, D] and rank [T, T, D / 2] the level's tiles; table
+   [span, table_dims] the shared words of dims 0 .. table_dims - 1 (span 0: none); shared: 3
+   hashes per pair from dim / 2 of the shared sequence's seed, lowbias32(lowbias32(seed0 ^
+   0xC2B2AE35) ^ key); keys as bnerr_owen_sobol (for the pairs >= D / 2). */
+int bnerr_ldbn(const int64_t *seed, const int64_t *index, const int64_t *pixel, int64_t n,
+               int64_t dim, int64_t count, const int64_t *geometry, const int32_t *scramble,
+               const int32_t *rank, const int32_t *table, const uint32_t *shared,
+               const uint32_t *keys, float *out, int threads) {
+    const int64_t *g = geometry;
+    if (g[0] < 1 || g[1] < 2 || g[1] % 2 || g[4] < 0 || g[5] < 0 || g[5] > g[1]) return 1;
+    ldbn_t l = {pixel, scramble, rank, table, g[0], g[1], g[2], g[3], g[4], g[5], shared};
+    sjob_t j = {4, seed, index, 1, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out, &l};
     return run(j, threads);
 }
 
@@ -306,7 +399,7 @@ int bnerr_zsobol(const int64_t *key, const int64_t *index, int64_t n, int64_t di
                  int log2spp, int n_digits, uint64_t key_mask, const uint32_t *seeds,
                  const uint8_t *perm, float *out, int threads) {
     sjob_t j = {1, key, index, 1, n, 0, n, dim, count, key_mask, 0, seeds, perm, log2spp,
-                n_digits, 0, 0, out};
+                n_digits, 0, 0, out, 0};
     return run(j, threads);
 }
 
@@ -318,6 +411,6 @@ int bnerr_zsobol_t(const int64_t *key, const int64_t *index, int64_t n, int64_t 
                    uint64_t epoch, const uint32_t *seeds, const uint8_t *perm, float *out,
                    int threads) {
     sjob_t j = {2, key, index, 1, n, 0, n, dim, count, key_mask, t, seeds, perm, log2spp,
-                n_digits, epoch, 0, out};
+                n_digits, epoch, 0, out, 0};
     return run(j, threads);
 }
