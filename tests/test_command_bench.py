@@ -221,3 +221,9 @@ def test_bench_keeps_a_progress_bar_on_stderr_unless_quiet(tmp_path, capsys):
     assert "1/1" in err and "frame" in err  # the measured frames, counted as they finish
     assert main(_args(tmp_path / "out2", tmp_path / "cache")) == 0
     assert "1/1" not in capsys.readouterr().err
+
+
+def test_scripts_is_for_the_speed_suite_only(tmp_path, capsys):
+    args = ["bench", "--suite", "quick", "--scripts", "speed.permute", "--out", str(tmp_path)]
+    assert main([*args, "--quiet"]) == 2
+    assert "--scripts: expected a suite of timing scripts (speed)" in capsys.readouterr().err

@@ -15,6 +15,7 @@ from benchmarks.speed.denoise import table as denoise_table
 from benchmarks.speed.formatting import fmt, ratio
 from benchmarks.speed.masks import WHITE_LOW_FREQUENCY
 from benchmarks.suites import Suite, get_suite
+from bnerr.errors import UnknownNameError
 
 SHIPPED = Path(__file__).resolve().parents[1] / "results" / "speed" / "speed.json"
 
@@ -64,6 +65,29 @@ def test_the_permutation_anchor_is_measured_right_after_it(tmp_path, monkeypatch
     assert "| sort pass, luminance key | 4.00 | 0.00840 | 0.00210 | 2.00 | 2.00x |" in text
     assert "| retargeting pass | 3.00 | 0.00640 | 0.00213 | - | - |" in text
     assert "## speed.copy" not in text and "No memory-copy anchor" not in text
+
+
+def test_only_the_named_scripts_are_measured_again(tmp_path, monkeypatch):
+    # After a change to one kernel, --scripts re-measures its script (with its anchor, side by
+    # side) and keeps the other scripts' figures from the speed.json already there.
+    import benchmarks.speed.copy as speed_copy
+    import benchmarks.speed.masks as speed_masks
+    import benchmarks.speed.permute as speed_permute
+
+    calls = []
+    monkeypatch.setattr(speed_masks, "measure", lambda: calls.append("masks") or {"m": 1.0})
+    monkeypatch.setattr(speed_permute, "measure", lambda: calls.append("permute") or {"p": 2.0})
+    monkeypatch.setattr(speed_copy, "measure", lambda: calls.append("copy") or {"c": 3.0})
+    suite = Suite("speed", "t", scripts=("speed.masks", "speed.permute"))
+    run_speed(suite, tmp_path, progress=False)
+    monkeypatch.setattr(speed_permute, "measure", lambda: calls.append("permute") or {"p": 5.0})
+    run_speed(suite, tmp_path, progress=False, only=["speed.permute"])
+    assert calls == ["masks", "permute", "copy", "permute", "copy"]
+    stored = json.loads((tmp_path / "speed.json").read_text())
+    want = {"speed.masks": {"m": 1.0}, "speed.permute": {"p": 5.0}, "speed.copy": {"c": 3.0}}
+    assert stored == want
+    with pytest.raises(UnknownNameError, match="speed.tracer"):
+        run_speed(suite, tmp_path, progress=False, only=["speed.tracer"])
 
 
 def test_the_shipped_figures_give_one_table_per_part():

@@ -146,6 +146,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
     add("--compress", action="store_true", help=compress)
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
+    scripts = (
+        "speed suite: measure only these scripts (e.g. speed.permute; with their anchors) and "
+        "keep the other figures of --out's speed.json"
+    )
+    add("--scripts", nargs="+", metavar="NAME", help=scripts)
     parser.set_defaults(func=run)
 
 
@@ -161,7 +166,7 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
         )
     if args.report_only:
         return rewrite_speed_report(suite, out)
-    return run_speed(suite, out, progress=not args.quiet)
+    return run_speed(suite, out, progress=not args.quiet, only=args.scripts)
 
 
 def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
@@ -218,6 +223,10 @@ def run(args: argparse.Namespace) -> int:
         require_ray()
         check_positive_int(args.ray_cpus, "--ray-cpus")
     suite = suites.get_suite(args.suite)
+    if args.scripts is not None and not suite.scripts:
+        raise ValueRangeError(
+            f"--scripts: expected a suite of timing scripts (speed), got --suite {suite.name}"
+        )
     out = args.out or Path("results") / suite.name
     with output_lock(out, "bnerr bench"):
         compress = args.compress or (Path(out) / RESULTS_ARCHIVE).exists()

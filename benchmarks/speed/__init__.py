@@ -39,7 +39,7 @@ import numpy as np
 import torch
 
 from benchmarks.suites import Suite
-from bnerr.errors import FileFormatError
+from bnerr.errors import FileFormatError, check_name
 from bnerr.io import atomic_write
 
 __all__ = [
@@ -141,19 +141,42 @@ def speed_markdown(suite: Suite, figures: Mapping[str, Any], summaries: Mapping[
     return "\n".join(lines)
 
 
-def run_speed(suite: Suite, out_dir: str | Path, *, progress: bool = True) -> str:
+def run_speed(
+    suite: Suite,
+    out_dir: str | Path,
+    *,
+    progress: bool = True,
+    only: Iterable[str] | None = None,
+) -> str:
     """Call ``measure()`` of every script of the speed suite, each followed by its anchor's
     (:data:`ANCHOR_SCRIPTS`) if the suite does not list that; write ``speed.json`` and
-    ``speed.md`` into ``out_dir``; return the Markdown."""
+    ``speed.md`` into ``out_dir``; return the Markdown.
+
+    ``only``: measure just these scripts of the suite (and their anchors, so that a ratio is
+    always of two figures taken side by side) and keep every other script's figures from the
+    ``speed.json`` already in ``out_dir`` (after a change to one kernel: the permutation op's
+    figures again, not the whole suite's quarter of an hour).
+
+    Raises:
+        UnknownNameError: ``only`` names a script the suite does not run.
+        FileFormatError: with ``only``, ``out_dir/speed.json`` is unreadable.
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     figures: dict[str, Any] = {}
-    summaries: dict[str, str] = {}
+    wanted = suite.scripts
+    if only is not None:
+        wanted = tuple(check_name(name, suite.scripts, "speed script") for name in only)
+        if (out / "speed.json").exists():
+            figures = _read_figures(suite, out / "speed.json")
+    summaries = {
+        name: _summary(importlib.import_module(f"benchmarks.{name}").measure) for name in figures
+    }
     scripts: list[str] = []
-    for script in suite.scripts:
+    for script in wanted:
         scripts.append(script)
         anchor = ANCHOR_SCRIPTS.get(script)
-        if anchor is not None and anchor not in suite.scripts:
+        if anchor is not None and anchor not in wanted:
             scripts.append(anchor)
     for script in scripts:
         if progress:
@@ -177,15 +200,8 @@ def _write_markdown(
     return text
 
 
-def rewrite_speed_report(suite: Suite, out_dir: str | Path) -> str:
-    """Rewrite ``speed.md`` from the figures in ``out_dir/speed.json`` without measuring (after a
-    change to the tables); the summaries come from the scripts' ``measure`` docstrings.
-
-    Raises:
-        FileFormatError: ``speed.json`` is missing or not the speed suite's JSON object.
-    """
-    out = Path(out_dir)
-    path = out / "speed.json"
+def _read_figures(suite: Suite, path: Path) -> dict[str, Any]:
+    """The figures of ``speed.json`` at ``path``, each under a script the suite runs."""
     try:
         figures = json.loads(path.read_text())
     except (OSError, ValueError) as err:
@@ -198,6 +214,18 @@ def rewrite_speed_report(suite: Suite, out_dir: str | Path) -> str:
         raise FileFormatError(
             f"{path}: expected figures of the scripts {sorted(known)}, got {', '.join(unknown)}"
         )
+    return figures
+
+
+def rewrite_speed_report(suite: Suite, out_dir: str | Path) -> str:
+    """Rewrite ``speed.md`` from the figures in ``out_dir/speed.json`` without measuring (after a
+    change to the tables); the summaries come from the scripts' ``measure`` docstrings.
+
+    Raises:
+        FileFormatError: ``speed.json`` is missing or not the speed suite's JSON object.
+    """
+    out = Path(out_dir)
+    figures = _read_figures(suite, out / "speed.json")
     summaries = {
         script: _summary(importlib.import_module(f"benchmarks.{script}").measure)
         for script in figures
