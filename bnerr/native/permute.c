@@ -350,9 +350,14 @@ static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
     for (int64_t by = j->by0; by < j->by1; ++by) {
         const int64_t y0 = by * B - j->oy;
         const int full = !j->groups && y0 >= 0 && y0 + B <= j->H && bx_last > bx_first;
-        if (full) row_vector(j, B, by, bx_first, bx_last, nbx);
-        for (int64_t bx = 0; bx < nbx; ++bx)
-            if (!full || bx < bx_first || bx >= bx_last) block_scalar(j, B, by, bx, nbx);
+        if (!full) {
+            for (int64_t bx = 0; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
+            continue;
+        }
+        row_vector(j, B, by, bx_first, bx_last, nbx);
+        /* The partial blocks at the left and right ends, if any. */
+        for (int64_t bx = 0; bx < bx_first; ++bx) block_scalar(j, B, by, bx, nbx);
+        for (int64_t bx = bx_last; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
     }
     rows_done();
 }
