@@ -25,6 +25,7 @@ from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import ValueRangeError
 from bnerr.permute import luminance, plan_sort, sort_pass, sort_pass_reference
+from bnerr.retarget import inverse_field, optimize_retarget, retarget_sources
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 
@@ -291,3 +292,61 @@ def test_sort_kernel_moves_the_same_seeds_at_another_vector_width(fresh, monkeyp
                     kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, 2, grid_offset=grid
                 )
                 assert torch.equal(got, want), (define, block, grid, values.ndim)
+
+
+def _check_retarget_kernel(kernels: native.Kernels) -> None:
+    """The native retargeting pass against the torch gather indices, on screens narrower than the
+    border band, as wide as the band plus a few pixels, and wide enough for many vectors of the
+    interior gather (AVX-512: 8 seeds, AVX2: 4, else scalar) with a scalar head to align its
+    stores and a tail; tiles smaller than a vector (3, 5: the tile column wraps more than once a
+    vector) and larger; offsets at both ends of the tile; three threads (uneven rows)."""
+    gen = torch.Generator().manual_seed(11)
+    for size in (3, 5, 8, 12, 16):
+        mask = torch.rand(size, size, generator=gen)
+        field = optimize_retarget(mask, (1, 2), iterations=30, temperature=1.0, seed=size)
+        back, reach = inverse_field(field), int(field.abs().max())
+        for h, w in ((1, 1), (5, 3), (13, 2 * reach + 1), (17, 2 * reach + 9), (29, 77), (9, 203)):
+            seeds = torch.randperm(h * w, generator=gen).view(h, w)
+            for offset in ((0, 0), (1, size - 1), (size - 1, 2)):
+                want = seeds.reshape(-1)[retarget_sources(h, w, field, offset).long()].view(h, w)
+                got = native.native_retarget_gather(kernels, seeds, field, back, offset, threads=3)
+                assert torch.equal(got, want), (size, h, w, offset)
+
+
+@needs_cc
+def test_retarget_kernel_equals_the_torch_path_on_wide_screens():
+    # The default build (the user's cache): its widest gather.
+    kernels = native.load()
+    if kernels is None:
+        pytest.skip(f"native kernels unavailable: {native.status()}")
+    _check_retarget_kernel(kernels)
+
+
+@needs_cc
+@pytest.mark.parametrize("flag", ["-mno-avx512f", "-mno-avx2"])
+def test_kernels_move_the_same_seeds_at_a_lower_simd_level(fresh, monkeypatch, flag):
+    # The kernels pick their vector code at build time from the compiler's target (-march=native):
+    # the sort pass's lanes (16 with AVX-512, 8 with AVX2, else 4) and the retargeting gather
+    # (AVX-512, AVX2 or scalar). A build without AVX-512 (an AVX2 host: -mno-avx512f wins over
+    # -march=native whatever the order) or without AVX2 must move the same seeds as the torch
+    # path, on a host with the wider units as on one without.
+    monkeypatch.setenv("CC", f"cc {flag}")
+    kernels, messages = _load(1)
+    if kernels is None:
+        pytest.skip(f"native kernels unavailable: {native.status()}")
+    assert messages == []
+    _check_retarget_kernel(kernels)
+    gen = torch.Generator().manual_seed(6)
+    for block in (2, 4, 5):
+        h, w = 3 * block + 2, 37 * block + 3  # two full steps of 16 lanes and a partial one
+        color = torch.rand(3, h, w, generator=gen)
+        seeds = torch.randperm(h * w, generator=gen).view(h, w)
+        mask = torch.rand(h, w, generator=gen)
+        for grid in ((0, 0), (1, block - 1)):
+            want = sort_pass_reference(seeds, color, mask, block, grid_offset=grid)
+            order = plan_sort(mask, block, grid).order
+            for values in (color, luminance(color)):
+                got = native.native_sort_blocks(
+                    kernels, seeds, values, order, block, LUMINANCE_WEIGHTS, 2, grid_offset=grid
+                )
+                assert torch.equal(got, want), (flag, block, grid, values.ndim)

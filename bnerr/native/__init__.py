@@ -9,8 +9,10 @@ Why a C kernel: the sorting pass is a few integer operations per pixel, so its c
 traffic and per-op overhead. Eager torch needs about ten full passes over the image (keys, block
 layout, sort, gathers, scatters); one C loop over blocks that keeps each group of 16 blocks in SIMD
 registers (GCC/Clang vector extensions, one block per lane) is several times faster. The
-retargeting kernel reads the tile's displacement and copies each seed in one pass, then walks the
-border band to pair the targets whose source is off screen with the unclaimed sources.
+retargeting kernel gathers each row's seeds in one pass through its tile row's flat offsets (AVX2
+or AVX-512 gathers and streaming stores where the build has them), threads taking chunks of rows,
+while one thread first walks the border band to pair the targets whose source is off screen with
+the unclaimed sources.
 
 How it is built: the C source ``permute.c`` (package data beside this file) is compiled at first
 use with the system C compiler (``$CC``, else ``cc``, ``gcc`` or ``clang``) into a shared library

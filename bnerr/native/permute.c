@@ -19,7 +19,9 @@
 /* The vector width of the sorting pass: one block per lane, BNERR_LANES lanes of int32 (16 with
    AVX-512, 8 with AVX2, else 4), chosen at build time so that a vector fits one register; a build
    may force another width with -DBNERR_LANES=4, 8 or 16 (through $CC), which changes the speed
-   only, never the result. */
+   only, never the result. The retargeting pass's gather likewise uses AVX-512 or AVX2 where the
+   build has them (GATHER_V below). A host with AVX-512 builds and tests the AVX2 code with
+   CC="cc -mno-avx512f" (that flag wins over -march=native), the scalar code with -mno-avx2. */
 #ifndef BNERR_LANES
 #if defined(__AVX512F__)
 #define BNERR_LANES 16
@@ -219,22 +221,20 @@ void to_lanes(const int B, int32_t keys[][8 * NL], vec *k, int *lane_of) {
     for (int bl = 0; bl < NL; ++bl) lane_of[bl] = bl;
 }
 
-/* rank[i][l] = #{q: k_q < k_i} + #{q < i: k_q == k_i} in each lane: stable by position. One
-   comparison per pair q < i, g = (k_q > k_i) as -1 or 0: the pair adds [k_q <= k_i] = 1 + g to
-   rank i (the 1s summed up front as i) and [k_i < k_q] = -g to rank q. */
+/* rank[i][l] = #{q: k_q < k_i} + #{q < i: k_q == k_i} in each lane: stable by position. Each
+   rank on its own (one accumulator live, the keys in registers): for q < i, [k_q <= k_i] =
+   1 + (k_q > k_i) as -1 or 0 (the 1s summed up front as i); for q > i, [k_q < k_i] = -(k_i > k_q). */
 static inline __attribute__((always_inline))
 void ranks(const int n, const vec *k, int32_t rank[][NL]) {
-    vec c[64];
-    for (int i = 0; i < n; ++i) c[i] = (vec){0} + i;
 #pragma GCC unroll 64
-    for (int i = 1; i < n; ++i)
+    for (int i = 0; i < n; ++i) {
+        vec c = (vec){0} + i;
 #pragma GCC unroll 64
-        for (int q = 0; q < i; ++q) {
-            const vec g = k[q] > k[i];
-            c[i] += g;
-            c[q] -= g;
-        }
-    memcpy(rank, c, (size_t)n * sizeof(vec));
+        for (int q = 0; q < i; ++q) c += k[q] > k[i];
+#pragma GCC unroll 64
+        for (int q = i + 1; q < n; ++q) c -= k[i] > k[q];
+        memcpy(rank[i], &c, sizeof c);
+    }
 }
 
 /* dst[0 .. m-1] = src[0 .. m-1], with non-temporal (streaming) stores where dst is aligned for
@@ -244,19 +244,19 @@ static inline __attribute__((always_inline))
 void put_row(int64_t *restrict dst, const int64_t *restrict src, int m) {
 #if defined(__AVX512F__)
     if (((uintptr_t)dst & 63) == 0 && m % 8 == 0) {
-        for (int i = 0; i < m; i += 8) _mm512_stream_si512((void *)(dst + i), _mm512_load_si512(src + i));
+        for (int i = 0; i < m; i += 8) _mm512_stream_si512((void *)(dst + i), _mm512_loadu_si512(src + i));
         return;
     }
 #elif defined(__AVX__)
     if (((uintptr_t)dst & 31) == 0 && m % 4 == 0) {
         for (int i = 0; i < m; i += 4)
-            _mm256_stream_si256((__m256i *)(dst + i), _mm256_load_si256((const __m256i *)(src + i)));
+            _mm256_stream_si256((__m256i *)(dst + i), _mm256_loadu_si256((const __m256i *)(src + i)));
         return;
     }
 #elif defined(__SSE2__)
     if (((uintptr_t)dst & 15) == 0 && m % 2 == 0) {
         for (int i = 0; i < m; i += 2)
-            _mm_stream_si128((__m128i *)(dst + i), _mm_load_si128((const __m128i *)(src + i)));
+            _mm_stream_si128((__m128i *)(dst + i), _mm_loadu_si128((const __m128i *)(src + i)));
         return;
     }
 #endif
@@ -284,58 +284,64 @@ void step_ranks(const job_t *j, const int B, int64_t y0, int64_t xs, int count,
     ranks(B * B, k, rank);
 }
 
-/* Write a staged step (count blocks of B*B seeds, each in block order) row by row into out. */
+/* Write a staged step (B rows of count * B seeds, NL * B apart) row by row into out. */
 static inline __attribute__((always_inline))
-void flush(job_t *j, const int B, const int64_t *moved, int64_t y0, int64_t xs, int count) {
+void flush(job_t *j, const int B, const int64_t *staged, int64_t y0, int64_t xs, int count) {
+    for (int a = 0; a < B; ++a) put_row(j->out + (y0 + a) * j->W + xs, staged + a * NL * B, count * B);
+}
+
+/* Where each position of a step's plan lies in the staged rows: at[bl * n + k] = row * NL * B +
+   bl * B + column of the k-th position in mask order of the step's block bl (below NL * n, so
+   uint16). Returns the largest position of the plan (>= n: malformed, at then unused). */
+static inline __attribute__((always_inline))
+int stage_slots(const int B, const uint8_t *ord, int count, uint16_t *at) {
     const int n = B * B;
-    for (int a = 0; a < B; ++a) {
-        int64_t row[8 * NL] __attribute__((aligned(64)));
-        if (count == NL)
-            for (int bl = 0; bl < NL; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
-        else
-            for (int bl = 0; bl < count; ++bl) memcpy(row + bl * B, moved + bl * n + a * B, B * 8);
-        put_row(j->out + (y0 + a) * j->W + xs, row, count * B);
+    uint8_t worst = 0;
+    /* One flat loop over narrow integers, so that it vectorizes (B is a constant: / and % are
+       multiplies and shifts). */
+    for (int i = 0; i < count * n; ++i) {
+        const uint16_t p = ord[i];
+        worst = ord[i] > worst ? ord[i] : worst;
+        at[i] = (uint16_t)((p / B) * (NL * B) + (uint16_t)(i / n) * B + p % B);
     }
+    return worst;
 }
 
 /* Full blocks bx in [bx_first, bx_last) of one block row, NL blocks per step, one block per SIMD
-   lane. Each step's moved seeds are staged block by block in one of two buffers and written out
-   during the next step, so that the staging stores have left the store queue before the row
-   loads read them. B is a compile-time constant after inlining, so the loops below unroll. */
+   lane. Each step's moved seeds are scattered straight into their places in the step's B output
+   rows, staged in one of two buffers, and written out during the next step, so that the staging
+   stores have left the store queue before the row loads read them. B is a compile-time constant
+   after inlining, so the loops below unroll. */
 static inline __attribute__((always_inline))
 void row_vector(job_t *j, const int B, int64_t by, int64_t bx_first, int64_t bx_last, int64_t nbx) {
     const int n = B * B;
     const int64_t y0 = by * B - j->oy, W = j->W;
-    int64_t off[64];
-    for (int p = 0; p < n; ++p) off[p] = (p / B) * W + p % B;
-    int64_t moved[2][64 * NL] __attribute__((aligned(64)));
+    int64_t staged[2][64 * NL] __attribute__((aligned(64)));
     int64_t last_xs = 0;
     int last_count = 0, step = 0;
     for (int64_t bx0 = bx_first; bx0 < bx_last; bx0 += NL, step ^= 1) {
         const int count = bx_last - bx0 < NL ? (int)(bx_last - bx0) : NL;
         const int64_t xs = bx0 * B - j->ox;
-        const uint8_t *ord = j->order + (by * nbx + bx0) * n;
-        uint8_t worst = 0;
-        for (int i = 0; i < count * n; ++i) worst = ord[i] > worst ? ord[i] : worst;
-        if (worst >= n) { j->err = 1; return; }
+        uint16_t at[64 * NL];
+        if (stage_slots(B, j->order + (by * nbx + bx0) * n, count, at) >= n) { j->err = 1; return; }
         int32_t rank[64][NL] __attribute__((aligned(64)));
         int lane_of[NL];
         step_ranks(j, B, y0, xs, count, rank, lane_of);
         for (int bl = 0; bl < count; ++bl) {
             const int l = lane_of[bl];
-            const uint8_t *o = ord + bl * n;
+            const uint16_t *slot = at + bl * n;
             const int64_t *src = j->seeds + y0 * W + xs + bl * B;
-            int64_t *to = moved[step] + bl * n;
-            /* By value rank: the store addresses then come from the plan alone. */
-            uint8_t by_rank[64];
-            for (int i = 0; i < n; ++i) by_rank[rank[i][l]] = (uint8_t)i;
-            for (int r = 0; r < n; ++r) to[o[r]] = src[off[by_rank[r]]];
+            int64_t *to = staged[step];
+            /* Pixel (a, b) of rank k moves to the k-th position in mask order: read in pixel
+               order (B seeds at a time from each row), scattered into the staged rows. */
+            for (int a = 0; a < B; ++a)
+                for (int b = 0; b < B; ++b) to[slot[rank[a * B + b][l]]] = src[a * W + b];
         }
-        if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
+        if (last_count) flush(j, B, staged[step ^ 1], y0, last_xs, last_count);
         last_xs = xs;
         last_count = count;
     }
-    if (last_count) flush(j, B, moved[step ^ 1], y0, last_xs, last_count);
+    if (last_count) flush(j, B, staged[step ^ 1], y0, last_xs, last_count);
 }
 
 static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
@@ -344,9 +350,14 @@ static inline __attribute__((always_inline)) void rows(job_t *j, const int B) {
     for (int64_t by = j->by0; by < j->by1; ++by) {
         const int64_t y0 = by * B - j->oy;
         const int full = !j->groups && y0 >= 0 && y0 + B <= j->H && bx_last > bx_first;
-        if (full) row_vector(j, B, by, bx_first, bx_last, nbx);
-        for (int64_t bx = 0; bx < nbx; ++bx)
-            if (!full || bx < bx_first || bx >= bx_last) block_scalar(j, B, by, bx, nbx);
+        if (!full) {
+            for (int64_t bx = 0; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
+            continue;
+        }
+        row_vector(j, B, by, bx_first, bx_last, nbx);
+        /* The partial blocks at the left and right ends, if any. */
+        for (int64_t bx = 0; bx < bx_first; ++bx) block_scalar(j, B, by, bx, nbx);
+        for (int64_t bx = bx_last; bx < nbx; ++bx) block_scalar(j, B, by, bx, nbx);
     }
     rows_done();
 }
@@ -422,14 +433,18 @@ int bnerr_sort_pass(const float *v0, const float *v1, const float *v2, float w0,
 
 /* The retargeting pass. Interior (parallel over rows): out[p] = seeds[p + d(q)],
    q = ((y + oy) mod T, (x + ox) mod T), for every target whose source is on screen. Border
-   (one thread, only the band of width `reach` along the border): the targets whose source is off
-   screen take the sources that no target claims, both in row-major order. A source s is claimed
-   iff its preimage s + e(u), u = tile coordinate of s, e = the inverse field, is on screen. */
+   (one thread, only the band of width `reach` along the border, while the other threads start on
+   the rows): the targets whose source is off screen take the sources that no target claims, both
+   in row-major order. A source s is claimed iff its preimage s + e(u), u = tile coordinate of s,
+   e = the inverse field, is on screen. The two parts write disjoint targets. */
 typedef struct {
     const int64_t *seeds;
     const int32_t *d;           /* [2, T, T]: dy then dx */
     int64_t *out;
-    int64_t H, W, T, oy, ox, reach, y0, y1;
+    int64_t H, W, T, oy, ox, reach;
+    int64_t *next_row;          /* shared by the threads: the first row none has taken yet */
+    const int32_t *inv;         /* the inverse field if this thread pairs the border, else NULL */
+    int err;                    /* pair_border's return code */
 } rjob_t;
 
 /* Row y, columns x0 .. x1 - 1, each source checked against the screen. */
@@ -449,54 +464,161 @@ static void gather_checked(const rjob_t *j, int64_t y, int64_t x0, int64_t x1) {
    everywhere. */
 #define RETARGET_MAX_T 512
 
-/* Rows y0 .. y1 - 1. Away from the border (reach pixels: no displacement is longer), every source
-   is on screen, so the interior of a row is a plain gather through the flat offsets dy * W + dx
-   of its tile row. */
-static void *retarget_rows(void *arg) {
-    const rjob_t *j = (const rjob_t *)arg;
+/* The vector width of the interior gather, in int64 seeds: 8 with AVX-512, 4 with AVX2, else 1
+   (scalar). GATHER_PAD: the entries the extended offset table holds past its period. */
+#if defined(__AVX512F__)
+#define GATHER_V 8
+#elif defined(__AVX2__)
+#define GATHER_V 4
+#else
+#define GATHER_V 1
+#endif
+#define GATHER_PAD 8
+
+/* The interior of one row: o[x] = s[x + ext[(x + ox) mod T]] for x in [x0, x1), where ext[t] is
+   the flat offset dy * W + dx of tile column t mod T, for t in [0, T + GATHER_PAD) (the extension
+   lets a vector read GATHER_V consecutive offsets from any t < T without wrapping). The loop walks
+   t alongside x and wraps it once per vector, not once per pixel. Vector stores are non-temporal
+   (the output is not read again here; rows_done fences them), aligned by a scalar head; `next`
+   is prefetched one cache line per vector (see retarget_row). */
+static inline void gather_row(const int64_t *restrict s, int64_t *restrict o, const int64_t *ext,
+                              int64_t T, int64_t t, int64_t x0, int64_t x1, const int64_t *next) {
+    int64_t x = x0;
+#if GATHER_V > 1
+    for (; x < x1 && ((uintptr_t)(o + x) & (8 * GATHER_V - 1)); ++x) {
+        o[x] = s[x + ext[t]];
+        if (++t == T) t = 0;
+    }
+#if GATHER_V == 8
+    const __m512i iota = _mm512_set_epi64(7, 6, 5, 4, 3, 2, 1, 0);
+    for (; x + 8 <= x1; x += 8) {
+        __builtin_prefetch(next + x + 64);
+        const __m512i idx = _mm512_add_epi64(_mm512_loadu_si512(ext + t), iota);
+        _mm512_stream_si512((void *)(o + x), _mm512_i64gather_epi64(idx, s + x, 8));
+        t += 8;
+        while (t >= T) t -= T;  /* once at most when T >= 8 */
+    }
+#else
+    const __m256i iota = _mm256_set_epi64x(3, 2, 1, 0);
+    for (; x + 4 <= x1; x += 4) {
+        if ((x & 7) == 0) __builtin_prefetch(next + x + 64);
+        const __m256i idx = _mm256_add_epi64(_mm256_loadu_si256((const __m256i *)(ext + t)), iota);
+        const __m256i v = _mm256_i64gather_epi64((const long long *)(s + x), idx, 8);
+        _mm256_stream_si256((__m256i *)(o + x), v);
+        t += 4;
+        while (t >= T) t -= T;  /* once at most when T >= 4 */
+    }
+#endif
+#endif
+    for (; x < x1; ++x) {
+        if ((x & 7) == 0) __builtin_prefetch(next + x + 64);
+        o[x] = s[x + ext[t]];
+        if (++t == T) t = 0;
+    }
+}
+
+/* Row y. Away from the border (reach pixels: no displacement is longer), every source is on
+   screen, so the interior of a row is a plain gather through the flat offsets dy * W + dx of its
+   tile row (gather_row; ext: room for RETARGET_MAX_T + GATHER_PAD of them). */
+static void retarget_row(const rjob_t *j, int64_t y, int64_t *ext) {
     const int64_t H = j->H, W = j->W, T = j->T, r = j->reach;
-    int64_t rel[RETARGET_MAX_T];
-    for (int64_t y = j->y0; y < j->y1; ++y) {
-        if (y < r || y >= H - r || W <= 2 * r || T > RETARGET_MAX_T) {
-            gather_checked(j, y, 0, W);
-            continue;
-        }
-        const int64_t qy = (y + j->oy) % T;
-        const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
-        for (int64_t t = 0; t < T; ++t) rel[t] = dy[t] * W + dx[t];
-        gather_checked(j, y, 0, r);
-        const int64_t *s = j->seeds + y * W;
-        int64_t *o = j->out + y * W;
-        /* The row that first comes into reach at the next row: its lines are read sparsely at
-           first (by the pixels displaced the most), which hardware prefetchers miss. */
-        const int64_t *next = y + r + 1 < H ? j->seeds + (y + r + 1) * W : s;
-        int64_t qx = (r + j->ox) % T;
-        for (int64_t x = r; x < W - r; ++x) {
-            if ((x & 7) == 0) __builtin_prefetch(next + x + 64);
-            o[x] = s[x + rel[qx]];
-            if (++qx == T) qx = 0;
-        }
-        gather_checked(j, y, W - r, W);
+    if (y < r || y >= H - r || W <= 2 * r || T > RETARGET_MAX_T) {
+        gather_checked(j, y, 0, W);
+        return;
+    }
+    const int64_t qy = (y + j->oy) % T;
+    const int32_t *dy = j->d + qy * T, *dx = j->d + T * T + qy * T;
+    for (int64_t t = 0; t < T; ++t) ext[t] = dy[t] * W + dx[t];
+    for (int64_t t = T; t < T + GATHER_PAD; ++t) ext[t] = ext[t - T];
+    gather_checked(j, y, 0, r);
+    /* The row that first comes into reach at the next row: its lines are read sparsely at first
+       (by the pixels displaced the most), which hardware prefetchers miss. */
+    const int64_t *next = y + r + 1 < H ? j->seeds + (y + r + 1) * W : j->seeds + y * W;
+    gather_row(j->seeds + y * W, j->out + y * W, ext, T, (r + j->ox) % T, r, W - r, next);
+    gather_checked(j, y, W - r, W);
+}
+
+/* A row-major walk over the border band of width r (the pixels within r of the border: whole
+   rows in the top and bottom r rows, else the first and last r columns), listing each pixel whose
+   partner through the field f is off screen: with f = d, the targets whose source is off screen;
+   with f = the inverse field, the sources that no target claims. */
+typedef struct {
+    const int32_t *f;           /* [2, T, T]: dy then dx */
+    int64_t H, W, T, oy, ox, r;
+    int64_t y, x;               /* the next pixel to examine; y == H when the band is done */
+} walk_t;
+
+/* Most pixels one walk_fill examines (so it appends at most as many). */
+#define WALK_STEP 256
+
+/* Examine the next at most WALK_STEP pixels of the walk (one row piece or a part of one) and
+   append the flat positions of its stops to buf; returns how many. Branch-free inside the piece:
+   about a quarter of the band's pixels are stops, in no pattern a branch predictor could learn. */
+static int walk_fill(walk_t *w, int64_t *buf) {
+    const int64_t H = w->H, W = w->W, T = w->T, r = w->r, y = w->y;
+    if (y >= H) return 0;
+    const int whole = y < r || y >= H - r || W - r <= r;
+    if (!whole && w->x >= r && w->x < W - r) w->x = W - r;
+    int64_t end = whole || w->x >= W - r ? W : r;
+    if (end > w->x + WALK_STEP) end = w->x + WALK_STEP;
+    const int64_t qy = (y + w->oy) % T;
+    const int32_t *fy = w->f + qy * T, *fx = w->f + T * T + qy * T;
+    int64_t q = (w->x + w->ox) % T;
+    int n = 0;
+    for (int64_t x = w->x; x < end; ++x) {
+        const int64_t sy = y + fy[q], sx = x + fx[q];
+        if (++q == T) q = 0;
+        buf[n] = y * W + x;
+        n += ((uint64_t)sy >= (uint64_t)H) | ((uint64_t)sx >= (uint64_t)W);  /* off screen */
+    }
+    w->x = end;
+    if (end == W) {
+        ++w->y;
+        w->x = 0;
+    }
+    return n;
+}
+
+/* The border pairs: the k-th target whose source is off screen takes the k-th source that no
+   target claims (both row-major). The two walks run in chunks, through two small queues on the
+   stack: lost targets (fewer than 2 * WALK_STEP at a time) and unclaimed sources not yet paired
+   (fewer than 3 * WALK_STEP). Returns 3 if the sources run out first (not inverse fields). */
+static int pair_border(const rjob_t *j, const int32_t *inv) {
+    walk_t lost = {j->d, j->H, j->W, j->T, j->oy, j->ox, j->reach, 0, 0};
+    walk_t unclaimed = {inv, j->H, j->W, j->T, j->oy, j->ox, j->reach, 0, 0};
+    int64_t targets[2 * WALK_STEP], sources[3 * WALK_STEP];
+    int nt = 0, ns = 0;
+    while (lost.y < j->H) {
+        while (nt < WALK_STEP && lost.y < j->H) nt += walk_fill(&lost, targets + nt);
+        while (ns < nt && unclaimed.y < j->H) ns += walk_fill(&unclaimed, sources + ns);
+        if (ns < nt) return 3;
+        for (int i = 0; i < nt; ++i) j->out[targets[i]] = j->seeds[sources[i]];
+        memmove(sources, sources + nt, (size_t)(ns - nt) * sizeof *sources);
+        ns -= nt;
+        nt = 0;
     }
     return 0;
 }
 
-/* Next pixel of the border band of width r, row-major. */
-static inline void band_step(int64_t *y, int64_t *x, int64_t H, int64_t W, int64_t r) {
-    if (++*x >= W) { *x = 0; ++*y; }
-    if (!(*y < r || *y >= H - r) && *x >= r && *x < W - r) *x = W - r;
-}
+/* Rows a thread takes at a time: enough that the rows a chunk reads beyond its own (reach above
+   and below) stay a small part, few enough that the thread that pairs the border catches up. */
+#define RETARGET_CHUNK 64
 
-/* a mod T for a >= 0; `low` is T - 1 when T is a power of two (a mask then, no division). */
-static inline int64_t wrap(int64_t a, int64_t T, int64_t low) {
-    return low >= 0 ? a & low : a % T;
-}
-
-static inline int on_screen(const int32_t *f, int64_t y, int64_t x, int64_t H, int64_t W,
-                            int64_t T, int64_t low, int64_t oy, int64_t ox) {
-    const int64_t u = wrap(y + oy, T, low) * T + wrap(x + ox, T, low);
-    const int64_t sy = y + f[u], sx = x + f[T * T + u];
-    return sy >= 0 && sy < H && sx >= 0 && sx < W;
+/* One thread: the border pairs first if it is the one that pairs them, then chunks of rows taken
+   from the shared counter until none is left (so that the thread that paired the border takes
+   fewer rows; the result does not depend on who takes which). */
+static void *retarget_task(void *arg) {
+    rjob_t *j = (rjob_t *)arg;
+    int64_t ext[RETARGET_MAX_T + GATHER_PAD];
+    if (j->inv) j->err = pair_border(j, j->inv);
+    for (;;) {
+        const int64_t y0 = __atomic_fetch_add(j->next_row, RETARGET_CHUNK, __ATOMIC_RELAXED);
+        if (y0 >= j->H) break;
+        const int64_t y1 = y0 + RETARGET_CHUNK < j->H ? y0 + RETARGET_CHUNK : j->H;
+        for (int64_t y = y0; y < y1; ++y) retarget_row(j, y, ext);
+    }
+    rows_done();
+    return 0;
 }
 
 /* Returns 0 on success, 1 on bad sizes, 3 if the fields are not inverse permutations. */
@@ -505,25 +627,14 @@ int bnerr_retarget(const int64_t *seeds, const int32_t *d, const int32_t *inv, i
                    int threads) {
     if (H < 1 || W < 1 || T < 1 || oy < 0 || oy >= T || ox < 0 || ox >= T || reach < 0) return 1;
     threads = clamp_threads(threads, H);
+    int64_t next_row = 0;
     rjob_t jobs[64];
     for (int i = 0; i < threads; ++i) {
-        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, reach, H * i / threads, H * (i + 1) / threads};
+        /* The caller's thread (task 0, started last) pairs the border. */
+        const int32_t *border = i == 0 && reach > 0 ? inv : NULL;
+        rjob_t jb = {seeds, d, out, H, W, T, oy, ox, reach, &next_row, border, 0};
         jobs[i] = jb;
     }
-    run_parallel(retarget_rows, (char *)jobs, sizeof(rjob_t), threads);
-    if (reach == 0) return 0;
-    const int64_t low = (T & (T - 1)) == 0 ? T - 1 : -1;
-    int64_t fy = 0, fx = -1;  /* cursor over candidate free sources */
-    int64_t y = 0, x = -1;    /* cursor over targets */
-    for (;;) {
-        band_step(&y, &x, H, W, reach);
-        if (y >= H) break;
-        if (on_screen(d, y, x, H, W, T, low, oy, ox)) continue;
-        do {
-            band_step(&fy, &fx, H, W, reach);
-            if (fy >= H) return 3;
-        } while (on_screen(inv, fy, fx, H, W, T, low, oy, ox));
-        out[y * W + x] = seeds[fy * W + fx];
-    }
-    return 0;
+    run_parallel(retarget_task, (char *)jobs, sizeof(rjob_t), threads);
+    return jobs[0].err;
 }
