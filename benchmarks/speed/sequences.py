@@ -120,6 +120,7 @@ def measure_samples(
         "cycles_pure": {"spp": 64},
         "cycles_first": {"spp": 64},
         "ldbn": {"keys": _ldbn_keys(), "spp": 64},
+        "ldbn_keyed": {"keys": _ldbn_keys(), "spp": 64},
     }
     results: dict[str, dict[int, float]] = {}
     for name in names if names is not None else sorted(SAMPLERS):
