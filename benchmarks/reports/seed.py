@@ -186,9 +186,10 @@ def write_seed_report(
     panels = _panels(out, records)
     written: list[Path] = []
     text = [
-        "# The seed talk's conditions",
+        "# The seed talk's claim: blue error in coherent regions",
         "",
-        "Written by `bnerr bench --suite seed` from its records (do not edit). Each figure: the "
+        f"Written by `bnerr bench --suite {out.name}` from its records (do not edit; the folder's "
+        "name is the suite's). Each figure: the "
         "reference and each strategy's raw frame (first measured frame of seed set 0), an "
         "enlarged inset of the yellow square, and the raw error's power spectrum over the coherent "
         "pixels (blue noise: low power left of the dashed line at 1/8 cycle per pixel).",
