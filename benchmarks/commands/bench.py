@@ -88,6 +88,27 @@ def _res(text: str | None) -> tuple[int, int] | None:
     return None if text is None else parse_resolution(text)
 
 
+def _add_resume_options(parser: argparse.ArgumentParser) -> None:
+    """What happens to the results already in ``--out``: one of --resume, --report-only,
+    --overwrite."""
+    resume = parser.add_mutually_exclusive_group()
+    resume.add_argument(
+        "--resume", action="store_true", help="keep existing results, measure only missing cells"
+    )
+    resume.add_argument(
+        "--report-only",
+        action="store_true",
+        help="measure nothing: rewrite the tables and charts from the cells already in --out "
+        "(after a change to the report, or when the suite gained cells not measured yet)",
+    )
+    resume.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="discard the finished cells already in --out (without it a fresh run into a folder "
+        "with results refuses)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -111,22 +132,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--res", help="resolution WIDTHxHEIGHT")
     add("--out", type=Path, help="output folder (default results/<suite>)")
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
-    resume = parser.add_mutually_exclusive_group()
-    resume.add_argument(
-        "--resume", action="store_true", help="keep existing results, measure only missing cells"
-    )
-    resume.add_argument(
-        "--report-only",
-        action="store_true",
-        help="measure nothing: rewrite the tables and charts from the cells already in --out "
-        "(after a change to the report, or when the suite gained cells not measured yet)",
-    )
-    resume.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="discard the finished cells already in --out (without it a fresh run into a folder "
-        "with results refuses)",
-    )
+    _add_resume_options(parser)
     add(
         "--threads",
         type=positive_int,
