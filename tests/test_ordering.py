@@ -441,3 +441,32 @@ def test_the_oracle_beats_white_after_a_sigma2_blur_in_coherent_regions_at_16spp
 def test_temporal_beats_white_after_a_sigma2_blur_in_coherent_regions_at_16spp(coherent):
     ratio = _coherent_ratio(coherent, "temporal", "white")
     assert better(ratio), f"temporal / white = {ratio}"
+
+
+# Where the seed's claim holds (issue 26): the untextured snooker table's coherent region at 16
+# spp, where the quality suite measured the temporal method keeping 0.73 [0.69, 0.77] of the
+# oracle's dividend after a sigma-2 blur (128x128, 4 seed sets). One comparison, at 95 %.
+@pytest.fixture(scope="module")
+def coherent_plain(tmp_path_factory, cache):
+    sweep = Sweep(
+        scenes=("snooker_plain",),
+        strategies=("white", "temporal"),
+        spp=(16,),
+        denoisers=("gaussian",),
+        **_COMMON,
+    )
+    suite = Suite("coherent_plain", "test", sweeps=(sweep,), crops=False, coherent=True)
+    out = tmp_path_factory.mktemp("coherent_plain")
+    return _index(run_suite(suite, out, cache_dir=cache, progress=False))
+
+
+@pytest.mark.slow
+def test_temporal_beats_white_after_a_sigma2_blur_in_plain_snookers_coherent_region(
+    coherent_plain,
+):
+    def stats(strategy):
+        record = coherent_plain["snooker_plain", 16, "gaussian", strategy, 1, "coherent"]
+        return np.asarray(record.raw["mse_blur2"])
+
+    ratio = paired_ratio(stats("temporal"), stats("white"))
+    assert better(ratio), f"temporal / white = {ratio}"
