@@ -91,6 +91,13 @@ def test_a_page_loads_without_errors_and_every_image_and_link_resolves(browser, 
 
     page, errors = _open(browser, site / name)
     page.evaluate("() => document.querySelectorAll('details').forEach(d => d.open = true)")
+    # Lazy images load only near the viewport: every one must resolve, however long the page.
+    page.evaluate(
+        """() => Promise.all([...document.querySelectorAll('img')].map(im => {
+             im.loading = 'eager';
+             return im.complete ? null : new Promise(done => { im.onload = im.onerror = done; });
+           }))"""
+    )
     page.wait_for_load_state("networkidle")
     sizes = page.eval_on_selector_all("img", "els => els.map(e => [e.src, e.naturalWidth])")
     assert sizes and all(width > 0 for _, width in sizes), sizes
