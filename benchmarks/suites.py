@@ -31,7 +31,10 @@ The four suites (issue 6):
   (1.4x faster, the same bits) and the white run's fair and own tunings are one search. What
   stays outside the denoisers is mostly rendering: by the committed records' timings about 105
   core-minutes (the oracle's 61, two thirds of it at 16 spp), against 28 for the denoisers
-  (tuning included) and about 14 for the metrics.
+  (tuning included) and about 14 for the metrics. With LDBN's three strategies and the vertical
+  bound (direct and indirect at 4 and 16 spp) a run from scratch took 93 minutes with two Ray
+  workers on the 2-core machine, shared with other jobs for most of it; the gap and stability
+  suites took 18 minutes each there, unshared.
 - ``speed``: the throughput and timing scripts (``benchmarks/speed/``).
 - ``gap``: the ablation of the temporal variants (docs/METHODS.md, section 8; issue 14): each
   option alone (:data:`GAP_SINGLE`), then the best combination on hashed seeds and on ZSobol keys
