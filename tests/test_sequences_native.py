@@ -1,7 +1,7 @@
-"""Tests of bnerr/sequences/native.py: the C kernels of the Owen-Sobol, ZSobol, temporal Z-order,
-Cycles and LDBN samplers against their torch paths, bit for bit, over several films (or key
-tiles), spp, first dimensions, dimension counts, seeds and lane orders; the dispatch (CPU only)
-and the fallback when the library is unavailable.
+"""Tests of bnerr/sequences/native.py: the C kernels of white noise, the Owen-Sobol, ZSobol,
+temporal Z-order, Cycles and LDBN samplers against their torch paths, bit for bit, over several
+films (or key tiles), spp, first dimensions, dimension counts, seeds and lane orders; the dispatch
+(CPU only) and the fallback when the library is unavailable.
 
 The native comparisons skip, with the reason, when the library cannot be built or loaded here
 (no C compiler, or ``BNERR_NATIVE=0``); the fallback test runs everywhere.
@@ -19,7 +19,10 @@ zsobol_module = importlib.import_module("bnerr.sequences.zsobol")
 zsobol_t_module = importlib.import_module("bnerr.sequences.zsobol_t")
 cycles_module = importlib.import_module("bnerr.sequences.cycles")
 ldbn_module = importlib.import_module("bnerr.sequences.ldbn")
-SELF_CHECKED = (owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module, ldbn_module)
+white_module = importlib.import_module("bnerr.sequences.white")
+SELF_CHECKED = (
+    white_module, owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module, ldbn_module
+)  # fmt: skip
 
 
 @pytest.fixture
@@ -79,12 +82,13 @@ def test_zsobol_samplers_match_torch_bit_for_bit(
 
 
 @pytest.mark.parametrize(("width", "height", "spp", "dim", "count", "seed"), CASES)
-def test_owen_sobol_and_cycles_match_torch_bit_for_bit(
+def test_white_owen_sobol_and_cycles_match_torch_bit_for_bit(
     kernels, monkeypatch, width, height, spp, dim, count, seed
 ):
     key, index = _lanes(cycles_keys(height, width, seed), spp, 97, seed & 0xFFFF, True)
     random_seeds = torch.randint(-(2**40), 2**40, key.shape, generator=torch.Generator())
     runs = [
+        (make_sampler("white"), random_seeds),
         (make_sampler("owen_sobol"), random_seeds),
         (make_sampler("cycles_pure", spp=spp, seed0=seed), key),
         (make_sampler("cycles_first", spp=spp, seed0=seed), key),
@@ -150,6 +154,7 @@ def test_results_do_not_depend_on_the_thread_count(kernels):
     runs = [
         (make_sampler("zsobol", width=256, height=256, spp=16), (key, index, 0, 6)),
         (LDBNSampler(_ldbn_keys(5, 64, 8, 0), spp=16), (seeds, ldbn_index, 0, 12, pixel)),
+        (make_sampler("white"), (key, index, 1, 7)),
     ]
     before = torch.get_num_threads()
     try:

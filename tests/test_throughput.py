@@ -9,7 +9,7 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_measure_ours():
-    figures = throughput.measure_ours("direct", 8, 8, 2, repeats=2, compile=False)
+    figures = throughput.measure_ours("direct", 8, 8, 2, repeats=2, compile="eager")
     assert figures["best_s"] <= figures["median_s"]
     assert figures["samples_per_s"] == pytest.approx(8 * 8 * 2 / figures["best_s"])
 
@@ -17,7 +17,7 @@ def test_measure_ours():
 def test_measure_side_by_side(monkeypatch):
     pytest.importorskip("mitsuba")
     result = throughput.measure(
-        ("direct",), 8, 8, 2, repeats=1, compile=False, variants=("scalar_rgb",)
+        ("direct",), 8, 8, 2, repeats=1, compile="eager", variants=("scalar_rgb",)
     )
     row = result["direct"]
     assert result["settings"]["spp"] == 2
@@ -40,3 +40,8 @@ def test_missing_llvm_or_broken_variant_is_an_error_string(monkeypatch):
 def test_without_mitsuba(monkeypatch):
     monkeypatch.setattr(throughput, "mitsuba_available", lambda: False)
     assert "not installed" in throughput.measure_mitsuba("scalar_rgb", "direct", 8, 8, 1)
+
+
+def test_unknown_stage_is_refused():
+    with pytest.raises(throughput.UnknownNameError, match="aot"):
+        throughput.measure_ours("direct", 8, 8, 2, compile="jit")

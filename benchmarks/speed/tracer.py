@@ -6,7 +6,11 @@ tracer and with Mitsuba 3's ``scalar_rgb`` and ``llvm_ad_rgb`` variants, and rep
 (pixels x spp) per second for each, and our ratio to each. The work differs in one way that
 favours Mitsuba slightly: it traces one more ray per path (a BSDF sample at the last vertex).
 
-Each renderer gets one warm-up render (our ``torch.compile``, Mitsuba's LLVM kernel compilation),
+Our tracer runs its vertex stage as ``compile`` says: ``"aot"`` (the default), the ahead-of-time
+compiled package that ``bnerr render`` loads (:mod:`renderers.aot`; built before the timing if
+missing); ``"torch"``, ``torch.compile`` in the process (the benchmark's references); or
+``"eager"``. Each renderer gets one warm-up render (our loading or compilation, Mitsuba's LLVM
+kernel compilation),
 then ``repeats`` rounds; a round renders once with each renderer, back to back, so that the
 load of a shared machine, which drifts over seconds, hits the renderers of a round alike. Each
 Mitsuba variant lives in its own subprocess for the whole measurement (it answers "render" on
@@ -41,15 +45,35 @@ import torch
 from benchmarks.commands._args import parse_resolution
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import DASH, fmt, number
+from bnerr.errors import UnknownNameError
 from bnerr.io import atomic_write
 from bnerr.sequences import make_sampler
 from bnerr.strategies import pixel_seeds
-from renderers import get_scene, render
+from renderers import aot, get_scene, render
 from renderers.mitsuba import mitsuba_available, to_mitsuba
+from renderers.tracer import StageSource
 
 __all__ = ["table", "main", "measure", "measure_mitsuba", "measure_ours"]
 
 DEFAULT_LLVM = "/lib/x86_64-linux-gnu/libLLVM.so.19.1"
+#: How our vertex stage runs: the name -> :func:`renderers.render`'s ``compile`` argument.
+STAGES: dict[str, bool | StageSource] = {"aot": aot.stage, "torch": True, "eager": False}
+
+#: The table's words for each stage (True and False: figures written before the choice).
+_STAGE_WORDS: dict[object, str] = {
+    "aot": "the AOT-compiled package `bnerr render` loads",
+    "torch": "torch.compile",
+    "eager": "eager",
+    True: "torch.compile",
+    False: "eager",
+}
+
+
+def _stage(compile: str) -> bool | StageSource:
+    """:data:`STAGES`' entry, or :class:`~bnerr.errors.UnknownNameError` naming the choices."""
+    if compile not in STAGES:
+        raise UnknownNameError(f"compile: expected one of {sorted(STAGES)}, got {compile!r}")
+    return STAGES[compile]
 
 
 def _figures(times: list[float], warmup: float, samples: int) -> dict[str, float]:
@@ -71,13 +95,13 @@ class _Ours:
         width: int,
         height: int,
         spp: int,
-        compile: bool,
+        compile: str,
         sampler: str = "white",
     ) -> None:
         self.scene = get_scene(scene_name, animated=False)
         self.seeds = pixel_seeds(height, width, 0)
         self.sampler = make_sampler(sampler)
-        self.spp, self.compile = spp, compile
+        self.spp, self.compile = spp, _stage(compile)
 
     def __call__(self) -> float:
         """Seconds of one render, by the renderer's own clock (its frame's ``timings``)."""
@@ -205,7 +229,7 @@ def measure_ours(
     height: int,
     spp: int,
     repeats: int = 3,
-    compile: bool = True,
+    compile: str = "aot",
     sampler: str = "white",
 ) -> dict[str, float]:
     """Our tracer alone: ``{"best_s", "median_s", "warmup_s", "samples_per_s"}``."""
@@ -241,7 +265,7 @@ def _scene_row(
     height: int,
     spp: int,
     repeats: int,
-    compile: bool,
+    compile: str,
     variants: Sequence[str],
     threads: int | None,
 ) -> dict[str, object]:
@@ -281,7 +305,7 @@ def measure(
     height: int = 256,
     spp: int = 32,
     repeats: int = 5,
-    compile: bool = True,
+    compile: str = "aot",
     variants: Sequence[str] = ("scalar_rgb", "llvm_ad_rgb"),
     threads: int | None = None,
 ) -> dict[str, object]:
@@ -292,6 +316,7 @@ def measure(
     None if Mitsuba failed)}}``, figures being ``{"best_s", "median_s", "warmup_s",
     "samples_per_s"}`` (samples per second at the best time).
     """
+    _stage(compile)
     before = torch.get_num_threads()
     if threads:
         torch.set_num_threads(threads)
@@ -342,11 +367,12 @@ def _print(result: dict[str, object]) -> None:
 def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     """The tracer against Mitsuba 3's variants."""
     s = values.get("settings", {})
+    stage = _STAGE_WORDS.get(s.get("compile"), str(s.get("compile")))
     lines = [
         "## Tracer against Mitsuba 3 (`speed.tracer`)",
         "",
         f"{s.get('width')} x {s.get('height')} pixels at {s.get('spp')} spp, {s.get('repeats')} "
-        f"interleaved rounds, torch.compile {s.get('compile')}, {s.get('torch_threads')} torch "
+        f"interleaved rounds, our vertex stage: {stage}, {s.get('torch_threads')} torch "
         f"threads on {s.get('cpu_count')} CPUs, load average {fmt(s.get('load_average'), 2)} "
         "at the start. Times in seconds per frame; first call: the warm-up render (our "
         "compilation, Mitsuba's kernel compilation). Ratio: our time over the variant's, the "
@@ -397,8 +423,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeats", type=int, default=5, help="interleaved rounds")
     p.add_argument("--threads", type=int, default=None, help="threads for both renderers")
     p.add_argument(
-        "--no-compile", dest="compile", action="store_false", help="our tracer in eager mode"
-    )
+        "--compile", choices=sorted(STAGES), default="aot",
+        help="our vertex stage: the AOT package bnerr render loads (default), torch.compile, "
+        "or eager",
+    )  # fmt: skip
     p.add_argument("--variants", nargs="*", default=["scalar_rgb", "llvm_ad_rgb"])
     p.add_argument("--json", metavar="PATH", help="also write the figures as JSON")
     args = p.parse_args(argv)

@@ -1,5 +1,5 @@
-/* bnerr's native CPU kernels of the samplers (bnerr.sequences): per-pixel Owen-Sobol padded by
-   2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles), the
+/* bnerr's native CPU kernels of the samplers (bnerr.sequences): white noise (bnerr_white),
+   per-pixel Owen-Sobol padded by 2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles), the
    LDBN lookup into one shared Owen-Sobol sequence (bnerr_ldbn), pbrt-v4's ZSobol with its
    FastOwen value scramble (bnerr_zsobol) and the temporal Z-order sampler (bnerr_zsobol_t).
 
@@ -108,13 +108,14 @@ typedef struct {
 } ldbn_t;
 
 typedef struct {
-    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles, 4 LDBN */
+    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles, 4 LDBN, 5 white */
     const int64_t *seed;     /* owen_sobol: per-lane seeds (stride seed_stride) */
     const int64_t *index;    /* sample indices */
     int64_t seed_stride, n, lo, hi, dim, count;
     uint64_t key_mask, t;    /* zsobol(_t): the Morton key's bits; zsobol_t: the frame mod F;
                                 Cycles: (seed0, first sequence's seed) and (spp, first) */
-    const uint32_t *keys;    /* per pair from dim / 2: owen_sobol 3 hashes, zsobol(_t) 2 seeds */
+    const uint32_t *keys;    /* per pair from dim / 2: owen_sobol 3 hashes, zsobol(_t) 2 seeds;
+                                white: per dimension from dim, its hash */
     const uint8_t *perm;     /* zsobol: 24 x 4; zsobol_t: 40320 x 8 */
     int log2spp, n_digits;
     uint64_t epoch;
@@ -320,10 +321,32 @@ static void zsobol_lanes(const sjob_t *j) {
     }
 }
 
+/* White noise, a block of lanes at a time: each lane's (seed, index) hash first, then one
+   dimension after the other over the block, a loop over contiguous lanes the compiler
+   vectorizes (the torch path's order of passes, in cache). */
+static void white_lanes(const sjob_t *j) {
+    enum { BLOCK = 512 };
+    uint32_t prefix[BLOCK];
+    for (int64_t i0 = j->lo; i0 < j->hi; i0 += BLOCK) {
+        int64_t m = j->hi - i0 < BLOCK ? j->hi - i0 : BLOCK;
+        for (int64_t k = 0; k < m; ++k) {
+            uint32_t seed = (uint32_t)j->seed[(i0 + k) * j->seed_stride];
+            prefix[k] = lowbias32(lowbias32(seed ^ 0x9E3779B9u) ^ (uint32_t)j->index[i0 + k]);
+        }
+        for (int64_t d = 0; d < j->count; ++d) {
+            uint32_t key = j->keys[d];
+            float *row = j->out + d * j->n + i0;
+            for (int64_t k = 0; k < m; ++k)
+                row[k] = (float)(lowbias32(prefix[k] ^ key) >> 8) * 0x1p-24f;
+        }
+    }
+}
+
 static void *run_lanes(void *arg) {
     const sjob_t *j = (const sjob_t *)arg;
     if (j->kind == 0 || j->kind == 3) owen_sobol_lanes(j);
     else if (j->kind == 4) ldbn_lanes(j);
+    else if (j->kind == 5) white_lanes(j);
     else zsobol_lanes(j);
     return 0;
 }
@@ -354,6 +377,16 @@ static int run(sjob_t base, int threads) {
     run_lanes(&jobs[0]);
     for (int t = 1; t <= started; ++t) pthread_join(ids[t], 0);
     return 0;
+}
+
+/* White noise: lowbias32(lowbias32(lowbias32(seed ^ 0x9E3779B9) ^ index) ^ keys[d]) >> 8 scaled
+   by 2^-24, keys[d] = lowbias32((dim + d) ^ 0x85EBCA6B) for d < count. seed_stride 0 gives
+   every lane seed[0]. */
+int bnerr_white(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
+                int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
+    sjob_t j = {5, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0,
+                out, 0};
+    return run(j, threads);
 }
 
 /* Owen-Sobol padded by 2D pairs; keys: 3 per pair from dim / 2, lowbias32(4 pair + role ^ salt)
