@@ -70,3 +70,37 @@ def test_a_command_imports_only_its_own_module():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "['benchmarks.commands.scenes']"
+
+
+def _entry_process(args, tmp_path):
+    """``benchmarks.cli.entry`` in a new process with an atexit handler that prints a marker."""
+    import subprocess
+    import sys
+
+    code = (
+        "import atexit, sys; from benchmarks.cli import entry\n"
+        "atexit.register(lambda: print('teardown ran', flush=True))\n"
+        f"sys.argv = ['bnerr', *{list(args)!r}]\n"
+        "entry()"
+    )
+    return subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path
+    )
+
+
+def test_render_exits_without_the_interpreters_teardown_and_keeps_its_files(tmp_path):
+    out = tmp_path / "frames"
+    args = ["render", "--scene", "direct", "--res", "8x8", "--spp", "1", "--frames", "1",
+            "--no-compile", "--out", str(out)]  # fmt: skip
+    done = _entry_process(args, tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "teardown ran" not in done.stdout and "direct_0000.exr" in done.stdout
+    written = sorted(p.name for p in out.iterdir())  # as a normal exit leaves them
+    assert written == [".bnerr.lock", "direct_0000.exr", "direct_0000.png"]
+    refused = _entry_process(["render", "--scene", "direct", "--spp", "0"], tmp_path)
+    assert refused.returncode == 2 and "teardown ran" in refused.stdout  # argparse's refusal
+
+
+def test_other_commands_exit_through_the_interpreters_teardown(tmp_path):
+    done = _entry_process(["scenes"], tmp_path)
+    assert done.returncode == 0 and done.stdout.rstrip().endswith("teardown ran")
