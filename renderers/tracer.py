@@ -546,7 +546,10 @@ def _intra_op_threads(n: int) -> Iterator[None]:
 
 
 def _run_ranges(
-    work: Callable[[tuple[int, int]], None], ranges: list[tuple[int, int]], workers: int
+    work: Callable[[tuple[int, int]], None],
+    ranges: list[tuple[int, int]],
+    workers: int,
+    warm_alone: bool = False,
 ) -> None:
     """Run ``work`` on every pixel range, ``workers`` ranges at a time (caller: one op thread).
 
@@ -556,21 +559,26 @@ def _run_ranges(
     independent, so :func:`render` runs its ops single-threaded and lets each of ``workers``
     Python threads trace whole chunks (the kernels release the GIL), like Mitsuba's block
     scheduler. Every range writes its own pixels, in a fixed order within the range, so the
-    result does not depend on the thread count or the scheduling. The first and the last range
-    run alone first, so that ``torch.compile`` sees every lane count before threads share it.
+    result does not depend on the thread count or the scheduling. With ``warm_alone`` (a
+    ``torch.compile`` stage) the first and the last range run alone first, so that it sees every
+    lane count before threads share it; eager and packaged stages start every range in the pool
+    (a 256x256, 32 spp render has 32 ranges: two alone then 30 on two threads take the time of
+    17 ranges, all 32 on two threads that of 16).
     """
     if workers == 1 or len(ranges) <= 2:
         for pixel_range in ranges:
             work(pixel_range)
         return
-    work(ranges[0])
-    work(ranges[-1])
+    if warm_alone:
+        work(ranges[0])
+        work(ranges[-1])
+        ranges = ranges[1:-1]
     # OpenMP keeps its thread count per thread: a fresh worker would open regions of the
     # machine's default size inside compiled kernels unless told otherwise.
     with concurrent.futures.ThreadPoolExecutor(
         workers, initializer=torch.set_num_threads, initargs=(1,)
     ) as pool:
-        for _ in pool.map(work, ranges[1:-1]):
+        for _ in pool.map(work, ranges):
             pass
 
 
@@ -743,7 +751,7 @@ def _render(
         _run_ranges(work, ranges, workers)
     else:
         with torch._dynamo.config.patch(recompile_limit=RECOMPILE_LIMIT):
-            _run_ranges(work, ranges, workers)
+            _run_ranges(work, ranges, workers, warm_alone=True)
     cam_prev = camera_frame(scene.camera, t - 1, width, height, device)
     depth, object_id, motion = _guide_buffers(st, cam, cam_prev, n_pixels, width, chunk)
 
