@@ -103,10 +103,20 @@ def entry() -> NoReturn:
     """
     code, fast = _run(None)
     if fast:
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(code)
+        os._exit(code if _flushed() else 120)
     sys.exit(code)
+
+
+def _flushed() -> bool:
+    """Flush stdout and stderr; False if one refused (a reader that closed its pipe): the exit
+    code is then 120, Python's own when its teardown cannot flush."""
+    ok = True
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed pipe, a closed file
+            ok = False
+    return ok
 
 
 def _run(argv: list[str] | None) -> tuple[int, bool]:

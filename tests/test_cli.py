@@ -104,3 +104,17 @@ def test_render_exits_without_the_interpreters_teardown_and_keeps_its_files(tmp_
 def test_other_commands_exit_through_the_interpreters_teardown(tmp_path):
     done = _entry_process(["scenes"], tmp_path)
     assert done.returncode == 0 and done.stdout.rstrip().endswith("teardown ran")
+
+
+def test_a_stream_that_refuses_its_flush_gives_exit_code_120(monkeypatch):
+    class Closed:
+        def flush(self):
+            raise BrokenPipeError(32, "Broken pipe")
+
+    exits = []
+    monkeypatch.setattr(cli, "_run", lambda argv: (0, True))
+    monkeypatch.setattr(cli.os, "_exit", exits.append)
+    cli.entry()
+    monkeypatch.setattr(cli.sys, "stdout", Closed())
+    cli.entry()
+    assert exits == [0, 120]
