@@ -111,10 +111,16 @@ def test_a_stream_that_refuses_its_flush_gives_exit_code_120(monkeypatch):
         def flush(self):
             raise BrokenPipeError(32, "Broken pipe")
 
-    exits = []
+    class Exited(Exception):
+        pass
+
+    def fake_exit(code):
+        raise Exited(code)
+
     monkeypatch.setattr(cli, "_run", lambda argv: (0, True))
-    monkeypatch.setattr(cli.os, "_exit", exits.append)
-    cli.entry()
+    monkeypatch.setattr(cli.os, "_exit", fake_exit)
+    with pytest.raises(Exited, match="^0$"):
+        cli.entry()
     monkeypatch.setattr(cli.sys, "stdout", Closed())
-    cli.entry()
-    assert exits == [0, 120]
+    with pytest.raises(Exited, match="^120$"):
+        cli.entry()
