@@ -38,7 +38,8 @@ __all__ = [
     "native_cycles",
     "native_ldbn",
     "native_owen_sobol",
-    "native_white",
+    "native_seeded",
+    "seeded_self_check",
     "native_zsobol",
     "threads_for",
     "uses_native",
@@ -122,28 +123,6 @@ def _u32(values: Sequence[int]) -> torch.Tensor:
     return torch.tensor([v & 0xFFFFFFFF for v in values], dtype=torch.int64).to(torch.int32)
 
 
-def native_white(
-    kernels: SamplerKernels,
-    seed: torch.Tensor,
-    index: torch.Tensor,
-    dim: int,
-    keys: Sequence[int],
-    out: torch.Tensor,
-) -> bool:
-    """White noise of dims ``dim .. dim + len(out) - 1`` into the rows of ``out`` (in place).
-
-    Args:
-        seed: int64 ``[N]``, or 0-dim (one seed for every lane).
-        index: int64 ``[N]``.
-        keys: per dimension from ``dim``, its host hash.
-        out: float32 ``[count, N]``, contiguous.
-
-    Returns:
-        False when the kernel refused the sizes (``out`` is then to be filled by the caller).
-    """
-    return _seeded_lanes(kernels.white, seed, index, dim, keys, out)
-
-
 def native_owen_sobol(
     kernels: SamplerKernels,
     seed: torch.Tensor,
@@ -163,10 +142,10 @@ def native_owen_sobol(
     Returns:
         False when the kernel refused the sizes (``out`` is then to be filled by the caller).
     """
-    return _seeded_lanes(kernels.owen_sobol, seed, index, dim, keys, out)
+    return native_seeded(kernels.owen_sobol, seed, index, dim, keys, out)
 
 
-def _seeded_lanes(
+def native_seeded(
     kernel: Callable[..., int],
     seed: torch.Tensor,
     index: torch.Tensor,
@@ -174,8 +153,19 @@ def _seeded_lanes(
     keys: Sequence[int],
     out: torch.Tensor,
 ) -> bool:
-    """Call a kernel of the (seed, seed stride, index, n, dim, count, keys, out, threads)
-    signature: white noise's or Owen-Sobol's."""
+    """Dims ``dim .. dim + len(out) - 1`` of the lanes (seed, index) into the rows of ``out`` by
+    a kernel of the signature (seed, seed stride, index, n, dim, count, keys, out, threads):
+    ``kernels.white`` (keys: per dimension from ``dim``, its host hash) or ``kernels.owen_sobol``
+    (:func:`native_owen_sobol`).
+
+    Args:
+        seed: int64 ``[N]``, or 0-dim (one seed for every lane).
+        index: int64 ``[N]``.
+        out: float32 ``[count, N]``, contiguous.
+
+    Returns:
+        False when the kernel refused the sizes (``out`` is then to be filled by the caller).
+    """
     seed, index = seed.contiguous(), index.contiguous()
     table = _u32(keys)
     count, n = out.shape
@@ -185,6 +175,33 @@ def _seeded_lanes(
         out.data_ptr(), threads_for(n),
     )  # fmt: skip
     return code == 0
+
+
+def seeded_self_check(
+    kernel: Callable[..., int],
+    torch_path: Callable[[torch.Tensor, torch.Tensor, int, torch.Tensor], None],
+    keys: Callable[[int, int], list[int]],
+    cases: Sequence[tuple[int, int]],
+    lanes: int,
+    seed: int,
+) -> bool:
+    """A :func:`native_seeded` kernel against its sampler's torch path, bit for bit: ``lanes``
+    random (seed, index) lanes drawn with ``seed`` (the first three extreme words), each
+    ``(dim, count)`` of ``cases`` for the per-lane seeds, and the first case's ``dim`` with one
+    shared 0-dim seed; ``keys(dim, count)`` gives the kernel's host keys."""
+    gen = torch.Generator().manual_seed(seed)
+    seeds = torch.randint(-(2**40), 2**40, (lanes,), generator=gen)
+    index = torch.randint(0, 2**33, (lanes,), generator=gen)
+    seeds[:3], index[:3] = torch.tensor([0, -1, 2**32 - 1]), torch.tensor([0, 2**32 - 1, 1])
+    runs = [(seeds, dim, count) for dim, count in cases] + [(seeds[7], 3, 1)]
+    for lane_seeds, dim, count in runs:
+        want = torch.empty(count, lanes)
+        got = torch.empty(count, lanes)
+        torch_path(lane_seeds, index, dim, want)
+        ok = native_seeded(kernel, lane_seeds, index, dim, keys(dim, count), got)
+        if not ok or not torch.equal(got, want):
+            return False
+    return True
 
 
 def native_zsobol(

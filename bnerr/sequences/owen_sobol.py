@@ -162,18 +162,10 @@ def _owen_sobol_columns_torch(
 def _self_check(kernels: native.SamplerKernels) -> bool:
     """The native kernel against the torch path on random lanes, odd and even first dimensions,
     a shared 0-dim seed and extreme words: True if bit-identical."""
-    gen = torch.Generator().manual_seed(97)
-    seed = torch.randint(-(2**40), 2**40, (301,), generator=gen)
-    index = torch.randint(0, 2**33, (301,), generator=gen)
-    seed[:3], index[:3] = torch.tensor([0, -1, 2**32 - 1]), torch.tensor([0, 2**32 - 1, 1])
-    for lanes_seed, dim, count in ((seed, 0, 8), (seed, 5, 4), (seed[7], 3, 1), (seed, 64, 3)):
-        want = torch.empty(count, 301)
-        got = torch.empty(count, 301)
-        _owen_sobol_columns_torch(lanes_seed, index, dim, want)
-        ok = native.native_owen_sobol(kernels, lanes_seed, index, dim, _pair_keys(dim, count), got)
-        if not ok or not torch.equal(got, want):
-            return False
-    return True
+    cases = ((0, 8), (5, 4), (64, 3))
+    return native.seeded_self_check(
+        kernels.owen_sobol, _owen_sobol_columns_torch, _pair_keys, cases, 301, 97
+    )
 
 
 #: The native kernels if they load and pass :func:`_self_check` (run once per library).

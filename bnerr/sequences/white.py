@@ -68,8 +68,8 @@ def _white_columns(seed: torch.Tensor, index: torch.Tensor, dim: int, out: torch
     """
     if native.uses_native(seed, index, out) and out.is_contiguous():
         kernels = _native_kernels()
-        if kernels is not None and native.native_white(
-            kernels, seed, index, dim, _dim_keys(dim, out.shape[0]), out
+        if kernels is not None and native.native_seeded(
+            kernels.white, seed, index, dim, _dim_keys(dim, out.shape[0]), out
         ):
             return
     _white_columns_torch(seed, index, dim, out)
@@ -92,18 +92,8 @@ def _white_columns_torch(
 def _self_check(kernels: native.SamplerKernels) -> bool:
     """The native kernel against the torch path on random lanes (more than one block), a shared
     0-dim seed, extreme words and high dimensions: True if bit-identical."""
-    gen = torch.Generator().manual_seed(89)
-    seed = torch.randint(-(2**40), 2**40, (1301,), generator=gen)
-    index = torch.randint(0, 2**33, (1301,), generator=gen)
-    seed[:3], index[:3] = torch.tensor([0, -1, 2**32 - 1]), torch.tensor([0, 2**32 - 1, 1])
-    for lanes_seed, dim, count in ((seed, 0, 8), (seed, 5, 3), (seed[7], 3, 1), (seed, 2**31, 2)):
-        want = torch.empty(count, 1301)
-        got = torch.empty(count, 1301)
-        _white_columns_torch(lanes_seed, index, dim, want)
-        ok = native.native_white(kernels, lanes_seed, index, dim, _dim_keys(dim, count), got)
-        if not ok or not torch.equal(got, want):
-            return False
-    return True
+    cases = ((0, 8), (5, 3), (2**31, 2))
+    return native.seeded_self_check(kernels.white, _white_columns_torch, _dim_keys, cases, 1301, 89)
 
 
 #: The native kernels if they load and pass :func:`_self_check` (run once per library).
