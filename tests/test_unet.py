@@ -27,6 +27,7 @@ from denoisers.unet import (
     parameter_count,
     save_weights,
     unet_denoise,
+    upsampled_transpose_kernel,
 )
 
 
@@ -350,6 +351,25 @@ def test_folded_kernel_on_the_low_resolution_input_is_the_conv_of_the_upsampled_
     # Sums of 36 products of unit normals: float32 rounding, measured below 4e-6.
     torch.testing.assert_close(got, want, rtol=1e-5, atol=2e-5)
     assert got.is_contiguous(memory_format=torch.channels_last)
+
+
+@pytest.mark.parametrize("h, w", [(5, 7), (1, 1), (6, 4), (3, 8)])
+def test_transposed_kernel_on_the_low_resolution_input_is_the_conv_of_the_upsampled_input(h, w):
+    """The stride-2 transposed convolution that replaces folding and interleaving, against the
+    same slow twin, and against the folded kernel it rearranges."""
+    g = torch.Generator().manual_seed(h * w + 1)
+    low, weight = torch.randn(2, 4, h, w, generator=g), torch.randn(6, 4, 3, 3, generator=g)
+    want = torch.nn.functional.conv2d(
+        torch.nn.functional.interpolate(low, scale_factor=2.0, mode="nearest"), weight, padding=1
+    )
+    kernel = upsampled_transpose_kernel(weight)
+    assert kernel.shape == (4, 6, 4, 4)
+    low = low.contiguous(memory_format=torch.channels_last)
+    got = torch.nn.functional.conv_transpose2d(low, kernel, stride=2, padding=1)
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=2e-5)
+    z = torch.nn.functional.conv2d(low, fold_upsampled_kernel(weight), padding=1)
+    folded = interleave_phases(z.contiguous(memory_format=torch.channels_last), 6)
+    torch.testing.assert_close(got, folded, rtol=1e-5, atol=2e-5)
 
 
 def test_unet_blue_is_registered_with_its_own_shipped_weights():
