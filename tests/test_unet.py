@@ -20,6 +20,7 @@ from denoisers.unet import (
     UNet,
     UNetDenoiser,
     auto_exposure,
+    conv_into,
     fold_upsampled_kernel,
     interleave_phases,
     load_weights,
@@ -316,6 +317,35 @@ def test_fast_unet_is_bit_identical_run_to_run_and_across_thread_counts():
             assert torch.equal(fast(x), first)
     finally:
         torch.set_num_threads(threads)
+
+
+def test_fast_unet_outputs_are_new_while_it_keeps_its_buffers_between_sizes():
+    """The kept activation buffers never leak into a result: an earlier output stays as it was
+    after later calls, at the same size and at others (which replace the buffers)."""
+    net = load_weights(DEFAULT_WEIGHTS)
+    fast = FastUNet(net)
+    x, y = _net_input(16, 24, batch=1), _net_input(21, 13, batch=2, seed=1)
+    with torch.no_grad():
+        first = fast(x)
+        kept = first.clone()
+        torch.testing.assert_close(fast(y), net(y), **FAST_TOL)
+        assert torch.equal(fast(x), kept) and torch.equal(first, kept)
+    assert len(fast._buffers) == 2
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_conv_into_sums_into_its_output_in_place(monkeypatch, fused):
+    g = torch.Generator().manual_seed(3)
+    x = torch.randn(1, 5, 6, 7, generator=g).contiguous(memory_format=torch.channels_last)
+    weight, bias = torch.randn(4, 5, 3, 3, generator=g), torch.randn(4, generator=g)
+    out = torch.randn(1, 4, 6, 7, generator=g).contiguous(memory_format=torch.channels_last)
+    want = torch.relu(torch.nn.functional.conv2d(x, weight, bias, padding=1) + out)
+    if not fused:
+        monkeypatch.setattr(unet_module, "_fused_op", lambda: None)
+    with torch.no_grad():
+        got = conv_into(out, x, weight, bias, relu=True)
+    assert got is out
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5)
 
 
 def test_fast_unet_without_onednns_fused_op_gives_the_same_output(monkeypatch):
