@@ -350,16 +350,45 @@ class FastUNet:
         up = F.conv_transpose2d(low, kernel, stride=2, padding=1)
         return conv_into(up, skip, skip_weight, bias, True)
 
-    def _conv_zeroed(self, x: torch.Tensor, name: str, slot: int) -> torch.Tensor:
-        """``relu(conv(x))`` written into the kept full-resolution buffer ``slot`` (zeroed first:
-        a fill of memory already mapped is cheaper than faulting in a new tensor)."""
-        buffers = self._buffers
-        key = (slot, x.shape[0], x.shape[2], x.shape[3])
-        if key not in buffers:
-            shape = (x.shape[0], self.widths[0], x.shape[2], x.shape[3])
-            buffers[key] = torch.empty(shape, memory_format=torch.channels_last)
-        out = buffers[key].zero_()
-        return conv_into(out, x, self._w[f"{name}.weight"], self._w[f"{name}.bias"], True)
+    def _buffer(self, slot: str, shape: tuple[int, int, int, int]) -> torch.Tensor:
+        """The kept channels-last buffer ``slot`` of ``shape`` (a new one if the last call's
+        differs). Its contents are whatever was last written there."""
+        buffer = self._buffers.get(slot)
+        if buffer is None or buffer.shape != shape:
+            self._buffers.pop(slot, None)  # free the old one first
+            buffer = torch.empty(shape, memory_format=torch.channels_last)
+            self._buffers[slot] = buffer
+        return buffer
+
+    def _conv_kept(self, x: torch.Tensor, name: str, slot: str) -> torch.Tensor:
+        """``relu(conv(x))`` written into the kept buffer ``slot`` (zeroed first: a fill of
+        memory already mapped is cheaper than faulting in a new tensor)."""
+        weight = self._w[f"{name}.weight"]
+        n, _, h, w = x.shape
+        out = self._buffer(slot, (n, weight.shape[0], h, w)).zero_()
+        return conv_into(out, x, weight, self._w[f"{name}.bias"], True)
+
+    def _pool_kept(self, y: torch.Tensor, slot: str) -> torch.Tensor:
+        """``max_pool2d(y, 2)`` (even height and width) written into the kept buffer ``slot``:
+        the max of the four 2 x 2 phases, exact; no int64 indices, no new tensor."""
+        n, c, h, w = y.shape
+        out = self._buffer(slot, (n, c, h // 2, w // 2))
+        phases = y.permute(0, 2, 3, 1).view(n, h // 2, 2, w // 2, 2, c)
+        o = out.permute(0, 2, 3, 1)
+        torch.maximum(phases[:, :, 0, :, 0], phases[:, :, 0, :, 1], out=o)
+        torch.maximum(o, phases[:, :, 1, :, 0], out=o)
+        torch.maximum(o, phases[:, :, 1, :, 1], out=o)
+        return out
+
+    def _padded_input(self, x: torch.Tensor) -> torch.Tensor:
+        """``x`` padded by replication to multiples of 8, channels-last, in the kept buffer."""
+        n, c, h, w = x.shape
+        shape = (n, c, h + (-h) % 8, w + (-w) % 8)
+        out = self._buffer("input", shape)
+        out[:, :, :h, :w].copy_(x)
+        out[:, :, :h, w:].copy_(out[:, :, :h, w - 1 : w].expand(n, c, h, shape[3] - w))
+        out[:, :, h:, :].copy_(out[:, :, h - 1 : h, :].expand(n, c, shape[2] - h, shape[3]))
+        return out
 
     def __call__(self, x: torch.Tensor) -> torch.Tensor:
         if x.device.type != "cpu" or x.dtype != torch.float32 or torch.is_grad_enabled():
@@ -369,19 +398,15 @@ class FastUNet:
 
     def _forward(self, x: torch.Tensor) -> torch.Tensor:
         h, w = x.shape[-2:]
-        ph, pw = (-h) % 8, (-w) % 8
-        x = F.pad(x, (0, pw, 0, ph), mode="replicate") if ph or pw else x
-        x = x.contiguous(memory_format=torch.channels_last)
-        if any(k[1:] != (x.shape[0], x.shape[2], x.shape[3]) for k in self._buffers):
-            self._buffers.clear()  # keep the buffers of one input size only
-        y = self._conv_zeroed(self._conv_zeroed(x, "enc0", 0), "enc1", 1)
-        skip1 = F.max_pool2d(y, 2)  # 1/2
-        skip2 = F.max_pool2d(self._conv(skip1, "enc2"), 2)  # 1/4
-        y = F.max_pool2d(self._conv(skip2, "enc3"), 2)  # 1/8
-        y = self._conv(self._conv(y, "mid_a"), "mid_b")
-        y = self._conv(self._up_cat_conv(y, skip2, "dec3_a"), "dec3_b")  # 1/4
-        y = self._conv(self._up_cat_conv(y, skip1, "dec2_a"), "dec2_b")  # 1/2
-        y = self._conv_zeroed(self._up_cat_conv(y, x, "dec1_a"), "dec1_b", 0)  # 1
+        x = self._padded_input(x)
+        y = self._conv_kept(self._conv_kept(x, "enc0", "full0"), "enc1", "full1")
+        skip1 = self._pool_kept(y, "skip1")  # 1/2
+        skip2 = self._pool_kept(self._conv_kept(skip1, "enc2", "half"), "skip2")  # 1/4
+        y = self._pool_kept(self._conv_kept(skip2, "enc3", "quarter"), "eighth0")  # 1/8
+        y = self._conv_kept(self._conv_kept(y, "mid_a", "eighth1"), "mid_b", "eighth2")
+        y = self._conv_kept(self._up_cat_conv(y, skip2, "dec3_a"), "dec3_b", "quarter")  # 1/4
+        y = self._conv_kept(self._up_cat_conv(y, skip1, "dec2_a"), "dec2_b", "half")  # 1/2
+        y = self._conv_kept(self._up_cat_conv(y, x, "dec1_a"), "dec1_b", "full0")  # 1
         if not self.residual:
             return self._conv(y, "out", relu=False)[..., :h, :w]
         color = x[:, :3].contiguous(memory_format=torch.channels_last)  # new: it is returned

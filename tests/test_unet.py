@@ -330,7 +330,7 @@ def test_fast_unet_outputs_are_new_while_it_keeps_its_buffers_between_sizes():
         kept = first.clone()
         torch.testing.assert_close(fast(y), net(y), **FAST_TOL)
         assert torch.equal(fast(x), kept) and torch.equal(first, kept)
-    assert len(fast._buffers) == 2
+    assert all(b.shape[0] == 1 for b in fast._buffers.values())  # the last size's only
 
 
 @pytest.mark.parametrize("fused", [True, False])
