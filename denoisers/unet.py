@@ -329,6 +329,8 @@ class FastUNet:
         self._split = {}
         self._buffers: dict[tuple[int, ...], torch.Tensor] = {}
         self._lock = threading.Lock()
+        self._packs: dict[tuple[object, ...], torch.Tensor] = {}
+        self._packed_for: torch.Size | None = None
         low = {"dec3_a": model.widths[3], "dec2_a": model.widths[2], "dec1_a": model.widths[1]}
         for name, c_up in low.items():
             weight = self._w.pop(f"{name}.weight")
@@ -347,8 +349,32 @@ class FastUNet:
         """``relu(conv(cat([up(low), skip])))`` without building the upsampled tensor or the
         concatenation."""
         kernel, skip_weight, bias = self._split[name]
-        up = F.conv_transpose2d(low, kernel, stride=2, padding=1)
-        return conv_into(up, skip, skip_weight, bias, True)
+        if _fused_op() is None or not torch.backends.mkldnn.is_available():
+            up = F.conv_transpose2d(low, kernel, stride=2, padding=1)
+        else:  # the same oneDNN deconvolution, with the kernel in its blocked layout already
+            one, packed = [1, 1], self._pack(f"{name}.up", kernel, low, transpose=True)
+            up = torch.ops.mkldnn._convolution_transpose_pointwise(
+                low, packed, None, one, [0, 0], [2, 2], one, 1, "none", [None], ""
+            )
+        return conv_into(up, skip, self._pack(f"{name}.skip", skip_weight, skip), bias, True)
+
+    def _pack(
+        self, name: str, weight: torch.Tensor, x: torch.Tensor, transpose: bool = False
+    ) -> torch.Tensor:
+        """``weight`` reordered once into the blocked layout oneDNN picks for input ``x``'s shape
+        (cached per shape), instead of on every call; ``weight`` itself without oneDNN."""
+        if _fused_op() is None or not torch.backends.mkldnn.is_available():
+            return weight
+        key = (name, *x.shape)
+        if key not in self._packs:
+            one, shape = [1, 1], list(x.shape)
+            if transpose:
+                reorder = torch.ops.mkldnn._reorder_convolution_transpose_weight
+                self._packs[key] = reorder(weight, one, [0, 0], [2, 2], one, 1, shape)
+            else:
+                reorder = torch.ops.mkldnn._reorder_convolution_weight
+                self._packs[key] = reorder(weight, one, one, one, 1, shape)
+        return self._packs[key]
 
     def _buffer(self, slot: str, shape: tuple[int, int, int, int]) -> torch.Tensor:
         """The kept channels-last buffer ``slot`` of ``shape`` (a new one if the last call's
@@ -366,7 +392,7 @@ class FastUNet:
         weight = self._w[f"{name}.weight"]
         n, _, h, w = x.shape
         out = self._buffer(slot, (n, weight.shape[0], h, w)).zero_()
-        return conv_into(out, x, weight, self._w[f"{name}.bias"], True)
+        return conv_into(out, x, self._pack(name, weight, x), self._w[f"{name}.bias"], True)
 
     def _pool_kept(self, y: torch.Tensor, slot: str) -> torch.Tensor:
         """``max_pool2d(y, 2)`` (even height and width) written into the kept buffer ``slot``:
@@ -399,6 +425,9 @@ class FastUNet:
     def _forward(self, x: torch.Tensor) -> torch.Tensor:
         h, w = x.shape[-2:]
         x = self._padded_input(x)
+        if self._packed_for != x.shape:
+            self._packs.clear()  # the packed weights of the last input size only
+            self._packed_for = x.shape
         y = self._conv_kept(self._conv_kept(x, "enc0", "full0"), "enc1", "full1")
         skip1 = self._pool_kept(y, "skip1")  # 1/2
         skip2 = self._pool_kept(self._conv_kept(skip1, "enc2", "half"), "skip2")  # 1/4
@@ -410,7 +439,8 @@ class FastUNet:
         if not self.residual:
             return self._conv(y, "out", relu=False)[..., :h, :w]
         color = x[:, :3].contiguous(memory_format=torch.channels_last)  # new: it is returned
-        return conv_into(color, y, self._w["out.weight"], self._w["out.bias"], False)[..., :h, :w]
+        weight = self._pack("out", self._w["out.weight"], y)
+        return conv_into(color, y, weight, self._w["out.bias"], False)[..., :h, :w]
 
 
 def unet_denoise(

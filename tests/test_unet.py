@@ -331,6 +331,7 @@ def test_fast_unet_outputs_are_new_while_it_keeps_its_buffers_between_sizes():
         torch.testing.assert_close(fast(y), net(y), **FAST_TOL)
         assert torch.equal(fast(x), kept) and torch.equal(first, kept)
     assert all(b.shape[0] == 1 for b in fast._buffers.values())  # the last size's only
+    assert fast._packs and all(key[1] == 1 for key in fast._packs)  # weights packed for it
 
 
 @pytest.mark.parametrize("fused", [True, False])
