@@ -406,25 +406,37 @@ class FastUNet:
         torch.maximum(o, phases[:, :, 1, :, 1], out=o)
         return out
 
-    def _padded_input(self, x: torch.Tensor) -> torch.Tensor:
-        """``x`` padded by replication to multiples of 8, channels-last, in the kept buffer."""
-        n, c, h, w = x.shape
+    def _padded_input(self, parts: Sequence[torch.Tensor]) -> torch.Tensor:
+        """``torch.cat(parts, 1)`` padded by replication to multiples of 8, channels-last, in the
+        kept buffer (each part copied straight into its channels: no concatenation)."""
+        n, _, h, w = parts[0].shape
+        c = sum(part.shape[1] for part in parts)
         shape = (n, c, h + (-h) % 8, w + (-w) % 8)
         out = self._buffer("input", shape)
-        out[:, :, :h, :w].copy_(x)
+        first = 0
+        for part in parts:
+            out[:, first : first + part.shape[1], :h, :w].copy_(part)
+            first += part.shape[1]
         out[:, :, :h, w:].copy_(out[:, :, :h, w - 1 : w].expand(n, c, h, shape[3] - w))
         out[:, :, h:, :].copy_(out[:, :, h - 1 : h, :].expand(n, c, shape[2] - h, shape[3]))
         return out
 
     def __call__(self, x: torch.Tensor) -> torch.Tensor:
-        if x.device.type != "cpu" or x.dtype != torch.float32 or torch.is_grad_enabled():
-            return self.model(x)
-        with self._lock:  # the kept buffers serve one call at a time
-            return self._forward(x)
+        return self.call_parts([x])
 
-    def _forward(self, x: torch.Tensor) -> torch.Tensor:
-        h, w = x.shape[-2:]
-        x = self._padded_input(x)
+    def call_parts(self, parts: Sequence[torch.Tensor]) -> torch.Tensor:
+        """The network on ``torch.cat(parts, 1)`` (``[B, c_i, H, W]`` each), without building
+        the concatenation on the fast path; the plain network (on the concatenation) where
+        :class:`FastUNet` defers to it."""
+        fast = all(p.device.type == "cpu" and p.dtype == torch.float32 for p in parts)
+        if not fast or torch.is_grad_enabled():
+            return self.model(torch.cat(list(parts), 1))
+        with self._lock:  # the kept buffers serve one call at a time
+            return self._forward(parts)
+
+    def _forward(self, parts: Sequence[torch.Tensor]) -> torch.Tensor:
+        h, w = parts[0].shape[-2:]
+        x = self._padded_input(parts)
         if self._packed_for != x.shape:
             self._packs.clear()  # the packed weights of the last input size only
             self._packed_for = x.shape
@@ -453,10 +465,15 @@ def unet_denoise(
     color's device. Returns ``[3, H, W]`` float32.
     """
     exposure = auto_exposure(color)
-    x = network_input(color, albedo, normal, exposure)
+    # network_input's arithmetic, in place on one new tensor; the FastUNet copies the three
+    # parts into its padded input buffer without a concatenation.
+    log_color = color.clamp_min(0.0).mul_(exposure).log1p_()
     with torch.no_grad():
-        y = model(x[None])[0]
-    return torch.expm1(y.clamp_min(0.0)) / exposure
+        if isinstance(model, FastUNet):
+            y = model.call_parts([log_color[None], albedo[None], normal[None]])[0]
+        else:
+            y = model(torch.cat([log_color, albedo, normal])[None])[0]
+    return y.clamp_min(0.0).expm1_().div_(exposure)
 
 
 def atomic_torch_save(obj: object, path: Path) -> None:

@@ -334,6 +334,15 @@ def test_fast_unet_outputs_are_new_while_it_keeps_its_buffers_between_sizes():
     assert fast._packs and all(key[1] == 1 for key in fast._packs)  # weights packed for it
 
 
+def test_fast_unet_on_parts_is_the_fast_unet_on_their_concatenation():
+    net = load_weights(DEFAULT_WEIGHTS)
+    fast, x = FastUNet(net), _net_input(13, 22)
+    parts = [x[:, :3], x[:, 3:6].clone(), x[:, 6:]]
+    with torch.no_grad():
+        assert torch.equal(fast.call_parts(parts), fast(x))
+    assert torch.equal(fast.call_parts(parts), net(x))  # gradients enabled: the plain network
+
+
 @pytest.mark.parametrize("fused", [True, False])
 def test_conv_into_sums_into_its_output_in_place(monkeypatch, fused):
     g = torch.Generator().manual_seed(3)
