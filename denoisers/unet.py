@@ -19,8 +19,9 @@ Much smaller than OIDN's (0.37 M parameters instead of about 0.9 M at the defaul
 baseline that shows what a learned denoiser does with white and blue-noise input, not a
 replacement for OIDN.
 
-Inference on the CPU runs :class:`FastUNet`, the same network rearranged for speed (folded
-upsampling convolutions, fused ReLU, channels-last layout; outputs equal within float32 rounding);
+Inference on the CPU runs :class:`FastUNet`, the same network rearranged for speed (upsampling
+convolutions folded into transposed convolutions, fused ReLU and sums, channels-last layout, kept
+buffers; outputs equal within float32 rounding);
 training and other devices run :class:`UNet` itself.
 """
 
@@ -35,7 +36,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from bnerr.color import LUMINANCE_WEIGHTS
-from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
+from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from denoisers.base import Denoiser
@@ -316,9 +317,10 @@ class FastUNet:
     Built from a network's weights once (a copy: later changes to ``model`` are not seen); called
     like the network on ``[B, 9, H, W]``. Other devices or dtypes, or a call with gradients
     enabled, run the plain network ``model`` instead, so training and CUDA are unaffected.
-    It keeps two full-resolution activation buffers of the last input size between calls (about
-    0.5 GB at 1080p: new ones would cost a page fault per 4 KiB on every call); calls from
-    several threads take turns. The returned tensor is always new.
+    It keeps its activation buffers for the last input size between calls (0.86 GB at
+    1080p: new ones would cost a page fault per 4 KiB on every call), and its weights packed
+    in oneDNN's layout for that size; calls from several threads take turns. The returned
+    tensor is always new.
     """
 
     def __init__(self, model: UNet) -> None:
@@ -431,6 +433,10 @@ class FastUNet:
         fast = all(p.device.type == "cpu" and p.dtype == torch.float32 for p in parts)
         if not fast or torch.is_grad_enabled():
             return self.model(torch.cat(list(parts), 1))
+        shapes = [tuple(part.shape) for part in parts]
+        if not shapes or any(len(s) != 4 or s[0:1] + s[2:] != shapes[0][0:1] + shapes[0][2:]
+                             for s in shapes):  # fmt: skip
+            raise ShapeError(f"FastUNet: expected [B, C, H, W] parts of one B, H, W, got {shapes}")
         with self._lock:  # the kept buffers serve one call at a time
             return self._forward(parts)
 

@@ -6,7 +6,7 @@ import pytest
 import torch
 from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
-from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
+from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.metrics import paired_ratio
 from denoisers import DENOISERS, get_denoiser
@@ -341,6 +341,29 @@ def test_fast_unet_on_parts_is_the_fast_unet_on_their_concatenation():
     with torch.no_grad():
         assert torch.equal(fast.call_parts(parts), fast(x))
     assert torch.equal(fast.call_parts(parts), net(x))  # gradients enabled: the plain network
+
+
+def test_fast_unet_refuses_parts_of_different_sizes():
+    fast, x = FastUNet(load_weights(DEFAULT_WEIGHTS)), _net_input(8, 8)
+    with torch.no_grad(), pytest.raises(ShapeError, match="parts of one B, H, W"):
+        fast.call_parts([x[:, :3], x[:, 3:, :7]])
+    with torch.no_grad(), pytest.raises(ShapeError):
+        fast(x[0])
+
+
+def test_fast_unet_calls_from_two_threads_take_turns_and_agree():
+    from concurrent.futures import ThreadPoolExecutor
+
+    fast, x = FastUNet(load_weights(DEFAULT_WEIGHTS)), _net_input(24, 40)
+    with torch.no_grad():
+        want = fast(x)
+
+    def run(_):
+        with torch.no_grad():
+            return fast(x)
+
+    with ThreadPoolExecutor(2) as pool:
+        assert all(torch.equal(got, want) for got in pool.map(run, range(4)))
 
 
 @pytest.mark.parametrize("fused", [True, False])
