@@ -193,17 +193,21 @@ class UNet(nn.Module):
         return y[..., :h, :w]
 
 
-# Inference-only fast path for the CPU (issue 16). Three changes to the plain forward, none to the
-# arithmetic it computes (only to the order of float32 sums):
+# Inference-only fast path for the CPU (issues 16 and 27). These changes to the plain forward,
+# none to the arithmetic it computes (only to the order of float32 sums):
 # - A 3 x 3 convolution of a 2x nearest-upsampled input is, for each of the 4 output phases (row
 #   and column parity), a 2 x 2 convolution of the low-resolution input with kernel taps summed
 #   ("folded"): 4 instead of 9 taps, run at a quarter of the pixels. Each decoder convolution of
 #   ``cat([up(y), skip])`` is split into that folded convolution of ``y`` plus a 3 x 3 convolution
 #   of ``skip`` alone, so neither the upsampled tensor nor the concatenation is materialised
 #   (the concatenation at full resolution was the largest single cost, 23 % of a 1080p forward).
+#   The four phases' folded taps run as one stride-2 transposed convolution, which writes them
+#   interleaved (:func:`upsampled_transpose_kernel`).
 # - ReLU and the sums are fused into oneDNN's convolutions (its pointwise post-ops), instead of
 #   separate passes over the activations in memory.
 # - Every activation is channels-last, the layout oneDNN's convolutions run fastest on.
+# - Activations go into buffers kept between calls (a new tensor's page faults cost about as much
+#   as a pass over it), and the weights are packed in oneDNN's layout once per input size.
 # Row selection per output phase: phase 0 (even rows) reads low rows i - 1, i, i for kernel rows
 # 0, 1, 2; phase 1 (odd rows) reads i, i, i + 1. Rows of ``_FOLD[a]``: the 2 folded taps.
 _FOLD = ((1.0, 0.0, 0.0), (0.0, 1.0, 1.0)), ((1.0, 1.0, 0.0), (0.0, 0.0, 1.0))
