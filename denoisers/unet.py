@@ -333,7 +333,7 @@ class FastUNet:
         self.widths = model.widths
         self._w = {k: v.detach().clone() for k, v in model.state_dict().items()}
         self._split = {}
-        self._buffers: dict[tuple[int, ...], torch.Tensor] = {}
+        self._buffers: dict[str, torch.Tensor] = {}
         self._lock = threading.Lock()
         self._packs: dict[tuple[object, ...], torch.Tensor] = {}
         self._packed_for: torch.Size | None = None
