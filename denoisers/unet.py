@@ -208,6 +208,8 @@ class UNet(nn.Module):
 # - Every activation is channels-last, the layout oneDNN's convolutions run fastest on.
 # - Activations go into buffers kept between calls (a new tensor's page faults cost about as much
 #   as a pass over it), and the weights are packed in oneDNN's layout once per input size.
+# - The full-resolution layers run in strips of rows with exact halos, so that their
+#   intermediates stay in the cache and no full-resolution activation is allocated.
 # Row selection per output phase: phase 0 (even rows) reads low rows i - 1, i, i for kernel rows
 # 0, 1, 2; phase 1 (odd rows) reads i, i, i + 1. Rows of ``_FOLD[a]``: the 2 folded taps.
 _FOLD = ((1.0, 0.0, 0.0), (0.0, 1.0, 1.0)), ((1.0, 1.0, 0.0), (0.0, 0.0, 1.0))
@@ -315,6 +317,19 @@ def conv_into(
     return out
 
 
+def _max_pool_into(out: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """``max_pool2d(y, 2)`` (channels-last, even height and width) written into ``out``
+    (channels-last, dense): the max of the four 2 x 2 phases, exact; no int64 indices (which
+    F.max_pool2d writes on the CPU, twice the output's bytes), no new tensor."""
+    n, c, h, w = y.shape
+    phases = y.permute(0, 2, 3, 1).view(n, h // 2, 2, w // 2, 2, c)
+    o = out.permute(0, 2, 3, 1)
+    torch.maximum(phases[:, :, 0, :, 0], phases[:, :, 0, :, 1], out=o)
+    torch.maximum(o, phases[:, :, 1, :, 0], out=o)
+    torch.maximum(o, phases[:, :, 1, :, 1], out=o)
+    return out
+
+
 class FastUNet:
     """Inference-only CPU float32 twin of a :class:`UNet` (same outputs within float32
     rounding): folded upsampling convolutions, fused ReLU and sums, channels-last activations.
@@ -322,15 +337,16 @@ class FastUNet:
     Built from a network's weights once (a copy: later changes to ``model`` are not seen); called
     like the network on ``[B, 9, H, W]``. Other devices or dtypes, or a call with gradients
     enabled, run the plain network ``model`` instead, so training and CUDA are unaffected.
-    It keeps its activation buffers for the last input size between calls (0.86 GB at
-    1080p: new ones would cost a page fault per 4 KiB on every call), and its weights packed
-    in oneDNN's layout for that size; calls from several threads take turns. The returned
-    tensor is always new.
+    The full-resolution layers run in strips of :attr:`strip_rows` rows (outputs equal to the
+    untiled network's). It keeps its lower-resolution activation buffers for the last input
+    size between calls (0.33 GB at 1080p: new ones would cost a page fault per 4 KiB on every
+    call), and its weights packed in oneDNN's layout for that size; calls from several
+    threads take turns. The returned tensor is always new.
     """
 
-    #: Output rows per strip of the full-resolution tail (64 rows of 48 channels at 1920 columns:
-    #: 24 MB, within the 32 MB L3). Measured 1080p unet_denoise: 1.84 s at 64 rows, 1.85 s at
-    #: 32, 1.99 s at 16, 2.02 s at 128, 2.93 s as one strip (new full-size tensors).
+    #: Output rows per strip of the full-resolution layers (64 rows of 48 channels at 1920
+    #: columns: 24 MB, within the 32 MB L3). Measured 1080p unet_denoise (tail in strips): 1.84 s
+    #: at 64 rows, 1.85 s at 32, 1.99 s at 16, 2.02 s at 128, 2.93 s as one strip.
     strip_rows = 64
 
     def __init__(self, model: UNet) -> None:
@@ -478,16 +494,26 @@ class FastUNet:
         return conv_into(out, x, self._pack(name, weight, x), self._w[f"{name}.bias"], True)
 
     def _pool_kept(self, y: torch.Tensor, slot: str) -> torch.Tensor:
-        """``max_pool2d(y, 2)`` (even height and width) written into the kept buffer ``slot``:
-        the max of the four 2 x 2 phases, exact; no int64 indices, no new tensor."""
+        """``max_pool2d(y, 2)`` (even height and width) written into the kept buffer ``slot``."""
         n, c, h, w = y.shape
-        out = self._buffer(slot, (n, c, h // 2, w // 2))
-        phases = y.permute(0, 2, 3, 1).view(n, h // 2, 2, w // 2, 2, c)
-        o = out.permute(0, 2, 3, 1)
-        torch.maximum(phases[:, :, 0, :, 0], phases[:, :, 0, :, 1], out=o)
-        torch.maximum(o, phases[:, :, 1, :, 0], out=o)
-        torch.maximum(o, phases[:, :, 1, :, 1], out=o)
-        return out
+        return _max_pool_into(self._buffer(slot, (n, c, h // 2, w // 2)), y)
+
+    def _head(self, x: torch.Tensor) -> torch.Tensor:
+        """``max_pool2d(enc1(enc0(x)), 2)`` (``skip1``, kept) in strips of :attr:`strip_rows`
+        rows (rounded up to even), like :meth:`_tail`: no full-resolution activation is kept."""
+        n, _, height, width = x.shape
+        self._height, step = height, max(int(self.strip_rows), 1)
+        step += step % 2
+        skip1 = self._buffer("skip1", (n, self.widths[0], height // 2, width // 2))
+        for i in range(n):
+            xi = x[i : i + 1]
+            for r0 in range(0, height, step):
+                rows = (r0, min(r0 + step, height))
+                e_rows = (max(r0 - 1, 0), min(rows[1] + 1, height))  # enc0's rows it needs
+                y = self._conv_rows(xi, 0, e_rows, "enc0", True)
+                y = self._conv_rows(y, e_rows[0], rows, "enc1", True)
+                _max_pool_into(skip1[i : i + 1, :, r0 // 2 : rows[1] // 2], y)
+        return skip1
 
     def _padded_input(self, parts: Sequence[torch.Tensor]) -> torch.Tensor:
         """``torch.cat(parts, 1)`` padded by replication to multiples of 8, channels-last, in the
@@ -527,8 +553,7 @@ class FastUNet:
         if self._packed_for != x.shape:
             self._packs.clear()  # the packed weights of the last input size only
             self._packed_for = x.shape
-        y = self._conv_kept(self._conv_kept(x, "enc0", "full0"), "enc1", "full1")
-        skip1 = self._pool_kept(y, "skip1")  # 1/2
+        skip1 = self._head(x)  # 1/2
         skip2 = self._pool_kept(self._conv_kept(skip1, "enc2", "half"), "skip2")  # 1/4
         y = self._pool_kept(self._conv_kept(skip2, "enc3", "quarter"), "eighth0")  # 1/8
         y = self._conv_kept(self._conv_kept(y, "mid_a", "eighth1"), "mid_b", "eighth2")
