@@ -6,7 +6,7 @@ import pytest
 import torch
 from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
-from bnerr.errors import DtypeError, FileFormatError, ValueRangeError
+from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.metrics import paired_ratio
 from denoisers import DENOISERS, get_denoiser
@@ -20,6 +20,7 @@ from denoisers.unet import (
     UNet,
     UNetDenoiser,
     auto_exposure,
+    conv_into,
     fold_upsampled_kernel,
     interleave_phases,
     load_weights,
@@ -27,6 +28,7 @@ from denoisers.unet import (
     parameter_count,
     save_weights,
     unet_denoise,
+    upsampled_transpose_kernel,
 )
 
 
@@ -317,6 +319,89 @@ def test_fast_unet_is_bit_identical_run_to_run_and_across_thread_counts():
         torch.set_num_threads(threads)
 
 
+def test_fast_unet_outputs_are_new_while_it_keeps_its_buffers_between_sizes():
+    """The kept activation buffers never leak into a result: an earlier output stays as it was
+    after later calls, at the same size and at others (which replace the buffers)."""
+    net = load_weights(DEFAULT_WEIGHTS)
+    fast = FastUNet(net)
+    x, y = _net_input(16, 24, batch=1), _net_input(21, 13, batch=2, seed=1)
+    with torch.no_grad():
+        first = fast(x)
+        kept = first.clone()
+        torch.testing.assert_close(fast(y), net(y), **FAST_TOL)
+        assert torch.equal(fast(x), kept) and torch.equal(first, kept)
+    assert all(b.shape[0] == 1 for b in fast._buffers.values())  # the last size's only
+    assert fast._packs and all(key[1] == 1 for key in fast._packs)  # weights packed for it
+
+
+@pytest.mark.parametrize("fused", [True, False])
+@pytest.mark.parametrize("residual", [True, False])
+def test_fast_unet_in_strips_of_rows_equals_it_in_one_strip(monkeypatch, fused, residual):
+    """The full-resolution tail in strips (with halos, border strips padded) against one strip
+    (the whole image): equal on this machine, bit for bit, for every strip height tried (8 to
+    10 ** 9, 1080p included); float tolerance for CPUs whose kernels block sums by shape."""
+    torch.manual_seed(2)
+    net = UNet((6, 5, 4, 3), residual=residual).eval()
+    x = _net_input(45, 19)
+    if not fused:
+        monkeypatch.setattr(unet_module, "_fused_op", lambda: None)
+    whole, strips = FastUNet(net), FastUNet(net)
+    whole.strip_rows = 10**9
+    with torch.no_grad():
+        want = whole(x)
+        for rows in (1, 8, 9, 16, 40):
+            strips.strip_rows = rows
+            torch.testing.assert_close(strips(x), want, rtol=1e-6, atol=1e-6)
+        torch.testing.assert_close(want, net(x), **FAST_TOL)
+
+
+def test_fast_unet_on_parts_is_the_fast_unet_on_their_concatenation():
+    net = load_weights(DEFAULT_WEIGHTS)
+    fast, x = FastUNet(net), _net_input(13, 22)
+    parts = [x[:, :3], x[:, 3:6].clone(), x[:, 6:]]
+    with torch.no_grad():
+        assert torch.equal(fast.call_parts(parts), fast(x))
+    assert torch.equal(fast.call_parts(parts), net(x))  # gradients enabled: the plain network
+
+
+def test_fast_unet_refuses_parts_of_different_sizes():
+    fast, x = FastUNet(load_weights(DEFAULT_WEIGHTS)), _net_input(8, 8)
+    with torch.no_grad(), pytest.raises(ShapeError, match="parts of one B, H, W"):
+        fast.call_parts([x[:, :3], x[:, 3:, :7]])
+    with torch.no_grad(), pytest.raises(ShapeError):
+        fast(x[0])
+
+
+def test_fast_unet_calls_from_two_threads_take_turns_and_agree():
+    from concurrent.futures import ThreadPoolExecutor
+
+    fast, x = FastUNet(load_weights(DEFAULT_WEIGHTS)), _net_input(24, 40)
+    with torch.no_grad():
+        want = fast(x)
+
+    def run(_):
+        with torch.no_grad():
+            return fast(x)
+
+    with ThreadPoolExecutor(2) as pool:
+        assert all(torch.equal(got, want) for got in pool.map(run, range(4)))
+
+
+@pytest.mark.parametrize("fused", [True, False])
+def test_conv_into_sums_into_its_output_in_place(monkeypatch, fused):
+    g = torch.Generator().manual_seed(3)
+    x = torch.randn(1, 5, 6, 7, generator=g).contiguous(memory_format=torch.channels_last)
+    weight, bias = torch.randn(4, 5, 3, 3, generator=g), torch.randn(4, generator=g)
+    out = torch.randn(1, 4, 6, 7, generator=g).contiguous(memory_format=torch.channels_last)
+    want = torch.relu(torch.nn.functional.conv2d(x, weight, bias, padding=1) + out)
+    if not fused:
+        monkeypatch.setattr(unet_module, "_fused_op", lambda: None)
+    with torch.no_grad():
+        got = conv_into(out, x, weight, bias, relu=True)
+    assert got is out
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5)
+
+
 def test_fast_unet_without_onednns_fused_op_gives_the_same_output(monkeypatch):
     net = load_weights(DEFAULT_WEIGHTS)
     x = _net_input(13, 11)
@@ -350,6 +435,25 @@ def test_folded_kernel_on_the_low_resolution_input_is_the_conv_of_the_upsampled_
     # Sums of 36 products of unit normals: float32 rounding, measured below 4e-6.
     torch.testing.assert_close(got, want, rtol=1e-5, atol=2e-5)
     assert got.is_contiguous(memory_format=torch.channels_last)
+
+
+@pytest.mark.parametrize("h, w", [(5, 7), (1, 1), (6, 4), (3, 8)])
+def test_transposed_kernel_on_the_low_resolution_input_is_the_conv_of_the_upsampled_input(h, w):
+    """The stride-2 transposed convolution that replaces folding and interleaving, against the
+    same slow twin, and against the folded kernel it rearranges."""
+    g = torch.Generator().manual_seed(h * w + 1)
+    low, weight = torch.randn(2, 4, h, w, generator=g), torch.randn(6, 4, 3, 3, generator=g)
+    want = torch.nn.functional.conv2d(
+        torch.nn.functional.interpolate(low, scale_factor=2.0, mode="nearest"), weight, padding=1
+    )
+    kernel = upsampled_transpose_kernel(weight)
+    assert kernel.shape == (4, 6, 4, 4)
+    low = low.contiguous(memory_format=torch.channels_last)
+    got = torch.nn.functional.conv_transpose2d(low, kernel, stride=2, padding=1)
+    torch.testing.assert_close(got, want, rtol=1e-5, atol=2e-5)
+    z = torch.nn.functional.conv2d(low, fold_upsampled_kernel(weight), padding=1)
+    folded = interleave_phases(z.contiguous(memory_format=torch.channels_last), 6)
+    torch.testing.assert_close(got, folded, rtol=1e-5, atol=2e-5)
 
 
 def test_unet_blue_is_registered_with_its_own_shipped_weights():
