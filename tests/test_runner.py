@@ -137,6 +137,24 @@ def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):
     )  # bit-identical metrics: renders and seeds are deterministic
 
 
+def test_a_resume_that_measures_one_denoiser_again_keeps_the_others_crops(tiny, tmp_path):
+    import numpy as np
+
+    _, cache, _, _ = tiny
+    run_suite(tiny_suite(), tmp_path, cache_dir=cache, progress=False)
+    crops = sorted((tmp_path / "crops").glob("*.npz"))
+    before = {p.name: dict(np.load(p)) for p in crops}
+    results = tmp_path / RESULTS_FILE
+    kept = [line for line in results.read_text().splitlines() if '"median"' not in line]
+    results.write_text("\n".join(kept) + "\n")  # the median's cells to measure again
+    done = run_suite(tiny_suite(), tmp_path, cache_dir=cache, resume=True, progress=False)
+    assert {r.cell.denoiser for r in done} == {"gaussian", "median"}
+    for path in crops:
+        after = dict(np.load(path))
+        assert sorted(after) == sorted(before[path.name])  # the gaussian's crops are still there
+        assert all(np.array_equal(after[k], before[path.name][k]) for k in after), path.name
+
+
 def test_the_appended_results_file_is_the_one_a_full_rewrite_gives(tiny, tmp_path):
     from benchmarks.sweep.records import write_records
 

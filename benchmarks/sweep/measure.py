@@ -433,11 +433,23 @@ def measure_seed_set(
 
 
 def finish_run(
-    run: Run, results: list[SeedSetResult], version: str, crops_dir: Path | None
+    run: Run,
+    results: list[SeedSetResult],
+    version: str,
+    crops_dir: Path | None,
+    *,
+    merge_crops: bool = False,
 ) -> list[Record]:
-    """Save the crops (if any, and ``crops_dir``) and merge the seed sets into records."""
+    """Save the crops (if any, and ``crops_dir``) and merge the seed sets into records.
+
+    ``merge_crops`` (a resumed sweep): the run may be narrowed to the denoisers whose cells were
+    missing, so its crops join those of the crop file an earlier pass left (same names replaced)
+    instead of replacing the file, whose other denoisers' crops the kept records still show.
+    """
     crop = next((r.crop for r in results if r.group == 0 and r.crop), None)
-    crop_file = _save_crop(run, crop, crops_dir) if crop and crops_dir is not None else None
+    crop_file = (
+        _save_crop(run, crop, crops_dir, merge_crops) if crop and crops_dir is not None else None
+    )
     return merge_seed_sets(run, results, version, crop_file)
 
 
@@ -449,12 +461,14 @@ def measure_run(
     *,
     crops_dir: Path | None = None,
     on_frame: Callable[[], None] | None = None,
+    merge_crops: bool = False,
 ) -> list[Record]:
     """Render, denoise and measure every seed set of ``run`` in turn; return one record per cell.
 
     Args:
         run, parts, references, denoisers, on_frame: as :func:`measure_seed_set`.
         crops_dir: where to save the side-by-side crops (if ``run.crops``), or None.
+        merge_crops: as :func:`finish_run`.
 
     Returns:
         One :class:`~benchmarks.sweep.records.Record` per cell of ``run.cells()``, in that order.
@@ -463,16 +477,20 @@ def measure_run(
         measure_seed_set(run, parts, references, denoisers, group, on_frame=on_frame)
         for group in range(run.seed_sets)
     ]
-    return finish_run(run, results, parts.code_version, crops_dir)
+    return finish_run(run, results, parts.code_version, crops_dir, merge_crops=merge_crops)
 
 
-def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path) -> str:
-    """Save the tone-mapped crops of a run as one compressed ``.npz``; return its name relative to
-    the output folder."""
+def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path, merge: bool = False) -> str:
+    """Save the tone-mapped crops of a run as one compressed ``.npz`` (with ``merge``, joined to
+    the crops already in that file); return its name relative to the output folder."""
     depth = "" if run.depth is None else f"_d{run.depth}"
     name = f"{run.scene}_{run.strategy}_{run.spp}spp_m{run.motion}{depth}_{run.sampler}.npz"
     crops_dir.mkdir(parents=True, exist_ok=True)
+    arrays = {k.replace("/", "__"): v for k, v in crop.items()}
+    if merge and (crops_dir / name).is_file():
+        with np.load(crops_dir / name) as kept:
+            arrays = {**{k: kept[k] for k in kept.files}, **arrays}
     with atomic_write(crops_dir / name) as tmp:
         with open(tmp, "wb") as handle:
-            np.savez_compressed(handle, **{k.replace("/", "__"): v for k, v in crop.items()})
+            np.savez_compressed(handle, **arrays)
     return f"{crops_dir.name}/{name}"

@@ -282,7 +282,8 @@ class _Scheduler:
         if len(done) == job.run.seed_sets:
             del self.results[job.run]
             crops = self.sweep.out / "crops"
-            self.sweep.add(finish_run(job.run, done, self.sweep.parts.code_version, crops))
+            version, merge = self.sweep.parts.code_version, self.sweep.resumed
+            self.sweep.add(finish_run(job.run, done, version, crops, merge_crops=merge))
 
     def cancel(self) -> None:
         for ref in list(self.inflight):

@@ -74,6 +74,7 @@ class SweepState:
     todo: list[Run]
     order: list[str] = field(default_factory=list)
     written: list[str] | None = None  # the keys in the file, in file order; None: not written yet
+    resumed: bool = False  # a resumed run's crops join the crop file it left (measure.finish_run)
 
     @property
     def params_path(self) -> Path:
@@ -151,7 +152,9 @@ def start_sweep(
     todo = pending(suite, records)
     planned = {c.key(): None for run in plan(suite) for c in run.cells()}  # ordered, no repeats
     order = [k for k in records if k not in planned] + list(planned)
-    return SweepState(out=out, parts=parts, records=records, store=store, todo=todo, order=order)
+    return SweepState(
+        out=out, parts=parts, records=records, store=store, todo=todo, order=order, resumed=resume
+    )
 
 
 def run_suite(
@@ -200,6 +203,7 @@ def run_suite(
                 denoisers,
                 crops_dir=sweep.out / "crops",
                 on_frame=lambda: bar.update(1),
+                merge_crops=sweep.resumed,
             )
             sweep.add(measured)
     sweep.finish()
