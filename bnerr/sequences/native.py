@@ -37,7 +37,6 @@ __all__ = [
     "kernels_for",
     "native_cycles",
     "native_ldbn",
-    "native_owen_sobol",
     "native_seeded",
     "seeded_self_check",
     "native_zsobol",
@@ -123,28 +122,6 @@ def _u32(values: Sequence[int]) -> torch.Tensor:
     return torch.tensor([v & 0xFFFFFFFF for v in values], dtype=torch.int64).to(torch.int32)
 
 
-def native_owen_sobol(
-    kernels: SamplerKernels,
-    seed: torch.Tensor,
-    index: torch.Tensor,
-    dim: int,
-    keys: Sequence[int],
-    out: torch.Tensor,
-) -> bool:
-    """Owen-Sobol of dims ``dim .. dim + len(out) - 1`` into the rows of ``out`` (in place).
-
-    Args:
-        seed: int64 ``[N]``, or 0-dim (one seed for every lane).
-        index: int64 ``[N]``.
-        keys: per pair from ``dim // 2``, the three host hashes of roles 0, 1, 2.
-        out: float32 ``[count, N]``, contiguous.
-
-    Returns:
-        False when the kernel refused the sizes (``out`` is then to be filled by the caller).
-    """
-    return native_seeded(kernels.owen_sobol, seed, index, dim, keys, out)
-
-
 def native_seeded(
     kernel: Callable[..., int],
     seed: torch.Tensor,
@@ -153,14 +130,16 @@ def native_seeded(
     keys: Sequence[int],
     out: torch.Tensor,
 ) -> bool:
-    """Dims ``dim .. dim + len(out) - 1`` of the lanes (seed, index) into the rows of ``out`` by
-    a kernel of the signature (seed, seed stride, index, n, dim, count, keys, out, threads):
-    ``kernels.white`` (keys: per dimension from ``dim``, its host hash) or ``kernels.owen_sobol``
-    (:func:`native_owen_sobol`).
+    """Dims ``dim .. dim + len(out) - 1`` of the lanes (seed, index) into the rows of ``out`` (in
+    place) by a kernel of the signature (seed, seed stride, index, n, dim, count, keys, out,
+    threads): ``kernels.white`` or ``kernels.owen_sobol``.
 
     Args:
+        kernel: the bound C function.
         seed: int64 ``[N]``, or 0-dim (one seed for every lane).
         index: int64 ``[N]``.
+        keys: white noise: per dimension from ``dim``, its host hash; Owen-Sobol: per pair from
+            ``dim // 2``, the three host hashes of roles 0, 1, 2.
         out: float32 ``[count, N]``, contiguous.
 
     Returns:
@@ -187,8 +166,8 @@ def seeded_self_check(
 ) -> bool:
     """A :func:`native_seeded` kernel against its sampler's torch path, bit for bit: ``lanes``
     random (seed, index) lanes drawn with ``seed`` (the first three extreme words), each
-    ``(dim, count)`` of ``cases`` for the per-lane seeds, and the first case's ``dim`` with one
-    shared 0-dim seed; ``keys(dim, count)`` gives the kernel's host keys."""
+    ``(dim, count)`` of ``cases`` for the per-lane seeds, and dimension 3 with one shared 0-dim
+    seed; ``keys(dim, count)`` gives the kernel's host keys."""
     gen = torch.Generator().manual_seed(seed)
     seeds = torch.randint(-(2**40), 2**40, (lanes,), generator=gen)
     index = torch.randint(0, 2**33, (lanes,), generator=gen)
@@ -253,7 +232,7 @@ def native_cycles(
     Args:
         lanes: int64 ``[N]`` each: the pixel's key and the sample index.
         pattern: ``(spp, first, seed0, first_seed)``: FIRST when ``first``, else PURE.
-        keys: as :func:`native_owen_sobol`.
+        keys: as :func:`native_seeded`'s for Owen-Sobol.
         out: float32 ``[count, N]``, contiguous.
 
     Returns:
@@ -289,7 +268,7 @@ def native_ldbn(
             (int32 ``[M, E]``, E even), or None (every shared word evaluated).
         offset: the frame's toroidal offset ``(oy, ox)``.
         hashes: per pair from ``dim // 2``: the shared sequence's three seeded pair hashes, and
-            the three host hashes of :func:`native_owen_sobol` (for the pairs past the keys).
+            Owen-Sobol's three host hashes of :func:`native_seeded` (for the pairs past the keys).
         out: float32 ``[count, N]``, contiguous.
 
     Returns:

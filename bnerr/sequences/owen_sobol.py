@@ -123,7 +123,7 @@ def _owen_sobol_columns(
         kernels = _native_kernels()
         if kernels is not None:
             keys = _pair_keys(dim, out.shape[0])
-            if native.native_owen_sobol(kernels, seed, index, dim, keys, out):
+            if native.native_seeded(kernels.owen_sobol, seed, index, dim, keys, out):
                 return
     _owen_sobol_columns_torch(seed, index, dim, out)
 

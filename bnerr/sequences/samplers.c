@@ -1,7 +1,8 @@
 /* bnerr's native CPU kernels of the samplers (bnerr.sequences): white noise (bnerr_white),
-   per-pixel Owen-Sobol padded by 2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns, which index it (bnerr_cycles), the
-   LDBN lookup into one shared Owen-Sobol sequence (bnerr_ldbn), pbrt-v4's ZSobol with its
-   FastOwen value scramble (bnerr_zsobol) and the temporal Z-order sampler (bnerr_zsobol_t).
+   per-pixel Owen-Sobol padded by 2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns,
+   which index it (bnerr_cycles), the LDBN lookup into one shared Owen-Sobol sequence
+   (bnerr_ldbn), pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol) and the
+   temporal Z-order sampler (bnerr_zsobol_t).
 
    Built by bnerr.native at first use, like permute.c. Each function writes dimensions
    dim .. dim + count - 1 of n lanes into out, a [count, n] float32 buffer (one row per

@@ -66,11 +66,10 @@ def _white_columns(seed: torch.Tensor, index: torch.Tensor, dim: int, out: torch
     loads and passes its self-check (measured: the torch path was 14 % of a Cornell box render,
     one pass over the lanes per operation); else :func:`_white_columns_torch`.
     """
-    if native.uses_native(seed, index, out) and out.is_contiguous():
-        kernels = _native_kernels()
-        if kernels is not None and native.native_seeded(
-            kernels.white, seed, index, dim, _dim_keys(dim, out.shape[0]), out
-        ):
+    kernels = native.kernels_for((seed, index), out, None, _native_kernels)
+    if kernels is not None and out.is_contiguous():
+        keys = _dim_keys(dim, out.shape[0])
+        if native.native_seeded(kernels.white, seed, index, dim, keys, out):
             return
     _white_columns_torch(seed, index, dim, out)
 
