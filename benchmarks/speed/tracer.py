@@ -59,13 +59,11 @@ DEFAULT_LLVM = "/lib/x86_64-linux-gnu/libLLVM.so.19.1"
 #: How our vertex stage runs: the name -> :func:`renderers.render`'s ``compile`` argument.
 STAGES: dict[str, bool | StageSource] = {"aot": aot.stage, "torch": True, "eager": False}
 
-#: The table's words for each stage (True and False: figures written before the choice).
-_STAGE_WORDS: dict[object, str] = {
+#: The table's words for each stage.
+_STAGE_WORDS = {
     "aot": "the AOT-compiled package `bnerr render` loads",
     "torch": "torch.compile",
     "eager": "eager",
-    True: "torch.compile",
-    False: "eager",
 }
 
 
