@@ -263,6 +263,17 @@ def test_sort_kernel_takes_groups_and_grid_offsets_and_refuses_bad_ones():
         native.native_sort_blocks(kernels, seeds, lum, broken, 4, LUMINANCE_WEIGHTS, groups=groups)
 
 
+def _built_with(monkeypatch, flag: str) -> native.Kernels:
+    """The kernels built by ``cc`` with ``flag`` (in the ``fresh`` cache), without a warning;
+    the test skips where they cannot be built."""
+    monkeypatch.setenv("CC", f"cc {flag}")
+    kernels, messages = _load(1)
+    if kernels is None:
+        pytest.skip(f"native kernels unavailable: {native.status()}")
+    assert messages == []
+    return kernels
+
+
 @needs_cc
 @pytest.mark.parametrize("define", ["-DBNERR_LANES=4", "-DBNERR_NO_SHUFFLE"])
 def test_sort_kernel_moves_the_same_seeds_at_another_vector_width(fresh, monkeypatch, define):
@@ -271,11 +282,7 @@ def test_sort_kernel_moves_the_same_seeds_at_another_vector_width(fresh, monkeyp
     # them; a build forced to 4 lanes, or to the scalar transposes, must move the same seeds. The
     # widths cover one full step of lanes and a partial one in every block size. (A 16-lane build
     # is not forced here: without AVX-512 its vectors are emulated and take minutes to compile.)
-    monkeypatch.setenv("CC", f"cc {define}")
-    kernels, messages = _load(1)
-    if kernels is None:
-        pytest.skip(f"native kernels unavailable: {native.status()}")
-    assert messages == []
+    kernels = _built_with(monkeypatch, define)
     gen = torch.Generator().manual_seed(5)
     for block in range(2, 9):
         h, w = 2 * block + 1, 17 * block + 3
@@ -330,11 +337,7 @@ def test_kernels_move_the_same_seeds_at_a_lower_simd_level(fresh, monkeypatch, f
     # (AVX-512, AVX2 or scalar). A build without AVX-512 (an AVX2 host: -mno-avx512f wins over
     # -march=native whatever the order) or without AVX2 must move the same seeds as the torch
     # path, on a host with the wider units as on one without.
-    monkeypatch.setenv("CC", f"cc {flag}")
-    kernels, messages = _load(1)
-    if kernels is None:
-        pytest.skip(f"native kernels unavailable: {native.status()}")
-    assert messages == []
+    kernels = _built_with(monkeypatch, flag)
     _check_retarget_kernel(kernels)
     gen = torch.Generator().manual_seed(6)
     for block in (2, 4, 5):
