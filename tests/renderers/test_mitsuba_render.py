@@ -7,7 +7,6 @@ reason otherwise.
 
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 import torch
@@ -26,8 +25,9 @@ from bnerr.metrics import blurred_mse, equivalent, mse, paired_ratio
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds
 from renderers import mitsuba_render as mr
+from tests._paths import ROOT
 
-SCENE = Path(__file__).resolve().parents[1] / "examples" / "mitsuba_temporal.xml"
+SCENE = ROOT / "examples" / "mitsuba_temporal.xml"
 REASON = mr.unavailable_reason("llvm_ad_rgb")
 needs_mitsuba = pytest.mark.skipif(
     REASON is not None, reason=f"Mitsuba 3 llvm_ad_rgb unusable here: {REASON}"
@@ -116,7 +116,7 @@ def test_bnerr_and_the_module_import_without_mitsuba():
         "import sys, bnerr, bnerr.strategies, bnerr.metrics, renderers.mitsuba_render; "
         "assert 'mitsuba' not in sys.modules and 'drjit' not in sys.modules, sorted(sys.modules)"
     )
-    root = Path(__file__).resolve().parents[1]
+    root = ROOT
     subprocess.run([sys.executable, "-c", code], check=True, cwd=root, timeout=120)
 
 

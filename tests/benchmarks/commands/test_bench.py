@@ -11,6 +11,7 @@ import pytest
 from benchmarks.cli import main
 from benchmarks.sweep.records import RESULTS_ARCHIVE, RESULTS_FILE, load_records
 from bnerr.outputs import output_lock
+from tests._paths import RESULTS
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -192,17 +193,16 @@ def test_report_only_refuses_overrides_and_an_empty_folder(tmp_path, capsys):
 
 def test_speed_report_only_rewrites_speed_md_from_the_committed_figures(tmp_path):
     import shutil
-    from pathlib import Path
 
     out = tmp_path / "speed"
-    shutil.copytree(Path(__file__).parents[1] / "results" / "speed", out)
+    shutil.copytree(RESULTS / "speed", out)
     figures = (out / "speed.json").read_text()
     (out / "speed.md").unlink()
     assert main(["bench", "--suite", "speed", "--report-only", "--out", str(out), "--quiet"]) == 0
     assert (out / "speed.json").read_text() == figures  # nothing measured
     text = (out / "speed.md").read_text()
     assert "|" in text and "OIDN" in text  # one table per part, denoisers against OIDN
-    committed = Path(__file__).parents[1] / "results" / "speed" / "speed.md"
+    committed = RESULTS / "speed" / "speed.md"
     assert text == committed.read_text()  # speed.md follows from speed.json alone, rows sorted
 
 

@@ -14,13 +14,14 @@ import pytest
 
 from benchmarks.reports import write_report
 from benchmarks.reports.page import write_index
+from tests._paths import RESULTS
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARGS = [
     "--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
     "--disable-background-networking", "--disable-component-update", "--disable-sync",
 ]  # fmt: skip
-QUICK = Path(__file__).resolve().parents[1] / "results" / "quick"
+QUICK = RESULTS / "quick"
 
 
 @pytest.fixture(scope="module")

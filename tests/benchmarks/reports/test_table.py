@@ -4,7 +4,6 @@ import csv
 import dataclasses
 import re
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +24,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
+from tests._paths import RESULTS
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
 
@@ -279,7 +279,6 @@ def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
     )
 
 
-_RESULTS = Path(__file__).resolve().parents[1] / "results"
 #: The tables a results folder's report writes from its cells.jsonl (charts aside: PNG bytes
 #: depend on the fonts and matplotlib build).
 _TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoisers.md")
@@ -290,7 +289,7 @@ _TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoise
 def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_path, suite):
     # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
     # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
-    folder = _RESULTS / suite
+    folder = RESULTS / suite
     cells = next(folder / n for n in (RESULTS_FILE, RESULTS_ARCHIVE) if (folder / n).exists())
     shutil.copy(cells, tmp_path / cells.name)
     write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
@@ -301,9 +300,7 @@ def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_pat
     assert not [n for n in _TABLES if (tmp_path / n).exists() and n not in committed]
 
 
-_COMMITTED = [
-    Path(__file__).resolve().parents[1] / "results" / name for name in ("quick", "quality")
-]
+_COMMITTED = [RESULTS / name for name in ("quick", "quality")]
 
 
 @pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
@@ -374,11 +371,11 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     # The README's bold cells come from results/quality, never from a hand edit: its headline
     # table must be headline_table() of the committed records, for the scenes and denoisers it
     # names, in its order.
-    readme = (_RESULTS.parent / "README.md").read_text()
+    readme = (RESULTS.parent / "README.md").read_text()
     found = re.search(r"\n(\| scene \| spp \| gaussian \|[^\n]*\n(?:\|[^\n]*\n)+)", readme)
     assert found, "README: the headline table (| scene | spp | gaussian | ...) is missing"
     lines = found.group(1).splitlines()
     denoisers = [c.strip() for c in lines[0].strip("|").split("|")][2:]
     scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
-    rows = summarize(load_records(_RESULTS / "quality"))
+    rows = summarize(load_records(RESULTS / "quality"))
     assert found.group(1) == decision.headline_table(rows, denoisers, scenes)

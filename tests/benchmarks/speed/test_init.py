@@ -2,7 +2,6 @@
 table per part with units and the ratio to its anchor."""
 
 import json
-from pathlib import Path
 
 import pytest
 import torch
@@ -16,8 +15,9 @@ from benchmarks.speed.formatting import fmt, ratio
 from benchmarks.speed.masks import WHITE_LOW_FREQUENCY
 from benchmarks.suites import Suite, get_suite
 from bnerr.errors import UnknownNameError
+from tests._paths import RESULTS
 
-SHIPPED = Path(__file__).resolve().parents[1] / "results" / "speed" / "speed.json"
+SHIPPED = RESULTS / "speed" / "speed.json"
 
 
 def test_speed_suite_stores_each_scripts_figures(tmp_path, monkeypatch):

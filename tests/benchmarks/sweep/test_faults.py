@@ -25,11 +25,8 @@ import signal
 import subprocess
 import sys
 from contextlib import nullcontext
-from pathlib import Path
 
 import pytest
-from _disks import fill, no_space, read_only, small_disk
-from _suites import tiny_suite
 
 from benchmarks.sweep import records as records_module
 from benchmarks.sweep import references as references_module
@@ -37,10 +34,12 @@ from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.records import RESULTS_FILE, load_records
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE, run_suite
 from bnerr.outputs import OutputPathError
+from tests._disks import fill, no_space, read_only, small_disk
+from tests._paths import ROOT
+from tests._suites import tiny_suite
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
-ROOT = Path(__file__).resolve().parents[1]
 #: Renders of the white run with its references cached (2 tuning frames, 2 x 2 measured): the
 #: next render is the temporal run's first.
 WHITE_RENDERS = 6
@@ -104,10 +103,9 @@ def _check_resumes(whole, out, cache, first=None):
 _KILLED = """
 import dataclasses, os, signal, sys
 import torch
-sys.path.insert(0, {tests!r})
 torch.set_num_threads(1)
-from _suites import tiny_suite
-from test_sweep_faults import _parts, _Os
+from tests._suites import tiny_suite
+from tests.benchmarks.sweep.test_faults import _parts, _Os
 from benchmarks.sweep import records
 from benchmarks.sweep.runner import run_suite
 
@@ -140,8 +138,8 @@ run_suite(tiny_suite(), {out!r}, parts=_parts(render), cache_dir={cache!r}, prog
 def test_a_driver_killed_mid_sweep_resumes_to_the_same_records(whole, tmp_path, where):
     _, cache, records = whole
     out = tmp_path / "out"
-    script = _KILLED.format(tests=str(ROOT / "tests"), where=where, out=str(out), cache=str(cache))
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), str(ROOT / "tests")])}
+    script = _KILLED.format(where=where, out=str(out), cache=str(cache))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
     done = subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT, timeout=120)
     assert done.returncode == -signal.SIGKILL
     left = [p.name for p in out.iterdir() if ".bnerr-tmp-" in p.name]

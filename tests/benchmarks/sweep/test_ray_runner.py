@@ -14,7 +14,6 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import pytest
 
@@ -26,6 +25,7 @@ from benchmarks.sweep.parts import real_parts  # noqa: E402
 from benchmarks.sweep.records import RESULTS_FILE, load_records  # noqa: E402
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE, run_suite  # noqa: E402
 from bnerr.errors import ValueRangeError  # noqa: E402
+from tests._paths import ROOT  # noqa: E402
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -164,8 +164,7 @@ import os, signal, sys
 import ray
 from benchmarks.sweep import runner
 from benchmarks.sweep.ray_runner import run_suite_ray
-sys.path.insert(0, {tests!r})
-from test_ray_runner import _suite
+from tests.benchmarks.sweep.test_ray_runner import _suite
 
 add = runner.SweepState.add
 def add_then_die(self, measured):  # the second finished run: killed before its cells are kept
@@ -187,11 +186,11 @@ run_suite_ray(_suite(), {out!r}, cache_dir={cache!r}, progress=False)
 )
 def test_a_killed_driver_leaves_whole_runs_and_resume_completes_them(local_ray, serial, tmp_path):
     serial_out, cache, serial_records = serial
-    out, tests = tmp_path / "out", Path(__file__).resolve().parent
+    out = tmp_path / "out"
     address = local_ray.get_runtime_context().gcs_address  # the driver joins this cluster
-    script = _DRIVER.format(tests=str(tests), address=address, out=str(out), cache=str(cache))
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tests.parent), str(tests)])}
-    done = subprocess.run([sys.executable, "-c", script], env=env, cwd=tests.parent, timeout=120)
+    script = _DRIVER.format(address=address, out=str(out), cache=str(cache))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT, timeout=120)
     assert done.returncode == -signal.SIGKILL
     first = {r.key: r for r in load_records(out)}  # whole lines: one run's cells
     assert len(first) == 3

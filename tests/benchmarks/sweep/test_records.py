@@ -2,7 +2,6 @@
 files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
 
 import json
-from pathlib import Path
 
 import pytest
 
@@ -22,8 +21,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from bnerr.errors import BnerrError, FileFormatError
-
-_RESULTS = Path(__file__).resolve().parents[1] / "results"
+from tests._paths import RESULTS
 
 
 def _record(strategy: str = "white", crop: str | None = None) -> Record:
@@ -84,7 +82,7 @@ def test_write_and_load_keep_order_and_values(tmp_path):
 
 @pytest.mark.parametrize("suite", ["quick", "quality", "stability", "gap"])
 def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
-    folder = _RESULTS / suite
+    folder = RESULTS / suite
     records = load_records(folder)  # cells.jsonl, or the committed cells.jsonl.gz
     if not records:
         pytest.skip(f"no committed {suite} results")
