@@ -1,8 +1,8 @@
-"""Tests of bnerr.sequences' white, owen_sobol, bnds and registry (the Z-order samplers have their
-own files): exact agreement with a pure-Python twin, range, determinism, independence across
-seeds, uniformity, the (0, m, 2)-net property, BNDS, typed errors, and one comparison across
-samplers: the raw MSE of a scramble shared by all pixels (Cycles, ZSobol) against per-pixel
-Owen-Sobol."""
+"""Tests of bnerr.sequences' registry and interface (base.py), across the white, Owen-Sobol and BNDS
+samplers (the others have their own files): exact agreement of white and Owen-Sobol with a pure-
+Python twin, range, determinism, independence across seeds, uniformity, typed errors, the device,
+and one comparison across samplers: the raw MSE of a scramble shared by all pixels (Cycles, ZSobol)
+against per-pixel Owen-Sobol."""
 
 from __future__ import annotations
 
@@ -16,9 +16,7 @@ from hypothesis import strategies as st
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.metrics import equivalent, paired_ratio
 from bnerr.sequences import (
-    ONE_MINUS_EPS,
     SAMPLERS,
-    BNDSSampler,
     CyclesPureSampler,
     OwenSobolSampler,
     Sampler,
@@ -30,76 +28,14 @@ from bnerr.sequences import (
     white,
     zsobol_keys,
 )
-from tests._twins import lowbias32 as _lowbias32
-
-M32 = 0xFFFFFFFF
-ADVERSARIAL = [0, 1, 2**31 - 1, 2**31, 2**32 - 1, 2**32, -1, 2**63 - 1, -(2**63)]
-
-
-# ------------------------------------------------------------------------------------------------
-# The slow, obviously-correct twin: Python ints, loops, Burley's listings.
-
-
-def _reverse(x: int) -> int:
-    return int(format(x & M32, "032b")[::-1], 2)
-
-
-def _laine_karras(x: int, key: int) -> int:
-    x = (x + key) & M32
-    for c in (0x6C50B47C, 0xB82F1E52, 0xC7AFE638, 0x8D22F6E6):
-        x ^= (x * c) & M32
-    return x
-
-
-def _nested_uniform_scramble(x: int, key: int) -> int:
-    return _reverse(_laine_karras(_reverse(x), key))
-
-
-def _directions(dim: int) -> list[int]:
-    """Sobol dimension 0 (van der Corput) and 1 (polynomial x + 1: v_k = v_(k-1) ^ v_(k-1) >> 1)."""
-    if dim == 0:
-        return [1 << (31 - k) for k in range(32)]
-    v = [1 << 31]
-    while len(v) < 32:
-        v.append(v[-1] ^ (v[-1] >> 1))
-    return v
-
-
-def _sobol(index: int, directions: list[int]) -> int:
-    value = 0
-    for bit, v in enumerate(directions):
-        if (index >> bit) & 1:
-            value ^= v
-    return value
-
-
-def twin_white(seed: int, index: int, dim: int) -> float:
-    h = _lowbias32(
-        _lowbias32(_lowbias32((seed & M32) ^ 0x9E3779B9) ^ (index & M32))
-        ^ _lowbias32((dim & M32) ^ 0x85EBCA6B)
-    )
-    return (h >> 8) / 2**24
-
-
-def twin_owen_sobol(seed: int, index: int, dim: int) -> float:
-    pair, role = dim // 2, dim % 2
-    seed_hash = _lowbias32((seed & M32) ^ 0xC2B2AE35)
-
-    def key(r: int) -> int:
-        return _lowbias32(seed_hash ^ _lowbias32(((pair * 4 + r) & M32) ^ 0x27D4EB2F))
-
-    shuffled = _nested_uniform_scramble(index & M32, key(2))
-    return (_nested_uniform_scramble(_sobol(shuffled, _directions(role)), key(role)) >> 8) / 2**24
-
-
-def test_twin_direction_numbers_are_joe_kuo():
-    # Joe & Kuo's dimension 2 (s = 1, a = 0, m = 1) is the Pascal matrix mod 2.
-    assert [hex(v) for v in _directions(1)[:5]] == [
-        "0x80000000", "0xc0000000", "0xa0000000", "0xf0000000", "0x88000000",
-    ]  # fmt: skip
-
-
-ints64 = st.integers(-(2**63), 2**63 - 1)
+from tests.bnerr.sequences._samplers import (
+    ADVERSARIAL,
+    ints64,
+    lanes,
+    small_bnds,
+    twin_owen_sobol,
+    twin_white,
+)
 
 
 @given(
@@ -138,17 +74,8 @@ def test_sample_windows_agree_with_each_other():
         assert torch.equal(full[:, 8:], sampler.sample(seed, index, 8, 1))
 
 
-# ------------------------------------------------------------------------------------------------
-# Range, determinism, independence, uniformity
-
-
-def _bnds(dims: int = 4, size: int = 16, seed0: int = 3) -> BNDSSampler:
-    g = torch.Generator().manual_seed(0)
-    return BNDSSampler(torch.rand(dims, size, size, generator=g), offset=(5, 9), seed0=seed0)
-
-
 def _all_samplers() -> list[Sampler]:
-    return [WhiteSampler(), OwenSobolSampler(), _bnds()]
+    return [WhiteSampler(), OwenSobolSampler(), small_bnds()]
 
 
 @pytest.mark.parametrize("sampler", _all_samplers(), ids=lambda s: s.name)
@@ -160,21 +87,6 @@ def test_values_lie_in_unit_interval_and_repeat_exactly(sampler):
         a = sampler.sample(seed, index, dim, 5, pixel)
         assert bool((a >= 0).all()) and bool((a < 1).all())
         assert torch.equal(a, sampler.sample(seed.clone(), index.clone(), dim, 5, pixel.clone()))
-
-
-def test_bnds_stays_below_one_when_the_sum_rounds_up():
-    # mask values just below 1 added to sequence values just below 1 (and everything between)
-    mask = torch.full((2, 4, 4), ONE_MINUS_EPS)
-    mask[1] = torch.linspace(0, ONE_MINUS_EPS, 16).reshape(4, 4)
-    sampler = BNDSSampler(mask, seed0=1)
-    n = 4096
-    index = torch.arange(n, dtype=torch.int64)
-    pixel = torch.stack([index % 4, (index // 4) % 4], dim=1)
-    values = sampler.sample(torch.zeros(n, dtype=torch.int64), index, 0, 2, pixel)
-    # the bound written out: the largest float32 below 1 (0x3F7FFFFF), not the module's constant
-    largest_below_one = 1.0 - 2.0**-24
-    assert ONE_MINUS_EPS == largest_below_one
-    assert float(values.max()) <= largest_below_one and float(values.min()) >= 0
 
 
 def _correlation(a: torch.Tensor, b: torch.Tensor) -> float:
@@ -237,104 +149,6 @@ def test_values_are_uniform(sampler):
     for d in range(6):
         assert _ks_statistic(values[:, d]) < critical, d
 
-
-# ------------------------------------------------------------------------------------------------
-# The (0, m, 2)-net property
-
-
-def _is_net(points: torch.Tensor, m: int) -> bool:
-    """Every elementary interval of area 2^-m of every shape holds exactly one point."""
-    cells = (points.double() * 2**24).long()  # exact: values are multiples of 2^-24
-    for a in range(m + 1):
-        cell = (cells[:, 0] >> (24 - a)) * 2 ** (m - a) + (cells[:, 1] >> (24 - (m - a)))
-        if not bool((torch.bincount(cell, minlength=2**m) == 1).all()):
-            return False
-    return True
-
-
-def test_owen_sobol_pairs_are_nets():
-    sampler = OwenSobolSampler()
-    n = 256
-    index = torch.arange(n, dtype=torch.int64)
-    for seed in (0, 1, 12345, 2**32 - 1, -7):
-        values = sampler.sample(torch.full((n,), seed, dtype=torch.int64), index, 0, 12)
-        for pair in range(6):
-            for m in range(1, 9):
-                assert _is_net(values[: 2**m, 2 * pair : 2 * pair + 2], m), (seed, pair, m)
-
-
-def test_sobol_dimensions_2_3_are_not_nets_which_is_why_we_pad_by_pairs():
-    # The docstring's reason for padding by 2D pairs: Joe-Kuo's Sobol dimensions 2 and 3
-    # (polynomials x^2 + x + 1 and x^3 + x + 1) fail the net test for m = 2, while (0, 1) pass.
-    from bnerr.sequences import _sobol_directions
-
-    def points(*directions: list[int]) -> torch.Tensor:
-        words = [[_sobol(i, v) for v in directions] for i in range(4)]
-        return torch.tensor(words, dtype=torch.float64) / 2**32
-
-    dim2 = _sobol_directions(2, 1, (1, 3))
-    dim3 = _sobol_directions(3, 1, (1, 3, 1))
-    assert _is_net(points(_directions(0), _directions(1)), 2)
-    assert not _is_net(points(dim2, dim3), 2)
-
-
-# ------------------------------------------------------------------------------------------------
-# BNDS
-
-
-def test_bnds_is_the_shared_sequence_rotated_by_the_mask():
-    sampler = _bnds(dims=4, size=16, seed0=3)
-    n = 2000
-    g = torch.Generator().manual_seed(4)
-    seed = torch.randint(0, 2**32, (n,), generator=g)
-    index = torch.randint(0, 32, (n,), generator=g)
-    pixel = torch.randint(-40, 200, (n, 2), generator=g)
-    got = sampler.sample(seed, index, 1, 3, pixel)
-    y, x = (pixel[:, 0] + 5) % 16, (pixel[:, 1] + 9) % 16
-    for j, d in enumerate(range(1, 4)):
-        shared = owen_sobol(torch.tensor(3), index, d)  # the same sequence for every pixel
-        expect = torch.remainder(shared.double() + sampler.mask[d, y, x].double(), 1.0)
-        assert torch.allclose(got[:, j].double(), expect, atol=2**-23, rtol=0)
-
-
-def test_bnds_shared_sequence_table_and_direct_paths_agree_exactly():
-    # Indices below N take the evaluate-once-and-gather path; a lane alone with index >= 1 takes
-    # the direct path. Both must give the same bits.
-    sampler = _bnds(dims=6, size=16)
-    n = 64
-    index = torch.arange(n, dtype=torch.int64).flip(0) % 17
-    seed = torch.arange(n, dtype=torch.int64)
-    pixel = torch.stack([seed % 16, seed // 16], dim=1)
-    together = sampler.sample(seed, index, 1, 5, pixel)
-    alone = torch.cat([sampler.sample(seed[i : i + 1], index[i : i + 1], 1, 5, pixel[i : i + 1])
-                       for i in range(n)])  # fmt: skip
-    assert torch.equal(together, alone)
-
-
-def test_bnds_falls_back_to_per_pixel_white_noise_beyond_the_mask():
-    sampler = _bnds(dims=4)
-    n = 500
-    seed = torch.arange(n, dtype=torch.int64) * 31
-    index = torch.arange(n, dtype=torch.int64) % 7
-    pixel = torch.stack([index, index], dim=1)
-    got = sampler.sample(seed, index, 2, 5, pixel)  # dims 2, 3 rotated; 4, 5, 6 white
-    for j, d in enumerate(range(4, 7)):
-        assert torch.equal(got[:, 2 + j], white(seed, index, d))
-    # beyond D the pixel's own seed matters; inside D only the pixel position does
-    other = sampler.sample(seed + 1, index, 2, 5, pixel)
-    assert torch.equal(got[:, :2], other[:, :2]) and not torch.equal(got[:, 2:], other[:, 2:])
-
-
-def test_bnds_pixels_with_the_same_mask_texel_share_values():
-    sampler = _bnds(dims=2, size=8)
-    index = torch.tensor([3, 3], dtype=torch.int64)
-    pixel = torch.tensor([[1, 2], [1 + 8, 2 - 16]], dtype=torch.int64)  # one tile apart
-    got = sampler.sample(torch.tensor([10, 99], dtype=torch.int64), index, 0, 2, pixel)
-    assert torch.equal(got[0], got[1])
-
-
-# ------------------------------------------------------------------------------------------------
-# A scramble shared by all pixels: the raw MSE of the block samplers (docs/METHODS.md, section 7)
 
 _BUMP_SIDE, _BUMP_SPP, _BUMP_SIGMA = 64, 4, 0.25
 
@@ -423,10 +237,6 @@ def test_a_scramble_shared_by_all_pixels_makes_the_mse_one_draw_per_scramble():
             assert log_ratio > 5 * log_var_se, (shared, steady, log_ratio)
 
 
-# ------------------------------------------------------------------------------------------------
-# Registry, names and errors
-
-
 def test_make_sampler_builds_every_registered_sampler():
     assert sorted(SAMPLERS) == [
         "bnds", "cycles_first", "cycles_pure", "ldbn", "ldbn_keyed", "owen_sobol", "white",
@@ -440,14 +250,10 @@ def test_make_sampler_builds_every_registered_sampler():
         make_sampler("sobol")
 
 
-def _lanes(n: int = 4):
-    return torch.zeros(n, dtype=torch.int64), torch.arange(n, dtype=torch.int64)
-
-
 @pytest.mark.parametrize("name", ["white", "owen_sobol"])
 def test_sampler_rejects_bad_input(name):
     sampler = make_sampler(name)
-    seed, index = _lanes()
+    seed, index = lanes()
     with pytest.raises(DtypeError, match="seed: expected dtype int64, got float32"):
         sampler.sample(seed.float(), index, 0, 2)
     with pytest.raises(DtypeError, match="index: expected dtype int64, got int32"):
@@ -470,27 +276,9 @@ def test_sampler_rejects_bad_input(name):
         sampler.sample(seed, index, 0, 2, torch.zeros(4, 2))
 
 
-def test_bnds_rejects_bad_input():
-    seed, index = _lanes()
-    with pytest.raises(ShapeError, match=r"pixel: expected a \[N, 2\] int64 tensor .* got None"):
-        _bnds().sample(seed, index, 0, 2)
-    with pytest.raises(ShapeError, match=r"mask: expected 3 dimensions \[D, T, T\]"):
-        BNDSSampler(torch.zeros(4, 4))
-    with pytest.raises(ShapeError, match=r"mask: expected shape \[D, T, T\] \(T equal"):
-        BNDSSampler(torch.zeros(2, 4, 8))
-    with pytest.raises(DtypeError, match="mask: expected dtype float32, got float64"):
-        BNDSSampler(torch.zeros(2, 4, 4, dtype=torch.float64))
-    with pytest.raises(ValueRangeError, match=r"mask: expected values in \[0, 1\), got min 0.0"):
-        BNDSSampler(torch.ones(2, 4, 4).tril())
-    with pytest.raises(DtypeError, match=r"offset: expected a pair of ints \(oy, ox\)"):
-        BNDSSampler(torch.zeros(2, 4, 4), offset=(1.5, 0))
-    with pytest.raises(DtypeError, match="seed0: expected an int, got str"):
-        BNDSSampler(torch.zeros(2, 4, 4), seed0="1")
-
-
 @pytest.mark.parametrize("fn", [white, owen_sobol])
 def test_elementwise_functions_reject_bad_input(fn):
-    seed, index = _lanes()
+    seed, index = lanes()
     with pytest.raises(DtypeError, match="seed: expected dtype int64, got float64"):
         fn(seed.double(), index, 0)
     with pytest.raises(DtypeError, match="dim: expected dtype int64, got float32"):
