@@ -28,6 +28,7 @@ from denoisers.filters import (
     joint_bilateral_filter,
     median_filter,
 )
+from tests._images import random_frame
 from tests._twins import atrous_reference, guided_reference
 
 FILTERS = [Gaussian(), Bilateral(), JointBilateral(), Guided(), Median(), ATrous()]
@@ -149,22 +150,12 @@ def test_params_round_trip_through_constructor():
 # -- values a renderer writes: fireflies and infinite depth (issue 18) ----------------------------
 
 
-def _guided_frame(h=24, w=24):
-    g = torch.Generator().manual_seed(5)
-    return Frame(
-        color=torch.rand(3, h, w, generator=g),
-        albedo=torch.rand(3, h, w, generator=g),
-        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
-        depth=torch.rand(1, h, w, generator=g) + 1.0,
-    )
-
-
 @pytest.mark.parametrize("firefly", [1e20, 3e38])
 @pytest.mark.parametrize("name", ["atrous", "guided", "joint_bilateral", "bilateral", "median"])
 def test_one_huge_finite_firefly_gives_a_finite_image(name, firefly):
     # A single 1e20 made atrous's output all NaN (its squared luminance overflowed float32),
     # and a 3e38 one guided's.
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     frame.color[1, 5, 7] = firefly
     out = get_denoiser(name)(frame)
     assert out.dtype == torch.float32 and torch.isfinite(out).all()
@@ -172,7 +163,7 @@ def test_one_huge_finite_firefly_gives_a_finite_image(name, firefly):
 
 
 def test_atrous_reads_infinite_depth_as_the_background_depth():
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     frame.depth[:, :8] = 0.0
     frame.normal[:, :8] = 0.0  # escaped rays: no normal, the tracer's depth 0
     want = get_denoiser("atrous")(frame)
@@ -181,7 +172,7 @@ def test_atrous_reads_infinite_depth_as_the_background_depth():
 
 
 def test_atrous_float64_switch_agrees_with_float32_on_ordinary_frames():
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     narrow = atrous_filter(frame.color, frame.normal, frame.depth)
     wide = atrous_filter(frame.color.double(), frame.normal.double(), frame.depth.double())
     torch.testing.assert_close(narrow, wide.float(), rtol=1e-4, atol=1e-5)
@@ -198,14 +189,14 @@ def test_absurd_windows_are_refused_before_allocating(name, params, match):
     from bnerr.errors import MemoryLimitError
 
     with pytest.raises(MemoryLimitError, match=match + r" that fits in memory .* got an estimate"):
-        get_denoiser(name, **params)(_guided_frame())
+        get_denoiser(name, **params)(random_frame(24, 24, seed=5))
 
 
 # -- an initial luminance variance (SVGF's temporal estimate) -------------------------------------
 
 
 def test_atrous_variance_nan_is_the_spatial_estimate_and_none_the_default():
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     args = (frame.color, frame.normal, frame.depth)
     plain = atrous_filter(*args)
     h, w = frame.color.shape[1:]
@@ -219,7 +210,7 @@ def test_atrous_variance_nan_is_the_spatial_estimate_and_none_the_default():
 
 
 def test_atrous_variance_sets_how_much_luminance_difference_is_noise():
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     args = (frame.color, frame.normal, frame.depth)
     h, w = frame.color.shape[1:]
     # Zero variance: every neighbour of another luminance is an edge, the image stays as it is.
@@ -236,7 +227,7 @@ def test_atrous_variance_sets_how_much_luminance_difference_is_noise():
 def test_atrous_variance_is_checked():
     from bnerr.errors import ShapeError
 
-    frame = _guided_frame()
+    frame = random_frame(24, 24, seed=5)
     args = (frame.color, frame.normal, frame.depth)
     h, w = frame.color.shape[1:]
     with pytest.raises(ShapeError, match="atrous_filter: variance"):

@@ -7,6 +7,7 @@ import denoisers
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
 from denoisers import DENOISERS, Denoiser, MissingBufferError, check_frame, get_denoiser
+from tests._images import random_frame
 
 NAMES = [
     "atrous",
@@ -24,21 +25,6 @@ NAMES = [
 STATEFUL = {"svgf", "taa"}
 
 
-def _frame(h=12, w=10, seed=0, **drop):
-    g = torch.Generator().manual_seed(seed)
-    buffers = dict(
-        color=torch.rand(3, h, w, generator=g),
-        albedo=torch.rand(3, h, w, generator=g),
-        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
-        depth=torch.rand(1, h, w, generator=g) + 1.0,
-        motion=torch.rand(2, h, w, generator=g) - 0.5,
-        object_id=torch.zeros(1, h, w),
-    )
-    for name in drop:
-        buffers.pop(name)
-    return Frame(**buffers)
-
-
 def test_registry_names_sorted_and_complete():
     assert list(DENOISERS) == NAMES
     assert denoisers.__all__ == sorted(denoisers.__all__)
@@ -50,7 +36,7 @@ def test_registry_names_sorted_and_complete():
 @pytest.mark.parametrize("name", NAMES)
 def test_every_denoiser_takes_reset_and_a_frame_index(name):
     """Callers treat all denoisers alike: reset, then frames in order with their index t."""
-    frames = [_frame(seed=s) for s in range(3)]
+    frames = [random_frame(seed=s) for s in range(3)]
     denoiser = get_denoiser(name)
     first = [denoiser(f, t=t) for t, f in enumerate(frames)]
     denoiser.reset()
@@ -65,7 +51,7 @@ def test_every_denoiser_takes_reset_and_a_frame_index(name):
 
 @pytest.mark.parametrize("name", NAMES)
 def test_every_denoiser_maps_frame_to_color(name):
-    frame = _frame()
+    frame = random_frame()
     out = get_denoiser(name)(frame)
     assert (
         out.shape == (3, 12, 10) and out.dtype == torch.float32 and out.device == frame.color.device
@@ -93,7 +79,7 @@ def test_unknown_name_and_parameter_raise():
     ],
 )
 def test_missing_buffer_is_named(name, missing):
-    frame = _frame(**{missing: True})
+    frame = random_frame(drop=(missing,))
     with pytest.raises(MissingBufferError, match=f"denoiser '{name}'.*without {missing}"):
         get_denoiser(name)(frame)
 
@@ -107,18 +93,18 @@ def test_colour_only_filters_need_no_aux_buffers():
 def test_bad_frames_raise_typed_errors():
     with pytest.raises(DtypeError, match="expected a bnerr.frame.Frame, got Tensor"):
         get_denoiser("gaussian")(torch.rand(3, 8, 8))
-    frame = _frame()
+    frame = random_frame()
     frame.albedo = torch.rand(3, 5, 5)  # assigned after construction: Frame could not check it
     with pytest.raises(ShapeError, match=r"frame.albedo: expected shape \[3, 12, 10\]"):
         get_denoiser("guided")(frame)
-    frame = _frame()
+    frame = random_frame()
     frame.color[0, 1, 1] = float("nan")
     with pytest.raises(NonFiniteError, match="frame.color: expected finite values, got 1 NaN"):
         get_denoiser("median")(frame)
 
 
 def test_check_frame_returns_frame_and_lists_all_missing():
-    frame = _frame(albedo=True, depth=True)
+    frame = random_frame(drop=("albedo", "depth"))
     assert check_frame(frame, frozenset({"normal"}), "x") is frame
     with pytest.raises(MissingBufferError, match="without albedo, depth"):
         check_frame(frame, frozenset({"albedo", "depth", "normal"}), "x")
@@ -147,7 +133,7 @@ def test_subclass_breaking_the_contract_is_caught():
             return frame.color[:1]
 
     with pytest.raises(ShapeError, match="denoiser 'broken' output"):
-        Broken()(_frame())
+        Broken()(random_frame())
 
 
 # -- every buffer a denoiser reads is checked; the output is never NaN (issue 18) -----------------
@@ -167,7 +153,7 @@ def test_subclass_breaking_the_contract_is_caught():
     ],
 )
 def test_a_nan_guide_is_refused_naming_the_buffer_count_and_pixel(name, buffer):
-    frame = _frame()
+    frame = random_frame()
     values = getattr(frame, buffer)
     values[:, 3, 4] = float("nan")
     values[:, 7, 1] = float("nan")
@@ -180,7 +166,7 @@ def test_a_nan_guide_is_refused_naming_the_buffer_count_and_pixel(name, buffer):
 
 
 def test_minus_infinite_depth_is_refused_but_plus_infinite_is_background():
-    frame = _frame()
+    frame = random_frame()
     frame.depth[0, 2, 2] = -float("inf")
     with pytest.raises(
         NonFiniteError, match="frame.depth: expected finite values, got 0 NaN and 1"
@@ -190,7 +176,7 @@ def test_minus_infinite_depth_is_refused_but_plus_infinite_is_background():
 
 @pytest.mark.parametrize("name", ["gaussian", "bilateral", "joint_bilateral", "guided", "median"])
 def test_buffers_a_denoiser_does_not_read_are_not_checked(name):
-    frame = _frame()
+    frame = random_frame()
     frame.depth[0, 0, 0] = float("nan")
     assert torch.isfinite(get_denoiser(name)(frame)).all()
 
@@ -207,4 +193,4 @@ def test_a_denoiser_that_returns_nan_is_caught_at_the_boundary():
     with pytest.raises(
         NonFiniteError, match=r"denoiser 'broken' output \(finite input\): .* \(y, x\) = \(5, 6\)"
     ):
-        Broken()(_frame())
+        Broken()(random_frame())

@@ -6,7 +6,6 @@ import pytest
 import torch
 
 from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
-from bnerr.frame import Frame
 from bnerr.metrics import paired_ratio
 from denoisers import DENOISERS, get_denoiser
 from denoisers import unet as unet_module
@@ -27,16 +26,8 @@ from denoisers.unet import (
     unet_denoise,
     upsampled_transpose_kernel,
 )
+from tests._images import random_frame
 from tests._scene_renders import SCENES, measured_frames, mse, scene_renders
-
-
-def _frame(h=20, w=28, seed=0, scale=1.0):
-    g = torch.Generator().manual_seed(seed)
-    return Frame(
-        color=scale * torch.rand(3, h, w, generator=g),
-        albedo=torch.rand(3, h, w, generator=g),
-        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
-    )
 
 
 def test_default_network_is_within_the_parameter_cap():
@@ -65,8 +56,8 @@ def test_network_is_local_with_skips_concatenated():
 
 
 def test_auto_exposure_makes_the_input_scale_invariant():
-    frame = _frame()
-    bright = _frame(scale=40.0)
+    frame = random_frame(20, 28)
+    bright = random_frame(20, 28, scale=40.0)
     e, e_bright = auto_exposure(frame.color), auto_exposure(bright.color)
     torch.testing.assert_close(e / e_bright, torch.tensor(40.0), rtol=1e-5, atol=0)
     a = network_input(frame.color, frame.albedo, frame.normal, e)
@@ -81,7 +72,7 @@ def test_save_load_and_denoise_round_trip(tmp_path):
     save_weights(net, tmp_path / "w.pt", meta={"command": "test"})
     loaded = load_weights(tmp_path / "w.pt")
     assert loaded.widths == (4, 6, 8, 8)
-    frame = _frame()
+    frame = random_frame(20, 28)
     expected = unet_denoise(net, frame.color, frame.albedo, frame.normal)
     assert torch.equal(unet_denoise(loaded, frame.color, frame.albedo, frame.normal), expected)
     out = UNetDenoiser(weights=tmp_path / "w.pt")(frame)
@@ -263,7 +254,7 @@ def test_denoiser_fast_path_gives_the_plain_networks_output():
 
     Tolerance: 1e-4 relative, 1e-5 absolute: the fast path sums the convolutions in another order
     (measured at most 5e-6 on a 960 x 540 and a 1920 x 1080 synthetic frame)."""
-    frame = _frame(h=67, w=45, scale=3.0)
+    frame = random_frame(67, 45, scale=3.0)
     denoiser = UNetDenoiser()
     want = unet_denoise(denoiser.model, frame.color, frame.albedo, frame.normal)
     torch.testing.assert_close(denoiser(frame), want, rtol=1e-4, atol=1e-5)

@@ -6,23 +6,15 @@ import torch
 from benchmarks.cli import main
 from benchmarks.commands.denoise import parse_params
 from bnerr.errors import DtypeError
-from bnerr.frame import Frame
 from bnerr.io import read_frame, write_frame
 from denoisers import get_denoiser
 from denoisers.tuning import ParamStore, TuneResult
+from tests._images import random_frame
 
 
 def _frame_file(tmp_path, drop=()):
-    g = torch.Generator().manual_seed(0)
-    buffers = dict(
-        color=torch.rand(3, 10, 12, generator=g) * 2,
-        albedo=torch.rand(3, 10, 12, generator=g),
-        normal=torch.nn.functional.normalize(torch.randn(3, 10, 12, generator=g), dim=0),
-        depth=torch.rand(1, 10, 12, generator=g) + 1,
-    )
-    for name in drop:
-        buffers.pop(name)
-    frame = Frame(**buffers, timings={"render": 12.5})
+    drop = ("motion", "object_id", *drop)
+    frame = random_frame(10, 12, scale=2.0, drop=drop, timings={"render": 12.5})
     path = tmp_path / "frame.exr"
     write_frame(path, frame)
     return path, read_frame(path)

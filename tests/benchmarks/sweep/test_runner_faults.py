@@ -105,7 +105,7 @@ import dataclasses, os, signal, sys
 import torch
 torch.set_num_threads(1)
 from tests._suites import tiny_suite
-from tests.benchmarks.sweep.test_faults import _parts, _Os
+from tests.benchmarks.sweep.test_runner_faults import _parts, _Os
 from benchmarks.sweep import records
 from benchmarks.sweep.runner import run_suite
 
