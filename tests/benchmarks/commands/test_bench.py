@@ -116,7 +116,8 @@ def test_a_fresh_run_refuses_finished_cells_unless_told_to_overwrite(tmp_path, c
     [
         (b"\x89PNG\r\n\x1a\n\x00\xff", "got bad bytes on line 1"),
         # a complete line that is not JSON (a last line cut short, without its newline, is an
-        # interrupted append: resume drops it with a warning, tests/test_records.py)
+        # interrupted append: resume drops it with a warning,
+        # tests/benchmarks/sweep/test_records.py)
         (b'{"key": "trunc\n', "expected one JSON record per line, got bad line 1"),
     ],
 )

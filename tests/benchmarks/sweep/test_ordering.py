@@ -6,20 +6,20 @@ strategies (they only move errors); and on the failure cases (textured felt, fas
 object edges) temporal must never be worse than white.
 
 How the margins are made: every comparison is a paired ratio over the same frames and seed sets
-(:func:`bnerr.metrics.paired_ratio`): a t-interval with 7 degrees of freedom on the log ratios of
-8 independent seed sets x 3 frames (issue 24; its coverage at these settings and levels is tested
-in tests/test_metrics_stats.py). The seed set is the unit that matters: a temporal run reuses one
+(:func:`bnerr.metrics.paired_ratio`): a t-interval with 7 degrees of freedom on the log ratios of 8
+independent seed sets x 3 frames (issue 24; its coverage at these settings and levels is tested in
+tests/bnerr/metrics/test_stats.py). The seed set is the unit that matters: a temporal run reuses one
 set of seeds for all its frames, so its frames are correlated. With the former two-stage bootstrap
-over 4 seed sets the intervals missed far more often than their level said; the t-interval at 4
-seed sets is honest but 2.8x wider at the orderings' level (t quantile 8.8 with 3 degrees of
-freedom against 4.4 with 7, and half the seed sets), so the suites here use 8 seed sets: about
-twice the render time, the cheapest way to the power. The confidence level is
-Bonferroni-corrected for the number of comparisons each test makes, so that the family of checks,
-not each one, has a 5% false-alarm rate. The claims
-(:mod:`bnerr.metrics.stats`): an ordering is superiority, the whole interval below 1
-(:func:`~bnerr.metrics.better`); "equal raw MSE" is equivalence, the whole interval inside
-``1 -+ d`` (:func:`~bnerr.metrics.equivalent`); "never worse" is non-inferiority, the interval's
-upper end at most ``1 + d`` (:func:`~bnerr.metrics.not_worse`), with each d stated below and why.
+over 4 seed sets the intervals missed far more often than their level said; the t-interval at 4 seed
+sets is honest but 2.8x wider at the orderings' level (t quantile 8.8 with 3 degrees of freedom
+against 4.4 with 7, and half the seed sets), so the suites here use 8 seed sets: about twice the
+render time, the cheapest way to the power. The confidence level is Bonferroni-corrected for the
+number of comparisons each test makes, so that the family of checks, not each one, has a 5%
+false-alarm rate. The claims (:mod:`bnerr.metrics.stats`): an ordering is superiority, the whole
+interval below 1 (:func:`~bnerr.metrics.better`); "equal raw MSE" is equivalence, the whole interval
+inside ``1 -+ d`` (:func:`~bnerr.metrics.equivalent`); "never worse" is non-inferiority, the
+interval's upper end at most ``1 + d`` (:func:`~bnerr.metrics.not_worse`), with each d stated below
+and why.
 
 The references have 256 spp: their noise adds the same constant to every strategy's MSE (it is
 independent of the frames), which pulls every ratio towards 1; it can hide an ordering, never

@@ -182,7 +182,7 @@ run_suite_ray(_suite(), {out!r}, cache_dir={cache!r}, progress=False)
     os.environ.get("BNERR_LONG_TESTS") != "1",
     reason="25-42 s on 2 busy cores (the child driver's job starts its own Ray workers), over the "
     "test budget; BNERR_LONG_TESTS=1 runs it. make test kills the serial driver instead "
-    "(tests/test_sweep_faults.py), through the same SweepState writes",
+    "(tests/benchmarks/sweep/test_runner_faults.py), through the same SweepState writes",
 )
 def test_a_killed_driver_leaves_whole_runs_and_resume_completes_them(local_ray, serial, tmp_path):
     serial_out, cache, serial_records = serial

@@ -11,8 +11,8 @@ tests/_disks.py); elsewhere those cases skip and their ``injected`` twin raises 
 ``OSError(ENOSPC)`` at the write call instead. The kills are real ``SIGKILL``s of a child process
 running the serial runner (between two runs, with a rename pending, and in the middle of an
 append; about 3-10 s each, most of it the child's imports). The Ray worker's kill is in
-tests/test_ray_runner.py. Everything renders with the real tracer at 16x12 (a sweep takes under a
-second).
+tests/benchmarks/sweep/test_ray_runner.py. Everything renders with the real tracer at 16x12 (a
+sweep takes under a second).
 """
 
 from __future__ import annotations

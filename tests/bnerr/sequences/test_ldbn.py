@@ -2,8 +2,8 @@
 every power-of-two prefix per pixel and pair, the ranks' bijection, the rules past the tile's spp
 and dimensions, determinism and typed errors; the keyed lookup (texel read from the seed) against
 the plain one. The lookup's properties are checked on both paths (``path``: the native kernel,
-skipped without a compiler, and the torch path); tests/test_sequences_native.py compares the two
-bit for bit."""
+skipped without a compiler, and the torch path); tests/bnerr/sequences/test_native.py compares
+the two bit for bit."""
 
 from __future__ import annotations
 
