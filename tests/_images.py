@@ -30,3 +30,14 @@ def random_frame(h=12, w=10, seed=0, *, scale=1.0, drop=(), **fields) -> Frame:
     for name in drop:
         buffers.pop(name)
     return Frame(**buffers, **fields)
+
+
+def block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
+    """The sorted values of each ``block x block`` block of ``[H, W]`` ``x``, row by row: what a
+    permutation inside blocks keeps."""
+    h, w = x.shape
+    return [
+        sorted(x[y : y + block, c : c + block].reshape(-1).tolist())
+        for y in range(0, h, block)
+        for c in range(0, w, block)
+    ]

@@ -50,15 +50,6 @@ def features(h: int, w: int) -> dict:
     }
 
 
-def block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
-    h, w = x.shape
-    return [
-        sorted(x[y : y + block, c : c + block].reshape(-1).tolist())
-        for y in range(0, h, block)
-        for c in range(0, w, block)
-    ]
-
-
 SIZE = 64
 
 

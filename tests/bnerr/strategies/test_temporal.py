@@ -22,11 +22,11 @@ from bnerr.strategies import (
     BNDSStrategy,
     make_strategy,
 )
+from tests._images import block_multisets
 from tests.bnerr.strategies._renders import (
     RAW_LEVEL,
     RAW_MARGIN,
     SIZE,
-    block_multisets,
     hash_render,
     paired,
     paired_ratio,
