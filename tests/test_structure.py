@@ -480,6 +480,7 @@ MIRROR_EXEMPT = {
 #: Test files that test several modules together, under no one module's name.
 CROSS_CUTTING = {
     "tests/benchmarks/sweep/test_ordering.py": "oracle < temporal < white end to end",
+    "tests/benchmarks/sweep/test_ordering_coherent.py": "the same in coherent regions",
 }
 
 

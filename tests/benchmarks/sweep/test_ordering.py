@@ -14,28 +14,26 @@ over 4 seed sets the intervals missed far more often than their level said; the 
 sets is honest but 2.8x wider at the orderings' level (t quantile 8.8 with 3 degrees of freedom
 against 4.4 with 7, and half the seed sets), so the suites here use 8 seed sets: about twice the
 render time, the cheapest way to the power. The confidence level is Bonferroni-corrected for the
-number of comparisons each test makes, so that the family of checks, not each one, has a 5%
-false-alarm rate. The claims (:mod:`bnerr.metrics.stats`): an ordering is superiority, the whole
-interval below 1 (:func:`~bnerr.metrics.better`); "equal raw MSE" is equivalence, the whole interval
-inside ``1 -+ d`` (:func:`~bnerr.metrics.equivalent`); "never worse" is non-inferiority, the
-interval's upper end at most ``1 + d`` (:func:`~bnerr.metrics.not_worse`), with each d stated below
-and why.
+number of comparisons each test makes, so that the family of checks, not each one, has a 5% false-
+alarm rate. The claims (:mod:`bnerr.metrics.stats`): an ordering is superiority, the whole interval
+below 1 (:func:`~bnerr.metrics.better`); "equal raw MSE" is equivalence, the whole interval inside
+``1 -+ d`` (:func:`~bnerr.metrics.equivalent`); "never worse" is non-inferiority, the interval's
+upper end at most ``1 + d`` (:func:`~bnerr.metrics.not_worse`), with each d stated below and why.
 
 The references have 256 spp: their noise adds the same constant to every strategy's MSE (it is
-independent of the frames), which pulls every ratio towards 1; it can hide an ordering, never
-create one.
+independent of the frames), which pulls every ratio towards 1; it can hide an ordering, never create
+one.
 
-Resolution: 128x128 for the orderings, 64x64 for the failure cases. Smaller images are not a
-fair test of the method: the scenes' features then vary inside a 4x4 block, the sort orders by that
-signal instead of by the error, and the filters tuned on white noise are so narrow (sigma 0.5-1
-px) that their bias is 20-46% of the post-denoise MSE; measured at 64x64, temporal's gain over white
-was established in none of the eight cells, at 32x32 its point estimates were 0.96-1.01. Everything
-else is the benchmark's default: the runner's white-noise tuning of the denoisers, animated scenes,
-the strategies' defaults (Owen-scrambled Sobol per-pixel sequences, K = 32 oracle candidates, 4x4
+Resolution: 128x128 for the orderings, 64x64 for the failure cases. Smaller images are not a fair
+test of the method: the scenes' features then vary inside a 4x4 block, the sort orders by that
+signal instead of by the error, and the filters tuned on white noise are so narrow (sigma 0.5-1 px)
+that their bias is 20-46% of the post-denoise MSE; measured at 64x64, temporal's gain over white was
+established in none of the eight cells, at 32x32 its point estimates were 0.96-1.01. Everything else
+is the benchmark's default: the runner's white-noise tuning of the denoisers, animated scenes, the
+strategies' defaults (Owen-scrambled Sobol per-pixel sequences, K = 32 oracle candidates, 4x4
 blocks, 64x64 masks, 4 warmup frames: the sort converges within about 3 frames).
 
-Expected orderings that do not hold are marked ``xfail(strict=True)`` with the measured reason.
-"""
+Expected orderings that do not hold are marked ``xfail(strict=True)`` with the measured reason."""
 
 import numpy as np
 import pytest
@@ -43,15 +41,24 @@ import pytest
 from benchmarks.suites import Condition, Suite, Sweep
 from benchmarks.sweep.runner import run_suite
 from bnerr.metrics import better, equivalent, not_worse, paired_ratio
+from tests.benchmarks.sweep._ordering import COMMON, FAILURE_COMMON, index_records
 
 SCENES = ("direct", "indirect")
+
+
 SPP = (1, 4)
+
+
 DENOISERS = ("gaussian", "atrous")
+
+
 _CELLS = [(s, n, d) for s in SCENES for n in SPP for d in DENOISERS]
+
+
 _ORDER_LEVEL = 1 - 0.05 / (2 * len(_CELLS))  # two orderings per cell
+
+
 _RAW_LEVEL = 1 - 0.05 / (2 * len(SCENES) * len(SPP))  # temporal and oracle against white
-_COMMON = dict(frames=3, warmup=4, res=(128, 128), seed_sets=8, reference_spp=256)
-_FAILURE_COMMON = dict(_COMMON, res=(64, 64))
 
 
 # Measured failures of the expected ordering (issue 6: "do not bend the test: find out why").
@@ -64,6 +71,8 @@ _OWEN_SOBOL_4SPP = (
     "per-pixel sequences), and the denoisers tuned on white noise at 4 spp are narrow (Gaussian "
     "sigma 0.5 px), so no post-denoise gain is left to measure."
 )
+
+
 _KNOWN_FAILURES = {
     ("temporal", "direct", 4, "gaussian"): _OWEN_SOBOL_4SPP,
     ("temporal", "direct", 4, "atrous"): _OWEN_SOBOL_4SPP,
@@ -90,22 +99,6 @@ def _cells(strategy):
     ]
 
 
-def _index(records):
-    """The runner's :class:`benchmarks.sweep.records.Record` s keyed by scene, spp, denoiser,
-    strategy, motion and region."""
-    return {
-        (
-            r.cell.scene,
-            r.cell.spp,
-            r.cell.denoiser,
-            r.cell.strategy,
-            r.cell.motion,
-            r.cell.region,
-        ): r
-        for r in records
-    }
-
-
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
@@ -121,10 +114,10 @@ def ordering(tmp_path_factory, cache):
         strategies=("white", "temporal", "oracle"),
         spp=SPP,
         denoisers=DENOISERS,
-        **_COMMON,
+        **COMMON,
     )
     suite = Suite("ordering", "test", sweeps=(sweep,), crops=False)
-    return _index(
+    return index_records(
         run_suite(suite, tmp_path_factory.mktemp("ordering"), cache_dir=cache, progress=False)
     )
 
@@ -187,7 +180,11 @@ _FAILURES = [
     ("snooker", 1, "edges"),  # object edges: a seed moved across an edge lands on another object
     ("indirect", 8, "all"),  # camera motion 8x faster: the seed's neighbourhood changes every frame
 ]
+
+
 _FAILURE_LEVEL = 1 - 0.05 / (len(_FAILURES) * len(DENOISERS))
+
+
 # Non-inferiority margins, per denoiser: the smallest round margins 8 seed sets x 3 frames of 64x64
 # resolve at 99.17 %. Measured half-widths (log scale): Gaussian 8-9 %, a-trous 12-25 % (its
 # colour weights react to the noise, so its MSE varies most between seed sets; snooker's edges
@@ -205,7 +202,7 @@ def failures(tmp_path_factory, cache):
             spp=(1,),
             denoisers=DENOISERS,
             conditions=(Condition(), Condition(region="edges")),
-            **_FAILURE_COMMON,
+            **FAILURE_COMMON,
         ),
         Sweep(
             scenes=("indirect",),
@@ -213,11 +210,11 @@ def failures(tmp_path_factory, cache):
             spp=(1,),
             denoisers=DENOISERS,
             conditions=(Condition(motion=8),),
-            **_FAILURE_COMMON,
+            **FAILURE_COMMON,
         ),
     )
     suite = Suite("failures", "test", sweeps=sweeps, crops=False)
-    return _index(
+    return index_records(
         run_suite(suite, tmp_path_factory.mktemp("failures"), cache_dir=cache, progress=False)
     )
 
@@ -239,14 +236,22 @@ def test_temporal_is_never_worse_than_white_on_the_failure_cases(
 # 4 seed sets x 3 frames after 6 warmup, 256-spp references, Gaussian; share of the white-to-oracle
 # distance closed after the Gaussian, temporal -> best): snooker 0.42 -> 0.67, direct 0.13 -> 0.28.
 BEST = "temporal+relative+demod+groups"
+
+
 _GAP_STRATEGIES = ("white", "temporal", BEST, "temporal+shift", "temporal+reproject")
+
+
 _GAP_LEVEL = 1 - 0.05 / 6  # six comparisons below
+
+
 _GAP_SHIFT = (
     "Shifting the block grid by (2, 2) every other frame does not help: the retargeting pass "
     "already moves seeds across block boundaries every frame, and the shifted grid's partial "
     "border blocks sort fewer seeds; measured temporal+shift / temporal after the Gaussian on "
     "snooker 1.016 [0.975, 1.060] (99%), after a sigma-2 blur 1.048 [0.934, 1.171]."
 )
+
+
 _GAP_REPROJECT = (
     "Forward reprojection changes nothing measurable at the scenes' own speed: the animation "
     "moves about half a pixel per frame (snooker: median 0.53 px, at most 0.98 px), so rounding "
@@ -265,10 +270,12 @@ def gap(tmp_path_factory, cache):
         spp=(4,),
         denoisers=("gaussian",),
         metrics=("mse", "mse_blur2"),
-        **_COMMON,
+        **COMMON,
     )
     suite = Suite("gap", "test", sweeps=(sweep,), crops=False)
-    return _index(run_suite(suite, tmp_path_factory.mktemp("gap"), cache_dir=cache, progress=False))
+    return index_records(
+        run_suite(suite, tmp_path_factory.mktemp("gap"), cache_dir=cache, progress=False)
+    )
 
 
 def _gap_ratio(records, a, b, kind, metric, scene):
@@ -325,8 +332,14 @@ def test_best_variant_keeps_whites_raw_mse(gap):
 # [0.855, 0.950] at 4 spp and 0.953 [0.916, 0.991] at 16; raw 1.006 [0.973, 1.039] and 0.927
 # [0.874, 0.983] (99.17 %, 8 seed sets), the lowest of the three at both sample counts.
 RIVAL_CLAIMS = ("zsobol", "cycles_blue", "ldbn")
+
+
 _RIVAL_SPP = (4, 16)
+
+
 _RIVAL_LEVEL = 1 - 0.05 / (2 * len(RIVAL_CLAIMS) * len(_RIVAL_SPP))  # den and raw per cell
+
+
 _RIVAL_16SPP = (
     "Not established at 16 spp: after the Gaussian tuned on white (sigma 0.5 px at 16 spp, so "
     "narrow that little low-frequency error is removed either way) zsobol / white measured "
@@ -334,6 +347,8 @@ _RIVAL_16SPP = (
     "results/quality (1024-spp references, former bootstrap); at 4 spp the gain is clear "
     "(0.962 [0.939, 0.986] here)."
 )
+
+
 _SHARED_SCRAMBLE = (
     "cycles_blue and zsobol take each pixel's samples as an aligned block of one sequence under "
     "one scramble shared by all pixels, so the image's raw MSE is one draw per scramble instead "
@@ -346,6 +361,8 @@ _SHARED_SCRAMBLE = (
     "and 1.003 [0.965, 1.046] in results/quality). The rivals' design, not a defect in our "
     "samplers."
 )
+
+
 _RIVAL_FAILURES = {
     ("den", "zsobol", 16): _RIVAL_16SPP,
     ("raw", "zsobol", 4): _SHARED_SCRAMBLE,
@@ -372,10 +389,10 @@ def rivals(tmp_path_factory, cache):
         spp=_RIVAL_SPP,
         denoisers=("gaussian",),
         metrics=("mse",),
-        **_COMMON,
+        **COMMON,
     )
     suite = Suite("rivals", "test", sweeps=(sweep,), crops=False)
-    return _index(
+    return index_records(
         run_suite(suite, tmp_path_factory.mktemp("rivals"), cache_dir=cache, progress=False)
     )
 
@@ -394,79 +411,3 @@ def test_rival_raw_mse_is_not_worse_than_whites_on_direct(rivals, strategy, spp)
     cell = dict(scene="direct", spp=spp, denoiser="gaussian")
     ratio = _ratio(rivals, strategy, "white", "raw", _RIVAL_LEVEL, **cell)
     assert not_worse(ratio, _RAW_MARGIN["temporal"]), f"raw {strategy} / white = {ratio}"
-
-
-# Issue 26: the seed's claim in spatio-temporally coherent regions at 16 spp (64x64, 8 seed sets,
-# the region of bnerr.metrics.coherent_mask, raw error after a sigma-2 blur). Two comparisons.
-_COHERENT_LEVEL = 1 - 0.05 / 2
-_COHERENT_FAILURE = (
-    "In coherent regions of direct at 16 spp the sort key ranks the shading, not the error: inside "
-    "coherent 4x4 blocks the reference's spread is 7.5x the error's and the key's rank "
-    "correlation with the error 0.05 (python -m benchmarks.causes; docs/METHODS.md, section 11). "
-    "Measured through the bench at 64x64 with 3 seed sets: temporal / white after a sigma-2 blur "
-    "0.93 [0.38, 2.28], against the oracle's 0.23."
-)
-
-
-@pytest.fixture(scope="module")
-def coherent(tmp_path_factory, cache):
-    sweep = Sweep(
-        scenes=("direct",),
-        strategies=("white", "temporal", "oracle"),
-        spp=(16,),
-        denoisers=("gaussian",),
-        **_FAILURE_COMMON,
-    )
-    suite = Suite("coherent", "test", sweeps=(sweep,), crops=False, coherent=True)
-    records = run_suite(suite, tmp_path_factory.mktemp("coherent"), cache_dir=cache, progress=False)
-    return _index(records)
-
-
-def _coherent_ratio(records, a, b):
-    def stats(strategy):
-        record = records["direct", 16, "gaussian", strategy, 1, "coherent"]
-        return np.asarray(record.raw["mse_blur2"])
-
-    return paired_ratio(stats(a), stats(b), level=_COHERENT_LEVEL)
-
-
-@pytest.mark.slow
-def test_the_oracle_beats_white_after_a_sigma2_blur_in_coherent_regions_at_16spp(coherent):
-    ratio = _coherent_ratio(coherent, "oracle", "white")
-    assert better(ratio), f"oracle / white = {ratio}"
-
-
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason=_COHERENT_FAILURE)
-def test_temporal_beats_white_after_a_sigma2_blur_in_coherent_regions_at_16spp(coherent):
-    ratio = _coherent_ratio(coherent, "temporal", "white")
-    assert better(ratio), f"temporal / white = {ratio}"
-
-
-# Where the seed's claim holds (issue 26): the untextured snooker table's coherent region at 16
-# spp, where the quality suite measured the temporal method keeping 0.73 [0.69, 0.77] of the
-# oracle's dividend after a sigma-2 blur (128x128, 4 seed sets). One comparison, at 95 %.
-@pytest.fixture(scope="module")
-def coherent_plain(tmp_path_factory, cache):
-    sweep = Sweep(
-        scenes=("snooker_plain",),
-        strategies=("white", "temporal"),
-        spp=(16,),
-        denoisers=("gaussian",),
-        **_COMMON,
-    )
-    suite = Suite("coherent_plain", "test", sweeps=(sweep,), crops=False, coherent=True)
-    out = tmp_path_factory.mktemp("coherent_plain")
-    return _index(run_suite(suite, out, cache_dir=cache, progress=False))
-
-
-@pytest.mark.slow
-def test_temporal_beats_white_after_a_sigma2_blur_in_plain_snookers_coherent_region(
-    coherent_plain,
-):
-    def stats(strategy):
-        record = coherent_plain["snooker_plain", 16, "gaussian", strategy, 1, "coherent"]
-        return np.asarray(record.raw["mse_blur2"])
-
-    ratio = paired_ratio(stats("temporal"), stats("white"))
-    assert better(ratio), f"temporal / white = {ratio}"
