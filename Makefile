@@ -7,7 +7,7 @@
 # (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
 # Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it installs
 # libllvm19 (best effort; without it the tests that need it skip and say why). Likewise the
-# browser tests of the results pages (tests/test_page.py) drive Debian's chromium through
+# browser tests of the results pages (tests/benchmarks/reports/test_page.py) drive Debian's chromium through
 # Playwright; `make chromium` installs it as root on Debian, elsewhere those tests skip.
 PYTHON ?= python3.11
 VENV   := .venv

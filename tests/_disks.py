@@ -3,8 +3,8 @@
 A real file system is the honest test (the errors are the kernel's, partial writes included), but
 mounting needs root: where ``mount`` fails (a CI runner without root), :func:`small_disk` and
 :func:`read_only` skip, and the fault tests fall back to injecting the same ``OSError`` at the
-write call (see tests/test_sweep_faults.py). As root, ``chmod`` does not stop writes, so a
-read-only folder is a tmpfs remounted ``ro``; without root it is ``chmod 0o555``.
+write call (see tests/benchmarks/sweep/test_runner_faults.py). As root, ``chmod`` does not stop
+writes, so a read-only folder is a tmpfs remounted ``ro``; without root it is ``chmod 0o555``.
 """
 
 from __future__ import annotations

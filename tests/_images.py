@@ -1,6 +1,9 @@
-"""A small image and its noisy copy, for the metrics tests."""
+"""Small images and frames for tests: a noisy copy of an image (the metrics tests) and a random
+frame with every buffer a denoiser reads (the denoiser and command tests)."""
 
 import torch
+
+from bnerr.frame import Frame
 
 
 def noisy_pair(seed=0, shape=(3, 24, 20), noise=0.1):
@@ -9,3 +12,32 @@ def noisy_pair(seed=0, shape=(3, 24, 20), noise=0.1):
     ref = torch.rand(shape, generator=gen) + 0.1
     pred = ref + noise * torch.randn(shape, generator=gen)
     return pred, ref
+
+
+def random_frame(h=12, w=10, seed=0, *, scale=1.0, drop=(), **fields) -> Frame:
+    """An ``h x w`` frame of seeded random buffers: color uniform in [0, scale), albedo uniform,
+    unit normals, depth in [1, 2), motion in [-0.5, 0.5), object 0; the buffers named in ``drop``
+    left out (drawn all the same, so the others do not change); ``fields`` added (``timings``)."""
+    g = torch.Generator().manual_seed(seed)
+    buffers = dict(
+        color=scale * torch.rand(3, h, w, generator=g),
+        albedo=torch.rand(3, h, w, generator=g),
+        normal=torch.nn.functional.normalize(torch.randn(3, h, w, generator=g), dim=0),
+        depth=torch.rand(1, h, w, generator=g) + 1.0,
+        motion=torch.rand(2, h, w, generator=g) - 0.5,
+        object_id=torch.zeros(1, h, w),
+    )
+    for name in drop:
+        buffers.pop(name)
+    return Frame(**buffers, **fields)
+
+
+def block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:
+    """The sorted values of each ``block x block`` block of ``[H, W]`` ``x``, row by row: what a
+    permutation inside blocks keeps."""
+    h, w = x.shape
+    return [
+        sorted(x[y : y + block, c : c + block].reshape(-1).tolist())
+        for y in range(0, h, block)
+        for c in range(0, w, block)
+    ]

@@ -1,8 +1,8 @@
 """Small white-noise renders of the benchmark's named scenes, shared by the denoiser tests.
 
-Not a test module: ``tests/test_tuning.py``, ``test_unet.py`` and ``test_oidn.py`` import it, and
-the cache below makes one pytest session render each scene once. Every render is deterministic
-(fixed seeds), so the tests that use them are too.
+Not a test module: ``tests/denoisers/test_tuning.py``, ``test_unet.py`` and ``test_oidn.py`` import
+it, and the cache below makes one pytest session render each scene once. Every render is
+deterministic (fixed seeds), so the tests that use them are too.
 
 Each scene gets, at ``SIZE x SIZE`` and ``SPP`` samples per pixel with random per-pixel seeds
 ("white noise") and a per-pixel sampler (``white``, independent samples, by default; or

@@ -28,8 +28,9 @@ def one_thread():
     """Run a module on one torch thread (``pytestmark = pytest.mark.usefixtures("one_thread")``).
 
     On a shared 2-core machine OpenMP's barriers stall whenever one of two threads is descheduled
-    (measured here: tests/test_ordering.py's renders took 407 s on 2 threads under load, 32 s on 1),
-    and tiny networks are faster on one thread anyway. Renders are bit-identical either way.
+    (measured here: tests/benchmarks/sweep/test_ordering.py's renders took 407 s on 2 threads under
+    load, 32 s on 1), and tiny networks are faster on one thread anyway. Renders are bit-identical
+    either way.
     """
     before = torch.get_num_threads()
     torch.set_num_threads(1)

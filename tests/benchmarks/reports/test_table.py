@@ -1,0 +1,381 @@
+"""Tests of benchmarks.reports: rows, ratios to white, flags, CSV, Markdown and charts."""
+
+import csv
+import dataclasses
+import re
+import shutil
+
+import numpy as np
+import pytest
+import torch
+
+from benchmarks.reports import decision, table, write_report
+from benchmarks.reports.groups import group_key
+from benchmarks.reports.table import COLUMNS, markdown_table, summarize, table_columns
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import (
+    RESULTS_ARCHIVE,
+    RESULTS_FILE,
+    Record,
+    ReferenceInfo,
+    Spectrum,
+    Timings,
+    load_records,
+    write_records,
+)
+from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
+from tests._paths import RESULTS
+
+_METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
+
+
+def _record(
+    strategy, spp, denoiser, den_mse, raw_mse, *, scene="direct", region="all", motion=1, crop=None
+):
+    """A record whose per-frame metric pairs are (value * count, count) for 2 sets x 3 frames."""
+    count = 3 * 16 * 16
+
+    def pairs(values):
+        return [[[v * count, count] for v in row] for row in values]
+
+    def flat(value):
+        return [[value] * 3] * 2
+
+    cell = Cell(
+        scene=scene,
+        strategy=strategy,
+        spp=spp,
+        denoiser=denoiser,
+        motion=motion,
+        depth=None,
+        region=region,
+        sampler="owen_sobol",
+        frames=3,
+        warmup=2,
+        width=16,
+        height=16,
+        seed_sets=2,
+        reference_spp=64,
+    )
+    per_metric = {m: pairs(flat(0.5)) for m in _METRICS}
+    return Record(
+        cell=cell,
+        dimensions=4,
+        t=[2, 3, 4],
+        raw={**per_metric, "mse": pairs(raw_mse), "mse_blur1": pairs(raw_mse)},
+        den={**per_metric, "mse": pairs(den_mse)},
+        denoiser_params={"sigma": 1.0},
+        timings=Timings(
+            render_ms=[[10.0 * spp] * 3] * 2, perm_ms=[[1.0] * 3] * 2, denoise_ms=[[2.0] * 3] * 2
+        ),
+        reference=ReferenceInfo(spp=64, floor=1e-5, version="test"),
+        spectrum={
+            "raw": Spectrum(freq=[0.0, 0.25, 0.5], power=[0.0, 1.0, 2.0]),
+            "den": Spectrum(freq=[0.0, 0.25, 0.5], power=[0.0, 0.1, 0.01]),
+        },
+        crop=crop,
+    )
+
+
+_WHITE = [[1.0, 2.0, 3.0], [1.5, 2.5, 3.5]]
+_TEMPORAL = [[0.5, 1.1, 1.4], [0.8, 1.2, 1.8]]
+_WORSE = [[2.0, 4.1, 6.3], [3.1, 5.0, 7.2]]
+
+
+def _records():
+    return [
+        _record("white", 1, "gaussian", _WHITE, _WHITE),
+        _record("temporal", 1, "gaussian", _TEMPORAL, _WHITE),
+        _record("oracle", 1, "gaussian", _WORSE, _WHITE),
+        _record("white", 4, "gaussian", _WHITE, _WHITE),
+        _record("temporal", 4, "gaussian", _TEMPORAL, _WHITE),
+    ]
+
+
+def test_rows_pair_each_strategy_with_white_on_the_same_cell():
+    rows = summarize(_records())
+    assert len(rows) == 5 and all(set(r) == set(COLUMNS) for r in rows)
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == 1)
+    want = paired_ratio(np.asarray(_TEMPORAL), np.asarray(_WHITE))
+    assert temporal["den_mse_ratio"] == pytest.approx(np.mean(_TEMPORAL) / np.mean(_WHITE))
+    assert (temporal["den_mse_ratio_lo"], temporal["den_mse_ratio_hi"]) == pytest.approx(
+        (want.lo, want.hi)
+    )
+    assert temporal["raw_mse_ratio"] == pytest.approx(1.0)
+    assert temporal["worse_than_white"] is False
+    assert temporal["total_ms"] == pytest.approx(10.0 + 1.0 + 2.0)
+    white = next(r for r in rows if r["strategy"] == "white" and r["spp"] == 1)
+    assert white["den_mse_ratio"] == pytest.approx(1.0) and white["worse_than_white"] is False
+    assert white["den_mse"] == pytest.approx(np.mean(_WHITE))
+    assert white["den_mse_lo"] < white["den_mse"] < white["den_mse_hi"]
+
+
+def test_a_strategy_is_flagged_only_when_its_interval_lies_above_white():
+    rows = summarize(_records())
+    oracle = next(r for r in rows if r["strategy"] == "oracle")
+    assert oracle["den_mse_ratio_lo"] > 1.0 and oracle["worse_than_white"] is True
+    text = markdown_table(rows)
+    flagged = text.split("## Worse than white beyond the interval")[1]
+    assert "oracle" in flagged and "temporal" not in flagged
+
+
+def test_no_white_record_leaves_the_ratio_empty():
+    rows = summarize([_record("temporal", 1, "gaussian", _TEMPORAL, _WHITE)])
+    assert rows[0]["den_mse_ratio"] is None and rows[0]["worse_than_white"] is None
+
+
+def test_markdown_shows_ratios_per_scene_and_spp():
+    text = markdown_table(summarize(_records()), "T")
+    assert text.startswith("# T")
+    assert "### direct" in text
+    header = next(line for line in text.splitlines() if line.startswith("| spp | denoiser |"))
+    assert header == "| spp | denoiser | white | temporal | oracle |"
+    ratio = np.mean(_TEMPORAL) / np.mean(_WHITE)
+    assert f"| 1 | gaussian | {np.mean(_WHITE):.4g} | {ratio:.3f} [" in text
+    assert "(worse)" in text
+
+
+def test_headline_gives_temporal_and_oracle_per_scene_spp_and_denoiser():
+    rows = summarize(_records())
+    lines = markdown_table(rows, "T").splitlines()
+    start = lines.index("| scene | spp | gaussian |")
+    by = {(r["strategy"], r["spp"]): r for r in rows}
+    temporal, oracle = by["temporal", 1], by["oracle", 1]
+    assert temporal["den_mse_ratio_hi"] < 1.0 < oracle["den_mse_ratio_lo"]  # the fixture's premise
+    # better beyond the interval: bold; worse beyond it: an arrow; not measured: a dash
+    assert (
+        lines[start + 2]
+        == f"| direct | 1 | **{temporal['den_mse_ratio']:.2f}** / {oracle['den_mse_ratio']:.2f}↑ |"
+    )
+    assert lines[start + 3] == f"| direct | 4 | **{by['temporal', 4]['den_mse_ratio']:.2f}** / - |"
+
+
+def test_headline_is_left_out_without_the_compared_strategies():
+    rows = summarize([r for r in _records() if r.cell.strategy == "white"])
+    assert "## Headline" not in markdown_table(rows, "T")
+
+
+def test_write_report_writes_csv_markdown_and_charts(tmp_path):
+    crop = tmp_path / "crops"
+    crop.mkdir()
+    image = np.zeros((8, 8, 3), np.uint8)
+    np.savez_compressed(crop / "c.npz", reference=image, raw=image, denoised__gaussian=image)
+    records = [dataclasses.replace(r, crop="crops/c.npz") for r in _records()]
+    text = write_report(tmp_path, records, title="T")
+    assert (tmp_path / "table.md").read_text() == text
+    with open(tmp_path / "table.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 5 and tuple(rows[0]) == COLUMNS
+    assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(
+        np.mean(_WHITE)
+    )
+    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops/c.png", "index.html"):
+        assert (tmp_path / name).exists(), name
+    assert not (tmp_path / "crops" / "c.npz").exists()  # kept as the strip the page shows
+    assert not list(tmp_path.glob(".*.tmp*"))  # atomic writes leave no temporary files
+
+
+def test_conditions_get_their_own_sections_and_charts(tmp_path):
+    records = _records() + [
+        _record("white", 1, "gaussian", _WHITE, _WHITE, motion=0),
+        _record("temporal", 1, "gaussian", _TEMPORAL, _WHITE, motion=0),
+        _record("white", 1, "gaussian", _WHITE, _WHITE, region="edges"),
+        _record("temporal", 1, "gaussian", _WORSE, _WHITE, region="edges"),
+    ]
+    text = write_report(tmp_path, records)
+    assert "### direct (static camera)" in text and "### direct (object edges only)" in text
+    assert (tmp_path / "error_vs_time_direct_m0.png").exists()
+    assert not (tmp_path / "error_vs_time_direct_edges.png").exists()  # charts: whole image only
+    assert table.summarize(records)[-1]["worse_than_white"] is True
+
+
+def test_raw_mse_differences_from_white_are_listed_once_per_run():
+    records = _records() + [
+        _record("bnds", 1, "gaussian", _WHITE, _WORSE),
+        _record("bnds", 1, "median", _WHITE, _WORSE),
+        _record("bnds", 4, "gaussian", _WHITE, _WORSE),
+    ]
+    rows = summarize(records)
+    bnds = {r["denoiser"]: r["raw_differs_from_white"] for r in rows if r["strategy"] == "bnds"}
+    assert bnds == {"gaussian": True, "median": None}  # no white median record: nothing to compare
+    assert not any(r["raw_differs_from_white"] for r in rows if r["strategy"] == "temporal")
+    section = markdown_table(rows).split("## Raw MSE different from white beyond the interval")[1]
+    section = section.split("## Worse than white")[0]
+    assert (
+        section.count("| direct | direct | bnds | 1 |") == 1
+        and section.count("| direct | direct | bnds | 4 |") == 1
+    )
+    assert f"- bnds: {table.RAW_CAUSES['bnds']}" in section  # the measured cause, once
+
+
+def test_a_raw_difference_without_a_known_cause_says_so():
+    assert table._raw_causes(["temporal+groups", "zsobol_t"]) == [
+        "- temporal+groups: cause not established.",
+        f"- zsobol_t: {table.RAW_CAUSES['zsobol_t']}",
+        "",
+    ]
+
+
+def test_write_report_reads_the_results_file_when_given_no_records(tmp_path):
+    write_records(tmp_path, _records())
+    assert write_report(tmp_path, title="T", charts=False) == markdown_table(
+        summarize(_records()), "T"
+    )
+
+
+def _max_abs_error(pair: ImagePair):
+    """A toy metric: the largest absolute error of the frame, as a per-image score."""
+    return pair.score(float(pair.err.abs().max()))
+
+
+def _toy_pairs(noise: float) -> list:
+    """``[2][3][2]`` pairs of the toy metric over 2 seed sets x 3 frames of 16 x 16 images."""
+    acc = FrameMetrics(["maxerr"])
+    gen = torch.Generator().manual_seed(int(noise * 100))
+    for k in range(6):
+        ref = torch.rand(3, 16, 16, generator=gen) + 0.1
+        acc.update(ref + noise * torch.randn(3, 16, 16, generator=gen), ref, group=k // 3)
+    return acc.stats("maxerr").tolist()
+
+
+def test_a_metric_added_to_the_table_reaches_table_csv(tmp_path, monkeypatch):
+    # One update function and one table entry: the records carry it, the report writes its
+    # columns (its ratio to white too, as the entry asks) with no change to the report.
+    monkeypatch.setitem(METRIC_TABLE, "maxerr", Metric(_max_abs_error, ratio=True))
+    white, blue = _toy_pairs(0.2), _toy_pairs(0.1)
+    records = []
+    for rec, pairs in ((r, white if r.cell.strategy == "white" else blue) for r in _records()):
+        raw, den = {**rec.raw, "maxerr": pairs}, {**rec.den, "maxerr": pairs}
+        records.append(dataclasses.replace(rec, raw=raw, den=den))
+    write_records(tmp_path, records)
+    write_report(tmp_path, charts=False)  # from cells.jsonl, as --report-only does
+    with open(tmp_path / "table.csv") as handle:
+        header = next(csv.reader(handle))
+        rows = list(csv.DictReader(handle, fieldnames=header))
+    added = [c for c in header if "maxerr" in c]
+    assert added == [
+        *(f"{k}_maxerr_ratio{b}" for k in ("raw", "den") for b in ("", "_lo", "_hi")),
+        "raw_maxerr",
+        "den_maxerr",
+    ]
+    assert [c for c in header if c not in added] == list(COLUMNS)
+    assert header.index("raw_maxerr") == header.index("den_lowfreq") + 1
+    want = np.asarray(white)[..., 0].sum() / np.asarray(white)[..., 1].sum()
+    assert float(rows[0]["raw_maxerr"]) == pytest.approx(want, rel=1e-5)  # written as .6g
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == "1")
+    ratio = paired_ratio(np.asarray(blue), np.asarray(white))
+    assert float(temporal["den_maxerr_ratio"]) == pytest.approx(ratio.value, rel=1e-5)
+    monkeypatch.delitem(METRIC_TABLE, "maxerr")
+    assert table_columns() == COLUMNS
+
+
+def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
+    assert METRIC_TABLE["flip"].tabled is False
+    assert not [c for c in COLUMNS if "flip" in c]
+    assert all(
+        f"raw_{name}" in COLUMNS or f"raw_{name}_ratio" in COLUMNS
+        for name, m in METRIC_TABLE.items()
+        if m.tabled
+    )
+
+
+#: The tables a results folder's report writes from its cells.jsonl (charts aside: PNG bytes
+#: depend on the fonts and matplotlib build).
+_TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoisers.md")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("suite", ["quick", "stability", "gap", "quality"])
+def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_path, suite):
+    # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
+    # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
+    folder = RESULTS / suite
+    cells = next(folder / n for n in (RESULTS_FILE, RESULTS_ARCHIVE) if (folder / n).exists())
+    shutil.copy(cells, tmp_path / cells.name)
+    write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
+    committed = [name for name in _TABLES if (folder / name).exists()]
+    assert "table.md" in committed and "decision.md" in committed
+    for name in committed:
+        assert (tmp_path / name).read_bytes() == (folder / name).read_bytes(), name
+    assert not [n for n in _TABLES if (tmp_path / n).exists() and n not in committed]
+
+
+_COMMITTED = [RESULTS / name for name in ("quick", "quality")]
+
+
+@pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
+def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed_results(folder):
+    if not load_records(folder):
+        pytest.skip(f"no committed results in {folder.name}")
+    rows = summarize(load_records(folder), resamples=200)
+    best = decision.best_rows(rows)
+    cells = {(r["scene"], r["spp"], r["denoiser"]) for r in rows if r["region"] == "all"}
+    assert {(k[0][0], k[1], k[2]) for k in best} == cells
+    for (group, spp, denoiser), row in best.items():
+        same = [
+            r
+            for r in rows
+            if group_key(r) == group
+            and (r["spp"], r["denoiser"]) == (spp, denoiser)
+            and r["strategy"] not in decision.DECISION_EXCLUDES
+        ]
+        assert row["den_mse"] == min(r["den_mse"] for r in same) and row["strategy"] != "oracle"
+    text = decision.decision_table(rows)
+    lines = [line for line in text.splitlines() if line.startswith("| ")][1:]
+    assert len(lines) == len({(k[0], k[1]) for k in best})
+    rivals = decision.rival_counts(rows)
+    for key, row in best.items():
+        cell = decision._decision_cell(row, rivals.get(key, 1))
+        assert f"({row['render_ms']:.0f} + {row['perm_ms']:.1f} ms)" in cell
+        if row["strategy"] != "white":
+            est = decision.corrected(row, rivals[key])
+            assert f"{row['den_mse_ratio']:.2f} [" in cell
+            # bold only below white beyond the interval corrected for picking the best of m
+            assert est.lo <= row["den_mse_ratio_lo"] * (1 + 1e-12)
+            assert est.hi >= row["den_mse_ratio_hi"] * (1 - 1e-12)
+            assert cell.startswith("**") == (est.hi < 1.0)
+
+
+def test_the_decision_table_bolds_only_an_established_winner():
+    rows = summarize(_records(), resamples=200)
+    text = decision.decision_table(rows, title="T")
+    assert text.startswith("# T\n")
+    (line1,) = [line for line in text.splitlines() if line.startswith("| direct | 1 |")]
+    assert "**temporal** " in line1  # temporal below white beyond the interval at 1 spp
+    assert "Left out: oracle (it renders K candidates per frame" in text
+    with_oracle = decision.best_rows(rows, exclude=())
+    assert {r["strategy"] for r in with_oracle.values()} <= {"white", "temporal", "oracle"}
+    assert "| direct | 4 |" in text
+
+
+def test_a_strategy_with_its_own_sampler_is_named_in_its_section():
+    records = _records() + [
+        dataclasses.replace(
+            _record("zsobol", 1, "gaussian", _WHITE, _WHITE), render_sampler="zsobol"
+        )
+    ]
+    rows = summarize(records, resamples=200)
+    assert {r["strategy"]: r["render_sampler"] for r in rows}["zsobol"] == "zsobol"
+    text = markdown_table(rows)
+    assert (
+        "Samplers: owen_sobol per-pixel sequences, except the strategies that dictate their own "
+        in text
+    )
+    assert "(zsobol: zsobol)" in text
+    old = dataclasses.replace(records[-1], render_sampler=None)
+    assert table.render_sampler(old) == "zsobol"  # files from before: the strategy's own
+    assert "Samplers:" not in markdown_table(summarize(_records(), resamples=200))
+
+
+def test_the_readmes_headline_table_is_the_committed_quality_decision():
+    # The README's bold cells come from results/quality, never from a hand edit: its headline
+    # table must be headline_table() of the committed records, for the scenes and denoisers it
+    # names, in its order.
+    readme = (RESULTS.parent / "README.md").read_text()
+    found = re.search(r"\n(\| scene \| spp \| gaussian \|[^\n]*\n(?:\|[^\n]*\n)+)", readme)
+    assert found, "README: the headline table (| scene | spp | gaussian | ...) is missing"
+    lines = found.group(1).splitlines()
+    denoisers = [c.strip() for c in lines[0].strip("|").split("|")][2:]
+    scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
+    rows = summarize(load_records(RESULTS / "quality"))
+    assert found.group(1) == decision.headline_table(rows, denoisers, scenes)

@@ -1,0 +1,193 @@
+"""Tests of benchmarks.sweep.records: the typed record's JSON round trip, the committed results
+files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
+
+import json
+
+import pytest
+
+from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.records import (
+    RESULTS_ARCHIVE,
+    RESULTS_FILE,
+    Record,
+    ReferenceInfo,
+    ResultsExistError,
+    Spectrum,
+    Timings,
+    append_records,
+    check_no_results,
+    compress_records,
+    load_records,
+    write_records,
+)
+from bnerr.errors import BnerrError, FileFormatError
+from tests._paths import RESULTS
+
+
+def _record(strategy: str = "white", crop: str | None = None) -> Record:
+    cell = Cell(
+        scene="direct", strategy=strategy, spp=1, denoiser="gaussian", motion=1, depth=None,
+        region="all", sampler="owen_sobol", frames=2, warmup=1, width=16, height=12, seed_sets=1,
+        reference_spp=16,
+    )  # fmt: skip
+    return Record(
+        cell=cell,
+        dimensions=4,
+        t=[1, 2],
+        raw={"mse": [[[0.5, 576.0], [0.25, 576.0]]]},
+        den={"mse": [[[0.125, 576.0], [0.0625, 576.0]]]},
+        denoiser_params={"sigma": 1.5},
+        timings=Timings(render_ms=[[1.0, 2.0]], perm_ms=[[0.1, 0.2]], denoise_ms=[[0.3, 0.4]]),
+        reference=ReferenceInfo(spp=16, floor=None, version="0-abc"),
+        spectrum={"raw": Spectrum([0.0, 0.5], [1.0, 2.0]), "den": Spectrum([], [])},
+        crop=crop,
+    )
+
+
+def test_a_record_round_trips_through_json_with_its_key():
+    rec = _record(crop="crops/x.npz")
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["key"] == rec.cell.key() == rec.key
+    assert data["timings"]["render_ms"] == [[1.0, 2.0]] and data["spectrum"]["den"]["freq"] == []
+    assert Record.from_json(data) == rec
+
+
+def test_the_frame_to_frame_correlation_round_trips_and_is_absent_when_not_recorded():
+    import dataclasses
+
+    rec = dataclasses.replace(_record(), tcorr=[[0.25]])
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["tcorr"] == [[0.25]] and Record.from_json(data) == rec
+    plain = _record().to_json()
+    assert "tcorr" not in plain and Record.from_json(plain).tcorr is None
+
+
+def test_the_coherent_spectrum_round_trips_when_measured():
+    import dataclasses
+
+    spectra = {**_record().spectrum, "coherent": Spectrum([0.0, 0.5], [3.0, 4.0])}
+    rec = dataclasses.replace(_record(), spectrum=spectra)
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["spectrum"]["coherent"]["power"] == [3.0, 4.0] and Record.from_json(data) == rec
+    assert "coherent" not in Record.from_json(_record().to_json()).spectrum
+
+
+def test_write_and_load_keep_order_and_values(tmp_path):
+    records = [_record("white"), _record("temporal")]
+    write_records(tmp_path, records)
+    assert load_records(tmp_path) == records
+    assert load_records(tmp_path / "nowhere") == []
+    assert not list(tmp_path.glob(".*.tmp*"))
+
+
+@pytest.mark.parametrize("suite", ["quick", "quality", "stability", "gap"])
+def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
+    folder = RESULTS / suite
+    records = load_records(folder)  # cells.jsonl, or the committed cells.jsonl.gz
+    if not records:
+        pytest.skip(f"no committed {suite} results")
+    assert all(isinstance(r, Record) for r in records)
+    write_records(tmp_path, records)
+    plain = folder / RESULTS_FILE
+    if plain.exists():
+        assert (tmp_path / RESULTS_FILE).read_bytes() == plain.read_bytes()
+    else:
+        compress_records(tmp_path)
+        assert (tmp_path / RESULTS_ARCHIVE).read_bytes() == (folder / RESULTS_ARCHIVE).read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"\xff\xfe\x00\x01 binary", r"expected UTF-8 JSON records, got bad bytes on line 1"),
+        (b"{}\n", r"line 1: expected a benchmark record, got missing field 'cell'"),
+        (b"[1, 2]\n", r"line 1: expected a benchmark record, got a JSON object, got list"),
+        (b"\n\nnot json\n", r"expected one JSON record per line, got bad line 3"),
+    ],
+)
+def test_garbled_lines_raise_typed_errors_naming_file_and_line(tmp_path, content, message):
+    (tmp_path / RESULTS_FILE).write_bytes(content)
+    with pytest.raises(FileFormatError, match=message) as err:
+        load_records(tmp_path)
+    assert str(err.value).startswith(str(tmp_path / RESULTS_FILE))
+
+
+def test_a_truncated_last_line_is_reported_not_skipped(tmp_path):
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # a write cut short
+    with pytest.raises(FileFormatError, match="bad line 2"):
+        load_records(tmp_path)
+
+
+def test_appending_gives_the_file_a_full_rewrite_would(tmp_path):
+    records = [_record("white"), _record("temporal"), _record("oracle")]
+    append_records(tmp_path, records[:1])  # no file yet: created
+    append_records(tmp_path, records[1:])
+    append_records(tmp_path, [])
+    (tmp_path / "whole").mkdir()
+    write_records(tmp_path / "whole", records)
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    assert data == (tmp_path / "whole" / RESULTS_FILE).read_bytes()
+    assert load_records(tmp_path) == records
+
+
+def test_a_torn_tail_is_dropped_on_request_and_refused_as_a_base_for_appending(tmp_path):
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    data = (tmp_path / RESULTS_FILE).read_bytes()
+    (tmp_path / RESULTS_FILE).write_bytes(data[: len(data) - 40])  # an append cut short
+    with pytest.warns(UserWarning, match="line 2 was cut short"):
+        assert load_records(tmp_path, torn_tail=True) == [_record("white")]
+    with pytest.raises(FileFormatError, match="ending with a whole line"):
+        append_records(tmp_path, [_record("oracle")])
+    # only the last line may be torn: a bad line before it is an error even so
+    (tmp_path / RESULTS_FILE).write_bytes(b"{garbage\n" + data)
+    with pytest.raises(FileFormatError, match="bad line 1"):
+        load_records(tmp_path, torn_tail=True)
+    # a complete last record without its newline is kept (the cut fell just before it)
+    (tmp_path / RESULTS_FILE).write_bytes(data[:-1])
+    assert load_records(tmp_path, torn_tail=True) == [_record("white"), _record("temporal")]
+
+
+def test_a_record_with_a_foreign_cell_field_is_refused(tmp_path):
+    data = _record().to_json()
+    data["cell"]["colour"] = "blue"
+    (tmp_path / RESULTS_FILE).write_text(json.dumps(data) + "\n")
+    with pytest.raises(FileFormatError, match="line 1: expected a benchmark record"):
+        load_records(tmp_path)
+
+
+def test_check_no_results_refuses_a_folder_with_finished_cells(tmp_path):
+    check_no_results(tmp_path)  # no file
+    (tmp_path / RESULTS_FILE).write_text("\n")
+    check_no_results(tmp_path)  # nothing finished
+    write_records(tmp_path, [_record("white"), _record("temporal")])
+    with pytest.raises(ResultsExistError, match=r"got 2; pass --resume .* or --overwrite") as err:
+        check_no_results(tmp_path)
+    assert isinstance(err.value, BnerrError) and isinstance(err.value, FileExistsError)
+
+
+def test_compressed_results_read_back_and_restore_before_an_append(tmp_path):
+    records = [_record("white"), _record("temporal"), _record("oracle")]
+    write_records(tmp_path, records[:1])
+    plain = (tmp_path / RESULTS_FILE).read_bytes()
+    archive = compress_records(tmp_path)
+    assert archive == tmp_path / RESULTS_ARCHIVE and not (tmp_path / RESULTS_FILE).exists()
+    assert compress_records(tmp_path) is None  # nothing plain left to compress
+    first = archive.read_bytes()
+    assert load_records(tmp_path) == records[:1]
+    with pytest.raises(ResultsExistError):
+        check_no_results(tmp_path)
+    append_records(tmp_path, records[1:])  # the plain file comes back, then grows
+    assert not archive.exists() and (tmp_path / RESULTS_FILE).read_bytes().startswith(plain)
+    assert load_records(tmp_path) == records
+    write_records(tmp_path, records[:1])
+    assert compress_records(tmp_path).read_bytes() == first  # reproducible: no time stamp
+    write_records(tmp_path, records)
+    assert not archive.exists()  # a rewritten plain file supersedes the compressed one
+
+
+def test_a_broken_compressed_file_is_a_typed_error(tmp_path):
+    (tmp_path / RESULTS_ARCHIVE).write_bytes(b"not gzip")
+    with pytest.raises(FileFormatError, match="cells.jsonl.gz"):
+        load_records(tmp_path)

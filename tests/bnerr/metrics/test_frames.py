@@ -1,0 +1,189 @@
+"""Tests of bnerr.metrics.frames: the metrics' table, update per frame and compute over frames."""
+
+import struct
+
+import numpy as np
+import pytest
+import torch
+
+from bnerr.errors import ShapeError, UnknownNameError, ValueRangeError
+from bnerr.metrics import (
+    METRIC_TABLE,
+    METRICS,
+    FrameMetrics,
+    ImagePair,
+    Metric,
+    blurred_mse,
+    flip,
+    flip_available,
+    lowfreq,
+    mse,
+    psnr,
+    relmse,
+    ssim,
+)
+from tests._images import noisy_pair as _pair
+
+# -- the table -------------------------------------------------------------------------------------
+
+
+def test_metrics_is_the_tables_names_in_the_column_order_of_the_results():
+    assert METRICS == tuple(METRIC_TABLE)
+    assert METRICS == ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq", "flip")
+    assert all(isinstance(m, Metric) and callable(m.update) for m in METRIC_TABLE.values())
+
+
+def test_by_default_every_metric_but_the_slow_flip_is_measured():
+    assert FrameMetrics().names == tuple(m for m in METRICS if m != "flip")
+
+
+def _max_abs_error(pair: ImagePair) -> torch.Tensor:
+    return pair.score(float(pair.err.abs().max()))
+
+
+def test_a_metric_added_to_the_table_is_measured_with_no_other_change(monkeypatch):
+    monkeypatch.setitem(METRIC_TABLE, "maxerr", Metric(_max_abs_error, default=False))
+    with pytest.raises(UnknownNameError, match="unknown metric 'maxerr2'"):
+        FrameMetrics(["maxerr2"])
+    assert "maxerr" not in FrameMetrics().names  # not a default one
+    acc = FrameMetrics(["mse", "maxerr"])
+    frames = [_pair(seed=s) for s in range(3)]
+    rows = [acc.update(pred, ref, group=k) for k, (pred, ref) in enumerate(frames)]
+    want = [float((p.double() - r.double()).abs().max()) for p, r in frames]
+    assert [row["maxerr"] for row in rows] == want
+    assert acc.values("maxerr").flatten().tolist() == want
+    assert acc.compute()["maxerr"].value == pytest.approx(np.mean(want), rel=1e-12)
+
+
+def test_a_required_package_is_checked_when_the_accumulator_is_made(monkeypatch):
+    def missing():
+        raise ImportError("toy: needs the package 'toy-metric'")
+
+    monkeypatch.setitem(METRIC_TABLE, "toy", Metric(_max_abs_error, require=missing))
+    with pytest.raises(ImportError, match="toy-metric"):
+        FrameMetrics(["mse", "toy"])
+    with pytest.raises(ImportError, match="toy-metric"):
+        FrameMetrics()  # a default one
+
+
+@pytest.mark.skipif(not flip_available(), reason="flip-evaluator not installed")
+def test_flip_through_the_table_is_the_per_image_flip():
+    pred, ref = _pair(shape=(3, 32, 32), noise=0.05)
+    assert FrameMetrics(["flip"]).update(pred, ref)["flip"] == flip(pred, ref)
+
+
+# -- update / compute over frames ------------------------------------------------------------------
+
+
+def test_frame_metrics_update_returns_the_per_image_values():
+    acc = FrameMetrics(
+        ["mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq"], tile=16
+    )
+    pred, ref = _pair(shape=(3, 32, 32))
+    row = acc.update(pred, ref)
+    assert row["mse"] == pytest.approx(mse(pred, ref).item(), rel=1e-12)
+    assert row["relmse"] == pytest.approx(relmse(pred, ref).item(), rel=1e-12)
+    assert row["psnr"] == pytest.approx(psnr(pred, ref), rel=1e-12)
+    assert row["ssim"] == pytest.approx(ssim(pred, ref), rel=1e-12)
+    assert row["mse_blur2"] == pytest.approx(blurred_mse(pred, ref, 2.0).item(), rel=1e-12)
+    assert row["lowfreq"] == pytest.approx(lowfreq(pred, ref, tile=16), rel=1e-12)
+
+
+def test_running_mean_over_frames_is_the_pooled_mean():
+    acc = FrameMetrics(["mse", "psnr"])
+    frames = [_pair(seed=s, noise=0.05 * (s + 1)) for s in range(5)]
+    for pred, ref in frames:
+        acc.update(pred, ref)
+    pooled = torch.stack([(p.double() - r.double()).square().mean() for p, r in frames]).mean()
+    result = acc.compute()
+    assert result["mse"].value == pytest.approx(pooled.item(), rel=1e-12)
+    assert result["psnr"].value == pytest.approx(
+        np.mean([psnr(p, r) for p, r in frames]), rel=1e-12
+    )
+    assert result["mse"].lo <= result["mse"].value <= result["mse"].hi
+    assert result["mse"].n == 5
+
+
+def test_masked_frames_pool_by_pixel_count():
+    # With masks of different sizes, the running value is sum(e^2) / sum(count), not a mean of
+    # means.
+    acc = FrameMetrics(["mse"])
+    pred, ref = _pair()
+    small = torch.zeros(24, 20, dtype=torch.bool)
+    small[0, 0] = True
+    acc.update(pred, ref)
+    acc.update(pred, ref, small)
+    e = (pred.double() - ref.double()) ** 2
+    want = (e.sum() + e[:, 0, 0].sum()) / (e.numel() + 3)
+    assert acc.compute()["mse"].value == pytest.approx(want.item(), rel=1e-12)
+
+
+def test_seed_sets_group_frames_and_must_be_rectangular():
+    acc = FrameMetrics(["mse"])
+    for s in range(6):
+        acc.update(*_pair(seed=s), group=s % 2)
+    assert acc.stats("mse").shape == (2, 3, 2)
+    assert acc.values("mse")[1, 0].item() == pytest.approx(mse(*_pair(seed=1)).item(), rel=1e-12)
+    acc.update(*_pair(seed=9), group=0)
+    with pytest.raises(ShapeError, match=r"equal frames per seed set, got \[4, 3\]"):
+        acc.stats("mse")
+
+
+def test_frame_metrics_ratio_is_a_paired_ratio():
+    white, blue = FrameMetrics(["mse"]), FrameMetrics(["mse"])
+    for s in range(4):
+        pred, ref = _pair(seed=s)
+        white.update(pred, ref)
+        blue.update(ref + 0.5 * (pred - ref), ref)
+    r = blue.ratio(white, "mse")
+    assert r.value == pytest.approx(0.25, rel=1e-6) and r.lo == pytest.approx(0.25, rel=1e-6)
+
+
+def _all_metric_values(pred, ref, mask):
+    acc = FrameMetrics()
+    for k in range(4):
+        acc.update(pred + 0.01 * k, ref, mask=mask if k % 2 else None, group=k % 2)
+    pooled = [x for e in acc.compute().values() for x in (e.value, e.lo, e.hi)]
+    single = [
+        mse(pred, ref).item(),
+        relmse(pred, ref).item(),
+        mse(pred, ref, mask).item(),
+        blurred_mse(pred, ref, 1.0).item(),
+        blurred_mse(pred, ref, 2.0).item(),
+        lowfreq(pred, ref),
+        psnr(pred, ref),
+        ssim(pred, ref),
+    ]
+    return single + pooled + [acc.ratio(acc, "mse").lo]
+
+
+def test_metrics_are_bit_identical_on_one_and_two_threads():
+    # issue 18: bench --threads 1 and --threads 2 differed in 973 of 8064 metric values.
+    pred, ref = _pair(seed=0, shape=(3, 128, 128), noise=0.3)
+    mask = torch.rand(128, 128, generator=torch.Generator().manual_seed(1)) > 0.5
+    before = torch.get_num_threads()
+    try:
+        torch.set_num_threads(1)
+        one = _all_metric_values(pred, ref, mask)
+        torch.set_num_threads(2)
+        two = _all_metric_values(pred, ref, mask)
+    finally:
+        torch.set_num_threads(before)
+    assert [struct_bits(x) for x in one] == [struct_bits(x) for x in two]
+
+
+def struct_bits(x: float) -> bytes:
+    return struct.pack("<d", x)
+
+
+def test_an_empty_region_adds_a_weightless_frame():
+    full, gapped = FrameMetrics(["mse", "psnr"]), FrameMetrics(["mse", "psnr"])
+    gen = torch.Generator().manual_seed(3)
+    pred, ref = torch.rand(3, 8, 8, generator=gen), torch.rand(3, 8, 8, generator=gen)
+    full.update(pred, ref)
+    gapped.update(pred, ref)
+    gapped.update_empty()
+    assert len(gapped) == 2 and gapped.stats("mse")[0, 1].tolist() == [0.0, 0.0]
+    assert torch.equal(gapped.stats("mse").sum(1), full.stats("mse").sum(1))  # same pooled mean
+    with pytest.raises(ValueRangeError):
+        gapped.update_empty(group=-1)
