@@ -342,3 +342,24 @@ def test_any_subtree_swapped_into_a_shipped_document_is_loaded_or_refused(name, 
         scene_from_dict(document)
     except SceneFileError:
         pass
+
+
+def test_the_example_of_the_documentation_loads_and_its_light_faces_down():
+    doc = (ROOT / "docs" / "SCENE_FILES.md").read_text(encoding="utf-8")
+    example = doc.split("```toml\n")[1].split("```")[0]
+    scene = loads_scene(example, source="docs/SCENE_FILES.md")
+    assert [s.name for s in scene.shapes] == ["floor", "ball", "light"]
+    assert scene.lights == (2,) and scene.shapes[2].normal == pytest.approx((0, -1, 0), abs=1e-12)
+    assert scene.shapes[0].material.albedo == (0.7, 0.7, 0.7) and scene.camera.up == (0, 1, 0)
+
+
+def test_the_documented_messages_are_the_real_ones():
+    with pytest.raises(SceneFileError) as syntax:
+        loads_scene('name = "x"\n\n[camera]\nfov = *\n', source="my.toml")
+    assert str(syntax.value) == "my.toml: expected TOML, got Invalid value (at line 4, column 7)"
+    document = _edit("direct", _set(("shapes", 1, "radius"), -1.0))
+    with pytest.raises(SceneFileError) as meaning:
+        loads_scene(json.dumps(document), "json", "my.toml")
+    assert str(meaning.value) == (
+        "my.toml: shapes[1].radius: expected a finite number in [1e-06, 1000000.0], got float -1.0"
+    )
