@@ -29,6 +29,7 @@ __all__ = [
     "MemoryLimitError",
     "MissingExtraError",
     "NonFiniteError",
+    "SceneFileError",
     "ShapeError",
     "UnknownNameError",
     "FLOAT_DTYPES",
@@ -318,3 +319,8 @@ def check_offset(offset: object, name: str = "offset") -> tuple[int, int]:
     ):
         raise DtypeError(f"{name}: expected a pair of integers (oy, ox), got {offset!r}")
     return offset[0], offset[1]
+
+
+class SceneFileError(FileFormatError):
+    """A scene file (:mod:`renderers.scene_file`) is unreadable, malformed or describes an invalid
+    scene; the message names the file, then the line (syntax) or the key (meaning)."""
