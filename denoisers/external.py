@@ -101,8 +101,8 @@ from denoisers.temporal import check_continues
 
 __all__ = [
     "BUFFER_INPUTS",
-    "MANIFEST_KEYS",
     "ExternalDenoiser",
+    "MANIFEST_KEYS",
     "Manifest",
     "ManifestError",
     "denoiser_class",
@@ -178,8 +178,10 @@ def _parse(path: Path) -> dict:
         raise ManifestError(f"{path}: expected a readable UTF-8 manifest, got {reason}") from None
     try:
         raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)"
-        raise ManifestError(f"{path}: expected valid TOML, got {err}") from None
+    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
+        where = f"(at the end of the document, after line {len(text.splitlines())})"
+        reason = str(err).replace("(at end of document)", where)
+        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
     except json.JSONDecodeError as err:
         raise ManifestError(
             f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
