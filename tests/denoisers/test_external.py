@@ -33,11 +33,18 @@ H, W = 12, 16
 # One script for every way a program can fail: argv = mode, color, output, delay, pid file.
 FAULT = """\
 import subprocess, sys, time
-import numpy as np
-import OpenEXR
 
 mode, color, output, delay, pidfile = sys.argv[1:6]
 time.sleep(float(delay))
+if mode == "sleep":  # before the imports below: the pid file is written at once
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    with open(pidfile, "w") as f:
+        f.write(str(child.pid))
+    time.sleep(60)
+
+import numpy as np
+import OpenEXR
+
 found = OpenEXR.File(color, separate_channels=True).channels()
 p = {c: np.asarray(found[c].pixels, dtype=np.float32) for c in "RGB"}
 
@@ -55,11 +62,6 @@ elif mode == "fail":
     for i in range(30):
         print(f"complaint {i}", file=sys.stderr)
     sys.exit(3)
-elif mode == "sleep":
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
-    with open(pidfile, "w") as f:
-        f.write(str(child.pid))
-    time.sleep(60)
 elif mode == "size":
     write({c: np.ascontiguousarray(v[:-1]) for c, v in p.items()})
 elif mode == "channels":
