@@ -25,6 +25,7 @@ __all__ = [
     "BnerrError",
     "DtypeError",
     "EXTRAS",
+    "ExternalProcessError",
     "FileFormatError",
     "MemoryLimitError",
     "MissingExtraError",
@@ -132,6 +133,14 @@ class FileFormatError(BnerrError, OSError):
 
 class MemoryLimitError(BnerrError, MemoryError):
     """A size (resolution, batch, kernel, radius) needs more memory than the machine has."""
+
+
+class ExternalProcessError(BnerrError, RuntimeError):
+    """An external program (an executable denoiser, :mod:`denoisers.external`) did not do its
+    part: it would not start, exited with a non-zero status, ran past its time limit, or wrote no
+    output or one of the wrong size, channels, type or with non-finite values. The first line
+    names the program and its command and says what was expected; the last lines the program
+    wrote to stderr follow it, indented."""
 
 
 def check_tensor(x: object, name: str) -> torch.Tensor:

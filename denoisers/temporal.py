@@ -39,7 +39,7 @@ from bnerr.frame import Frame
 from denoisers.base import Denoiser
 from denoisers.filters import atrous_filter
 
-__all__ = ["SVGF", "TAA", "SequenceError", "TemporalDenoiser", "reproject"]
+__all__ = ["SVGF", "TAA", "SequenceError", "TemporalDenoiser", "check_continues", "reproject"]
 
 # A history tap is consistent with the current pixel when it shows the same object, at a depth
 # within this relative tolerance, with normals at most ~25 degrees apart (SVGF's consistency test).
@@ -53,6 +53,32 @@ _MIN_MOMENT_FRAMES = 4
 
 class SequenceError(BnerrError, ValueError):
     """A stateful denoiser got a frame that does not continue its sequence."""
+
+
+def check_continues(
+    who: str, before: torch.Size | None, shape: torch.Size, t_before: int | None, t: int | None
+) -> None:
+    """Refuse a frame that does not continue a stateful denoiser's sequence.
+
+    Args:
+        who: names the denoiser in the message.
+        before: the shape of the sequence's frames so far, None at its start (nothing to check).
+        shape: the new frame's color shape.
+        t_before, t: the previous frame's index and the new one's (None: not told, not checked).
+
+    Raises:
+        SequenceError: ``shape`` is not ``before``, or ``t`` is not ``t_before + 1``.
+    """
+    if before is not None and before != shape:
+        raise SequenceError(
+            f"{who}: expected frames of {list(before)} like the sequence so far, "
+            f"got {list(shape)}; call reset() between sequences"
+        )
+    if before is not None and t is not None and t_before is not None and t != t_before + 1:
+        raise SequenceError(
+            f"{who}: expected frame {t_before + 1} after frame {t_before}, "
+            f"got frame {t}; feed frames in order, or call reset() to start a new sequence"
+        )
 
 
 @dataclass
@@ -139,17 +165,8 @@ class TemporalDenoiser(Denoiser):
 
     def _check_sequence(self, frame: Frame, t: int | None) -> None:
         """Refuse a frame of another size than the history, or an index that does not follow."""
-        history = self._history
-        if history is not None and history.color.shape != frame.color.shape:
-            raise SequenceError(
-                f"denoiser {self.name!r}: expected frames of {list(history.color.shape)} like the "
-                f"sequence so far, got {list(frame.color.shape)}; call reset() between sequences"
-            )
-        if history is not None and t is not None and self._t is not None and t != self._t + 1:
-            raise SequenceError(
-                f"denoiser {self.name!r}: expected frame {self._t + 1} after frame {self._t}, "
-                f"got frame {t}; feed frames in order, or call reset() to start a new sequence"
-            )
+        before = None if self._history is None else self._history.color.shape
+        check_continues(f"denoiser {self.name!r}", before, frame.color.shape, self._t, t)
         self._t = t
 
     def denoise(self, frame: Frame) -> torch.Tensor:

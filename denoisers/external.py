@@ -1,0 +1,666 @@
+"""Executable denoisers: any program, in any language, behind the Denoiser interface.
+
+FBKSD (Santos, Sen and Oliveira 2018) runs a denoiser given as an executable plus a small
+manifest beside the shipped ones; so does bnerr. :func:`denoiser_class` reads a manifest and
+returns a :class:`~denoisers.base.Denoiser` subclass whose :meth:`~ExternalDenoiser.denoise`
+writes the frame's buffers as EXR files to a private temporary folder, runs the program on them
+and reads back the image it wrote.
+
+The manifest (TOML, ``*.toml``, read with :mod:`tomllib`; or JSON, ``*.json``)::
+
+    name = "my_denoiser"                      # registry name: a letter, then [A-Za-z0-9_.-]
+    command = ["{python}", "denoise.py", "--color", "{color}", "--albedo", "{albedo}",
+               "--sigma", "{sigma}", "--out", "{output}"]
+    inputs = ["color", "albedo"]              # buffers written (default ["color"])
+    kind = "filter"                           # default "filter", or "temporal" when temporal
+    temporal = false                          # frames fed in order, previous output passed
+    timeout_s = 300                           # per frame; the process group is then killed
+    description = "..."                       # optional, free text
+
+    [params]                                  # name -> default (int, float or string)
+    sigma = 1.0
+
+    [grid]                                    # optional tuning grid: name -> candidate values
+    sigma = [0.5, 1.0, 2.0]
+
+Unknown keys are refused (the message lists the known ones), every value's type is checked, and
+a malformed file is reported with its line. ``command`` is a list of arguments (argv), never a
+shell string; each argument may hold placeholders, ``{{`` and ``}}`` stand for literal braces:
+
+- ``{python}``: the Python running bnerr (:data:`sys.executable`), so a Python script sees the
+  same packages (numpy, OpenEXR, torch, ...);
+- ``{color}``, ``{albedo}``, ``{normal}``, ``{depth}``, ``{motion}``, ``{object_id}``,
+  ``{variance}``: the EXR file of that buffer; each must be listed in ``inputs``, and each input
+  must be used;
+- ``{output}``: where the program writes its result (required);
+- ``{previous_output}`` (temporal manifests only): the EXR of the output returned for the
+  previous frame of the sequence; an empty string on its first frame (after ``reset()``);
+- ``{frame}``: the frame's index in its sequence (the ``t`` the caller gave, else the count of
+  frames denoised since ``reset()``);
+- ``{NAME}``: the value of parameter ``NAME`` (``str(value)``: ``1.5``, ``3``, ``text``).
+
+**Paths.** The program runs with the manifest's folder as its working directory, so relative
+paths in ``command`` are relative to the manifest. The program's own file (``command[0]``, or
+``command[1]`` when ``command[0]`` is ``{python}`` and ``command[1]`` does not start with ``-``)
+is checked when the manifest is read: given as a relative path, it must exist and lie inside the
+manifest's folder once ``..`` and symlinks are resolved (a path that escapes is refused); given
+as an absolute path it is taken as the user wrote it; a bare ``command[0]`` with no ``/``
+(``oidnDenoise``) is looked up on ``PATH``. Only that path is checked: arguments are data.
+
+**Files.** Each input buffer is written to its own EXR file (float32, linear, ZIP compressed),
+with the channel names of :data:`bnerr.io.CHANNELS` (``color``: ``R G B``; ``albedo``:
+``albedo.R albedo.G albedo.B``; ``normal``: ``normal.X normal.Y normal.Z``; ``depth``:
+``depth.Z``; ``motion``: ``motion.X motion.Y``). The output must be a single-part EXR of the
+frame's size holding exactly the channels ``R G B``, FLOAT or HALF, all finite; a file of more
+than four times the bytes of an uncompressed float32 image (plus 64 KiB) is refused before it is
+read. It comes back as float32 ``[3, H, W]`` on the frame's device. The temporary folder is
+removed after every frame, on success and on failure.
+
+**Errors.** A bad manifest raises :class:`ManifestError` (a :class:`~bnerr.errors.FileFormatError`
+naming the file); a program that fails (will not start, exits non-zero, runs past ``timeout_s``,
+writes no output or a wrong one) raises :class:`~bnerr.errors.ExternalProcessError`, whose first
+line names the denoiser, its command and what was expected, followed by the last 20 lines of the
+program's stderr (of its stdout when stderr is empty). A run past ``timeout_s`` kills the
+program's whole process group (it runs in a session of its own).
+
+**Cost.** The sweep times ``denoiser(frame)`` (:mod:`benchmarks.sweep.measure`), so the cost
+recorded for an external denoiser is the whole call: writing its inputs, starting the program
+(a Python interpreter's start-up, its imports), its run and reading its output, which is what
+using it costs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import json
+import os
+import re
+import shlex
+import shutil
+import signal
+import string
+import subprocess
+import sys
+import tempfile
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+
+from bnerr.errors import DtypeError, ExternalProcessError, FileFormatError, UnknownNameError
+from bnerr.frame import BUFFERS, Frame
+from bnerr.io import write_exr
+from denoisers.base import Denoiser
+from denoisers.temporal import check_continues
+
+__all__ = [
+    "BUFFER_INPUTS",
+    "ExternalDenoiser",
+    "MANIFEST_KEYS",
+    "Manifest",
+    "ManifestError",
+    "denoiser_class",
+    "load_manifest",
+    "run_manifest",
+]
+
+#: Buffers a manifest may list in ``inputs`` (and use as placeholders).
+BUFFER_INPUTS: tuple[str, ...] = (*BUFFERS, "variance")
+
+#: Every key a manifest may hold, with its default (``...``: required; ``kind`` None: "temporal"
+#: for a temporal manifest, else "filter").
+MANIFEST_KEYS: dict[str, object] = {
+    "name": ...,
+    "command": ...,
+    "inputs": ["color"],
+    "params": {},
+    "grid": {},
+    "temporal": False,
+    "timeout_s": 300.0,
+    "kind": None,
+    "description": "",
+}
+
+_FIXED_PLACEHOLDERS = ("python", "output", "frame")
+_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
+_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_STDERR_LINES = 20
+_SIZE_FACTOR = 4
+_SIZE_SLACK = 64 * 1024
+
+
+class ManifestError(FileFormatError):
+    """A denoiser manifest is malformed, holds an unknown key or a value of the wrong type, or
+    names a program that is missing or lies outside its folder; the message names the file."""
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A checked manifest (see the module docstring); ``command`` has the program's path made
+    absolute where it was given relative."""
+
+    path: Path
+    name: str
+    command: tuple[str, ...]
+    inputs: tuple[str, ...]
+    params: Mapping[str, int | float | str]
+    grid: Mapping[str, tuple[int | float | str, ...]]
+    temporal: bool
+    timeout_s: float
+    kind: str
+    description: str
+
+    @property
+    def folder(self) -> Path:
+        """The manifest's folder: the program's working directory."""
+        return self.path.parent
+
+
+# ------------------------------------------------------------------------------------------------
+# Reading the manifest
+
+
+def _parse(path: Path) -> dict:
+    """The manifest file as a dict; malformed TOML or JSON is reported with its line."""
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise ManifestError(f"{path}: expected a manifest named *.toml or *.json, got {suffix!r}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = getattr(err, "strerror", None) or str(err)
+        raise ManifestError(f"{path}: expected a readable UTF-8 manifest, got {reason}") from None
+    try:
+        raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
+    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
+        where = f"(at the end of the document, after line {len(text.splitlines())})"
+        reason = str(err).replace("(at end of document)", where)
+        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
+    except json.JSONDecodeError as err:
+        raise ManifestError(
+            f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
+        ) from None
+    if not isinstance(raw, dict):
+        raise ManifestError(f"{path}: expected a table of keys, got a JSON {type(raw).__name__}")
+    unknown = sorted(set(raw) - set(MANIFEST_KEYS))
+    if unknown:
+        raise ManifestError(
+            f"{path}: unknown key(s) {', '.join(unknown)}: expected only {', '.join(MANIFEST_KEYS)}"
+        )
+    missing = [key for key, default in MANIFEST_KEYS.items() if default is ... and key not in raw]
+    if missing:
+        raise ManifestError(f"{path}: expected the key(s) {', '.join(missing)}, got none")
+    return {key: raw.get(key, default) for key, default in MANIFEST_KEYS.items()}
+
+
+def _type_name(value: object) -> str:
+    return f"{type(value).__name__} {value!r:.60}"
+
+
+def _expect(path: Path, key: str, value: object, types: tuple[type, ...], what: str) -> Any:
+    """``value`` if it is one of ``types`` (a bool is never a number); else a ManifestError."""
+    if isinstance(value, bool) and bool not in types or not isinstance(value, types):
+        raise ManifestError(f"{path}: {key}: expected {what}, got {_type_name(value)}")
+    return value
+
+
+def _values(path: Path, raw: dict) -> dict[str, Any]:
+    """The scalar keys checked: name, temporal, timeout_s, kind, description."""
+    name = _expect(path, "name", raw["name"], (str,), "a string")
+    if not _NAME.fullmatch(name):
+        raise ManifestError(
+            f"{path}: name: expected a letter then letters, digits, '_', '.' or '-', got {name!r}"
+        )
+    temporal = _expect(path, "temporal", raw["temporal"], (bool,), "true or false")
+    timeout = _expect(path, "timeout_s", raw["timeout_s"], (int, float), "a number of seconds")
+    if not 0 < timeout < float("inf"):
+        raise ManifestError(f"{path}: timeout_s: expected a number > 0, got {timeout}")
+    kind = raw["kind"] if raw["kind"] is not None else ("temporal" if temporal else "filter")
+    if not _IDENTIFIER.fullmatch(_expect(path, "kind", kind, (str,), "a string")):
+        raise ManifestError(
+            f"{path}: kind: expected a word such as filter or learned, got {kind!r}"
+        )
+    description = _expect(path, "description", raw["description"], (str,), "a string")
+    return dict(
+        name=name, temporal=temporal, timeout_s=float(timeout), kind=kind, description=description
+    )
+
+
+def _inputs(path: Path, raw: object) -> tuple[str, ...]:
+    inputs = _expect(path, "inputs", raw, (list,), "a list of buffer names")
+    for item in inputs:
+        if not isinstance(item, str) or item not in BUFFER_INPUTS:
+            raise ManifestError(
+                f"{path}: inputs: expected buffer names among {', '.join(BUFFER_INPUTS)}, "
+                f"got {item!r}"
+            )
+    if "color" not in inputs or len(set(inputs)) != len(inputs):
+        raise ManifestError(
+            f"{path}: inputs: expected 'color' and no name twice, got {', '.join(inputs) or '[]'}"
+        )
+    return tuple(inputs)
+
+
+def _params(path: Path, raw: object) -> dict[str, int | float | str]:
+    params = _expect(path, "params", raw, (dict,), "a table of name = default")
+    reserved = (*_FIXED_PLACEHOLDERS, "previous_output", *BUFFER_INPUTS)
+    for key, value in params.items():
+        if not _IDENTIFIER.fullmatch(key) or key in reserved:
+            raise ManifestError(
+                f"{path}: params: expected identifiers other than {', '.join(reserved)}, "
+                f"got {key!r}"
+            )
+        _expect(path, f"params.{key}", value, (int, float, str), "an int, a float or a string")
+    return dict(params)
+
+
+def _coerce(value: object, default: int | float | str, what: str) -> int | float | str:
+    """``value`` with the type of ``default`` (an int is accepted for a float); else DtypeError."""
+    kind = type(default)
+    allowed = (int, float) if kind is float else (kind,)
+    if isinstance(value, bool) or not isinstance(value, allowed):
+        raise DtypeError(f"{what}: expected {kind.__name__} like its default, got {value!r:.60}")
+    return kind(value)
+
+
+def _grid(path: Path, raw: object, params: Mapping[str, int | float | str]) -> dict[str, tuple]:
+    grid = _expect(path, "grid", raw, (dict,), "a table of name = [values]")
+    checked = {}
+    for key, values in grid.items():
+        if key not in params:
+            raise ManifestError(
+                f"{path}: grid.{key}: expected a parameter of [params] "
+                f"({', '.join(params) or 'none declared'}), got {key!r}"
+            )
+        if not isinstance(values, list) or not values:
+            raise ManifestError(
+                f"{path}: grid.{key}: expected a non-empty list, got {_type_name(values)}"
+            )
+        try:
+            checked[key] = tuple(_coerce(v, params[key], f"grid.{key}") for v in values)
+        except DtypeError as err:
+            raise ManifestError(f"{path}: {err}") from None
+    return checked
+
+
+def _placeholders(path: Path, command: list[str], known: set[str]) -> set[str]:
+    """The placeholders ``command`` uses; an unknown one (or a format spec) is refused."""
+    used: set[str] = set()
+    for arg in command:
+        try:
+            fields = [(f, s, c) for _, f, s, c in string.Formatter().parse(arg) if f is not None]
+        except ValueError as err:
+            raise ManifestError(f"{path}: command: argument {arg!r}: {err}") from None
+        for field, spec, conversion in fields:
+            if field not in known or spec or conversion:
+                raise ManifestError(
+                    f"{path}: command: argument {arg!r}: expected placeholders among "
+                    f"{', '.join('{' + k + '}' for k in sorted(known))}, got {{{field}}}"
+                )
+            used.add(field)
+    return used
+
+
+def _command(path: Path, raw: object, values: dict, inputs: tuple, params: dict) -> list[str]:
+    command = _expect(path, "command", raw, (list,), "a list of arguments (argv)")
+    if not command or not all(isinstance(a, str) and a for a in command):
+        raise ManifestError(
+            f"{path}: command: expected a non-empty list of non-empty strings (argv, no shell), "
+            f"got {command!r:.80}"
+        )
+    known = {*_FIXED_PLACEHOLDERS, *BUFFER_INPUTS, *params}
+    if values["temporal"]:
+        known.add("previous_output")
+    used = _placeholders(path, command, known)
+    if "output" not in used:
+        raise ManifestError(f"{path}: command: expected an {{output}} placeholder, got none")
+    buffers = used & set(BUFFER_INPUTS)
+    if buffers != set(inputs):
+        raise ManifestError(
+            f"{path}: command: expected a placeholder for each of inputs = "
+            f"{', '.join(inputs)} and no other buffer, got {', '.join(sorted(buffers))}"
+        )
+    return _program(path, command)
+
+
+def _program(path: Path, command: list[str]) -> list[str]:
+    """``command`` with the program's path checked and, if relative, made absolute (see the
+    module docstring's rule)."""
+    index = 1 if command[0] == "{python}" else 0
+    if index >= len(command) or command[index].startswith("-"):
+        return command  # {python} -m module / -c code: no file to check
+    program = command[index]
+    what = f"{path}: command[{index}]"
+    if "{" in program or "}" in program:
+        raise ManifestError(f"{what}: expected the program's path, got a placeholder {program!r}")
+    if index == 0 and "/" not in program and os.sep not in program:
+        if shutil.which(program) is None:
+            raise ManifestError(f"{what}: expected a program on PATH, got {program!r}: not found")
+        return command
+    if Path(program).is_absolute():
+        return command
+    folder = path.parent.resolve()
+    resolved = (folder / program).resolve()
+    if not resolved.is_relative_to(folder):
+        raise ManifestError(
+            f"{what}: expected a path inside the manifest's folder {folder}, got {program!r}, "
+            f"which resolves to {resolved} (through '..' or a symlink)"
+        )
+    if not resolved.is_file():
+        raise ManifestError(f"{what}: expected an existing file, got {program!r}: no such file")
+    if index == 0 and not os.access(resolved, os.X_OK):
+        raise ManifestError(f"{what}: expected an executable file, got {program!r}: not executable")
+    return [*command[:index], str(resolved), *command[index + 1 :]]
+
+
+def load_manifest(manifest_path: str | os.PathLike) -> Manifest:
+    """Read and check a denoiser manifest (see the module docstring for its keys).
+
+    Raises:
+        DtypeError: ``manifest_path`` is not a path.
+        ManifestError: the file is missing, malformed (with the line), holds an unknown key or a
+            value of the wrong type, or its program is missing or escapes its folder.
+    """
+    if not isinstance(manifest_path, (str, os.PathLike)):
+        raise DtypeError(
+            f"manifest_path: expected a str or os.PathLike, got {type(manifest_path).__name__}"
+        )
+    path = Path(manifest_path).absolute()
+    if not path.is_file():
+        raise ManifestError(f"{path}: expected a denoiser manifest file, got no such file")
+    raw = _parse(path)
+    values = _values(path, raw)
+    inputs = _inputs(path, raw["inputs"])
+    params = _params(path, raw["params"])
+    grid = _grid(path, raw["grid"], params)
+    command = _command(path, raw["command"], values, inputs, params)
+    return Manifest(
+        path=path,
+        command=tuple(command),
+        inputs=inputs,
+        params=MappingProxyType(params),
+        grid=MappingProxyType(grid),
+        **values,
+    )
+
+
+# ------------------------------------------------------------------------------------------------
+# Running the program
+
+
+def _failure(
+    manifest: Manifest, argv: Sequence[str], expected: str, got: str, log: str = ""
+) -> ExternalProcessError:
+    """The ExternalProcessError of one failed frame: one line, then the program's log tail."""
+    message = (
+        f"denoiser {manifest.name!r} ({manifest.path.name}): command {shlex.join(argv)}: "
+        f"expected {expected}, got {got}"
+    )
+    return ExternalProcessError(message + log)
+
+
+def _log_tail(work: Path) -> str:
+    """The last lines the program wrote to stderr (else stdout), indented under a heading."""
+    for stream in ("stderr", "stdout"):
+        log = work / f"{stream}.txt"
+        text = log.read_bytes().decode("utf-8", "replace") if log.is_file() else ""
+        lines = text.rstrip().splitlines()[-_STDERR_LINES:]
+        if lines:
+            body = "\n".join(f"    {line}" for line in lines)
+            return f"\n  last {len(lines)} line(s) of the program's {stream}:\n{body}"
+    return ""
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    """Kill the program's process group (its session: it and everything it started), then reap
+    it. Called before the program is reaped, so its id cannot name another group yet."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+
+
+def _status(code: int) -> str:
+    if code < 0:
+        with contextlib.suppress(ValueError):
+            return f"killed by signal {signal.Signals(-code).name}"
+    return f"exit status {code}"
+
+
+def _execute(manifest: Manifest, argv: list[str], work: Path) -> None:
+    """Run ``argv`` in the manifest's folder, in a session of its own, with the time limit."""
+    with open(work / "stdout.txt", "wb") as out, open(work / "stderr.txt", "wb") as err:
+        try:
+            proc = subprocess.Popen(
+                argv,
+                cwd=manifest.folder,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=err,
+                start_new_session=True,
+            )
+        except OSError as error:
+            reason = error.strerror or str(error)
+            raise _failure(manifest, argv, "a program that starts", reason) from None
+        try:
+            code = proc.wait(timeout=manifest.timeout_s)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            raise _failure(
+                manifest,
+                argv,
+                f"an exit within timeout_s = {manifest.timeout_s:g} s",
+                "none (its process group was killed)",
+                _log_tail(work),
+            ) from None
+        except BaseException:  # an interrupt while waiting: leave no program running
+            _kill_group(proc)
+            raise
+    if code != 0:
+        raise _failure(manifest, argv, "exit status 0", _status(code), _log_tail(work))
+
+
+def _exr_header(path: Path) -> tuple[tuple[int, int], list[str]]:
+    """The ``(height, width)`` and sorted channel names of an EXR file, its pixels unread."""
+    import OpenEXR  # noqa: PLC0415 - a compiled extension, as in bnerr.io
+
+    if not OpenEXR.isOpenExrFile(str(path)):
+        raise ValueError("no EXR magic number")
+    header = OpenEXR.File(str(path), header_only=True).header()
+    low, high = header["dataWindow"]
+    size = (int(high[1] - low[1] + 1), int(high[0] - low[0] + 1))
+    return size, sorted(channel.name for channel in header["channels"])
+
+
+def _exr_planes(path: Path) -> list[np.ndarray]:
+    """The ``R``, ``G`` and ``B`` planes of an EXR file, in their stored dtype."""
+    import OpenEXR  # noqa: PLC0415
+
+    channels = OpenEXR.File(str(path), separate_channels=True).channels()
+    return [np.asarray(channels[c].pixels) for c in ("R", "G", "B")]
+
+
+def _read_output(
+    manifest: Manifest, argv: list[str], path: Path, size: tuple[int, int]
+) -> torch.Tensor:
+    """The program's output EXR as float32 ``[3, H, W]`` after checking it (module docstring):
+    its byte size and header before its pixels, then their type and finiteness."""
+
+    def fail(expected: str, got: str) -> ExternalProcessError:
+        return _failure(manifest, argv, expected, got, _log_tail(path.parent))
+
+    if not path.is_file():
+        raise fail(f"an output EXR at {{output}} ({path.name})", "no such file")
+    height, width = size
+    limit = _SIZE_FACTOR * height * width * 3 * 4 + _SIZE_SLACK
+    if path.stat().st_size > limit:
+        raise fail(f"an output EXR of at most {limit} bytes", f"{path.stat().st_size} bytes")
+    try:
+        got_size, names = _exr_header(path)
+        if got_size != size:
+            raise fail(f"an output of {height} x {width} pixels", f"{got_size[0]} x {got_size[1]}")
+        if names != ["B", "G", "R"]:
+            raise fail("the output channels R, G, B only", ", ".join(names) or "none")
+        planes = _exr_planes(path)
+    except ExternalProcessError:
+        raise
+    except Exception as error:  # the binding raises RuntimeError or ValueError on corrupt data
+        raise fail("an OpenEXR output", f"{type(error).__name__}: {error}") from None
+    if any(p.dtype not in (np.float32, np.float16) for p in planes):
+        raise fail("FLOAT or HALF output channels", ", ".join(str(p.dtype) for p in planes))
+    out = torch.from_numpy(np.stack([p.astype(np.float32) for p in planes]))
+    bad = int((~torch.isfinite(out)).sum())
+    if bad:
+        raise fail("finite output values", f"{bad} NaN or infinite of {out.numel()}")
+    return out
+
+
+def _inputs_written(
+    manifest: Manifest, frame: Frame, work: Path, previous: torch.Tensor | None
+) -> dict[str, str]:
+    """Write each input (and the previous output) as an EXR; the file placeholders' values."""
+    files: dict[str, str] = {"output": str(work / "output.exr")}
+    for name in manifest.inputs:
+        target = work / f"{name}.exr"
+        write_exr(target, {name: getattr(frame, name).detach().float().cpu()})
+        files[name] = str(target)
+    if manifest.temporal:
+        files["previous_output"] = ""
+        if previous is not None:
+            target = work / "previous_output.exr"
+            write_exr(target, {"color": previous.detach().float().cpu()})
+            files["previous_output"] = str(target)
+    return files
+
+
+def run_manifest(
+    manifest: Manifest,
+    params: Mapping[str, object],
+    frame: Frame,
+    index: int,
+    previous: torch.Tensor | None = None,
+) -> torch.Tensor:
+    """Denoise ``frame`` with the manifest's program: write its inputs to a private temporary
+    folder, run the command with ``params`` and ``index`` in its placeholders, read and check
+    the output; the folder is removed whatever happens. Returns float32 ``[3, H, W]`` on the
+    frame's device.
+
+    Raises:
+        ExternalProcessError: the program failed, or its output is missing or wrong.
+    """
+    work = Path(tempfile.mkdtemp(prefix=f"bnerr-{manifest.name}-"))
+    try:
+        values = {str(k): str(v) for k, v in params.items()}
+        values.update(_inputs_written(manifest, frame, work, previous))
+        values.update(python=sys.executable, frame=str(index))
+        argv = [arg.format(**values) for arg in manifest.command]
+        _execute(manifest, argv, work)
+        out = _read_output(manifest, argv, Path(values["output"]), (frame.height, frame.width))
+        return out.to(frame.color.device)
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+# ------------------------------------------------------------------------------------------------
+# The Denoiser class
+
+
+class ExternalDenoiser(Denoiser):
+    """Base of the classes :func:`denoiser_class` makes: one per manifest (``manifest``).
+
+    Built with keyword parameters (the manifest's ``[params]``, defaults filled in; an int is
+    accepted for a float). A temporal manifest makes a stateful denoiser: :meth:`reset` starts a
+    sequence, frames must come in order, and the previous output is passed to the program.
+    """
+
+    manifest: ClassVar[Manifest]
+    kind: ClassVar[str] = "filter"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = MappingProxyType({})
+
+    def __init__(self, **params: object) -> None:
+        defaults = self.manifest.params
+        unknown = sorted(set(params) - set(defaults))
+        if unknown:
+            raise UnknownNameError(
+                f"denoiser {self.name!r}: unknown parameter(s) {', '.join(unknown)}: expected "
+                f"one of {', '.join(defaults) or '(none)'}"
+            )
+        self._params = {
+            key: _coerce(params.get(key, default), default, f"denoiser {self.name!r}: {key}")
+            for key, default in defaults.items()
+        }
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the sequence: the next frame is frame 0 and has no previous output."""
+        self._previous: torch.Tensor | None = None
+        self._t: int | None = None
+        self._count = 0
+        self._index = 0
+
+    def _check_sequence(self, frame: Frame, t: int | None) -> None:
+        if self.stateful:
+            before = None if self._previous is None else self._previous.shape
+            check_continues(f"denoiser {self.name!r}", before, frame.color.shape, self._t, t)
+            self._t = t
+        self._index = t if t is not None else self._count
+
+    def denoise(self, frame: Frame) -> torch.Tensor:
+        out = run_manifest(self.manifest, self._params, frame, self._index, self._previous)
+        self._count += 1
+        if self.stateful:
+            self._previous = out
+        return out
+
+    def params(self) -> dict[str, float | int | str]:
+        return dict(self._params)
+
+    def __reduce__(self) -> tuple[object, ...]:
+        # the class is made at run time: rebuild it from its manifest in another process
+        return (_rebuild, (str(self.manifest.path), self.params()))
+
+
+def _rebuild(manifest_path: str, params: dict) -> Denoiser:
+    return denoiser_class(manifest_path)(**params)
+
+
+def denoiser_class(manifest_path: str | os.PathLike) -> type[Denoiser]:
+    """A :class:`~denoisers.base.Denoiser` subclass that runs the program ``manifest_path``
+    declares (see the module docstring).
+
+    The class has ``name``, ``requires`` (the inputs but color), ``stateful`` (``temporal``),
+    ``kind``, ``grid`` and ``manifest``; its ``__init__`` takes the manifest's parameters as
+    keywords, so :func:`denoisers.get_denoiser` builds it once it is registered in
+    :data:`denoisers.DENOISERS`.
+
+    Raises:
+        ManifestError: as :func:`load_manifest`.
+    """
+    manifest = load_manifest(manifest_path)
+
+    def __init__(self: ExternalDenoiser, **params: object) -> None:
+        ExternalDenoiser.__init__(self, **params)
+
+    keyword = inspect.Parameter.KEYWORD_ONLY
+    __init__.__signature__ = inspect.Signature(  # type: ignore[attr-defined]
+        [inspect.Parameter("self", inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+        + [inspect.Parameter(k, keyword, default=v) for k, v in manifest.params.items()]
+    )
+    attributes = {
+        "__init__": __init__,
+        "__module__": __name__,
+        "__doc__": manifest.description or f"The external denoiser of {manifest.path}.",
+        "name": manifest.name,
+        "requires": frozenset(manifest.inputs) - {"color"},
+        "stateful": manifest.temporal,
+        "kind": manifest.kind,
+        "grid": manifest.grid,
+        "manifest": manifest,
+    }
+    title = "".join(part.capitalize() for part in re.split(r"[^A-Za-z0-9]+", manifest.name))
+    return type(f"External{title}", (ExternalDenoiser,), attributes)
