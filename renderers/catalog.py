@@ -37,6 +37,7 @@ Not for: measuring a renderer's speed on realistic geometry: every scene has und
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -286,10 +287,10 @@ def load_scene(name_or_spec: str) -> str:
             "file (.toml, .json), a spec 'pkg.mod:make_scene' or a registered name"
         )
     if name_or_spec.endswith(SCENE_FILE_SUFFIXES):
-        from renderers.scene_file import load_scene_file  # written beside this; loaded when used
-
+        # renderers.scene_file, loaded when used (a scene-file run only)
+        scene_file = importlib.import_module("renderers.scene_file")
         path = Path(name_or_spec)
-        builder = load_scene_file(path)
+        builder = scene_file.load_scene_file(path)
         plugin = plugins.Plugin(name_or_spec, builder, None, files=(str(path.resolve()),))
         name = plugins.call_plugin(plugin, "scene", builder).name
         return registry.add(plugins.Plugin(name, builder, None, plugin.files))
