@@ -250,7 +250,9 @@ def plugin_name(plugin: Plugin, what: str) -> str:
     return name
 
 
-def call_plugin(plugin: Plugin, what: str, build: Callable[..., Any], *args, **kwargs) -> Any:
+def call_plugin(
+    plugin: Plugin, what: str, build: Callable[..., Any], *args: Any, **kwargs: Any
+) -> Any:
     """``build(*args, **kwargs)`` (a plug-in's constructor or factory), with any error it raises
     other than bnerr's own typed ones turned into a :class:`PluginError` naming the plug-in."""
     try:
@@ -306,7 +308,7 @@ def loaded(group: str, name: str) -> Plugin | None:
     return _LOADED.get((group, name))
 
 
-class PluginRegistry(dict):  # type: ignore[type-arg]
+class PluginRegistry(dict):
     """A registry dict (name -> entry) that adds its group's installed plug-ins the first time
     it is read: ``adapt(plugin) -> (name, entry)`` checks and adapts each one (raising
     :class:`PluginError` for the wrong kind). Shipped entries are given at construction; a name
@@ -374,15 +376,15 @@ class PluginRegistry(dict):  # type: ignore[type-arg]
     def get(self, name: str, default: Any = None) -> Any:
         return self[name] if name in self else default
 
-    def keys(self):  # type: ignore[override]
+    def keys(self):
         self._load()
         return dict.keys(self)
 
-    def values(self):  # type: ignore[override]
+    def values(self):
         self._load()
         return dict.values(self)
 
-    def items(self):  # type: ignore[override]
+    def items(self):
         self._load()
         return dict.items(self)
 

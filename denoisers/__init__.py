@@ -27,6 +27,7 @@ does not import :mod:`renderers`: training data is made in ``benchmarks.training
 
 from __future__ import annotations
 
+import importlib
 import inspect
 from pathlib import Path
 
@@ -75,29 +76,23 @@ def _adapt(plugin: plugins.Plugin) -> tuple[str, type[Denoiser]]:
     return cls.name, cls
 
 
+#: The shipped denoisers.
+_SHIPPED: tuple[type[Denoiser], ...] = (
+    ATrous,
+    Bilateral,
+    Gaussian,
+    Guided,
+    JointBilateral,
+    Median,
+    OIDN,
+    SVGF,
+    TAA,
+    UNetBlueDenoiser,
+    UNetDenoiser,
+)
 #: Registry: name -> Denoiser class, the plug-ins included. Sorted by name.
 DENOISERS: dict[str, type[Denoiser]] = plugins.PluginRegistry(
-    "bnerr.denoisers",
-    _adapt,
-    {
-        cls.name: cls
-        for cls in sorted(
-            (
-                ATrous,
-                Bilateral,
-                Gaussian,
-                Guided,
-                JointBilateral,
-                Median,
-                OIDN,
-                SVGF,
-                TAA,
-                UNetBlueDenoiser,
-                UNetDenoiser,
-            ),
-            key=lambda c: c.name,
-        )
-    },
+    "bnerr.denoisers", _adapt, {cls.name: cls for cls in _SHIPPED}
 )
 
 
@@ -114,10 +109,10 @@ def load_denoiser(name_or_spec: str) -> str:
     if name_or_spec in registry:
         return name_or_spec
     if name_or_spec.endswith(MANIFEST_SUFFIXES):
-        from denoisers.external import denoiser_class  # written beside this; loaded when used
-
+        # denoisers.external, loaded when used (a manifest run only)
+        external = importlib.import_module("denoisers.external")
         path = Path(name_or_spec)
-        cls = denoiser_class(path)
+        cls = external.denoiser_class(path)
         plugin = plugins.Plugin(name_or_spec, cls, None, files=(str(path.resolve()),))
         return registry.add(plugin)
     if not plugins.is_spec(name_or_spec):

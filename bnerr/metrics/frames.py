@@ -100,7 +100,7 @@ class _PluginUpdate:
             self.plugin, "metric", self.fn, pair.pred, pair.ref.color, **extra
         )
         try:
-            number = float(value)  # type: ignore[arg-type]
+            number = float(value)  # type: ignore[arg-type,unused-ignore]
         except (TypeError, ValueError, RuntimeError):
             number = math.nan
         if not math.isfinite(number):
