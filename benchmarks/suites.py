@@ -75,6 +75,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
+from bnerr.sequences import per_pixel_samplers
 from bnerr.strategies import check_strategy_name
 
 __all__ = [
@@ -89,13 +90,15 @@ __all__ = [
     "Sweep",
     "get_suite",
     "resolve",
+    "with_white",
 ]
 
 #: Pixel regions the metrics can be restricted to.
 REGIONS: tuple[str, ...] = ("all", "edges", "coherent")
 
 #: Per-pixel samplers a strategy can draw its sequences from (the strategies with their own
-#: sampler, bnds and the rivals, ignore the choice).
+#: sampler, bnds and the rivals, ignore the choice); plug-in samplers too
+#: (:func:`bnerr.sequences.per_pixel_samplers`).
 SAMPLERS: tuple[str, ...] = ("owen_sobol", "white")
 
 
@@ -132,7 +135,7 @@ class Condition:
         if self.depth is not None:
             check_positive_int(self.depth, "Condition.depth", minimum=2)
         check_name(self.region, REGIONS, "region")
-        check_name(self.sampler, SAMPLERS, "per-pixel sampler")
+        check_name(self.sampler, per_pixel_samplers(), "per-pixel sampler")
 
 
 @dataclass(frozen=True)
@@ -625,9 +628,13 @@ def resolve(
     res: tuple[int, int] | None = None,
     seed_sets: int | None = None,
     reference_spp: int | None = None,
+    samplers: Sequence[str] | None = None,
+    metrics: Sequence[str] | None = None,
     known_scenes: Sequence[str] | None = None,
     known_strategies: Sequence[str] | None = None,
     known_denoisers: Sequence[str] | None = None,
+    known_samplers: Sequence[str] | None = None,
+    known_metrics: Sequence[str] | None = None,
 ) -> Suite:
     """``suite`` with the command line's overrides applied to every sweep.
 
@@ -635,7 +642,9 @@ def resolve(
     only ``direct``); None keeps the suite's value. Names are checked against ``known_*`` when
     given (the registries of the installed parts), raising :class:`UnknownNameError`; a
     strategy named as a temporal variant (``temporal+residual+groups``) needs only be well
-    formed (:func:`bnerr.strategies.parse_variant`).
+    formed (:func:`bnerr.strategies.parse_variant`). ``samplers`` replaces the per-pixel sampler
+    of every sweep's conditions (each condition once per sampler); ``metrics`` the measured
+    metrics.
     """
     changes = {
         "scenes": _known(scenes, known_scenes, "scene"),
@@ -647,7 +656,29 @@ def resolve(
         "res": res,
         "seed_sets": seed_sets,
         "reference_spp": reference_spp,
+        "metrics": _known(metrics, known_metrics, "metric"),
     }
     changes = {k: v for k, v in changes.items() if v is not None}
     sweeps = tuple(dataclasses.replace(s, **changes) for s in suite.sweeps)
+    chosen = _known(samplers, known_samplers, "per-pixel sampler")
+    if chosen is not None:
+        sweeps = tuple(_with_samplers(s, chosen) for s in sweeps)
     return dataclasses.replace(suite, sweeps=sweeps)
+
+
+def _with_samplers(sweep: Sweep, samplers: tuple[str, ...]) -> Sweep:
+    conditions = tuple(
+        dict.fromkeys(dataclasses.replace(c, sampler=s) for c in sweep.conditions for s in samplers)
+    )
+    return dataclasses.replace(sweep, conditions=conditions)
+
+
+def with_white(suite: Suite) -> tuple[Suite, bool]:
+    """``suite`` with the white-noise baseline in every sweep when no sweep has it (the ratios to
+    white need its cells), and whether it was added."""
+    if any("white" in s.strategies for s in suite.sweeps) or suite.scripts:
+        return suite, False
+    sweeps = tuple(
+        dataclasses.replace(s, strategies=("white", *s.strategies)) for s in suite.sweeps
+    )
+    return dataclasses.replace(suite, sweeps=sweeps), True

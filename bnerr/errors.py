@@ -30,6 +30,7 @@ __all__ = [
     "MemoryLimitError",
     "MissingExtraError",
     "NonFiniteError",
+    "PluginError",
     "SceneFileError",
     "ShapeError",
     "UnknownNameError",
@@ -82,6 +83,13 @@ class NonFiniteError(BnerrError, ValueError):
 
 class UnknownNameError(BnerrError, ValueError):
     """A name (scene, sampler, denoiser, strategy, suite) is not registered."""
+
+
+class PluginError(BnerrError, ImportError):
+    """A plug-in (a ``pkg.mod:attr`` or ``file.py:Name`` spec, or an installed entry point)
+    cannot be used: its import fails, the attribute is missing, the object is of the wrong kind,
+    or building it raises. The one-line message names the plug-in, its distribution and what was
+    expected (:mod:`bnerr.plugins`)."""
 
 
 #: Optional extra (of pyproject.toml, or what an extra needs beside it) -> the command that

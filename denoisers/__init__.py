@@ -12,6 +12,14 @@ Names (the registry, :data:`DENOISERS`):
 - ``unet_blue``: the same network trained on white and blue-noise inputs (``--mix white+blue``);
 - ``oidn``: Intel Open Image Denoise, the production reference (optional extra ``reference``).
 
+**Plug-ins** (:mod:`bnerr.plugins`) join :data:`DENOISERS` under their ``name``: a
+:class:`Denoiser` subclass, or a plain function ``Frame -> [3, H, W]`` or ``torch.nn.Module``
+(wrapped by :func:`as_denoiser`, its ``name``, ``kind`` and ``grid`` read from its attributes),
+given as a spec ``pkg.mod:attr`` / ``path/file.py:Name`` (:func:`load_denoiser`,
+``get_denoiser(spec)``), or installed as an entry point of the group ``bnerr.denoisers``
+(registered the first time :data:`DENOISERS` is read); a path ending in ``.toml`` or ``.json`` is
+an executable denoiser's manifest (``denoisers.external.denoiser_class``).
+
 ``get_denoiser(name, **params)`` builds one; filter parameters come from :mod:`denoisers.tuning`
 (tuned per scene and spp on white noise, then used unchanged for every strategy). This package
 does not import :mod:`renderers`: training data is made in ``benchmarks.training_data``.
@@ -19,56 +27,114 @@ does not import :mod:`renderers`: training data is made in ``benchmarks.training
 
 from __future__ import annotations
 
+import importlib
 import inspect
+from pathlib import Path
 
-from bnerr.errors import UnknownNameError, check_name
+import torch
+
+from bnerr import plugins
+from bnerr.errors import PluginError, UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
 from denoisers.oidn import OIDN
 from denoisers.temporal import SVGF, TAA
 from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
+from denoisers.wrapped import as_denoiser
 
 __all__ = [
     "DENOISERS",
     "Denoiser",
     "MissingBufferError",
+    "as_denoiser",
     "check_frame",
     "get_denoiser",
+    "load_denoiser",
 ]
 
-#: Registry: name -> Denoiser class. Sorted by name.
-DENOISERS: dict[str, type[Denoiser]] = {
-    cls.name: cls
-    for cls in sorted(
-        (
-            ATrous,
-            Bilateral,
-            Gaussian,
-            Guided,
-            JointBilateral,
-            Median,
-            OIDN,
-            SVGF,
-            TAA,
-            UNetBlueDenoiser,
-            UNetDenoiser,
-        ),
-        key=lambda c: c.name,
-    )
-}
+#: Spec suffixes of an executable denoiser's manifest (``denoisers.external``).
+MANIFEST_SUFFIXES = (".toml", ".json")
+
+
+def _adapt(plugin: plugins.Plugin) -> tuple[str, type[Denoiser]]:
+    """A denoiser plug-in checked, and wrapped when it is a function or a module."""
+    obj = plugin.obj
+    if isinstance(obj, type) and issubclass(obj, torch.nn.Module):
+        obj = plugins.call_plugin(plugin, "module", obj)
+    if isinstance(obj, type) and issubclass(obj, Denoiser):
+        cls = obj
+    elif callable(obj) and not isinstance(obj, type):
+        cls = as_denoiser(obj, name=plugins.plugin_name(plugin, "denoiser"))
+    else:
+        got = obj.__name__ if isinstance(obj, type) else type(obj).__name__
+        raise PluginError(
+            f"{plugin.who}: expected a denoisers.Denoiser subclass, a function Frame -> "
+            f"[3, H, W] or a torch.nn.Module, got {got}"
+        )
+    if not cls.name:
+        raise PluginError(f"{plugin.who}: expected a denoiser class with a name, got none")
+    return cls.name, cls
+
+
+#: The shipped denoisers.
+_SHIPPED: tuple[type[Denoiser], ...] = (
+    ATrous,
+    Bilateral,
+    Gaussian,
+    Guided,
+    JointBilateral,
+    Median,
+    OIDN,
+    SVGF,
+    TAA,
+    UNetBlueDenoiser,
+    UNetDenoiser,
+)
+#: Registry: name -> Denoiser class, the plug-ins included. Sorted by name.
+DENOISERS: dict[str, type[Denoiser]] = plugins.PluginRegistry(
+    "bnerr.denoisers", _adapt, {cls.name: cls for cls in _SHIPPED}
+)
+
+
+def load_denoiser(name_or_spec: str) -> str:
+    """The registered name of ``name_or_spec``: itself when registered (or not a spec), else
+    the plug-in it names, loaded and registered: a manifest path (``.toml``, ``.json``) through
+    ``denoisers.external.denoiser_class``, or a spec ``pkg.mod:attr`` / ``path/file.py:Name``.
+
+    Raises:
+        PluginError: the plug-in cannot be loaded or is not a denoiser.
+    """
+    registry = DENOISERS
+    assert isinstance(registry, plugins.PluginRegistry)
+    if name_or_spec in registry:
+        return name_or_spec
+    if name_or_spec.endswith(MANIFEST_SUFFIXES):
+        # denoisers.external, loaded when used (a manifest run only)
+        external = importlib.import_module("denoisers.external")
+        path = Path(name_or_spec)
+        cls = external.denoiser_class(path)
+        plugin = plugins.Plugin(name_or_spec, cls, None, files=(str(path.resolve()),))
+        return registry.add(plugin)
+    if not plugins.is_spec(name_or_spec):
+        return name_or_spec
+    return registry.add(plugins.resolve(name_or_spec))
 
 
 def get_denoiser(name: str, **params: object) -> Denoiser:
     """Build the denoiser registered as ``name`` with keyword ``params``.
 
+    ``name`` may be a plug-in spec or manifest path (:func:`load_denoiser`).
+
     Raises:
         UnknownNameError: ``name`` is not registered, or a parameter is not one the denoiser
             takes (the message lists the ones it does).
+        PluginError: a plug-in that cannot be loaded, or whose constructor raises.
         DtypeError, ValueRangeError: a parameter has the wrong type or is out of range.
         MissingExtraError: ``oidn`` without the ``reference`` extra installed.
         FileFormatError: ``unet`` with a missing or corrupt weights file.
     """
-    cls = DENOISERS[check_name(name, list(DENOISERS), "denoiser")]
+    name = check_name(load_denoiser(name), list(DENOISERS), "denoiser")
+    cls = DENOISERS[name]
     accepted = [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
     unknown = sorted(set(params) - set(accepted))
     if unknown:
@@ -76,4 +142,7 @@ def get_denoiser(name: str, **params: object) -> Denoiser:
             f"denoiser {name!r}: unknown parameter(s) {', '.join(unknown)}: expected one of "
             f"{', '.join(accepted) or '(none)'}"
         )
-    return cls(**params)
+    plugin = plugins.loaded("bnerr.denoisers", name)
+    if plugin is None:
+        return cls(**params)
+    return plugins.call_plugin(plugin, "denoiser", cls, **params)

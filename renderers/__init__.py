@@ -15,9 +15,9 @@
 This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmarks`.
 """
 
-from renderers.catalog import SCENES, get_scene
+from renderers.catalog import SCENES, get_scene, load_scene
 from renderers.layout import Layout
 from renderers.scene import Scene
 from renderers.tracer import render, render_batch
 
-__all__ = ["Layout", "SCENES", "Scene", "get_scene", "render", "render_batch"]
+__all__ = ["Layout", "SCENES", "Scene", "get_scene", "load_scene", "render", "render_batch"]

@@ -25,14 +25,24 @@ The issue that asked for the medium scene quoted "24 dimensions" for 8 bounces; 
 estimation at every vertex and a free-flight dimension per segment, 8 scattering vertices take
 40 here (5 per vertex, see the layout).
 
+**Plug-in scenes** (:mod:`bnerr.plugins`): a function ``() -> Scene`` given as a spec
+(``get_scene("mymod:make_scene")``, :func:`load_scene`) or installed as an entry point of the
+group ``bnerr.scenes`` joins :data:`SCENES` under its ``name`` attribute (else the spec's or
+entry point's name); a path ending in ``.toml`` or ``.json`` is a scene file
+(``renderers.scene_file.load_scene_file``), registered under its scene's name. Mitsuba XML
+scenes are not supported yet (a :class:`~bnerr.errors.PluginError` says so).
+
 Not for: measuring a renderer's speed on realistic geometry: every scene has under 20 primitives.
 """
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
+from pathlib import Path
 
-from bnerr.errors import check_name
+from bnerr import plugins
+from bnerr.errors import PluginError, check_name
 from renderers.scene import (
     Box,
     Camera,
@@ -49,7 +59,7 @@ from renderers.scene import (
     affine,
 )
 
-__all__ = ["SCENES", "get_scene"]
+__all__ = ["SCENES", "get_scene", "load_scene"]
 
 _WHITE = Diffuse((0.8, 0.8, 0.8))
 
@@ -230,23 +240,82 @@ def medium() -> Scene:
     )
 
 
-#: Scene name -> builder of its animated version (``get_scene`` makes the static variant).
-SCENES: dict[str, Callable[[], Scene]] = {
-    "cornell": cornell,
-    "direct": direct,
-    "indirect": indirect,
-    "medium": medium,
-    "snooker": snooker,
-    "snooker_plain": snooker_plain,
-}
+def _adapt(plugin: plugins.Plugin) -> tuple[str, Callable[[], Scene]]:
+    """A scene plug-in checked: a function (what it returns is checked when called)."""
+    if not callable(plugin.obj) or isinstance(plugin.obj, type):
+        raise PluginError(
+            f"{plugin.who}: expected a function () -> renderers.scene.Scene, got "
+            f"{type(plugin.obj).__name__}"
+        )
+    return plugins.plugin_name(plugin, "scene"), plugin.obj
+
+
+#: Scene name -> builder of its animated version (``get_scene`` makes the static variant); the
+#: plug-ins included.
+SCENES: dict[str, Callable[[], Scene]] = plugins.PluginRegistry(
+    "bnerr.scenes",
+    _adapt,
+    {
+        "cornell": cornell,
+        "direct": direct,
+        "indirect": indirect,
+        "medium": medium,
+        "snooker": snooker,
+        "snooker_plain": snooker_plain,
+    },
+)
+
+#: Scene-file suffixes (``renderers.scene_file``).
+SCENE_FILE_SUFFIXES = (".toml", ".json")
+
+
+def load_scene(name_or_spec: str) -> str:
+    """The registered name of ``name_or_spec``: itself when registered (or not a spec), else the
+    plug-in it names, loaded and registered: a scene file (``.toml``, ``.json``) through
+    ``renderers.scene_file.load_scene_file``, or a spec ``pkg.mod:make`` / ``file.py:make``.
+
+    Raises:
+        PluginError: the plug-in cannot be loaded or is not a scene builder; a Mitsuba XML file.
+    """
+    registry = SCENES
+    assert isinstance(registry, plugins.PluginRegistry)
+    if name_or_spec in registry:
+        return name_or_spec
+    if name_or_spec.endswith(".xml"):
+        raise PluginError(
+            f"scene {name_or_spec!r}: Mitsuba XML scenes: not yet supported; expected a scene "
+            "file (.toml, .json), a spec 'pkg.mod:make_scene' or a registered name"
+        )
+    if name_or_spec.endswith(SCENE_FILE_SUFFIXES):
+        # renderers.scene_file, loaded when used (a scene-file run only)
+        scene_file = importlib.import_module("renderers.scene_file")
+        path = Path(name_or_spec)
+        builder = scene_file.load_scene_file(path)
+        plugin = plugins.Plugin(name_or_spec, builder, None, files=(str(path.resolve()),))
+        name = plugins.call_plugin(plugin, "scene", builder).name
+        return registry.add(plugins.Plugin(name, builder, None, plugin.files))
+    if not plugins.is_spec(name_or_spec):
+        return name_or_spec
+    return registry.add(plugins.resolve(name_or_spec))
 
 
 def get_scene(name: str, animated: bool = True) -> Scene:
     """The named scene; ``animated=False`` gives its static variant (every pose frozen at t = 0).
 
+    ``name`` may be a plug-in spec or scene file (:func:`load_scene`).
+
     Raises:
         UnknownNameError: ``name`` is not in :data:`SCENES`.
+        PluginError: a plug-in that cannot be loaded, raises, or returns no Scene.
     """
-    check_name(name, list(SCENES), "scene")
-    scene = SCENES[name]()
+    name = check_name(load_scene(name), list(SCENES), "scene")
+    plugin = plugins.loaded("bnerr.scenes", name)
+    if plugin is None:
+        scene = SCENES[name]()
+    else:
+        scene = plugins.call_plugin(plugin, "scene", SCENES[name])
+        if not isinstance(scene, Scene):
+            raise PluginError(
+                f"{plugin.who}: expected a renderers.scene.Scene, got {type(scene).__name__}"
+            )
     return scene if animated else scene.static()

@@ -17,6 +17,14 @@ already holds finished cells is refused unless ``--overwrite`` says to discard t
 holds the output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a
 second ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
+**Plug-ins** (:mod:`bnerr.plugins`): ``--scenes``, ``--strategies``, ``--denoisers``,
+``--samplers`` (the per-pixel sampler condition) and ``--metrics`` take, besides registered names
+(installed entry points among them), specs ``pkg.mod:attr`` and ``path/to/file.py:Name`` (and
+manifest or scene files ending in ``.toml`` / ``.json`` for denoisers and scenes); each is loaded,
+registered under its name, and loaded again in every worker. The white baseline is always run
+(added, with a note on stderr, when no sweep has it). Each record carries its plug-ins' specs and
+fingerprints, and ``--resume`` refuses to mix in cells of a plug-in that changed.
+
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
 no value) joins the cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else
@@ -28,6 +36,7 @@ threads) of each task.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import torch
@@ -45,7 +54,8 @@ from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES
 from benchmarks.sweep import runner
-from benchmarks.sweep.parts import known_names
+from benchmarks.sweep.parts import known_names, real_parts
+from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import RESULTS_ARCHIVE, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
@@ -63,6 +73,8 @@ _OVERRIDES = (
     "seed_sets",
     "reference_spp",
     "res",
+    "samplers",
+    "metrics",
 )
 
 
@@ -121,10 +133,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add = parser.add_argument
     add("--suite", default="quick", choices=sorted(SUITES), help="named suite (default quick)")
-    add("--scenes", nargs="+", metavar="NAME", help="override the scenes")
-    add("--strategies", nargs="+", metavar="NAME", help="override the strategies")
+    spec = " (or a plug-in: pkg.mod:attr, path/file.py:Name)"
+    add("--scenes", nargs="+", metavar="NAME", help="override the scenes" + spec)
+    add("--strategies", nargs="+", metavar="NAME", help="override the strategies" + spec)
     add("--spp", nargs="+", metavar="N", help="override the samples per pixel")
-    add("--denoisers", nargs="+", metavar="NAME", help="override the denoisers")
+    add("--denoisers", nargs="+", metavar="NAME", help="override the denoisers" + spec)
+    add(
+        "--samplers",
+        nargs="+",
+        metavar="NAME",
+        help="override the per-pixel sampler condition (owen_sobol, white" + spec + ")",
+    )
+    add("--metrics", nargs="+", metavar="NAME", help="override the metrics measured" + spec)
     add("--frames", type=positive_int, help="measured frames per seed set")
     add("--warmup", type=nonnegative_int, help="frames rendered before measuring (not measured)")
     add("--seed-sets", type=positive_int, help="independent seed sets")
@@ -196,12 +216,15 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
     if args.report_only:
         return _report_only(args, suite, out)
 
+    specs: list[tuple[str, str]] = []
     suite = suites.resolve(
         suite,
-        scenes=names(args.scenes),
-        strategies=names(args.strategies),
+        scenes=load_names("bnerr.scenes", names(args.scenes), specs),
+        strategies=load_names("bnerr.strategies", names(args.strategies), specs),
         spp=_ints(args.spp, "--spp"),
-        denoisers=names(args.denoisers),
+        denoisers=load_names("bnerr.denoisers", names(args.denoisers), specs),
+        samplers=load_names("bnerr.samplers", names(args.samplers), specs),
+        metrics=load_names("bnerr.metrics", names(args.metrics), specs),
         frames=_count(args.frames, "--frames"),
         warmup=_count(args.warmup, "--warmup", minimum=0),
         res=_res(args.res),
@@ -209,8 +232,15 @@ def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
         reference_spp=_count(args.reference_spp, "--reference-spp"),
         **known_names(),
     )
+    suite, added = suites.with_white(suite)
+    if added:
+        print("bnerr bench: added the white baseline (every ratio is to white)", file=sys.stderr)
     common = dict(
-        cache_dir=args.cache, resume=args.resume, overwrite=args.overwrite, progress=not args.quiet
+        cache_dir=args.cache,
+        resume=args.resume,
+        overwrite=args.overwrite,
+        progress=not args.quiet,
+        parts=real_parts(tuple(dict.fromkeys(specs))),
     )
     if args.ray is not None:
         records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)

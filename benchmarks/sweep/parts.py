@@ -22,8 +22,9 @@ import torch
 
 import denoisers
 import renderers
+from benchmarks.sweep.plugins import load_specs
 from benchmarks.sweep.version import code_version
-from bnerr import sequences, strategies
+from bnerr import metrics, sequences, strategies
 from bnerr.frame import Frame
 from denoisers import tuning
 
@@ -120,6 +121,9 @@ class Parts:
         (:func:`benchmarks.sweep.version.code_version`). render_batch: ``(scene, t, seeds [K, H, W],
             sampler, spp) -> list[Frame]``, the K renders of :attr:`render` at once and
             bit-identical to them (the oracle's candidates), or None to render them one by one.
+        plugins: the command line's plug-in specs, ``(group, spec)`` pairs
+            (:mod:`benchmarks.sweep.plugins`): :func:`real_parts`' callables load them again
+            wherever they run (a Ray worker), so the cells' names resolve there too.
     """
 
     get_scene: Callable[[str, bool], Scene]
@@ -132,6 +136,7 @@ class Parts:
     with_depth: Callable[[Scene, int], Scene]
     code_version: str
     render_batch: Callable[..., list[Frame]] | None = None
+    plugins: tuple[tuple[str, str], ...] = ()
 
 
 class BoundRender:
@@ -156,10 +161,16 @@ class BoundRender:
         return self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
 
 
-def real_parts() -> Parts:
-    """The project's own parts: ``renderers``, :mod:`bnerr.strategies` and ``denoisers``."""
+def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
+    """The project's own parts: ``renderers``, :mod:`bnerr.strategies` and ``denoisers``, with
+    the plug-ins of ``specs`` (``(group, spec)`` pairs) loaded again by each call."""
+
+    def get_scene(name: str, animated: bool) -> Scene:
+        load_specs(specs)  # first in every unit of work: a fresh worker registers the plug-ins
+        return renderers.get_scene(name, animated=animated)
 
     def make_denoiser(name: str, params: dict | None) -> Denoiser:
+        load_specs(specs)
         return denoisers.get_denoiser(name, **(params or {}))
 
     def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
@@ -168,6 +179,7 @@ def real_parts() -> Parts:
     def make_strategy(
         name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
     ):
+        load_specs(specs)
         return strategies.make_strategy(
             name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
         )
@@ -178,7 +190,7 @@ def real_parts() -> Parts:
         return sequences.make_sampler("owen_sobol")
 
     return Parts(
-        get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
+        get_scene=get_scene,
         render=renderers.render,
         make_strategy=make_strategy,
         stateful=lambda strategy: bool(getattr(strategy, "stateful", False)),
@@ -188,11 +200,13 @@ def real_parts() -> Parts:
         with_depth=lambda scene, depth: dataclasses.replace(scene, max_depth=depth),
         code_version=code_version(),
         render_batch=renderers.render_batch,
+        plugins=tuple(specs),
     )
 
 
 def known_names() -> dict[str, tuple[str, ...]]:
-    """The installed registries, for checking ``--scenes``, ``--strategies``, ``--denoisers``.
+    """The installed registries (plug-ins included), for checking ``--scenes``, ``--strategies``,
+    ``--denoisers``, ``--samplers`` and ``--metrics``.
 
     The denoisers include ``NAME:own`` for every one with a tuning grid (tuned on the strategy's
     own frames, :mod:`benchmarks.sweep.measure`).
@@ -202,4 +216,6 @@ def known_names() -> dict[str, tuple[str, ...]]:
         "known_scenes": tuple(renderers.SCENES),
         "known_strategies": tuple(strategies.STRATEGIES),
         "known_denoisers": tuple(denoisers.DENOISERS) + own,
+        "known_samplers": sequences.per_pixel_samplers(),
+        "known_metrics": tuple(metrics.METRIC_TABLE),
     }

@@ -30,7 +30,9 @@ seed set x measured frame:
   previous measured frame's along the motion, :func:`bnerr.metrics.temporal_correlation`, what
   temporal accumulation depends on; None, and absent on disk, in files written before it was)
   and ``coverage`` (``[S][F]``: the fraction of the pixels the cell's region covers in each
-  measured frame; None, and absent on disk, for region ``all`` and in older files).
+  measured frame; None, and absent on disk, for region ``all`` and in older files) and
+  ``plugins`` (``"<group>:<name>"`` -> ``{"spec", "fingerprint"}`` of every plug-in the cell
+  uses, :mod:`benchmarks.sweep.plugins`; None, and absent on disk, when it uses none).
   On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
@@ -128,6 +130,7 @@ class Record:
     render_sampler: str | None = None
     tcorr: list[list[float]] | None = None
     coverage: list[list[float]] | None = None
+    plugins: dict[str, dict[str, str]] | None = None
 
     @property
     def key(self) -> str:
@@ -150,6 +153,7 @@ class Record:
             "render_sampler",
             "tcorr",
             "coverage",
+            "plugins",
         ):  # files from before they were recorded stay
             if out[late] is None:  # byte-identical
                 del out[late]
@@ -180,6 +184,7 @@ class Record:
                 render_sampler=data.get("render_sampler"),
                 tcorr=data.get("tcorr"),
                 coverage=data.get("coverage"),
+                plugins=data.get("plugins"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)

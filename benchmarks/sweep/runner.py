@@ -34,6 +34,7 @@ from benchmarks.suites import Suite
 from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Parts, real_parts
 from benchmarks.sweep.plan import Run, pending, plan
+from benchmarks.sweep.plugins import check_resume, load_specs, with_plugins
 from benchmarks.sweep.records import (
     RESULTS_FILE,
     Record,
@@ -86,6 +87,7 @@ class SweepState:
     def add(self, measured: list[Record]) -> None:
         """Keep a finished run's records and write them: appended to the file this sweep wrote,
         or the whole file the first time (and when a record replaces one already written)."""
+        measured = [with_plugins(r) for r in measured]  # what identifies each plug-in used
         fresh = [r for r in measured if r.key not in self.records]
         self.records.update((r.key, r) for r in measured)
         if self.written is None or len(fresh) != len(measured):
@@ -140,12 +142,15 @@ def start_sweep(
             ``overwrite``; nothing is written.
         FileFormatError: with ``resume``, a results file that is not valid (a tuned-parameters
             file that is not valid is a warning: the denoisers are tuned again).
+        PluginError: with ``resume``, kept cells measured with a plug-in that changed since.
     """
     out = Path(out_dir)
     if not resume and not overwrite:
         check_no_results(out)
     records = {r.key: r for r in load_records(out, torn_tail=True)} if resume else {}
     parts = real_parts() if parts is None else parts
+    load_specs(parts.plugins)
+    check_resume(records.values())  # no cells of a plug-in that changed since
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()

@@ -21,7 +21,14 @@ One module per concern (docs/METHODS.md, section 6):
 Every name of the former single module ``bnerr.metrics`` is importable from here as before.
 """
 
-from bnerr.metrics.frames import BLUR_SIGMAS, METRIC_TABLE, METRICS, FrameMetrics, Metric
+from bnerr.metrics.frames import (
+    BLUR_SIGMAS,
+    METRIC_TABLE,
+    METRICS,
+    FrameMetrics,
+    Metric,
+    load_metric,
+)
 from bnerr.metrics.image import (
     ImagePair,
     PreparedReference,
@@ -67,6 +74,7 @@ __all__ = [
     "METHODS",
     "METRICS",
     "METRIC_TABLE",
+    "load_metric",
     "Estimate",
     "FrameMetrics",
     "ImagePair",

@@ -3,8 +3,17 @@
 **The table.** :data:`METRIC_TABLE` maps each metric's name to a :class:`Metric`: its update (one
 image -> its pair, a method of :class:`~bnerr.metrics.image.ImagePair` or any function of one) and
 how summary tables show it (``benchmarks/reports/table.py`` takes ``table.csv``'s metric columns
-from it). :data:`METRICS`, the names in table order, is derived from it. Adding a metric is one
-update function and one table entry; :class:`FrameMetrics` and the report need no change.
+from it). :data:`METRICS`, the shipped names in table order, is derived from it. Adding a metric is
+one update function and one table entry; :class:`FrameMetrics` and the report need no change.
+
+**Plug-in metrics** (:mod:`bnerr.plugins`): a function ``metric(pred [C, H, W], ref [C, H, W])
+-> scalar`` (with a ``mask`` parameter it also gets the region's ``[H, W]`` mask, else it scores
+the whole image), given as a spec (:func:`load_metric`) or installed as an entry point of the
+group ``bnerr.metrics``, joins :data:`METRIC_TABLE` after the shipped entries, under its
+``name`` attribute (else the spec's or entry point's name); its row in summary tables is
+described by optional attributes on the function: ``description`` (else its docstring's first
+line), ``interval``, ``ratio`` and ``group`` (as :class:`Metric`'s). A :class:`Metric` itself is
+a plug-in too.
 
 **Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
 Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
@@ -21,16 +30,25 @@ frame is :func:`bnerr.metrics.image.temporal_correlation`, measured beside the t
 from __future__ import annotations
 
 import functools
+import inspect
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import torch
 
-from bnerr.errors import ShapeError, ValueRangeError, check_name, check_positive_int
+from bnerr import plugins
+from bnerr.errors import (
+    PluginError,
+    ShapeError,
+    ValueRangeError,
+    check_name,
+    check_positive_int,
+)
 from bnerr.metrics.image import ImagePair, PreparedReference, require_flip
 from bnerr.metrics.stats import Estimate, bootstrap_interval, paired_ratio, pooled_mean
 
-__all__ = ["BLUR_SIGMAS", "METRICS", "METRIC_TABLE", "FrameMetrics", "Metric"]
+__all__ = ["BLUR_SIGMAS", "METRICS", "METRIC_TABLE", "FrameMetrics", "Metric", "load_metric"]
 
 
 @dataclass(frozen=True)
@@ -50,6 +68,8 @@ class Metric:
         group: the metrics of one group sit side by side in summary tables (each one's raw value,
             then each one's denoised value); None: a group of its own.
         tabled: summary tables give the metric columns at all.
+        description: what the row measures, in words (a plug-in's; "" for the shipped ones,
+            which docs/METHODS.md describes).
     """
 
     update: Callable[[ImagePair], torch.Tensor]
@@ -59,29 +79,101 @@ class Metric:
     ratio: bool = False
     group: str | None = None
     tabled: bool = True
+    description: str = ""
 
 
 #: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
 BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
 
-#: Every metric :class:`FrameMetrics` knows, by name, in table order (``table.csv``'s column order).
-METRIC_TABLE: dict[str, Metric] = {
-    "mse": Metric(ImagePair.mse, interval=True, ratio=True),
-    "relmse": Metric(ImagePair.relmse),
-    "psnr": Metric(ImagePair.psnr),
-    "ssim": Metric(ImagePair.ssim),
-    **{
-        name: Metric(functools.partial(ImagePair.blurred, sigma=sigma), ratio=True, group="blur")
-        for name, sigma in BLUR_SIGMAS.items()
-    },
-    "lowfreq": Metric(ImagePair.lowfreq),
-    # FLIP needs an optional package and about 0.5 s per 256x256 image: measured only when named.
-    # No suite names it and table.csv never had its columns, so the tables leave it out.
-    "flip": Metric(ImagePair.flip, default=False, require=require_flip, tabled=False),
-}
 
-#: Every metric's name, in table order. ``flip`` needs ``flip-evaluator``.
-METRICS: tuple[str, ...] = tuple(METRIC_TABLE)
+@dataclass(frozen=True)
+class _PluginUpdate:
+    """The update of a plug-in metric ``fn(pred, ref[, mask]) -> scalar``: its value as a score."""
+
+    fn: Callable[..., object]
+    plugin: plugins.Plugin
+    masked: bool
+
+    def __call__(self, pair: ImagePair) -> torch.Tensor:
+        extra = {"mask": pair.mask} if self.masked else {}
+        value = plugins.call_plugin(
+            self.plugin, "metric", self.fn, pair.pred, pair.ref.color, **extra
+        )
+        try:
+            number = float(value)  # type: ignore[arg-type,unused-ignore]
+        except (TypeError, ValueError, RuntimeError):
+            number = math.nan
+        if not math.isfinite(number):
+            raise PluginError(
+                f"{self.plugin.who}: expected the metric to return a finite scalar, got {value!r}"
+            )
+        return pair.score(number)
+
+
+def _adapt(plugin: plugins.Plugin) -> tuple[str, Metric]:
+    """A metric plug-in checked and made a table entry (see the module docstring)."""
+    obj = plugin.obj
+    if isinstance(obj, Metric):
+        return plugins.plugin_name(plugin, "metric"), obj
+    if not callable(obj) or isinstance(obj, type):
+        raise PluginError(
+            f"{plugin.who}: expected a metric function (pred, ref) -> scalar or a "
+            f"bnerr.metrics.frames.Metric, got {type(obj).__name__}"
+        )
+    try:
+        masked = "mask" in inspect.signature(obj).parameters
+    except (TypeError, ValueError):
+        masked = False
+    doc = (inspect.getdoc(obj) or "").strip().splitlines()
+    metric = Metric(
+        _PluginUpdate(obj, plugin, masked),
+        default=False,
+        interval=bool(getattr(obj, "interval", False)),
+        ratio=bool(getattr(obj, "ratio", False)),
+        group=getattr(obj, "group", None),
+        description=str(getattr(obj, "description", "") or (doc[0] if doc else "")),
+    )
+    return plugins.plugin_name(plugin, "metric"), metric
+
+
+#: Every metric :class:`FrameMetrics` knows, by name, in table order (``table.csv``'s column
+#: order): the shipped ones, then the plug-ins (installed entry points of ``bnerr.metrics``, read
+#: the first time the table is; loaded specs, :func:`load_metric`).
+METRIC_TABLE: dict[str, Metric] = plugins.PluginRegistry(
+    "bnerr.metrics",
+    _adapt,
+    {
+        "mse": Metric(ImagePair.mse, interval=True, ratio=True),
+        "relmse": Metric(ImagePair.relmse),
+        "psnr": Metric(ImagePair.psnr),
+        "ssim": Metric(ImagePair.ssim),
+        **{
+            name: Metric(
+                functools.partial(ImagePair.blurred, sigma=sigma), ratio=True, group="blur"
+            )
+            for name, sigma in BLUR_SIGMAS.items()
+        },
+        "lowfreq": Metric(ImagePair.lowfreq),
+        # FLIP needs an optional package and about 0.5 s per 256x256 image: measured only when
+        # named.
+        # No suite names it and table.csv never had its columns, so the tables leave it out.
+        "flip": Metric(ImagePair.flip, default=False, require=require_flip, tabled=False),
+    },
+    sort=False,
+)
+
+#: Every shipped metric's name, in table order. ``flip`` needs ``flip-evaluator``.
+METRICS: tuple[str, ...] = tuple(dict.keys(METRIC_TABLE))
+
+
+def load_metric(name_or_spec: str) -> str:
+    """The registered name of ``name_or_spec``: itself when in :data:`METRIC_TABLE` (or not a
+    spec), else the plug-in metric it specifies, loaded and added to the table."""
+    if name_or_spec in METRIC_TABLE or not plugins.is_spec(name_or_spec):
+        return name_or_spec
+    table = METRIC_TABLE
+    assert isinstance(table, plugins.PluginRegistry)
+    return table.add(plugins.resolve(name_or_spec))
 
 
 class FrameMetrics:

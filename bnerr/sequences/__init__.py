@@ -30,12 +30,20 @@ The Z-order samplers take the pixel's key where the others take a random seed: t
 a Z-order strategy holds each pixel's Morton key (:func:`zsobol_keys`, :func:`cycles_keys`), so
 the renderer, the sampler seam and the temporal permutation of seeds stay unchanged.
 
+**Plug-in samplers** (:mod:`bnerr.plugins`): a :class:`Sampler` subclass given as a spec
+(``make_sampler("path/file.py:MySampler")``, :func:`load_sampler`) or installed as an entry point
+of the group ``bnerr.samplers`` registers in :data:`SAMPLERS` under its class's ``name`` (else the
+entry point's name). One that builds without options is also a per-pixel sampler
+(:func:`per_pixel_samplers`): the benchmark's ``sampler`` condition, which white, temporal,
+temporal_sort and oracle render with.
+
 Not for: cryptography, or anything that needs independent streams for more than 2^32 seeds.
 """
 
 from __future__ import annotations
 
-from bnerr.errors import check_name
+from bnerr import plugins
+from bnerr.errors import PluginError, check_name
 from bnerr.hashing import MASK32 as _MASK32
 from bnerr.hashing import lowbias32 as _lowbias32
 from bnerr.hashing import lowbias32_host as _lowbias32_host
@@ -69,6 +77,8 @@ __all__ = [
     "ZSobolSampler",
     "ZSobolTSampler",
     "cycles_keys",
+    "load_sampler",
+    "per_pixel_samplers",
     "ldbn_key_image",
     "zsobol_1d",
     "zsobol_2d",
@@ -79,18 +89,55 @@ __all__ = [
 # they move to bnerr.hashing / bnerr.sequences.tables.
 _COMPAT = (_MASK32, _lowbias32, _lowbias32_host, _signed, _srl, _sobol_directions)
 
-#: Sampler name -> class. ``make_sampler`` looks names up here.
-SAMPLERS: dict[str, type[Sampler]] = {
-    "bnds": BNDSSampler,
-    "cycles_first": CyclesFirstSampler,
-    "cycles_pure": CyclesPureSampler,
-    "ldbn": LDBNSampler,
-    "ldbn_keyed": LDBNKeyedSampler,
-    "owen_sobol": OwenSobolSampler,
-    "white": WhiteSampler,
-    "zsobol": ZSobolSampler,
-    "zsobol_t": ZSobolTSampler,
-}
+#: The shipped per-pixel samplers (what the benchmark's ``sampler`` condition names).
+_PER_PIXEL = ("owen_sobol", "white")
+
+
+def _adapt(plugin: plugins.Plugin) -> tuple[str, type[Sampler]]:
+    """A sampler plug-in checked: a subclass of :class:`Sampler`."""
+    cls = plugin.obj
+    if not (isinstance(cls, type) and issubclass(cls, Sampler)):
+        got = cls.__name__ if isinstance(cls, type) else type(cls).__name__
+        raise PluginError(
+            f"{plugin.who}: expected a subclass of bnerr.sequences.Sampler, got {got}"
+        )
+    return plugins.plugin_name(plugin, "sampler"), cls
+
+
+#: Sampler name -> class, the installed plug-ins (entry points of ``bnerr.samplers``) and the
+#: loaded ones included. ``make_sampler`` looks names up here.
+SAMPLERS: dict[str, type[Sampler]] = plugins.PluginRegistry(
+    "bnerr.samplers",
+    _adapt,
+    {
+        "bnds": BNDSSampler,
+        "cycles_first": CyclesFirstSampler,
+        "cycles_pure": CyclesPureSampler,
+        "ldbn": LDBNSampler,
+        "ldbn_keyed": LDBNKeyedSampler,
+        "owen_sobol": OwenSobolSampler,
+        "white": WhiteSampler,
+        "zsobol": ZSobolSampler,
+        "zsobol_t": ZSobolTSampler,
+    },
+)
+
+
+def load_sampler(name_or_spec: str) -> str:
+    """The registered name of ``name_or_spec``: itself when registered (or not a spec), else the
+    plug-in sampler it specifies, loaded and registered in :data:`SAMPLERS`."""
+    if name_or_spec in SAMPLERS or not plugins.is_spec(name_or_spec):
+        return name_or_spec
+    registry = SAMPLERS
+    assert isinstance(registry, plugins.PluginRegistry)
+    return registry.add(plugins.resolve(name_or_spec))
+
+
+def per_pixel_samplers() -> tuple[str, ...]:
+    """The samplers a strategy can take as its per-pixel sampler: ``owen_sobol``, ``white`` and
+    every plug-in sampler (which must build without options)."""
+    extra = tuple(n for n in SAMPLERS if plugins.loaded("bnerr.samplers", n) is not None)
+    return _PER_PIXEL + extra
 
 
 def make_sampler(name: str, **options: object) -> Sampler:
@@ -102,7 +149,12 @@ def make_sampler(name: str, **options: object) -> Sampler:
     ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``); ``ldbn`` (``keys``,
     ``spp``, ``offset``); ``ldbn_keyed`` (``keys``, ``spp``). The Z-order samplers read
     the lane's seed as the pixel's key (:func:`zsobol_keys`, :func:`cycles_keys`). An unknown name
-    raises :class:`UnknownNameError` listing the known ones.
+    raises :class:`UnknownNameError` listing the known ones; a plug-in spec
+    (``path/file.py:MySampler``) is loaded first (:func:`load_sampler`), and a plug-in's
+    constructor that raises is a :class:`PluginError` naming it.
     """
-    check_name(name, list(SAMPLERS), "sampler")
-    return SAMPLERS[name](**options)
+    name = check_name(load_sampler(name), list(SAMPLERS), "sampler")
+    plugin = plugins.loaded("bnerr.samplers", name)
+    if plugin is None:
+        return SAMPLERS[name](**options)
+    return plugins.call_plugin(plugin, "sampler", SAMPLERS[name], **options)

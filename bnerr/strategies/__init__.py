@@ -31,6 +31,9 @@ records ``sampler_name`` with each cell.
 
 **A new strategy** is one module in this package: a :class:`Strategy` subclass with a ``name``
 registers itself when imported (import it here, or from anywhere before ``make_strategy``).
+Outside bnerr it is a plug-in (:mod:`bnerr.plugins`): ``make_strategy("path/file.py:Cls")``
+or ``"pkg.mod:Cls"``, or an entry point of the group ``bnerr.strategies``; it subclasses
+:class:`Strategy` (or a shipped strategy) and declares ``family``.
 
 **Device.** Seeds are made on ``device``; after each render the strategy's state follows the
 device of the returned frame.
@@ -165,7 +168,7 @@ def estimate_bytes(name: str, height: int, width: int, K: int = 32) -> int:
     Returns:
         Bytes (an int).
     """
-    base, options = parse_variant(name)
+    base, options = parse_variant(REGISTRY.name_of(name))
     pixels = check_positive_int(height, "height") * check_positive_int(width, "width")
     K = check_positive_int(K, "K")
     return pixels * STRATEGIES[base].peak_bytes_per_pixel(K, options)
@@ -191,7 +194,10 @@ def make_strategy(
     Args:
         name: one of :data:`STRATEGIES`, or any temporal variant ``base+option+...``
             (:func:`parse_variant`: base ``temporal`` or ``temporal_zsobol``, options from
-            :data:`VARIANT_OPTIONS` in that order, e.g. ``temporal+residual+groups+shift``).
+            :data:`VARIANT_OPTIONS` in that order, e.g. ``temporal+residual+groups+shift``),
+            or a plug-in spec ``pkg.mod:Cls`` / ``path/file.py:Cls`` (:mod:`bnerr.plugins`:
+            loaded and registered under the class's ``name``; installed entry points of the
+            group ``bnerr.strategies`` are registered names already).
         height, width: the frame size.
         seed: seed set index (>= 0): different seeds give independent runs.
         sampler: the per-pixel sampler of white, temporal, temporal_sort and oracle:
@@ -212,11 +218,13 @@ def make_strategy(
 
     Raises:
         UnknownNameError: unknown strategy or sampler name, or no shipped mask/field of that size.
+        PluginError: a plug-in spec that cannot be loaded, or names no strategy class.
         MemoryLimitError: a frame size whose estimated memory (:func:`estimate_bytes`) exceeds
             what ``device`` has free, refused before anything is allocated.
         ValueRangeError: more than 2^31 pixels; spp missing or not a power of two for a strategy
             that needs one.
     """
+    name = REGISTRY.name_of(name)
     per_pixel = estimate_bytes(name, 1, 1, K)
     check_fits(name, height, width, per_pixel, torch.device(device))
     base, options = parse_variant(name)

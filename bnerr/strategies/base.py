@@ -47,7 +47,7 @@ from bnerr.errors import (
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, lowbias32_, lowbias32_host, signed32
 from bnerr.masks import r2_step
-from bnerr.sequences import Sampler, make_sampler
+from bnerr.sequences import Sampler, make_sampler, per_pixel_samplers
 from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.variants import TemporalOptions
 from bnerr.timing import Stopwatch, sync
@@ -122,8 +122,9 @@ def offset_cycle(size: int) -> int:
 
 
 def per_pixel_sampler(name: str) -> Sampler:
-    """The per-pixel sampler of white, temporal, temporal_sort and oracle (checked by name)."""
-    return make_sampler(check_name(name, ("owen_sobol", "white"), "per-pixel sampler"))
+    """The per-pixel sampler of white, temporal, temporal_sort and oracle (checked by name):
+    ``owen_sobol``, ``white`` or a plug-in sampler (:func:`bnerr.sequences.per_pixel_samplers`)."""
+    return make_sampler(check_name(name, per_pixel_samplers(), "per-pixel sampler"))
 
 
 def power_of_two_spp(spp: object, strategy: str) -> int:

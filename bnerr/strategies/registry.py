@@ -1,12 +1,15 @@
 """The strategy registry: name -> class, filled by :class:`bnerr.strategies.base.Strategy`'s
-subclasses as they are defined (``bnerr.strategies.STRATEGIES`` is :data:`REGISTRY`)."""
+subclasses as they are defined (``bnerr.strategies.STRATEGIES`` is :data:`REGISTRY`), and by the
+plug-ins (:mod:`bnerr.plugins`): a spec loaded with :meth:`StrategyRegistry.load`, and the
+installed ``bnerr.strategies`` entry points, loaded the first time the registry is read."""
 
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from typing import Any
 
-from bnerr.errors import ValueRangeError, check_name
+from bnerr import plugins
+from bnerr.errors import PluginError, ValueRangeError, check_name
 
 __all__ = ["REGISTRY", "StrategyRegistry"]
 
@@ -26,6 +29,54 @@ class StrategyRegistry(Mapping[str, Any]):
     def __init__(self) -> None:
         self._classes: dict[str, Any] = {}
         self._variants: dict[str, str] = {}
+        self._installed = False
+
+    def _load_installed(self) -> None:
+        """Register the installed ``bnerr.strategies`` entry points (once)."""
+        if self._installed:
+            return
+        self._installed = True  # a plug-in that reads the registry while loading sees the rest
+        try:
+            for plugin in plugins.installed("bnerr.strategies"):
+                self.add_plugin(plugin)
+        except BaseException:
+            self._installed = False
+            raise
+
+    def add_plugin(self, plugin: plugins.Plugin) -> str:
+        """Check a loaded strategy plug-in and return its name: a subclass of the shipped
+        ``Strategy`` (it registered itself when defined) with a ``name`` and a ``family``."""
+        cls = plugin.obj
+        name = getattr(cls, "name", None)
+        if isinstance(cls, type) and name and hasattr(cls, "create") and name not in self._classes:
+            self.add(cls)  # loaded before and forgotten since (remove): registered again
+        if not isinstance(cls, type) or not name or self._classes.get(name) is not cls:
+            got = cls.__name__ if isinstance(cls, type) else type(cls).__name__
+            raise PluginError(
+                f"{plugin.who}: expected a subclass of bnerr.strategies.base.Strategy (or of a "
+                f"shipped strategy) with a name, got {got}"
+            )
+        family = getattr(cls, "family", None)
+        if not isinstance(family, str) or not family:
+            raise PluginError(
+                f"{plugin.who}: expected a strategy class that declares its family (a non-empty "
+                f"str: 'baseline', 'rival', 'temporal', 'ldbn', 'bound' or a new one), got "
+                f"{family!r}"
+            )
+        plugins.record("bnerr.strategies", name, plugin)
+        return str(name)
+
+    def load(self, spec: str) -> str:
+        """Load the strategy plug-in ``spec`` (``pkg.mod:Cls`` or ``file.py:Cls``), register it
+        and return its name."""
+        return self.add_plugin(plugins.resolve(spec))
+
+    def name_of(self, name_or_spec: str) -> str:
+        """``name_or_spec`` itself when registered (or not a spec), else the name of the
+        plug-in it specifies (loaded and registered)."""
+        if name_or_spec in self or not plugins.is_spec(name_or_spec):
+            return name_or_spec
+        return self.load(name_or_spec)
 
     def add(self, cls: Any) -> None:
         """Register ``cls`` under ``cls.name``; a name taken by another class is refused."""
@@ -54,23 +105,31 @@ class StrategyRegistry(Mapping[str, Any]):
 
     def classes(self) -> dict[str, Any]:
         """The registered classes by name (variants excluded), sorted by name."""
+        self._load_installed()
         return dict(sorted(self._classes.items()))
 
     def __getitem__(self, name: str) -> Any:
+        if name not in self._classes and name not in self._variants:
+            self._load_installed()
         if name in self._classes:
             return self._classes[name]
         return self._classes[self._variants[name]]
 
     def __contains__(self, name: object) -> bool:
+        if name not in self._classes and name not in self._variants:
+            self._load_installed()
         return name in self._classes or name in self._variants
 
     def __iter__(self) -> Iterator[str]:
+        self._load_installed()
         return iter(sorted({*self._classes, *self._variants}))
 
     def __len__(self) -> int:
+        self._load_installed()
         return len({*self._classes, *self._variants})
 
     def __repr__(self) -> str:
+        self._load_installed()
         return f"StrategyRegistry({', '.join(self)})"
 
 

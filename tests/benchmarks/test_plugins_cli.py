@@ -1,0 +1,130 @@
+"""Plug-ins on the command line, each in a subprocess: an installed denoiser package (a
+``*.dist-info`` with ``entry_points.txt`` on PYTHONPATH), a strategy with a new family from
+``file.py:Name``, a sampler from ``file.py:Name``, a metric and a scene from ``module:attr``, run
+by ``bnerr bench`` beside white and a shipped denoiser; then ``--resume`` after the strategy's
+file changed refuses with one line naming it."""
+
+import csv
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+PACKAGE = '''
+import torch.nn.functional as F
+
+
+def box(frame):
+    """A 3x3 box filter."""
+    return F.avg_pool2d(frame.color[None], 3, 1, 1, count_include_pad=False)[0]
+
+
+box.name = "box3"
+box.kind = "filter"
+'''
+
+STRATEGY = """
+from bnerr.strategies import WhiteStrategy
+
+
+class Mine(WhiteStrategy):
+    name = "mine"
+    family = "experimental"
+    stream = 0x51A7E0FF
+"""
+
+SAMPLER = """
+from bnerr.sequences import WhiteSampler
+
+
+class Hashy(WhiteSampler):
+    name = "hashy"
+"""
+
+MODULE = '''
+import dataclasses
+
+from renderers.catalog import direct
+
+
+def tiny():
+    return dataclasses.replace(direct(), name="tiny")
+
+
+def maxerr(pred, ref):
+    """the largest absolute error"""
+    return float((pred - ref).abs().max())
+'''
+
+
+def _install(site: Path) -> None:
+    (site / "boxden").mkdir(parents=True)
+    (site / "boxden" / "__init__.py").write_text(PACKAGE)
+    info = site / "boxden-1.2.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: boxden\nVersion: 1.2\n")
+    (info / "entry_points.txt").write_text("[bnerr.denoisers]\nbox3 = boxden:box\n")
+    (info / "RECORD").write_text("")
+    scenes = site / "tinyscene-0.1.dist-info"
+    scenes.mkdir()
+    (scenes / "METADATA").write_text("Metadata-Version: 2.1\nName: tinyscene\nVersion: 0.1\n")
+    (scenes / "entry_points.txt").write_text("[bnerr.scenes]\ntiny_installed = plugmod:tiny\n")
+    (site / "plugmod.py").write_text(MODULE)
+
+
+def _bnerr(site: Path, *args: str) -> subprocess.CompletedProcess:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(site)]))
+    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    command = [sys.executable, "-m", "benchmarks.cli", *args]
+    return subprocess.run(command, env=env, cwd=ROOT, capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture
+def site(tmp_path):
+    _install(tmp_path / "site")
+    (tmp_path / "strat.py").write_text(textwrap.dedent(STRATEGY))
+    (tmp_path / "samp.py").write_text(textwrap.dedent(SAMPLER))
+    return tmp_path
+
+
+def _bench(tmp_path: Path, *extra: str) -> list[str]:
+    return [
+        "bench", "--suite", "quick", "--scenes", "plugmod:tiny",
+        "--strategies", f"{tmp_path / 'strat.py'}:Mine", "--denoisers", "gaussian", "box3",
+        "--samplers", f"{tmp_path / 'samp.py'}:Hashy", "--metrics", "mse", "plugmod:maxerr",
+        "--spp", "1", "--frames", "1", "--warmup", "0", "--res", "8x8",
+        "--reference-spp", "4", "--seed-sets", "1", "--out", str(tmp_path / "out"),
+        "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts", *extra,
+    ]  # fmt: skip
+
+
+def test_bench_measures_every_kind_of_plugin_and_resume_refuses_a_changed_one(site):
+    done = _bnerr(site / "site", *_bench(site))
+    assert done.returncode == 0, done.stderr
+    assert "added the white baseline" in done.stderr
+    rows = list(csv.DictReader((site / "out" / "table.csv").open()))
+    cells = {(r["scene"], r["strategy"], r["denoiser"]) for r in rows}
+    assert {("tiny", s, d) for s in ("white", "mine") for d in ("gaussian", "box3")} <= cells
+    assert any("maxerr" in column for column in rows[0])
+    page = (site / "out" / "index.html").read_text()
+    assert all(word in page for word in ("mine", "box3", "tiny"))
+    records = (site / "out" / "cells.jsonl").read_text()
+    assert '"bnerr.denoisers:box3": {"fingerprint": "boxden==1.2"' in records
+    assert '"bnerr.samplers:hashy"' in records and "strat.py:Mine" in records
+
+    (site / "strat.py").write_text(textwrap.dedent(STRATEGY) + "# changed\n")
+    refused = _bnerr(site / "site", *_bench(site, "--resume"))
+    assert refused.returncode == 2
+    last = refused.stderr.strip().splitlines()[-1]
+    assert "plug-in 'mine'" in last and "strat.py:Mine" in last and "--resume" in last
+
+
+def test_installed_plugins_are_listed_like_shipped_ones(site):
+    listed = _bnerr(site / "site", "scenes")
+    assert listed.returncode == 0, listed.stderr
+    assert "tiny_installed" in listed.stdout and "cornell" in listed.stdout
