@@ -17,7 +17,7 @@ from bnerr.errors import ValueRangeError, check_positive_int, check_range, check
 from bnerr.frame import Frame
 from bnerr.native import SelfCheckedKernels
 from denoisers import native
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 from denoisers.filters.common import _BORDER, _needs_float64, _number
 
 __all__ = ["ATrous", "atrous_filter", "atrous_native", "atrous_planes", "atrous_torch"]
@@ -390,15 +390,15 @@ class ATrous(Denoiser):
     def denoise(self, frame: Frame) -> torch.Tensor:
         return atrous_filter(
             frame.color,
-            frame.normal,
-            frame.depth,
+            required(frame, "normal"),
+            required(frame, "depth"),
             self.iterations,
             self.sigma_color,
             self.sigma_normal,
             self.sigma_depth,
         )
 
-    def params(self) -> dict[str, float | int]:
+    def params(self) -> dict[str, float | int | str]:
         return {
             "iterations": self.iterations,
             "sigma_color": self.sigma_color,

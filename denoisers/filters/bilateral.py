@@ -49,5 +49,5 @@ class Bilateral(Denoiser):
     def denoise(self, frame: Frame) -> torch.Tensor:
         return bilateral_filter(frame.color, self.sigma_color, self.sigma_space)
 
-    def params(self) -> dict[str, float]:
+    def params(self) -> dict[str, float | int | str]:
         return {"sigma_color": self.sigma_color, "sigma_space": self.sigma_space}

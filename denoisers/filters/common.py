@@ -82,11 +82,20 @@ def bilateral_torch(
     """The torch path of the bilateral filters, the native kernel's twin (kornia's own functions):
     ``image [C, H, W]``, ``guide [G, H, W]`` or None (the image guides itself), a square window
     of ``kernel_size`` -> ``[C, H, W]``. No scaling and no float64 switch (the callers')."""
-    args = ((kernel_size, kernel_size), sigma_color, (sigma_space, sigma_space))
-    options = {"border_type": _BORDER, "color_distance_type": "l2"}
+    size, space = (kernel_size, kernel_size), (sigma_space, sigma_space)
     if guide is None:
-        return KF.bilateral_blur(image[None], *args, **options)[0]
-    return KF.joint_bilateral_blur(image[None], guide[None], *args, **options)[0]
+        return KF.bilateral_blur(
+            image[None], size, sigma_color, space, border_type=_BORDER, color_distance_type="l2"
+        )[0]
+    return KF.joint_bilateral_blur(
+        image[None],
+        guide[None],
+        size,
+        sigma_color,
+        space,
+        border_type=_BORDER,
+        color_distance_type="l2",
+    )[0]
 
 
 def _check_bilateral(kernels: native.FilterKernels) -> bool:

@@ -37,5 +37,5 @@ class Gaussian(Denoiser):
     def denoise(self, frame: Frame) -> torch.Tensor:
         return gaussian_filter(frame.color, self.sigma)
 
-    def params(self) -> dict[str, float]:
+    def params(self) -> dict[str, float | int | str]:
         return {"sigma": self.sigma}

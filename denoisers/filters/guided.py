@@ -16,7 +16,7 @@ from bnerr.errors import check_memory, check_positive_int
 from bnerr.frame import Frame
 from bnerr.native import SelfCheckedKernels
 from denoisers import native
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 from denoisers.filters.common import _BORDER, _needs_float64, _number, _relative
 
 __all__ = ["Guided", "guided_bytes", "guided_filter", "guided_torch"]
@@ -148,7 +148,9 @@ def _solve_spd(packed: torch.Tensor, rhs: torch.Tensor, n: int, floor: float) ->
 _GUIDED_CHECK_TOLERANCE = 1e-5
 
 
-def _check_guided_case(kernels: native.GuidedKernels, h: int, w: int, radius: int, seed: int):
+def _check_guided_case(
+    kernels: native.GuidedKernels, h: int, w: int, radius: int, seed: int
+) -> bool:
     """One case of :func:`_check_guided`: random inputs with a firefly and a flat guide region."""
     g = torch.Generator().manual_seed(seed)
     color = torch.rand(3, h, w, generator=g).square() * 4.0
@@ -216,7 +218,9 @@ class Guided(Denoiser):
             f"guided: radius {self.radius} on {frame.width}x{frame.height}",
             frame.color.device,
         )
-        return guided_filter(frame.color, frame.albedo, frame.normal, self.radius, self.eps)
+        return guided_filter(
+            frame.color, required(frame, "albedo"), required(frame, "normal"), self.radius, self.eps
+        )
 
-    def params(self) -> dict[str, float | int]:
+    def params(self) -> dict[str, float | int | str]:
         return {"radius": self.radius, "eps": self.eps}

@@ -9,7 +9,7 @@ from __future__ import annotations
 import torch
 
 from bnerr.frame import Frame
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 from denoisers.filters.common import _bilateral, _number, _odd, _relative
 
 __all__ = ["JointBilateral", "joint_bilateral_filter"]
@@ -67,14 +67,14 @@ class JointBilateral(Denoiser):
     def denoise(self, frame: Frame) -> torch.Tensor:
         return joint_bilateral_filter(
             frame.color,
-            frame.albedo,
-            frame.normal,
+            required(frame, "albedo"),
+            required(frame, "normal"),
             self.sigma_space,
             self.sigma_feature,
             self.sigma_color,
         )
 
-    def params(self) -> dict[str, float]:
+    def params(self) -> dict[str, float | int | str]:
         return {
             "sigma_space": self.sigma_space,
             "sigma_feature": self.sigma_feature,

@@ -53,5 +53,5 @@ class Median(Denoiser):
         )
         return median_filter(frame.color, self.kernel_size)
 
-    def params(self) -> dict[str, int]:
+    def params(self) -> dict[str, float | int | str]:
         return {"kernel_size": self.kernel_size}
