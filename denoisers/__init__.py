@@ -36,25 +36,23 @@ __all__ = [
     "get_denoiser",
 ]
 
+#: The denoisers this package ships.
+_SHIPPED: tuple[type[Denoiser], ...] = (
+    ATrous,
+    Bilateral,
+    Gaussian,
+    Guided,
+    JointBilateral,
+    Median,
+    OIDN,
+    SVGF,
+    TAA,
+    UNetBlueDenoiser,
+    UNetDenoiser,
+)
 #: Registry: name -> Denoiser class. Sorted by name.
 DENOISERS: dict[str, type[Denoiser]] = {
-    cls.name: cls
-    for cls in sorted(
-        (
-            ATrous,
-            Bilateral,
-            Gaussian,
-            Guided,
-            JointBilateral,
-            Median,
-            OIDN,
-            SVGF,
-            TAA,
-            UNetBlueDenoiser,
-            UNetDenoiser,
-        ),
-        key=lambda c: c.name,
-    )
+    cls.name: cls for cls in sorted(_SHIPPED, key=lambda c: c.name)
 }
 
 
