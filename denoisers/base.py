@@ -22,7 +22,7 @@ import torch
 from bnerr.errors import BnerrError, DtypeError, check_finite, check_shape
 from bnerr.frame import BUFFERS, Frame
 
-__all__ = ["Denoiser", "MissingBufferError", "check_frame"]
+__all__ = ["Denoiser", "MissingBufferError", "check_frame", "required"]
 
 _CHANNELS = dict(BUFFERS, variance=3)
 
@@ -74,6 +74,19 @@ def check_frame(
             values = torch.where(torch.isposinf(values), torch.zeros_like(values), values)
         check_finite(values, f"{who}: frame.{name}")
     return frame
+
+
+def required(frame: Frame, name: str) -> torch.Tensor:
+    """``frame``'s buffer ``name``, which the denoiser declared in ``requires`` (so
+    :func:`check_frame` found it present): typed as a tensor for the denoiser's function.
+
+    Raises:
+        MissingBufferError: the buffer is None (a caller that skipped :func:`check_frame`).
+    """
+    buffer = getattr(frame, name)
+    if buffer is None:
+        raise MissingBufferError(f"frame.{name}: expected a tensor, got None")
+    return buffer
 
 
 class Denoiser:

@@ -18,7 +18,7 @@ import torch
 
 from bnerr.errors import MissingExtraError, check_name
 from bnerr.frame import Frame
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 
 __all__ = ["OIDN", "load_pyoidn", "oidn_denoise"]
 
@@ -77,7 +77,13 @@ class OIDN(Denoiser):
         self._pyoidn = load_pyoidn()
 
     def denoise(self, frame: Frame) -> torch.Tensor:
-        return oidn_denoise(frame.color, frame.albedo, frame.normal, self.quality, self._pyoidn)
+        return oidn_denoise(
+            frame.color,
+            required(frame, "albedo"),
+            required(frame, "normal"),
+            self.quality,
+            self._pyoidn,
+        )
 
-    def params(self) -> dict[str, str]:
+    def params(self) -> dict[str, float | int | str]:
         return {"quality": self.quality}

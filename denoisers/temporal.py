@@ -36,7 +36,7 @@ import torch
 from bnerr.color import luminance
 from bnerr.errors import BnerrError, check_positive_int, check_range
 from bnerr.frame import Frame
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 from denoisers.filters import atrous_filter
 
 __all__ = ["SVGF", "TAA", "SequenceError", "TemporalDenoiser", "check_continues", "reproject"]
@@ -97,11 +97,12 @@ def _consistent(
     frame: Frame, history: _History, iy: torch.Tensor, ix: torch.Tensor
 ) -> torch.Tensor:
     """``[H, W]`` bool: the history pixel ``(iy, ix)`` shows the surface the current pixel shows."""
-    same_id = history.object_id[0, iy, ix] == frame.object_id[0]
-    d_now, d_then = frame.depth[0], history.depth[0, iy, ix]
+    object_id = required(frame, "object_id")[0]
+    same_id = history.object_id[0, iy, ix] == object_id
+    d_now, d_then = required(frame, "depth")[0], history.depth[0, iy, ix]
     close = (d_now - d_then).abs() <= _DEPTH_TOLERANCE * torch.maximum(d_now, d_then)
-    cos = (history.normal[:, iy, ix] * frame.normal).sum(0)
-    background = frame.object_id[0] < 0  # escaped rays: no depth or normal to compare
+    cos = (history.normal[:, iy, ix] * required(frame, "normal")).sum(0)
+    background = object_id < 0  # escaped rays: no depth or normal to compare
     return same_id & (background | (close & (cos >= _NORMAL_COS)))
 
 
@@ -120,8 +121,9 @@ def reproject(frame: Frame, history: _History) -> tuple[torch.Tensor, torch.Tens
     """
     _, h, w = frame.color.shape
     dev, dt = frame.color.device, frame.color.dtype
-    ys = torch.arange(h, device=dev, dtype=dt)[:, None] - frame.motion[1]
-    xs = torch.arange(w, device=dev, dtype=dt)[None, :] - frame.motion[0]
+    motion = required(frame, "motion")
+    ys = torch.arange(h, device=dev, dtype=dt)[:, None] - motion[1]
+    xs = torch.arange(w, device=dev, dtype=dt)[None, :] - motion[0]
     y0, x0 = ys.floor(), xs.floor()
     fy, fx = ys - y0, xs - x0
     state = torch.cat([history.color, history.moments, history.length])
@@ -182,7 +184,8 @@ class TemporalDenoiser(Denoiser):
             a = torch.maximum(torch.full_like(length, self.alpha), 1.0 / length)
             acc = a * color + (1 - a) * fetched[:3]
             acc_m = a * moments + (1 - a) * fetched[3:5]
-        self._history = _History(acc, acc_m, length, frame.depth, frame.normal, frame.object_id)
+        guides = (required(frame, name) for name in ("depth", "normal", "object_id"))
+        self._history = _History(acc, acc_m, length, *guides)
         return self._output(frame, acc, acc_m, length)
 
     def _output(
@@ -244,8 +247,8 @@ class SVGF(TemporalDenoiser):
         variance = torch.where(usable, temporal, float("nan"))
         return atrous_filter(
             color,
-            frame.normal,
-            frame.depth,
+            required(frame, "normal"),
+            required(frame, "depth"),
             self.iterations,
             self.sigma_color,
             self.sigma_normal,

@@ -39,7 +39,7 @@ from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
-from denoisers.base import Denoiser
+from denoisers.base import Denoiser, required
 
 __all__ = [
     "BLUE_WEIGHTS",
@@ -639,7 +639,9 @@ class UNetDenoiser(Denoiser):
         key = ("fast", str(device))
         if key not in self._models:
             self._models[key] = self._inference_model(device)
-        return unet_denoise(self._models[key], frame.color, frame.albedo, frame.normal)
+        return unet_denoise(
+            self._models[key], frame.color, required(frame, "albedo"), required(frame, "normal")
+        )
 
     def _inference_model(self, device: torch.device) -> UNet | FastUNet:
         """The network for inference on ``device``: :class:`FastUNet` on the CPU, elsewhere a
@@ -650,7 +652,7 @@ class UNetDenoiser(Denoiser):
         fast.load_state_dict(self.model.state_dict())
         return fast.eval().to(device, memory_format=torch.channels_last)
 
-    def params(self) -> dict[str, str]:
+    def params(self) -> dict[str, float | int | str]:
         return {"weights": str(self.weights)}
 
 

@@ -1,7 +1,7 @@
 """The tracer's vertex stage compiled ahead of time, cached on disk, loaded in milliseconds.
 
 ``torch.compile`` costs every new process its warm-up even when inductor's on-disk caches hit:
-importing dynamo and inductor (about 5 s here), tracing :func:`renderers.tracer.vertex_step`
+importing dynamo and inductor (about 5 s here), tracing :func:`renderers.integrator.vertex_step`
 again and checking its guards. Measured on the 2-core machine, a ``bnerr render --scene cornell
 --res 256x256 --spp 32`` process spent 6.5 s of warm-up before a 1.1 s render, slower than its
 4.5 s eager render. An AOTInductor package (``torch.export`` of the stage, then
@@ -15,7 +15,8 @@ that ``torch._C._aoti.AOTIModelPackageLoader`` opens without importing dynamo or
   state are the package's inputs. Building one takes about a minute (export, then a C++ build).
 - **Key.** The file name hashes the torch version, the host CPU (:func:`bnerr.native.build.
   cpu_identity`: the kernels are built for it), the layout and the sources of the stage's modules
-  (:mod:`renderers.tracer`, :mod:`renderers.geometry`): an edit or an upgrade builds a new one.
+  (:mod:`renderers.integrator`, :mod:`renderers.tracer`, :mod:`renderers.geometry`): an edit or
+  an upgrade builds a new one.
 - **Where.** ``$BNERR_CACHE_DIR/aot`` (default ``~/.cache/bnerr/aot``), a private folder
   (:func:`bnerr.native.build.secure_dir`); a package is written under a temporary name and renamed,
   so a reader never sees half of one, and two builders of the same key both succeed.
@@ -48,8 +49,8 @@ import torch
 from bnerr.native.build import cache_dir, cpu_identity, open_library_bytes, secure_dir
 from renderers.catalog import get_scene
 from renderers.geometry import SceneTensors, scene_tensors
+from renderers.integrator import PathVertex, vertex_step
 from renderers.layout import Layout
-from renderers.tracer import vertex_step
 
 __all__ = [
     "AotStep",
@@ -64,7 +65,7 @@ __all__ = [
 #: Bumped when the package's calling convention changes.
 _FORMAT = "1"
 #: Sources whose code the stage runs (an edit to any of them changes the key).
-_SOURCES = ("aot.py", "tracer.py", "geometry.py")
+_SOURCES = ("aot.py", "integrator.py", "tracer.py", "geometry.py")
 
 
 def _split(st: SceneTensors) -> tuple[list[str], dict[str, object]]:
@@ -102,14 +103,14 @@ def has_package(scene_name: str, static: bool = False) -> bool:
 
 
 class _Stage(torch.nn.Module):
-    """:func:`~renderers.tracer.vertex_step` over flat tensors, the layout fixed (for export)."""
+    """:func:`~renderers.integrator.vertex_step` over flat tensors, the layout fixed (export)."""
 
     def __init__(self, st: SceneTensors, has_distance: bool, has_choice: bool) -> None:
         super().__init__()
         self.names, self.static = _split(st)
         self.has_distance, self.has_choice = has_distance, has_choice
 
-    def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    def forward(self, *inputs: torch.Tensor) -> tuple[torch.Tensor | None, ...]:
         k = len(self.names)
         st = SceneTensors(**dict(zip(self.names, inputs[:k])), **self.static)  # type: ignore[arg-type]
         rest = list(inputs[k:])
@@ -119,7 +120,8 @@ class _Stage(torch.nn.Module):
         u_light, u_direction, first, last = rest[6:]
         ends = (first, last)
         args = (u_distance, u_choice, u_light, u_direction, ends)
-        return vertex_step(st, o, d, beta, radiance, alive, prev_pdf, *args)
+        # A plain tuple out: the package's outputs are the eight tensors, AotStep names them.
+        return tuple(vertex_step(st, o, d, beta, radiance, alive, prev_pdf, *args))
 
 
 def _flat(st: SceneTensors, names: list[str], args: tuple) -> list[torch.Tensor]:
@@ -150,8 +152,8 @@ def _open_library(path: Path) -> ctypes.CDLL:
 
 
 class AotStep:
-    """A loaded package, called like :func:`~renderers.tracer.vertex_step` with ``ends`` (the
-    uniform convention of :func:`renderers.tracer.trace`), safe to call from several threads.
+    """A loaded package, called like :func:`~renderers.integrator.vertex_step` with ``ends`` (the
+    uniform convention of :func:`renderers.integrator.trace`), safe to call from several threads.
 
     The model library is called through ctypes, which lets go of the GIL while its kernels run
     (``AOTIModelPackageLoader.run`` holds it: measured, a second Python thread ran at a tenth of
@@ -177,7 +179,7 @@ class AotStep:
         self._outputs = count.value
         self._names = names
 
-    def __call__(self, st: SceneTensors, *args: object) -> tuple[torch.Tensor, ...]:
+    def __call__(self, st: SceneTensors, *args: object) -> PathVertex:
         inputs = torch._C._aoti.unsafe_alloc_void_ptrs_from_tensors(_flat(st, self._names, args))
         handles = (ctypes.c_void_p * len(inputs))(
             *[self._api.PyCapsule_GetPointer(c, None) for c in inputs]
@@ -190,7 +192,7 @@ class AotStep:
         if code != 0:
             raise RuntimeError(f"the compiled stage failed (code {code})")
         capsules = [self._api.PyCapsule_New(h, None, None) for h in out]
-        return tuple(torch._C._aoti.alloc_tensors_by_stealing_from_void_ptrs(capsules))
+        return PathVertex(*torch._C._aoti.alloc_tensors_by_stealing_from_void_ptrs(capsules))
 
     def __del__(self) -> None:
         if getattr(self, "_handle", None) and self._handle.value:

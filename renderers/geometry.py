@@ -25,20 +25,45 @@ unrolls into the compiled code), or meshes.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 import numpy as np
+import numpy.typing as npt
 import torch
 
-from renderers.scene import Box, Rectangle, Scene, Sphere
+from bnerr.errors import DtypeError, ValueRangeError
+from renderers.scene import Box, Rectangle, Scene, Sphere, Texture
 
 __all__ = [
+    "BOX_AXES",
+    "LIGHT_AREA",
+    "LIGHT_CENTER",
+    "LIGHT_HALF_U",
+    "LIGHT_HALF_V",
+    "LIGHT_NORMAL",
+    "LIGHT_RADIANCE",
+    "MEDIUM_MAX",
+    "MEDIUM_MIN",
+    "MEDIUM_SIGMA_T",
+    "RECT_CENTER",
+    "RECT_DUAL_U",
+    "RECT_DUAL_V",
+    "RECT_NORMAL",
+    "RECT_OFFSET_N",
+    "RECT_OFFSET_U",
+    "RECT_OFFSET_V",
+    "SPHERE_CENTER",
+    "SPHERE_INV_RADIUS",
+    "SPHERE_RADIUS2",
     "SceneTensors",
     "SurfaceHit",
     "dot",
     "intersect",
     "medium_interval",
+    "medium_of",
     "scene_tensors",
     "spawn_offset",
     "surface_at",
@@ -94,6 +119,28 @@ class SceneTensors:
     num_lights: int
 
 
+# Columns of the scene tensors' rows, named once here next to the functions that pack them
+# (_geometry, _rect_row, _box_row, _light_rows, scene_tensors); the queries below and the
+# integrator read rows through these names.
+
+#: A sphere row ``[5]``: center, radius squared, 1 / radius.
+SPHERE_CENTER, SPHERE_RADIUS2, SPHERE_INV_RADIUS = slice(0, 3), 3, 4
+#: A rectangle row ``[15]``: unit normal, center . normal, dual_u, center . dual_u, dual_v,
+#: center . dual_v, center (the dual basis of the half edges gives local coordinates in [-1, 1]).
+RECT_NORMAL, RECT_OFFSET_N = slice(0, 3), 3
+RECT_DUAL_U, RECT_OFFSET_U = slice(4, 7), 7
+RECT_DUAL_V, RECT_OFFSET_V = slice(8, 11), 11
+RECT_CENTER = slice(12, 15)
+#: A box row ``[12]``: per local axis a, ``(row a of the inverse linear part, its offset)``.
+BOX_AXES = ((slice(0, 3), 3), (slice(4, 7), 7), (slice(8, 11), 11))
+#: A light row ``[13]``: center, half edge u, half edge v, unit normal, area; and, in the rows
+#: the integrator picks per lane (light row then ``light_radiance``), the radiance.
+LIGHT_CENTER, LIGHT_HALF_U, LIGHT_HALF_V = slice(0, 3), slice(3, 6), slice(6, 9)
+LIGHT_NORMAL, LIGHT_AREA, LIGHT_RADIANCE = slice(9, 12), 12, slice(13, 16)
+#: The medium row ``[7]``: box min, box max, sigma_t.
+MEDIUM_MIN, MEDIUM_MAX, MEDIUM_SIGMA_T = slice(0, 3), slice(3, 6), 6
+
+
 def _rect_row(shape: Rectangle) -> list[float]:
     c, u, v = (np.asarray(x, dtype=np.float64) for x in (shape.center, shape.u, shape.v))
     n = np.cross(u, v)
@@ -118,7 +165,7 @@ def _materials(
     texels, textures, n_texels = [np.zeros((1, 3))], [], 1
     for i, shape in enumerate(scene.shapes):
         material = shape.material
-        if material.textured:
+        if isinstance(material.albedo, Texture):
             tex = material.albedo.texels()
             textures.append((i, n_texels, tex.shape[1], tex.shape[0]))
             texels.append(tex.reshape(-1, 3))
@@ -173,6 +220,8 @@ def _light_rows(scene: Scene) -> tuple[list[list[float]], np.ndarray]:
     rows, pdf_area = [], np.zeros(len(scene.shapes))
     for i in lights:
         shape = scene.shapes[i]
+        if not isinstance(shape, Rectangle):
+            raise DtypeError(f"light {i}: expected a Rectangle, got {type(shape).__name__}")
         rows.append([*shape.center, *shape.u, *shape.v, *shape.normal, shape.area])
         pdf_area[i] = 1.0 / (shape.area * len(lights))
     return rows, pdf_area
@@ -185,7 +234,7 @@ def scene_tensors(scene: Scene, t: int, device: torch.device | str = "cpu") -> S
     light_rows, light_pdf_area = _light_rows(scene)
     lights = list(scene.lights)
 
-    def f(x, cols: int | None = None) -> torch.Tensor:
+    def f(x: npt.ArrayLike, cols: int | None = None) -> torch.Tensor:
         a = np.asarray(x, dtype=np.float64)
         if cols is not None:
             a = a.reshape(-1, cols)
@@ -276,15 +325,16 @@ def where(
 # Ray queries (component-major rays: o, d are [3, N])
 
 
-def dot(a: torch.Tensor, b) -> torch.Tensor:
+def dot(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
     """``[N]`` dot product of ``a [3, N]`` with ``b`` (``[3, N]``, or a ``[3]`` row / 3 scalars)."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 def _t_sphere(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
-    ocx, ocy, ocz = o[0] - row[0], o[1] - row[1], o[2] - row[2]
+    center = row[SPHERE_CENTER]
+    ocx, ocy, ocz = o[0] - center[0], o[1] - center[1], o[2] - center[2]
     b = ocx * d[0] + ocy * d[1] + ocz * d[2]
-    c = ocx * ocx + ocy * ocy + ocz * ocz - row[3]
+    c = ocx * ocx + ocy * ocy + ocz * ocz - row[SPHERE_RADIUS2]
     disc = b * b - c
     root = disc.clamp_min(0.0).sqrt()
     near = -b - root
@@ -293,9 +343,10 @@ def _t_sphere(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tens
 
 
 def _t_rect(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
-    t = (row[3] - dot(o, row[0:3])) / dot(d, row[0:3])
-    a = dot(o, row[4:7]) - row[7] + t * dot(d, row[4:7])
-    b = dot(o, row[8:11]) - row[11] + t * dot(d, row[8:11])
+    normal, du, dv = row[RECT_NORMAL], row[RECT_DUAL_U], row[RECT_DUAL_V]
+    t = (row[RECT_OFFSET_N] - dot(o, normal)) / dot(d, normal)
+    a = dot(o, du) - row[RECT_OFFSET_U] + t * dot(d, du)
+    b = dot(o, dv) - row[RECT_OFFSET_V] + t * dot(d, dv)
     return where((t > 0) & (a.abs() <= 1) & (b.abs() <= 1), t, torch.inf)
 
 
@@ -303,29 +354,35 @@ def _t_rects(rows: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tens
     """:func:`_t_rect` of every row of ``rows [R, 15]`` at once, ``[R, N]``: the same float
     operations in the same order on each element, in R times fewer (and R times larger) ops."""
 
-    def dots(v: torch.Tensor, c: int) -> torch.Tensor:  # dot(v, row[c:c+3]) per row, [R, N]
+    def dots(v: torch.Tensor, columns: slice) -> torch.Tensor:  # dot(v, row[columns]) per row
+        c = columns.start
         return (
             v[0] * rows[:, c : c + 1]
             + v[1] * rows[:, c + 1 : c + 2]
             + v[2] * rows[:, c + 2 : c + 3]
         )
 
-    t = (rows[:, 3:4] - dots(o, 0)) / dots(d, 0)
-    a = dots(o, 4) - rows[:, 7:8] + t * dots(d, 4)
-    b = dots(o, 8) - rows[:, 11:12] + t * dots(d, 8)
+    def column(c: int) -> torch.Tensor:  # [R, 1]
+        return rows[:, c : c + 1]
+
+    t = (column(RECT_OFFSET_N) - dots(o, RECT_NORMAL)) / dots(d, RECT_NORMAL)
+    a = dots(o, RECT_DUAL_U) - column(RECT_OFFSET_U) + t * dots(d, RECT_DUAL_U)
+    b = dots(o, RECT_DUAL_V) - column(RECT_OFFSET_V) + t * dots(d, RECT_DUAL_V)
     return where((t > 0) & (a.abs() <= 1) & (b.abs() <= 1), t, torch.inf)
 
 
 def _t_box(row: torch.Tensor, o: torch.Tensor, d: torch.Tensor) -> torch.Tensor:
-    t_near = t_far = None
-    for axis in range(3):
-        lin = row[4 * axis : 4 * axis + 3]
-        ol = dot(o, lin) + row[4 * axis + 3]
+    los, his = [], []
+    for linear, offset in BOX_AXES:
+        lin = row[linear]
+        ol = dot(o, lin) + row[offset]
         inv = 1.0 / dot(d, lin)
         ta, tb = (-1.0 - ol) * inv, (1.0 - ol) * inv
-        lo, hi = torch.minimum(ta, tb), torch.maximum(ta, tb)
-        t_near = lo if t_near is None else torch.maximum(t_near, lo)
-        t_far = hi if t_far is None else torch.minimum(t_far, hi)
+        los.append(torch.minimum(ta, tb))
+        his.append(torch.maximum(ta, tb))
+    # Folded in axis order: max(max(lo_x, lo_y), lo_z), the same operations as a running max.
+    t_near = functools.reduce(torch.maximum, los)
+    t_far = functools.reduce(torch.minimum, his)
     t = where(t_near > 0, t_near, t_far)
     return where((t_near <= t_far) & (t > 0), t, torch.inf)
 
@@ -346,6 +403,14 @@ def _distances(
     return out + [(i, _t_box(st.boxes[k], o, d)) for k, i in enumerate(st.box_ids)]
 
 
+@overload
+def intersect(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object: Literal[True] = ...
+) -> tuple[torch.Tensor, torch.Tensor]: ...
+@overload
+def intersect(
+    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object: Literal[False]
+) -> tuple[torch.Tensor, None]: ...
 def intersect(
     st: SceneTensors, o: torch.Tensor, d: torch.Tensor, *, with_object: bool = True
 ) -> tuple[torch.Tensor, torch.Tensor | None]:
@@ -364,7 +429,7 @@ def intersect(
     t = torch.full_like(o[0], torch.inf)
     obj = torch.full(t.shape, -1, dtype=torch.int64, device=t.device) if with_object else None
     for object_id, tk in _distances(st, o, d):
-        if with_object:
+        if obj is not None:
             obj = where(tk < t, object_id, obj)
         t = torch.minimum(tk, t)
     return t, obj
@@ -409,7 +474,7 @@ def surface_at(
     for k, i in enumerate(st.sphere_ids):
         row = st.spheres[k]
         mask = obj == i
-        normal = _select(mask, (p - row[0:3, None]) * row[4], normal)
+        normal = _select(mask, (p - row[SPHERE_CENTER, None]) * row[SPHERE_INV_RADIUS], normal)
     for k, i in enumerate(st.box_ids):
         normal = _select(obj == i, _box_normal(st.boxes[k], p), normal)
     for i, offset, nu, nv in st.textures:
@@ -427,7 +492,7 @@ def _constants_by_select(
     normal, albedo, emission = zero, zero, zero
     light_pdf = torch.zeros_like(p[0])
     for k, i in enumerate(st.rect_ids):
-        normal = _select(obj == i, st.rects[k, 0:3], normal)
+        normal = _select(obj == i, st.rects[k, RECT_NORMAL], normal)
     for i in range(st.num_objects):
         mask = obj == i
         albedo = _select(mask, st.albedo[i], albedo)
@@ -443,7 +508,7 @@ def _constants_by_gather(st: SceneTensors, obj: torch.Tensor) -> tuple[torch.Ten
     table = torch.zeros(10, st.num_objects + 1, dtype=st.albedo.dtype, device=obj.device)
     table[3:6, 1:] = st.albedo.T
     for k, i in enumerate(st.rect_ids):
-        table[0:3, i + 1] = st.rects[k, 0:3]
+        table[0:3, i + 1] = st.rects[k, RECT_NORMAL]
     for i in st.light_ids:
         table[6:9, i + 1] = st.emission[i]
         table[9, i + 1] = st.light_pdf_area[i]
@@ -453,7 +518,7 @@ def _constants_by_gather(st: SceneTensors, obj: torch.Tensor) -> tuple[torch.Ten
 
 def _box_normal(row: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
     """``[3, N]`` outward normal of the box face containing ``p`` (the local axis at +-1)."""
-    local = [dot(p, row[4 * a : 4 * a + 3]) + row[4 * a + 3] for a in range(3)]
+    local = [dot(p, row[linear]) + row[offset] for linear, offset in BOX_AXES]
     ax, ay, az = (x.abs() for x in local)
     use_x = (ax >= ay) & (ax >= az)
     use_y = ~use_x & (ay >= az)
@@ -461,13 +526,14 @@ def _box_normal(row: torch.Tensor, p: torch.Tensor) -> torch.Tensor:
     uses = ((0, use_x), (1, use_y), (2, ~use_x & ~use_y))
     for a, use in uses:
         # Face normal in world space: row a of linv (a column of linv^T), signed.
-        n = where(use, row[4 * a : 4 * a + 3, None] * torch.sign(local[a]), n)
+        n = where(use, row[BOX_AXES[a][0], None] * torch.sign(local[a]), n)
     if not _eager_cpu(p) or p.shape[1] < 2:
         return n / n.norm(dim=0, keepdim=True).clamp_min(1e-30)
     # The same division, by the norm of the chosen row (the sign does not change it; where the
     # sign is 0, n is 0 and so is the quotient): torch's norm over dim 0 of [3, N] takes 25 ms
     # per 65536 lanes in eager mode, and gives each column the same value for any N >= 2.
-    row_norms = torch.stack([row[0:3], row[4:7], row[8:11]], dim=1).norm(dim=0).clamp_min(1e-30)
+    linear = [row[columns] for columns, _ in BOX_AXES]
+    row_norms = torch.stack(linear, dim=1).norm(dim=0).clamp_min(1e-30)
     norm = torch.zeros_like(p[0])
     for a, use in uses:
         norm = where(use, row_norms[a], norm)
@@ -480,8 +546,8 @@ def _texture(
     """``[3, N]`` cell-texture albedo of rectangle object ``i`` at points ``p`` (nearest cell)."""
     k = st.rect_ids.index(i)
     row = st.rects[k]
-    u = (dot(p, row[4:7]) - row[7] + 1.0) * 0.5
-    v = (dot(p, row[8:11]) - row[11] + 1.0) * 0.5
+    u = (dot(p, row[RECT_DUAL_U]) - row[RECT_OFFSET_U] + 1.0) * 0.5
+    v = (dot(p, row[RECT_DUAL_V]) - row[RECT_OFFSET_V] + 1.0) * 0.5
     iu = (u * nu).floor().clamp(0, nu - 1).long()
     iv = (v * nv).floor().clamp(0, nv - 1).long()
     return st.texels[offset + iv * nu + iu].T
@@ -499,12 +565,26 @@ def medium_interval(
 
     The interval is empty where entry >= exit.
     """
-    m = st.medium
-    t0 = t1 = None
+    medium, _ = medium_of(st)
+    lo_corner, hi_corner = medium[MEDIUM_MIN], medium[MEDIUM_MAX]
+    los, his = [], []
     for a in range(3):
         inv = 1.0 / d[a]
-        ta, tb = (m[a] - o[a]) * inv, (m[3 + a] - o[a]) * inv
-        lo, hi = torch.minimum(ta, tb), torch.maximum(ta, tb)
-        t0 = lo if t0 is None else torch.maximum(t0, lo)
-        t1 = hi if t1 is None else torch.minimum(t1, hi)
+        ta, tb = (lo_corner[a] - o[a]) * inv, (hi_corner[a] - o[a]) * inv
+        los.append(torch.minimum(ta, tb))
+        his.append(torch.maximum(ta, tb))
+    # Folded in axis order, the same operations as a running max and min.
+    t0, t1 = functools.reduce(torch.maximum, los), functools.reduce(torch.minimum, his)
     return t0.clamp_min(0.0), t1
+
+
+def medium_of(st: SceneTensors) -> tuple[torch.Tensor, torch.Tensor]:
+    """The medium's row ``[7]`` (:data:`MEDIUM_MIN`, :data:`MEDIUM_MAX`, :data:`MEDIUM_SIGMA_T`)
+    and albedo ``[3]``, for the stages that run only when the scene has one.
+
+    Raises:
+        ValueRangeError: the scene has no medium.
+    """
+    if st.medium is None or st.medium_albedo is None:
+        raise ValueRangeError("scene tensors: expected a medium, got a scene without one")
+    return st.medium, st.medium_albedo

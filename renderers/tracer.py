@@ -1,38 +1,13 @@
-"""A wavefront path tracer in torch, driven entirely by a sampler (seed image, sample index, dim).
+"""The tracer's driver: render a frame from a sampler, in chunks of paths, on worker threads,
+through the eager, ``torch.compile``d or ahead-of-time packaged vertex stage.
 
 ``render(scene, t, seeds, sampler, spp)`` estimates every pixel of frame t as the mean of ``spp``
-paths. Path ``i`` of pixel ``p`` uses the sampler's values ``X(seeds[p], i, 0 .. D-1)``, in the
-fixed order documented in :mod:`renderers.layout`: pixel jitter (2), then per vertex a light
-position (2) and, except at the last vertex, a direction (2), with the one-dimensional decisions
-(free-flight distances in a medium, light choices when there are several lights) bundled in pairs
-after every other vertex so that each 2D decision gets an aligned (2j, 2j+1) pair. Nothing else is
-random: the tracer never calls ``torch.rand``, so equal inputs give bit-identical frames and
-permuting seeds between pixels permutes exactly which sequence each pixel integrates with.
-
-The estimator (pbrt-v4's ``PathIntegrator`` / Mitsuba 3's ``path`` and ``volpath``, without
-Russian roulette so that D is fixed):
-
-- camera rays through ``pixel + jitter`` (box pixel filter), pinhole camera;
-- at each vertex, next-event estimation to a uniformly chosen rectangular light, with a point
-  sampled uniformly on its area, combined with the BSDF (or phase function) sample of the next
-  segment by multiple importance sampling with the power heuristic (Veach 1997, ch. 9);
-- Lambertian BSDF sampled with cosine-weighted directions (Shirley-Chiu concentric mapping),
-  isotropic phase function sampled uniformly on the sphere;
-- homogeneous medium: the free-flight distance is sampled exactly, ``-ln(1 - u) / sigma_t`` from
-  where the segment enters the medium box; passing through it has probability equal to the
-  transmittance, so the throughput is unchanged, and a scattering event multiplies it by the
-  albedo. Shadow rays use the analytic transmittance ``exp(-sigma_t * length inside the box)``;
-- the last vertex samples no direction: its light sample carries the full weight.
-
-Wavefront stages, one call each per vertex over all of a chunk's paths (pbrt-v4's
-``wavefront/integrator.cpp`` names the same ones): :func:`camera_rays`, ``intersect``
-(:func:`renderers.geometry.intersect`), :func:`sample_medium`, :func:`emission`,
-:func:`next_event`, :func:`sample_direction`, chained by :func:`vertex_step`. Rays and colours are
-component-major ``[3, N]`` tensors and per-lane scalars ``[N]`` (see :mod:`renderers.geometry` for
-why). Dead paths keep their lanes with zero throughput, so every tensor keeps its shape through
-the bounce loop. ``render(..., compile=True)`` runs :func:`vertex_step` through
-``torch.compile``, which fuses a whole vertex into one vectorized C++ kernel: about 8x faster than
-eager on one core (cornell: 1.8 M against 0.2 M paths per second in :func:`trace`).
+paths, traced by :func:`renderers.integrator.trace` (the per-path physics: stages, vertex step,
+bounce loop, and the order in which a path reads its sampler's dimensions). Nothing here is
+random: equal inputs give bit-identical frames. ``render(..., compile=True)`` runs
+:func:`~renderers.integrator.vertex_step` through ``torch.compile``, which fuses a whole vertex
+into one vectorized C++ kernel: about 8x faster than eager on one core (cornell: 1.8 M against
+0.2 M paths per second in :func:`~renderers.integrator.trace`).
 
 Memory stays bounded at any resolution and spp: :func:`render` processes ``chunk`` paths at a
 time (whole pixels times a range of sample indices) and keeps only per-pixel sums.
@@ -47,19 +22,19 @@ point back with its object's motion and projecting it into frame t-1's camera (a
 escapes is projected as a direction, so the background follows the camera's rotation; points
 that were behind the camera at t-1 get zero motion).
 
-Not for: glossy or refractive materials, Russian roulette, spectral rendering, or scenes with more
-than a few dozen primitives (see :mod:`renderers.geometry`).
+Not for: the light transport itself (:mod:`renderers.integrator`), or packaging the stage ahead
+of time (:mod:`renderers.aot`).
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import contextlib
-import math
 import os
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -68,28 +43,18 @@ from bnerr.frame import Frame
 from bnerr.sequences import Sampler
 from bnerr.timing import Stopwatch
 from renderers.camera import CameraFrame, camera_frame, generate_rays, project
-from renderers.geometry import (
-    SceneTensors,
-    SurfaceHit,
-    dot,
-    intersect,
-    medium_interval,
-    scene_tensors,
-    spawn_offset,
-    surface_at,
-    where,
-)
+from renderers.geometry import SceneTensors, intersect, scene_tensors, where
+from renderers.integrator import PathVertex, VertexStage, trace, vertex_step
 from renderers.layout import Layout
 from renderers.scene import Scene
 
 __all__ = [
     "COMPILED_CHUNK",
     "DEFAULT_CHUNK",
-    "PathResult",
+    "RECOMPILE_LIMIT",
+    "StageSource",
     "render",
     "render_batch",
-    "trace",
-    "vertex_step",
 ]
 
 #: Paths traced at once by the eager stage. 2^16 keeps a chunk's working set (a few dozen [3, N]
@@ -104,343 +69,6 @@ DEFAULT_CHUNK = 1 << 16
 #: bit for bit (with spp at most the chunk every pixel's samples share one chunk, and the padded
 #: lane count of a compiled chunk is a power of two: every lane runs the kernels' vector loops).
 COMPILED_CHUNK = 1 << 15
-
-_INV_PI = 1.0 / math.pi
-_INV_4PI = 1.0 / (4.0 * math.pi)
-
-
-# --------------------------------------------------------------------------------------------
-# Stages (component-major: vectors are [3, N], scalars per lane [N])
-
-
-def camera_rays(
-    cam: CameraFrame, px: torch.Tensor, py: torch.Tensor, jitter: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Rays ``[3, N]`` through pixel ``(px, py)`` (int64 ``[N]``) at ``jitter [2, N]`` in [0, 1)."""
-    return generate_rays(cam, px.to(jitter.dtype) + jitter[0], py.to(jitter.dtype) + jitter[1])
-
-
-def sample_medium(
-    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, t_surface: torch.Tensor, u: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Free-flight sampling on the segment ``o + s d``, ``0 < s < t_surface`` (``[3, N]`` rays).
-
-    Returns ``scatter [N]`` (bool: a scattering event happens before the surface) and its
-    distance ``s [N]``. ``u [N]`` in [0, 1).
-    """
-    t0, t1 = medium_interval(st, o, d)
-    t1 = torch.minimum(t1, t_surface)
-    s = t0 - torch.log1p(-u) / st.medium[6]
-    return (t0 < t1) & (s < t1), s
-
-
-def _transmittance(
-    st: SceneTensors, o: torch.Tensor, d: torch.Tensor, dist: torch.Tensor
-) -> torch.Tensor:
-    """``[N]`` transmittance of the medium along ``o + s d``, ``0 < s < dist``."""
-    t0, t1 = medium_interval(st, o, d)
-    return torch.exp(-st.medium[6] * (torch.minimum(t1, dist) - t0).clamp_min(0.0))
-
-
-def _power_heuristic(a: torch.Tensor, b: torch.Tensor) -> torch.Tensor:
-    """``a^2 / (a^2 + b^2)``, 0 where both vanish (Veach 1997, eq. 9.13 with beta = 2)."""
-    a2, b2 = a * a, b * b
-    s = a2 + b2
-    return where(s > 0, a2 / where(s > 0, s, 1.0), 0.0)
-
-
-def emission(
-    hit_emission: torch.Tensor,
-    front: torch.Tensor,
-    t: torch.Tensor,
-    cos_light: torch.Tensor,
-    light_pdf_area: torch.Tensor,
-    prev_pdf: torch.Tensor | None,
-    camera: torch.Tensor | None = None,
-) -> torch.Tensor:
-    """``[3, N]`` emitted radiance reaching the previous vertex, MIS-weighted against NEE.
-
-    ``prev_pdf [N]`` is the solid-angle density with which the previous vertex sampled this
-    segment's direction, or None for camera rays (weight 1). The light-sampling density of the
-    same point is ``light_pdf_area * t^2 / cos_light``. ``camera``: a bool tensor that says the
-    same as a None ``prev_pdf`` (weight 1 where it holds), for a compiled stage that must not
-    change its arguments' types between vertices.
-    """
-    le = where(front, hit_emission, 0.0)
-    if prev_pdf is None:
-        return le
-    t = where(front, t, 0.0)
-    p_light = light_pdf_area * t * t / cos_light.clamp_min(1e-12)
-    weight = _power_heuristic(prev_pdf, p_light)
-    if camera is not None:
-        weight = where(camera, 1.0, weight)
-    return le * weight
-
-
-def _pick_light(st: SceneTensors, u_choice: torch.Tensor | None, n: int) -> torch.Tensor:
-    """Per lane, the chosen light's row and radiance, ``[16, N]`` (``[16, 1]`` with one light)."""
-    rows = torch.cat([st.lights, st.light_radiance], dim=1)  # [L, 16]
-    if u_choice is None:
-        return rows[0][:, None]
-    j = (u_choice * st.num_lights).floor().clamp_max(st.num_lights - 1)
-    picked = rows[0][:, None].expand(-1, n)
-    for light in range(1, st.num_lights):
-        picked = where(j == light, rows[light][:, None], picked)
-    return picked
-
-
-def next_event(
-    st: SceneTensors,
-    x: torch.Tensor,
-    normal: torch.Tensor,
-    on_surface: torch.Tensor,
-    f: torch.Tensor,
-    u_choice: torch.Tensor | None,
-    u_light: torch.Tensor,
-    mis: bool | torch.Tensor,
-) -> torch.Tensor:
-    """Next-event estimation: ``[3, N]`` radiance from one light sample, per unit throughput.
-
-    Args:
-        x: ``[3, N]`` shading points (surface points already pushed off the surface).
-        normal: ``[3, N]`` surface normals (ignored where not ``on_surface``).
-        on_surface: ``[N]`` True for a surface vertex, False for a medium vertex; None: all
-            on surfaces (a scene without a medium).
-        f: ``[3, N]`` BSDF or phase value (albedo / pi, or 1 / (4 pi) in the medium).
-        u_choice: ``[N]`` light choice or None (one light); ``u_light [2, N]`` point on it.
-        mis: weight against the density of the direction sample (False at the last vertex);
-            a bool tensor says the same per lane (for the compiled stage, see :func:`trace`).
-    """
-    light = _pick_light(st, u_choice, x.shape[1])
-    y = light[0:3] + (2.0 * u_light[0] - 1.0) * light[3:6] + (2.0 * u_light[1] - 1.0) * light[6:9]
-    w = y - x
-    dist2 = dot(w, w)
-    dist = dist2.sqrt()
-    w = w / dist
-    cos_light = -dot(w, light[9:12])
-    cos_surface = dot(w, normal)
-    if on_surface is not None:
-        cos_surface = where(on_surface, cos_surface, 1.0)
-    ok = (cos_light > 0) & (cos_surface > 0)
-    p_light = dist2 / (st.num_lights * cos_light.clamp_min(1e-12) * light[12])  # (1/L)(1/A) d^2/cos
-    weight = cos_surface / p_light
-    if isinstance(mis, torch.Tensor) or mis:
-        p_dir = cos_surface * _INV_PI
-        if on_surface is not None:
-            p_dir = where(on_surface, p_dir, _INV_4PI)
-        weighted = weight * _power_heuristic(p_light, p_dir)
-        weight = where(mis, weighted, weight) if isinstance(mis, torch.Tensor) else weighted
-    t_block, _ = intersect(st, x, w, with_object=False)
-    ok = ok & (t_block >= dist * (1.0 - 1e-4))
-    if st.medium is not None:
-        weight = weight * _transmittance(st, x, w, dist)
-    return where(ok, f * light[13:16] * weight, 0.0)
-
-
-def _orthonormal(n: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """Two tangents completing ``n [3, N]`` to an orthonormal basis (Duff et al. 2017, JCGT 6)."""
-    nx, ny, nz = n[0], n[1], n[2]
-    sign = where(nz >= 0, 1.0, -1.0)
-    a = -1.0 / (sign + nz)
-    b = nx * ny * a
-    t1 = torch.stack([1.0 + sign * nx * nx * a, sign * b, -sign * nx])
-    t2 = torch.stack([b, sign + ny * ny * a, -ny])
-    return t1, t2
-
-
-def sample_direction(
-    normal: torch.Tensor, on_surface: torch.Tensor | None, u: torch.Tensor
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """Next direction ``[3, N]`` and its solid-angle density ``[N]``; ``u [2, N]`` in [0, 1).
-
-    Surface: cosine-weighted around ``normal`` via the concentric disk mapping (Shirley & Chiu
-    1997), density ``cos / pi``. Medium: uniform on the sphere, density ``1 / (4 pi)``.
-    ``on_surface [N]`` chooses between them per lane; None: surface everywhere.
-    """
-    a = 2.0 * u[0] - 1.0
-    b = 2.0 * u[1] - 1.0
-    use_a = a.abs() > b.abs()
-    r = where(use_a, a, b)
-    ratio = where(use_a, b / where(a == 0, 1.0, a), a / where(b == 0, 1.0, b))
-    phi = where(use_a, (math.pi / 4) * ratio, (math.pi / 2) - (math.pi / 4) * ratio)
-    dx, dy = r * torch.cos(phi), r * torch.sin(phi)
-    dz = (1.0 - dx * dx - dy * dy).clamp_min(0.0).sqrt()
-    t1, t2 = _orthonormal(normal)
-    d_surface = dx * t1 + dy * t2 + dz * normal
-    if on_surface is None:
-        return d_surface, dz * _INV_PI
-    # Uniform sphere: z = 1 - 2 u0, phi = 2 pi u1.
-    z = 1.0 - 2.0 * u[0]
-    s = (1.0 - z * z).clamp_min(0.0).sqrt()
-    phi_s = 2.0 * math.pi * u[1]
-    d_sphere = torch.stack([s * torch.cos(phi_s), s * torch.sin(phi_s), z])
-    d = where(on_surface, d_surface, d_sphere)
-    pdf = where(on_surface, dz * _INV_PI, _INV_4PI)
-    return d, pdf
-
-
-# --------------------------------------------------------------------------------------------
-# One vertex of all paths, and the bounce loop
-
-
-def _shading_point(
-    o: torch.Tensor,
-    d: torch.Tensor,
-    hit: SurfaceHit,
-    scatter: torch.Tensor | None,
-    s: torch.Tensor | None,
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """The new vertex ``x [3, N]`` (a surface point pushed off the surface, or the scattering
-    point ``o + s d`` where ``scatter [N]``; None: no medium) and its BSDF or phase value
-    ``f [3, N]``."""
-    p_surface = hit.position + spawn_offset(hit.position) * hit.normal
-    if scatter is None:
-        return p_surface, hit.albedo * _INV_PI
-    x = where(scatter, o + where(scatter, s, 0.0) * d, p_surface)
-    return x, where(~scatter, hit.albedo * _INV_PI, _INV_4PI)
-
-
-def _medium_event(
-    st: SceneTensors,
-    o: torch.Tensor,
-    d: torch.Tensor,
-    t: torch.Tensor,
-    u_distance: torch.Tensor | None,
-    alive: torch.Tensor,
-    beta: torch.Tensor,
-) -> tuple[torch.Tensor | None, torch.Tensor | None, torch.Tensor]:
-    """A scattering event before the surface at ``t``: ``(scatter [N], s [N], beta)`` with the
-    throughput scaled by the medium's albedo where it scatters; ``(None, None, beta)`` without a
-    medium (every vertex on a surface, and the selects between the two cases skipped)."""
-    if st.medium is None:
-        return None, None, beta
-    scatter, s = sample_medium(st, o, d, t, u_distance)
-    scatter = scatter & alive
-    return scatter, s, where(scatter, beta * st.medium_albedo[:, None], beta)
-
-
-def vertex_step(
-    st: SceneTensors,
-    o: torch.Tensor,
-    d: torch.Tensor,
-    beta: torch.Tensor,
-    radiance: torch.Tensor,
-    alive: torch.Tensor,
-    prev_pdf: torch.Tensor | None,
-    u_distance: torch.Tensor | None,
-    u_choice: torch.Tensor | None,
-    u_light: torch.Tensor,
-    u_direction: torch.Tensor | None,
-    ends: tuple[torch.Tensor, torch.Tensor] | None = None,
-) -> tuple[torch.Tensor, ...]:
-    """Trace the segment ``(o, d)`` to the next vertex, shade it and sample the next segment.
-
-    State (``[3, N]`` / ``[N]``): ``beta`` path throughput, ``radiance`` the estimate so far,
-    ``alive`` live lanes, ``prev_pdf`` density of the direction that produced this segment (None
-    for camera rays). ``u_*`` are this vertex's sampler rows (``u_direction`` None at the last
-    vertex, which samples no direction).
-
-    ``ends``: bool scalar tensors ``(first, last)`` that replace the None arguments for the
-    compiled stage (one variant per scene; see :func:`trace`): the flags select the camera
-    ray's emission weight and the last vertex's unweighted next-event estimate, and the last
-    vertex samples a direction nobody reads.
-
-    Returns ``(o, d, beta, radiance, alive, pdf, albedo, normal)``: the next segment, the updated
-    state and the vertex's surface albedo and normal (the first vertex's feed the guide buffers).
-    """
-    # -- intersect: nearest surface along the segment
-    t, obj = intersect(st, o, d)
-    hit = surface_at(st, o, d, t, obj)
-    # -- medium: a scattering event before the surface replaces it (scatter None: no medium,
-    # every vertex lies on a surface, and the selects between the two cases are skipped)
-    scatter, s, beta = _medium_event(st, o, d, t, u_distance, alive, beta)
-    cos_hit = -dot(d, hit.normal)
-    front = (obj >= 0) & (cos_hit > 0) & alive
-    if scatter is not None:
-        front = front & ~scatter
-    # -- emission: a light reached by the previous direction sample (MIS against NEE)
-    first, last = (None, u_direction is None) if ends is None else ends
-    radiance = radiance + beta * emission(
-        hit.emission, front, t, cos_hit, hit.light_pdf_area, prev_pdf, first
-    )
-    alive = front if scatter is None else front | scatter
-    beta = where(alive, beta, 0.0)
-    # -- shade: the new vertex, on a surface (pushed off it) or in the medium
-    on_surface = None if scatter is None else ~scatter
-    x, f = _shading_point(o, d, hit, scatter, s)
-    # -- next-event estimation (full weight at the last vertex)
-    mis = ~last if isinstance(last, torch.Tensor) else not last
-    nee = next_event(st, x, hit.normal, on_surface, f, u_choice, u_light, mis=mis)
-    radiance = radiance + where(alive, beta * nee, 0.0)
-    if u_direction is None:
-        return o, d, beta, radiance, alive, prev_pdf, hit.albedo, hit.normal
-    # -- sample the next direction (BSDF or phase function)
-    d, pdf = sample_direction(hit.normal, on_surface, u_direction)
-    beta = beta * hit.albedo if on_surface is None else where(on_surface, beta * hit.albedo, beta)
-    return x, d, beta, radiance, alive, pdf, hit.albedo, hit.normal
-
-
-@dataclass
-class PathResult:
-    """Per path, component-major: ``radiance [3, N]``, first-hit ``albedo``, ``normal [3, N]``."""
-
-    radiance: torch.Tensor
-    albedo: torch.Tensor
-    normal: torch.Tensor
-
-
-def trace(
-    st: SceneTensors,
-    cam: CameraFrame,
-    layout: Layout,
-    px: torch.Tensor,
-    py: torch.Tensor,
-    u: torch.Tensor,
-    step=vertex_step,
-) -> PathResult:
-    """Trace one path per lane.
-
-    Args:
-        st: the frame's scene tensors; cam: its camera; layout: the dimension layout.
-        px, py: ``[N]`` int64 pixel coordinates of each lane.
-        u: ``[D, N]`` the lanes' sampler values, one row per dimension (D = layout.dimensions).
-        step: :func:`vertex_step` or a compiled version of it. A step with a true attribute
-            ``uniform`` gets the same argument types at every vertex (see ``ends`` in
-            :func:`vertex_step`): one compiled variant per scene instead of three.
-
-    Returns:
-        :class:`PathResult`.
-    """
-    o, d = camera_rays(cam, px, py, u[0:2])
-    beta = torch.ones_like(d)
-    radiance = torch.zeros_like(d)
-    alive = torch.ones_like(px, dtype=torch.bool)
-    uniform = getattr(step, "uniform", False)
-    prev_pdf = torch.zeros_like(d[0]) if uniform else None
-    albedo = normal = None
-    # Distinct tensors for the two flags: the same tensor passed twice is a guard of its own.
-    firsts, lasts = ([torch.tensor(v, device=d.device) for v in (False, True)] for _ in "fl")
-
-    def row(i: int | None) -> torch.Tensor | None:
-        return None if i is None else u[i]
-
-    def pair(i: int | None) -> torch.Tensor | None:
-        return None if i is None else u[i : i + 2]
-
-    for k in range(layout.vertices):
-        args = [row(layout.distance(k)), row(layout.light_choice(k)), pair(layout.light(k))]
-        if uniform:  # contiguous o, a stand-in direction sample at the last vertex, the flags
-            o, last = o.contiguous(), k == layout.vertices - 1
-            args += [pair(layout.light(k) if last else layout.direction(k))]
-            args += [(firsts[k == 0], lasts[last])]
-        else:
-            args += [pair(layout.direction(k))]
-        o, d, beta, radiance, alive, prev_pdf, a, n = step(
-            st, o, d, beta, radiance, alive, prev_pdf, *args
-        )
-        if k == 0:
-            albedo, normal = a, n
-    return PathResult(radiance, albedo, normal)
 
 
 # --------------------------------------------------------------------------------------------
@@ -499,7 +127,7 @@ class _CompiledStep:
         self._fn = torch.compile(vertex_step, dynamic=False)
         self.failed = False
 
-    def __call__(self, *args):
+    def __call__(self, *args: Any) -> PathVertex:  # vertex_step's own arguments
         if not self.failed:
             try:
                 return self._fn(*args)
@@ -532,12 +160,12 @@ def _compiled_step() -> _CompiledStep:
 #: What :func:`render`'s ``compile`` may be besides a bool or None: a callable
 #: ``(scene tensors, layout, workers) -> stage or None`` that gives the frame's vertex stage
 #: (:func:`renderers.aot.stage`, the ahead-of-time compiled one); None from it means eager.
-StageSource = Callable[[SceneTensors, Layout, int], Callable[..., tuple[torch.Tensor, ...]] | None]
+StageSource = Callable[[SceneTensors, Layout, int], VertexStage | None]
 
 
 def _stage(
     compile: bool | StageSource | None, st: SceneTensors, layout: Layout, workers: int
-) -> Callable[..., tuple[torch.Tensor, ...]]:
+) -> VertexStage:
     """The vertex stage :func:`render` runs (see its ``compile``)."""
     if callable(compile):
         return compile(st, layout, workers) or vertex_step
@@ -721,7 +349,7 @@ def _pixel_ranges(frames: int, n_pixels: int, per_range: int) -> list[tuple[int,
 
 
 def _check_render_args(
-    scene: object, t: object, seeds: object, sampler: object, spp: object, chunk: object
+    scene: object, t: object, seeds: torch.Tensor, sampler: object, spp: object, chunk: object
 ) -> None:
     """:func:`render`'s argument checks, in the order it reports them."""
     if not isinstance(scene, Scene):
@@ -812,7 +440,7 @@ class _PathJob:
     height: int
     sampler: Sampler
     spp: int
-    step: Callable[..., tuple[torch.Tensor, ...]]
+    step: VertexStage
 
 
 @dataclass
@@ -895,10 +523,10 @@ def _guide_buffers(
 ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     """``depth [H*W]``, ``object_id [H*W]`` and ``motion [2, H*W]`` by :func:`_center_buffers`,
     ``chunk`` pixels at a time."""
-    f32 = dict(dtype=torch.float32, device=cam.origin.device)
-    depth = torch.empty(n_pixels, **f32)
-    object_id = torch.empty(n_pixels, **f32)
-    motion = torch.empty(2, n_pixels, **f32)
+    device = cam.origin.device
+    depth = torch.empty(n_pixels, dtype=torch.float32, device=device)
+    object_id = torch.empty(n_pixels, dtype=torch.float32, device=device)
+    motion = torch.empty(2, n_pixels, dtype=torch.float32, device=device)
     for p0 in range(0, n_pixels, chunk):
         p1 = min(n_pixels, p0 + chunk)
         pix = torch.arange(p0, p1, device=cam.origin.device)

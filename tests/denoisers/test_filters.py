@@ -286,7 +286,7 @@ def test_fast_atrous_matches_its_slow_twin(iterations, sigma_color, sigma_normal
 
 
 def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
-    import denoisers.filters as filters
+    import denoisers.filters.atrous as filters
 
     color, normal, depth = _atrous_case(h=45)
     planes = atrous_planes(color, normal, depth, None)  # the torch path (strips are its own)

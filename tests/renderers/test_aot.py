@@ -5,7 +5,7 @@ exported program it compiles is, and the speed suite's process figures load real
 import pytest
 import torch
 
-from renderers import aot, get_scene, render, tracer
+from renderers import aot, get_scene, integrator, render
 from renderers.camera import camera_frame
 from renderers.geometry import scene_tensors
 
@@ -23,7 +23,7 @@ def _lanes(scene, n: int, seed: int):
     u = torch.rand(scene.layout.dimensions, n, generator=g)
     cam = camera_frame(scene.camera, 0, 32, 32, torch.device("cpu"))
     px, py = torch.randint(0, 32, (n,), generator=g), torch.randint(0, 32, (n,), generator=g)
-    o, d = tracer.camera_rays(cam, px, py, u[0:2])
+    o, d = integrator.camera_rays(cam, px, py, u[0:2])
     return u, o.contiguous(), d
 
 
@@ -45,7 +45,7 @@ def test_the_exported_stage_is_the_eager_stage_bit_for_bit(name):
     args += (u[light : light + 2], u[direction : direction + 2])
     args += ((torch.tensor(False), torch.tensor(False)),)
     got = program.module()(*aot._flat(st, aot._split(st)[0], args))
-    want = tracer.vertex_step(st, *args)
+    want = integrator.vertex_step(st, *args)
     for a, b in zip(got, want, strict=True):
         assert torch.equal(a, b)
 

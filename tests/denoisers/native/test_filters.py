@@ -265,8 +265,8 @@ def test_bilateral_without_the_library_runs_kornia(no_native):
 
 
 def test_self_checks_pass_and_eligibility(kernels):
-    assert filters._native_atrous() is kernels
-    assert filters._native_bilateral() is kernels
+    assert filters.atrous._native_atrous() is kernels
+    assert filters.common._native_bilateral() is kernels
     assert not native.FILTERS.status().startswith("disabled")
     assert native.eligible(torch.zeros(2), torch.zeros(3))
     assert not native.eligible(torch.zeros(2), torch.zeros(3, dtype=torch.float64))

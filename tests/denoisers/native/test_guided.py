@@ -128,7 +128,7 @@ def test_a_firefly_frame_is_filtered_in_float64():
 
 def test_dispatch_declines_other_dtypes():
     color, albedo, normal = _inputs(8, 8)
-    assert filters._guided_native(color.double(), albedo, normal, 2, 1.0) is None
+    assert filters.guided._guided_native(color.double(), albedo, normal, 2, 1.0) is None
     got = guided_filter(color.double(), albedo.double(), normal.double(), 2, 1.0)
     assert got.dtype == torch.float64
 
@@ -138,7 +138,7 @@ def test_disabled_by_the_environment_the_torch_path_runs(monkeypatch):
     monkeypatch.setenv("BNERR_NATIVE", "0")
     bnerr_native.reset()
     try:
-        assert filters._guided_native(color, albedo, normal, 2, 1.0) is None
+        assert filters.guided._guided_native(color, albedo, normal, 2, 1.0) is None
         assert native.GUIDED.status() == "disabled by BNERR_NATIVE=0"
         want = guided_torch(color, albedo, normal, 2, 1.0)
         assert torch.equal(guided_filter(color, albedo, normal, 2, 1.0), want)
@@ -151,16 +151,16 @@ def test_guided_filter_uses_the_kernel_on_cpu_float32():
     color, albedo, normal = _inputs(30, 50, seed=8)
     want = native.native_guided(KERNELS, color, albedo, normal, 3, 0.1)
     assert torch.equal(guided_filter(color, albedo, normal, 3, 0.1), want)
-    assert filters._check_guided(KERNELS)
-    assert filters._native_guided() is native.GUIDED.load()  # passed its self-check
+    assert filters.guided._check_guided(KERNELS)
+    assert filters.guided._native_guided() is native.GUIDED.load()  # passed its self-check
 
 
 @needs_kernel
 def test_a_kernel_failing_its_self_check_is_not_used(monkeypatch):
     color, albedo, normal = _inputs(10, 12, seed=9)
     failing = bnerr_native.SelfCheckedKernels(lambda kernels: False, "a test kernel", native.GUIDED)
-    monkeypatch.setattr(filters, "_native_guided", failing)
+    monkeypatch.setattr(filters.guided, "_native_guided", failing)
     with pytest.warns(RuntimeWarning, match="a test kernel disagrees with the torch path"):
-        assert filters._guided_native(color, albedo, normal, 2, 1.0) is None
+        assert filters.guided._guided_native(color, albedo, normal, 2, 1.0) is None
     want = guided_torch(color, albedo, normal, 2, 1.0)
     assert torch.equal(guided_filter(color, albedo, normal, 2, 1.0), want)
