@@ -36,17 +36,11 @@ Not for: cryptography, or anything that needs independent streams for more than 
 from __future__ import annotations
 
 from bnerr.errors import check_name
-from bnerr.hashing import MASK32 as _MASK32
-from bnerr.hashing import lowbias32 as _lowbias32
-from bnerr.hashing import lowbias32_host as _lowbias32_host
-from bnerr.hashing import signed32 as _signed
-from bnerr.hashing import srl32 as _srl
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
 from bnerr.sequences.ldbn import LDBNKeyedSampler, LDBNKeys, LDBNSampler, ldbn_key_image
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
-from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
 from bnerr.sequences.zsobol import ZSobolSampler, zsobol_1d, zsobol_2d, zsobol_keys
 from bnerr.sequences.zsobol_t import ZSobolTSampler
@@ -74,10 +68,6 @@ __all__ = [
     "zsobol_2d",
     "zsobol_keys",
 ]
-
-# Private names that callers outside the package imported from the old single module; kept until
-# they move to bnerr.hashing / bnerr.sequences.tables.
-_COMPAT = (_MASK32, _lowbias32, _lowbias32_host, _signed, _srl, _sobol_directions)
 
 #: Sampler name -> class. ``make_sampler`` looks names up here.
 SAMPLERS: dict[str, type[Sampler]] = {
