@@ -22,7 +22,7 @@ __all__ = ["make_server", "register", "run"]
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 (the base's name)
+    def log_message(self, format: str, *args: object) -> None:  # `format`: the base's name
         pass  # one line per request would bury the address
 
 

@@ -289,7 +289,7 @@ class _Scheduler:
         for ref in list(self.inflight):
             try:
                 self.ray.cancel(ref)
-            except Exception:  # noqa: BLE001  (a task that just finished cannot be cancelled)
+            except Exception:  # a task that just finished cannot be cancelled
                 pass
         self.inflight.clear()
 
