@@ -42,8 +42,8 @@ from typing import Any
 
 import torch
 
-from benchmarks.commands._args import parse_resolution
 from benchmarks.reports.markdown import table_lines
+from benchmarks.resolution import parse_resolution
 from benchmarks.speed.formatting import DASH, fmt, number
 from bnerr.errors import UnknownNameError
 from bnerr.io import atomic_write
