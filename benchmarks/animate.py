@@ -195,7 +195,7 @@ class Tiles:
 def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
     """Strategy ``name``'s frames at ``spec.times``, rendered as a benchmark run renders them.
 
-    A stateful strategy (``parts.stateful``) renders the warmup frames first; a stateless one
+    A stateful strategy (its ``stateful``) renders the warmup frames first; a stateless one
     starts at the first shown frame (its frame t does not depend on earlier frames).
     """
 

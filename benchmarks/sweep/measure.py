@@ -415,7 +415,7 @@ def measure_seed_set(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
     # a stateful strategy, or a stateful denoiser, needs the warmup frames in order
-    in_order = parts.stateful(strategy) or any(_stateful(d) for d in chosen.values())
+    in_order = strategy.stateful or any(_stateful(d) for d in chosen.values())
     shown = range(run.warmup, run.warmup + run.frames)
     for _ in range(first_frame(strategy, shown, in_order)):  # skipped warmup frames count as done
         tick()
@@ -428,8 +428,7 @@ def measure_seed_set(
             measurement.add(t, frame, ref, _previous_reference(run, scene, references, t))
         else:
             measurement.feed_warmup(t, frame)
-    sampler = getattr(strategy, "sampler_name", "") or run.sampler
-    return measurement.result(int(getattr(scene, "dimensions", 0)), sampler)
+    return measurement.result(scene.dimensions, strategy.sampler_name or run.sampler)
 
 
 def finish_run(

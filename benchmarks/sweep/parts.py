@@ -32,6 +32,7 @@ if TYPE_CHECKING:
     from denoisers.tuning import TuneResult
 
 __all__ = [
+    "BatchRenderer",
     "BoundRender",
     "Denoiser",
     "Parts",
@@ -71,6 +72,16 @@ class Renderer(Protocol):
     ) -> Frame: ...
 
 
+class BatchRenderer(Protocol):
+    """``render_batch(scene, t, seeds [K, H, W] int64, sampler, spp) -> list[Frame]``: the K
+    frames of :class:`Renderer` (called without ``compile``) for ``seeds[k]``, bit-identical to
+    them, at once (:func:`renderers.render_batch`)."""
+
+    def __call__(
+        self, scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    ) -> list[Frame]: ...
+
+
 class Strategy(Protocol):
     """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame.
 
@@ -104,10 +115,6 @@ class Parts:
             ``sampler`` the per-pixel sampler condition (a strategy with its own sampler ignores
             it), ``spp`` the samples per pixel its renders take (the Z-order samplers' block
             length).
-        stateful: ``(strategy) -> bool``: whether a frame depends on the earlier frames (the
-            temporal strategies). Only those render the warmup frames; a stateless strategy's
-            frame t is the same whether or not frames 0..t-1 were rendered, so the runner skips
-            them (the oracle's warmup would cost K renders per frame for nothing).
         make_denoiser: ``(name, params) -> Denoiser`` (``params`` from ``tune_denoiser``, or None
             for a denoiser without parameters).
         tune_denoiser: ``(name, frames, references [3, H, W]) -> TuneResult | None``: grid-search
@@ -117,21 +124,25 @@ class Parts:
         with_depth: ``(scene, depth) -> scene`` with its maximum path depth replaced.
         code_version: a string that changes whenever a reference's pixels could change: the
             renderer's and the samplers' source code
-        (:func:`benchmarks.sweep.version.code_version`). render_batch: ``(scene, t, seeds [K, H, W],
-            sampler, spp) -> list[Frame]``, the K renders of :attr:`render` at once and
-            bit-identical to them (the oracle's candidates), or None to render them one by one.
+            (:func:`benchmarks.sweep.version.code_version`).
+        render_batch: the :class:`BatchRenderer` (the oracle's K candidates at once, each
+            bit-identical to its :attr:`render`), or None to render them one by one.
+
+    Whether a strategy's frame depends on the earlier frames is its own ``stateful``
+    (:class:`Strategy`): only those render the warmup frames; a stateless strategy's frame t is
+    the same whether or not frames 0..t-1 were rendered, so the runner skips them (the oracle's
+    warmup would cost K renders per frame for nothing).
     """
 
     get_scene: Callable[[str, bool], Scene]
     render: Renderer
     make_strategy: Callable[[str, Scene, int, int, int, str, int], Strategy]
-    stateful: Callable[[Strategy], bool]
     make_denoiser: Callable[[str, dict | None], Denoiser]
     tune_denoiser: Callable[[str, list[Frame], list[torch.Tensor]], TuneResult | None]
     reference_sampler: Callable[[], Sampler]
     with_depth: Callable[[Scene, int], Scene]
     code_version: str
-    render_batch: Callable[..., list[Frame]] | None = None
+    render_batch: BatchRenderer | None = None
 
 
 class BoundRender:
@@ -181,7 +192,6 @@ def real_parts() -> Parts:
         get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
         render=renderers.render,
         make_strategy=make_strategy,
-        stateful=lambda strategy: bool(getattr(strategy, "stateful", False)),
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
