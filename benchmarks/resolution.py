@@ -21,9 +21,9 @@ def parse_resolution(text: str, flag: str = "--res") -> tuple[int, int]:
     try:
         width, height = int(w), int(h)
     except ValueError:
-        width = height = None
-    if not sep or width is None or height is None:
-        raise DtypeError(f"{flag}: expected WxH with integers (e.g. 320x240), got {text!r}")
+        raise DtypeError(
+            f"{flag}: expected WxH with integers (e.g. 320x240), got {text!r}"
+        ) from None
     if width < 1 or height < 1:
         raise ValueRangeError(f"{flag}: expected width and height >= 1, got {width}x{height}")
     return width, height

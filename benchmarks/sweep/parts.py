@@ -38,6 +38,7 @@ __all__ = [
     "Parts",
     "Renderer",
     "Scene",
+    "StatefulDenoiser",
     "Strategy",
     "known_names",
     "real_parts",
@@ -82,26 +83,30 @@ class BatchRenderer(Protocol):
     ) -> list[Frame]: ...
 
 
-class Strategy(Protocol):
-    """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame.
-
-    ``sampler_name`` is the sampler its renders use: the run's per-pixel ``sampler`` condition,
-    or the one the strategy dictates (the Z-order and dithering strategies,
-    :data:`bnerr.strategies.OWN_SAMPLERS`); the records keep it. ``stateful``: whether a frame
-    depends on the earlier frames.
-    """
-
-    overhead_ms: float
-    sampler_name: str
-    stateful: bool
-
-    def frame(self, t: int, render: Callable[[torch.Tensor, Sampler], Frame]) -> Frame: ...
+#: A seed strategy: the library's :class:`bnerr.strategies.Strategy`, because the runner plays it
+#: with :func:`bnerr.strategies.play`. Of it the runner reads ``frame(t, render)``,
+#: ``overhead_ms``, ``sampler_name`` (the sampler its renders use: the run's per-pixel ``sampler``
+#: condition, or the one the strategy dictates, :data:`bnerr.strategies.OWN_SAMPLERS`; the records
+#: keep it) and ``stateful`` (whether a frame depends on the earlier frames); a stand-in needs
+#: those alone.
+Strategy = strategies.Strategy
 
 
 class Denoiser(Protocol):
     """``denoiser(frame) -> [3, H, W]`` float32 image."""
 
     def __call__(self, frame: Frame) -> torch.Tensor: ...
+
+
+class StatefulDenoiser(Protocol):
+    """A denoiser whose output depends on the frames it saw (``stateful`` true: ``taa``,
+    ``svgf``): told each frame's index, reset at the start of a sequence."""
+
+    stateful: bool
+
+    def __call__(self, frame: Frame, *, t: int) -> torch.Tensor: ...
+
+    def reset(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -173,12 +178,14 @@ def real_parts() -> Parts:
     def make_denoiser(name: str, params: dict | None) -> Denoiser:
         return denoisers.get_denoiser(name, **(params or {}))
 
-    def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
+    def tune_denoiser(
+        name: str, frames: list[Frame], refs: list[torch.Tensor]
+    ) -> TuneResult | None:
         return tuning.tune(name, frames, refs) if name in tuning.GRIDS else None
 
     def make_strategy(
         name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
-    ):
+    ) -> Strategy:
         return strategies.make_strategy(
             name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
         )
@@ -188,17 +195,40 @@ def real_parts() -> Parts:
         # noise floor is lower for the same render time; it is unbiased like white noise.
         return sequences.make_sampler("owen_sobol")
 
+    def render(
+        scene: Scene,
+        t: int,
+        seeds: torch.Tensor,
+        sampler: Sampler,
+        spp: int,
+        *,
+        compile: bool | None = None,
+    ) -> Frame:
+        return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
+
+    def render_batch(
+        scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    ) -> list[Frame]:
+        return renderers.render_batch(_own(scene), t, seeds, sampler, spp)
+
     return Parts(
         get_scene=lambda name, animated: renderers.get_scene(name, animated=animated),
-        render=renderers.render,
+        render=render,
         make_strategy=make_strategy,
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
-        with_depth=lambda scene, depth: dataclasses.replace(scene, max_depth=depth),
+        with_depth=lambda scene, depth: dataclasses.replace(_own(scene), max_depth=depth),
         code_version=code_version(),
-        render_batch=renderers.render_batch,
+        render_batch=render_batch,
     )
+
+
+def _own(scene: Scene) -> renderers.Scene:
+    """The renderer's own scene behind the runner's view of it: what :func:`real_parts`'
+    ``get_scene`` made."""
+    assert isinstance(scene, renderers.Scene)  # real_parts' scenes are the renderer's
+    return scene
 
 
 def known_names() -> dict[str, tuple[str, ...]]:
