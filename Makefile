@@ -1,10 +1,10 @@
-# Two commands: `make run` and `make test` (ruff lint and format check, mypy on bnerr/ as
-# configured in pyproject.toml, then pytest over every core with pytest-xdist). Each creates .venv
-# on first use and reinstalls only when pyproject.toml changed (the stamp file tracks it). The
-# install goes through uv (itself a wheel from PyPI): it fetches and unpacks in parallel and keeps
-# a cache, measured 91 s for a cold install against pip's 140 s here; pip takes over if uv cannot
-# be installed. The extras: dev (pytest, pytest-xdist, hypothesis, ruff, mypy), reference
-# (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
+# Two commands: `make run` and `make test` (ruff lint and format check, mypy on bnerr/,
+# renderers/, denoisers/ and benchmarks/ as configured in pyproject.toml, then pytest over every
+# core with pytest-xdist). Each creates .venv on first use and reinstalls only when pyproject.toml
+# changed (the stamp file tracks it). The install goes through uv (itself a wheel from PyPI): it
+# fetches and unpacks in parallel and keeps a cache, measured 91 s for a cold install against
+# pip's 140 s here; pip takes over if uv cannot be installed. The extras: dev (pytest,
+# pytest-xdist, hypothesis, ruff, mypy), reference (Mitsuba 3, OIDN, FLIP) and cluster (Ray).
 # Mitsuba's LLVM variants need libLLVM >= 19: where make runs as root on Debian it installs
 # libllvm19 (best effort; without it the tests that need it skip and say why). Likewise the
 # browser tests of the results pages (tests/benchmarks/reports/test_page.py) drive Debian's chromium through

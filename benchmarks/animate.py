@@ -30,22 +30,24 @@ Not for: measuring (:mod:`benchmarks.sweep.measure`), or single frames (``bnerr 
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import importlib.util
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import torch
 
-from benchmarks.suites import get_suite
+from benchmarks.suites import Suite, get_suite
 from benchmarks.sweep.measure import scene_for, t_reference
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, known_names, real_parts
 from benchmarks.sweep.plan import Run
 from benchmarks.sweep.references import ReferenceCache
-from benchmarks.sweep.tuning import stored_params, tuning_key
+from benchmarks.sweep.tuning import TuningStore, stored_params, tuning_key
 from bnerr.color import preview_u8
 from bnerr.errors import DtypeError, MissingExtraError, check_name, check_positive_int
 from bnerr.frame import Frame
@@ -195,7 +197,7 @@ class Tiles:
 def render_strategy(parts: Parts, spec: Animation, name: str) -> list[Frame]:
     """Strategy ``name``'s frames at ``spec.times``, rendered as a benchmark run renders them.
 
-    A stateful strategy (``parts.stateful``) renders the warmup frames first; a stateless one
+    A stateful strategy (its ``stateful``) renders the warmup frames first; a stateless one
     starts at the first shown frame (its frame t does not depend on earlier frames).
     """
 
@@ -227,7 +229,9 @@ def _format_params(params: dict) -> str:
     return " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in params.items())
 
 
-def tuned_denoiser(parts: Parts, spec: Animation, store) -> tuple[Denoiser, str]:
+def tuned_denoiser(
+    parts: Parts, spec: Animation, store: TuningStore | None
+) -> tuple[Denoiser, str]:
     """The denoiser with the parameters the benchmark tuned for this scene, condition,
     resolution and spp in ``store`` (a :class:`denoisers.tuning.ParamStore`, or None), else its
     defaults; and a label saying which."""
@@ -243,7 +247,9 @@ def tuned_denoiser(parts: Parts, spec: Animation, store) -> tuple[Denoiser, str]
     return denoiser, f"{spec.denoiser} {shown} ({source})".replace("  ", " ")
 
 
-def render_tiles(parts: Parts, references: ReferenceCache, spec: Animation, store=None) -> Tiles:
+def render_tiles(
+    parts: Parts, references: ReferenceCache, spec: Animation, store: TuningStore | None = None
+) -> Tiles:
     """Render every column of ``spec``: the references and each strategy, raw and denoised.
 
     Returns:
@@ -336,8 +342,7 @@ def compose_frame(
     th, tw = rows[0][1].shape[0], rows[0][1].shape[1] // len(tiles.columns)
     size = fit_size(tiles.columns, tw, _HEADER)
     header = np.concatenate([text_strip(c, tw, _HEADER, size) for c in tiles.columns], axis=1)
-    body = [header] + [row for _, row in rows]
-    body = np.concatenate(body, axis=0)
+    body = np.concatenate([header] + [row for _, row in rows], axis=0)
     left = np.concatenate(
         [np.zeros((_HEADER, _ROW_LABEL, 3), np.uint8)]
         + [text_strip(label, _ROW_LABEL, th, size, rotate=True) for label, _ in rows],
@@ -410,7 +415,7 @@ def write_gif(path: str | Path, frames: Sequence[np.ndarray], fps: int) -> Path:
     from PIL import Image
 
     first = Image.fromarray(frames[0])
-    palette = first.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=0)
+    palette = first.quantize(colors=128, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE)
     indexed = [
         np.asarray(
             Image.fromarray(f).quantize(palette=palette, dither=Image.Dither.NONE).convert("RGB")
@@ -439,7 +444,11 @@ def _caption(spec: Animation, tiles: Tiles, t: int) -> list[str]:
 
 
 def animate_scene(
-    parts: Parts, references: ReferenceCache, spec: Animation, out_dir: str | Path, store=None
+    parts: Parts,
+    references: ReferenceCache,
+    spec: Animation,
+    out_dir: str | Path,
+    store: TuningStore | None = None,
 ) -> dict[str, object]:
     """Render ``spec`` and write ``<scene>.mp4`` (every frame, whole tiles) and ``<scene>.gif``
     (the first ``gif_frames`` frames, centre crops of ``gif_crop`` pixels) into ``out_dir``.
@@ -462,7 +471,7 @@ def animate_scene(
     return {"mp4": mp4, "gif": gif, "seconds": seconds}
 
 
-def load_store(path: str | Path | None):
+def load_store(path: str | Path | None) -> ParamStore | None:
     """The tuned parameters at ``path`` (:class:`denoisers.tuning.ParamStore`), or None when
     ``path`` is None or no such file exists (the denoiser then runs with its defaults)."""
 
@@ -472,14 +481,14 @@ def load_store(path: str | Path | None):
 
 
 def write_animations(
-    suite,
+    suite: Suite | str,
     out_dir: str | Path,
     *,
     cache_dir: str | Path = "cache/references",
-    params=None,
+    params: str | Path | None = None,
     scenes: Sequence[str] | None = None,
     strategies: Sequence[str] | None = None,
-    **options,
+    **options: Any,
 ) -> list[dict[str, object]]:
     """One animation per scene of ``suite`` (a :class:`benchmarks.suites.Suite` or its name),
     written into ``out_dir`` (checked first, then locked for the whole run).
@@ -496,7 +505,8 @@ def write_animations(
     """
 
     sweep = (get_suite(suite) if isinstance(suite, str) else suite).sweeps[0]
-    fields = dict(
+    base = Animation(
+        scene="",
         strategies=tuple(strategies or default_strategies()),
         warmup=sweep.warmup,
         width=sweep.res[0],
@@ -504,9 +514,11 @@ def write_animations(
         spp=4 if 4 in sweep.spp else min(sweep.spp),
         reference_spp=sweep.reference_spp,
     )
-    fields.update(options)
     known = known_names()
-    specs = [Animation(scene=name, **fields).check(known) for name in (scenes or sweep.scenes)]
+    specs = [
+        dataclasses.replace(base, scene=name, **options).check(known)
+        for name in (scenes or sweep.scenes)
+    ]
     return animate(specs, out_dir, cache_dir=cache_dir, params=params)
 
 
@@ -515,9 +527,9 @@ def animate(
     out_dir: str | Path,
     *,
     cache_dir: str | Path,
-    params=None,
+    params: str | Path | None = None,
     parts: Parts | None = None,
-    on_scene=None,
+    on_scene: Callable[[Animation, dict[str, object]], object] | None = None,
 ) -> list[dict[str, object]]:
     """Write every animation of ``specs`` into ``out_dir``: the folder is checked
     (:func:`bnerr.outputs.check_output`) and the tuned parameters read before any render, and

@@ -21,10 +21,16 @@ Not for: the benchmark's tables (:mod:`benchmarks.reports`).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import torch
 
 from bnerr.color import luminance
 from bnerr.errors import ShapeError, check_positive_int
+
+if TYPE_CHECKING:
+    from bnerr.frame import Frame
+    from renderers import Scene
 
 __all__ = ["block_spread", "coherent_blocks", "key_error_correlation"]
 
@@ -84,7 +90,9 @@ def key_error_correlation(
 # The diagnosis (python -m benchmarks.causes)
 
 
-def _render(scene, t: int, key: int, size: int, spp: int, sampler: str = "owen_sobol"):
+def _render(
+    scene: Scene, t: int, key: int, size: int, spp: int, sampler: str = "owen_sobol"
+) -> Frame:
     import renderers
     from benchmarks.training_data import pixel_seeds
     from bnerr.sequences import make_sampler

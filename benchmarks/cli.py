@@ -20,7 +20,7 @@ import os
 import pkgutil
 import sys
 import warnings
-from typing import NoReturn
+from typing import NoReturn, TextIO
 
 import benchmarks.commands as commands
 from bnerr.errors import BnerrError
@@ -78,7 +78,15 @@ def _one_line(err: BaseException) -> str | None:
     return None
 
 
-def _show_warning(command: str, message, category, filename, lineno, file=None, line=None):
+def _show_warning(
+    command: str,
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
     """A warning during a command as one line, ``bnerr <command>: warning: <message>`` (a
     reference cache that refuses writes, a torn results line dropped on resume...), not Python's
     two lines of file, line number and source."""

@@ -28,8 +28,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import torch
@@ -147,6 +148,12 @@ def training_set_bytes(spec: TrainingSpec, stored: bool = False) -> int:
 # Random scenes
 
 
+def _triple(values: Iterable[Any]) -> tuple[float, float, float]:
+    """Three numbers (numpy scalars, an array of 3) as a tuple of Python floats."""
+    x, y, z = (float(v) for v in values)
+    return x, y, z
+
+
 def _albedo(
     rng: np.random.Generator, lo: float = 0.05, hi: float = 0.85
 ) -> tuple[float, float, float]:
@@ -155,13 +162,11 @@ def _albedo(
     if rng.uniform() < 0.5:
         grey = rng.uniform(lo, hi)
         tint = rng.uniform(-1.0, 1.0, 3) * rng.uniform(0.0, 0.6)
-        return tuple(float(np.clip(grey * (1.0 + t), lo, hi)) for t in tint)  # type: ignore[return-value]
+        return _triple(np.clip(grey * (1.0 + t), lo, hi) for t in tint)
     strong = rng.uniform(0.3, 1.0) * hi
     weak = rng.uniform(0.0, 0.4) * strong
     mask = rng.permutation([True, rng.uniform() < 0.3, False])
-    return tuple(
-        float(np.clip(strong if m else weak * rng.uniform(0.5, 1.0), lo, hi)) for m in mask
-    )  # type: ignore
+    return _triple(np.clip(strong if m else weak * rng.uniform(0.5, 1.0), lo, hi) for m in mask)
 
 
 def _material(rng: np.random.Generator, textured: bool) -> Diffuse:
@@ -208,7 +213,7 @@ def _light(
     area = 4.0 * half[0] * half[1]
     # Power spans 1.5 decades: auto-exposure must see bright and dark scenes.
     power = 10.0 ** rng.uniform(0.5, 2.0) * room * room
-    emission = tuple(float(c) for c in color * power / area)
+    emission = _triple(color * power / area)
     material = Diffuse((0.0, 0.0, 0.0)) if rng.uniform() < 0.5 else Diffuse(_albedo(rng, 0.3, 0.9))
     kind = rng.uniform()
     if kind < 0.45 or ceiling_only:  # ceiling light facing down
@@ -234,11 +239,13 @@ def _light(
         normal /= np.linalg.norm(normal)
     u, v = _frame_towards(normal)
 
-    def vec(x) -> tuple[float, float, float]:
-        return tuple(float(c) for c in x)  # type: ignore[return-value]
-
     return Rectangle(
-        f"light{index}", vec(center), vec(u * half[0]), vec(v * half[1]), material, emission
+        f"light{index}",
+        _triple(center),
+        _triple(u * half[0]),
+        _triple(v * half[1]),
+        material,
+        emission,
     )
 
 

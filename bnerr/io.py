@@ -184,7 +184,7 @@ def _check_buffers(buffers: object) -> dict[str, torch.Tensor]:
 
 
 def _write_exr(path: Path, buffers: dict[str, torch.Tensor], attributes: dict[str, str]) -> None:
-    import OpenEXR  # noqa: PLC0415 - a compiled extension: imported only by the EXR functions
+    import OpenEXR  # a compiled extension: imported only by the EXR functions
 
     channels: dict[str, np.ndarray] = {}
     for name, tensor in buffers.items():
@@ -287,7 +287,7 @@ def _group(names: list[str], path: Path) -> dict[str, list[str]]:
 
 def _read_exr(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict]:
     """Buffers and header of an EXR file; every failure is a FileFormatError naming the file."""
-    import OpenEXR  # noqa: PLC0415
+    import OpenEXR
 
     path = _check_path(path)
     if not path.is_file():
@@ -403,7 +403,7 @@ def write_png(
     pixels = (encoded * 255).round().to(torch.uint8).permute(1, 2, 0).contiguous().numpy()
     # Pillow itself (what scikit-image's imsave called through imageio, the same bytes): 25 ms to
     # import where skimage.io took 270 ms, a tenth of a `bnerr render` process's own time.
-    from PIL import Image  # noqa: PLC0415 - needed here only
+    from PIL import Image  # needed here only
 
     with atomic_write(path, suffix=".png") as tmp:
         Image.fromarray(pixels).save(tmp, format="PNG")

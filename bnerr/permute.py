@@ -57,8 +57,6 @@ is :mod:`bnerr.retarget`, and :mod:`bnerr.reproject` along motion).
 
 from __future__ import annotations
 
-import threading
-import weakref
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -79,6 +77,7 @@ from bnerr.errors import (
     check_shape,
     check_tensor,
 )
+from bnerr.tensor_memo import TensorMemo
 
 __all__ = [
     "SortPass",
@@ -308,39 +307,9 @@ def plan_sort(
     return SortPlan(block=block, height=size["H"], width=size["W"], order=order, grid_offset=grid)
 
 
-class _PlanCache:
-    """The last few plans, keyed by the mask tensor's identity, version, block size and grid.
-
-    A weak reference proves that the tensor is still the same object (ids are reused after garbage
-    collection) and ``Tensor._version`` changes on every in-place write, so a mask edited in place
-    gets a fresh plan. Inference-mode tensors have no version counter and are not cached.
-    """
-
-    def __init__(self, capacity: int = 8) -> None:
-        self.capacity = capacity
-        self.entries: dict[tuple, tuple[weakref.ref, int, SortPlan]] = {}
-        self.lock = threading.Lock()
-
-    def get(self, mask: torch.Tensor, block: int, grid: tuple[int, int] = (0, 0)) -> SortPlan:
-        try:
-            version = mask._version
-        except RuntimeError:  # inference tensor
-            return plan_sort(mask, block, grid)
-        key = (id(mask), block, grid)
-        with self.lock:
-            hit = self.entries.get(key)
-        if hit is not None and hit[0]() is mask and hit[1] == version:
-            return hit[2]
-        plan = plan_sort(mask, block, grid)
-        with self.lock:
-            self.entries.pop(key, None)
-            while len(self.entries) >= self.capacity:
-                self.entries.pop(next(iter(self.entries)))
-            self.entries[key] = (weakref.ref(mask), version, plan)
-        return plan
-
-
-_PLANS = _PlanCache()
+#: The last few plans, keyed by the mask tensor (its identity and in-place version), block size
+#: and grid offset.
+_PLANS: TensorMemo[SortPlan] = TensorMemo()
 
 
 # --------------------------------------------------------------------------------------------------
@@ -521,7 +490,8 @@ def _resolve_plan(
             )
         return mask
     grid = (0, 0) if grid is None else _check_grid_offset(grid, block)
-    return _PLANS.get(_check_mask(mask, h, w, device), block, grid)
+    checked = _check_mask(mask, h, w, device)
+    return _PLANS.get(checked, (block, grid), lambda: plan_sort(checked, block, grid))
 
 
 def _check_pass(

@@ -152,7 +152,7 @@ def _import(where: str, spec: str) -> ModuleType:
         return importlib.import_module(where)
     except PluginError:
         raise
-    except Exception as err:  # noqa: BLE001 - any import failure of foreign code
+    except Exception as err:
         raise PluginError(
             f"plug-in {spec!r} ({_distribution_of(where) or 'no distribution'}): expected an "
             f"importable module {where!r}, got {type(err).__name__}: {_first_line(err)}"
@@ -230,7 +230,7 @@ def installed(group: str) -> tuple[Plugin, ...]:
         plugin = Plugin(f"entry point {point.name}", None, distribution)
         try:
             obj = point.load()
-        except Exception as err:  # noqa: BLE001 - any failure of foreign code
+        except Exception as err:
             raise PluginError(
                 f"{plugin.who} of group {group}: expected {point.value!r} to load, got "
                 f"{type(err).__name__}: {_first_line(err)}"
@@ -259,7 +259,7 @@ def call_plugin(
         return build(*args, **kwargs)
     except BnerrError:
         raise
-    except Exception as err:  # noqa: BLE001 - any failure of foreign code
+    except Exception as err:
         raise PluginError(
             f"{plugin.who}: expected its {what} to build, got {type(err).__name__}: "
             f"{_first_line(err)}"

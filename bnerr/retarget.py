@@ -77,6 +77,7 @@ from bnerr.errors import (
 from bnerr.io import atomic_write
 from bnerr.masks import r2_step
 from bnerr.resources import data_dir, load_array, shipped_files
+from bnerr.tensor_memo import TensorMemo
 
 __all__ = [
     "MAX_DISPLACEMENT",
@@ -436,8 +437,9 @@ def _border_pairs(
     # The lift of a tile permutation is a bijection of the plane, so the in-screen sources are
     # distinct and exactly as many sources go unclaimed as targets point outside.
     if free.numel() != lost.numel():
-        raise RuntimeError(
-            f"retarget: {lost.numel()} targets outside but {free.numel()} free seeds"
+        raise ValueRangeError(
+            "displacement: expected a permutation of the tile (as many free seeds as targets "
+            f"outside the screen), got {lost.numel()} targets outside but {free.numel()} free seeds"
         )
     return lost, free
 
@@ -514,7 +516,8 @@ def _self_check(kernels: native.Kernels) -> bool:
     seeds = torch.randperm(37 * 29, generator=gen).view(37, 29)
     for offset in ((4, 9), (0, 0), (15, 1)):
         want = _gather_torch(seeds, field, *offset)
-        got = native.native_retarget_gather(kernels, seeds, field, inverse_field(field), offset)
+        form = native.retarget_field(field, inverse_field(field))
+        got = native.native_retarget_gather(kernels, seeds, form, offset)
         if got is None or not torch.equal(got, want):
             return False
     return True
@@ -558,15 +561,33 @@ def _retarget_cpu(
     oy: int,
     ox: int,
 ) -> torch.Tensor:
-    """CPU kernel of the op: the native kernel where it loads and passed its check, else torch."""
+    """CPU kernel of the op: the native kernel where it loads and passed its check, else torch.
+
+    The field's kernel form (int32 copies of it and of its inverse, its reach) is made once per
+    field tensor (:data:`_NATIVE_FIELDS`), not every frame.
+    """
     kernels = _native_kernels()
     if kernels is not None:
-        back = inverse_field(displacement) if inverse is None else inverse
+        form = _NATIVE_FIELDS.get(
+            displacement, "native", lambda: _native_field(displacement, inverse)
+        )
         threads = torch.get_num_threads() if seeds.numel() >= 1 << 16 else 1
-        out = native.native_retarget_gather(kernels, seeds, displacement, back, (oy, ox), threads)
+        out = native.native_retarget_gather(kernels, seeds, form, (oy, ox), threads)
         if out is not None:
             return out
     return _gather_torch(seeds, displacement, oy, ox)
+
+
+def _native_field(displacement: torch.Tensor, inverse: torch.Tensor | None) -> native.RetargetField:
+    back = inverse_field(displacement) if inverse is None else inverse
+    return native.retarget_field(displacement, back)
+
+
+#: The native kernel's form of the fields the op was given, keyed by the field tensor. A field's
+#: inverse is determined by the field, so the form does not depend on whether the caller passed it.
+_NATIVE_FIELDS: TensorMemo[native.RetargetField] = TensorMemo()
+#: A :class:`Retarget`'s field and its inverse on a device, keyed by its buffer and the device.
+_DEVICE_FIELDS: TensorMemo[tuple[torch.Tensor, torch.Tensor]] = TensorMemo()
 
 
 @torch.library.register_fake("bnerr::retarget")
@@ -585,6 +606,23 @@ _LIBRARY.impl("retarget", _retarget_cpu, "CPU")
 _LIBRARY.impl("retarget", _retarget_default, "CompositeExplicitAutograd")
 
 
+def _check_seeds(seeds: object) -> tuple[int, int]:
+    """``(H, W)`` of a seed image: an ``[H, W]`` int64 tensor."""
+    tensor = check_tensor(seeds, "seeds")
+    size = check_shape(tensor, "H W", "seeds")
+    check_dtype(tensor, torch.int64, "seeds")
+    return size["H"], size["W"]
+
+
+def _on_device(
+    displacement: torch.Tensor, device: torch.device
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """A checked field on ``device`` (the tensor itself where it is already there) and its
+    inverse."""
+    field = displacement.to(device)
+    return field, inverse_field(field)
+
+
 def retarget(
     seeds: torch.Tensor, displacement: torch.Tensor, offset: tuple[int, int]
 ) -> torch.Tensor:
@@ -601,8 +639,7 @@ def retarget(
         ``[H, W]`` int64 on ``seeds``' device: a permutation of ``seeds`` (every seed kept, none
         duplicated), for frame t + 1.
     """
-    check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
-    check_dtype(seeds, torch.int64, "seeds")
+    _check_seeds(seeds)
     offset = check_offset(offset)
     d = check_displacement(displacement, radius=None)
     if seeds.numel() == 0:
@@ -613,10 +650,12 @@ def retarget(
 class Retarget(torch.nn.Module):
     """Module form of :func:`retarget` holding one checked field; ``forward(seeds, offset)``.
 
-    Where the gather runs in torch (no native kernel, or not on the CPU), the gather indices of
-    the last ``cache`` (screen size, offset, device) combinations are kept, so that a loop whose
-    offsets cycle (16 distinct ones for T = 64) computes each only once. Each entry holds
-    ``H * W`` int32 (8 MB at 1080p); ``cache=0`` keeps none.
+    The field is checked once, here; its copy on each device, its inverse and its native kernel
+    form are made once (again only if the buffer is replaced or edited in place). Where the
+    gather runs in torch (no native kernel, or not on the CPU), the gather indices of the last
+    ``cache`` (screen size, offset, device) combinations are kept, so that a loop whose offsets
+    cycle (16 distinct ones for T = 64) computes each only once. Each entry holds ``H * W`` int32
+    (8 MB at 1080p); ``cache=0`` keeps none.
     """
 
     displacement: torch.Tensor  # a buffer: ``[2, T, T]`` int64
@@ -626,7 +665,27 @@ class Retarget(torch.nn.Module):
         self.register_buffer("displacement", check_displacement(displacement, radius=None))
         self.cache = check_positive_int(cache, "cache", minimum=0)
         self._sources: dict[tuple, torch.Tensor] = {}
-        self._inverse: torch.Tensor | None = None
+
+    def forward(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
+        """``seeds [H, W]`` int64 -> ``[H, W]`` int64, as :func:`retarget`."""
+        _check_seeds(seeds)
+        offset = check_offset(offset)
+        if seeds.numel() == 0:
+            return seeds.clone()
+        return self._gather(seeds, offset)
+
+    def _gather(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
+        """The pass on checked, non-empty seeds: the cached indices on the torch path, else the
+        op (which takes the native kernel on the CPU)."""
+        device = seeds.device
+        field, inverse = _DEVICE_FIELDS.get(
+            self.displacement, device, lambda: _on_device(self.displacement, device)
+        )
+        if self.cache and not (device.type == "cpu" and _native_kernels() is not None):
+            height, width = seeds.shape
+            src = self._cached_sources(height, width, offset, field)
+            return seeds.reshape(-1).index_select(0, src).reshape(height, width)
+        return torch.ops.bnerr.retarget.default(seeds, field, inverse, offset[0], offset[1])
 
     def _cached_sources(
         self, height: int, width: int, offset: tuple[int, int], field: torch.Tensor
@@ -641,22 +700,6 @@ class Retarget(torch.nn.Module):
                 self._sources.pop(next(iter(self._sources)))
             self._sources[key] = src
         return src
-
-    def forward(self, seeds: torch.Tensor, offset: tuple[int, int]) -> torch.Tensor:
-        """``seeds [H, W]`` int64 -> ``[H, W]`` int64, as :func:`retarget`."""
-        size = check_shape(check_tensor(seeds, "seeds"), "H W", "seeds")
-        check_dtype(seeds, torch.int64, "seeds")
-        offset = check_offset(offset)
-        if seeds.numel() == 0:
-            return seeds.clone()
-        field = self.displacement.to(seeds.device)
-        native_here = seeds.device.type == "cpu" and _native_kernels() is not None
-        if self.cache and not native_here:
-            src = self._cached_sources(size["H"], size["W"], offset, field)
-            return seeds.reshape(-1).index_select(0, src).reshape(size["H"], size["W"])
-        if self._inverse is None or self._inverse.device != seeds.device:
-            self._inverse = inverse_field(field)
-        return torch.ops.bnerr.retarget.default(seeds, field, self._inverse, offset[0], offset[1])
 
     def extra_repr(self) -> str:
         t = self.displacement.shape[-1]

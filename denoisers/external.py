@@ -467,7 +467,7 @@ def _execute(manifest: Manifest, argv: list[str], work: Path) -> None:
 
 def _exr_header(path: Path) -> tuple[tuple[int, int], list[str]]:
     """The ``(height, width)`` and sorted channel names of an EXR file, its pixels unread."""
-    import OpenEXR  # noqa: PLC0415 - a compiled extension, as in bnerr.io
+    import OpenEXR
 
     if not OpenEXR.isOpenExrFile(str(path)):
         raise ValueError("no EXR magic number")
@@ -479,7 +479,7 @@ def _exr_header(path: Path) -> tuple[tuple[int, int], list[str]]:
 
 def _exr_planes(path: Path) -> list[np.ndarray]:
     """The ``R``, ``G`` and ``B`` planes of an EXR file, in their stored dtype."""
-    import OpenEXR  # noqa: PLC0415
+    import OpenEXR
 
     channels = OpenEXR.File(str(path), separate_channels=True).channels()
     return [np.asarray(channels[c].pixels) for c in ("R", "G", "B")]

@@ -1,8 +1,9 @@
-"""The parsers of argument values that several commands share: one ``WxH`` resolution parser
-(``bnerr bench``, ``render`` and ``animate``, and ``python -m benchmarks.speed.tracer``), the
-name lists that take both ``--scenes a b`` and ``--scenes a,b``, and the one table of numeric
-option types (``type=`` of every numeric option of every command): :func:`positive_int`,
-:func:`nonnegative_int`, :func:`seed_int`, :func:`positive_float` and :func:`finite_float`.
+"""The parsers of argument values that several commands share: the ``WxH`` resolution parser
+(``bnerr bench``, ``render`` and ``animate``; defined in :mod:`benchmarks.resolution`, which
+``python -m benchmarks.speed.tracer`` imports as well), the name lists that take both ``--scenes
+a b`` and ``--scenes a,b``, and the one table of numeric option types (``type=`` of every numeric
+option of every command): :func:`positive_int`, :func:`nonnegative_int`, :func:`seed_int`,
+:func:`positive_float` and :func:`finite_float`.
 Each refuses, while the arguments are parsed and so before any work, what no run could use: a
 count below its minimum, NaN, an infinity, and a value past :data:`MAX_COUNT` (or the range a float
 option names), with argparse's one-line error and exit code 2.
@@ -16,7 +17,7 @@ import argparse
 import math
 from collections.abc import Callable
 
-from bnerr.errors import DtypeError, ValueRangeError
+from benchmarks.resolution import parse_resolution
 
 __all__ = [
     "EXPOSURE",
@@ -94,25 +95,6 @@ def positive_float(hi: float) -> Callable[[str], float]:
 def finite_float(lo: float, hi: float) -> Callable[[str], float]:
     """A finite number in ``[lo, hi]`` (exposures in stops)."""
     return _float(lo, hi, open_lo=False)
-
-
-def parse_resolution(text: str, flag: str = "--res") -> tuple[int, int]:
-    """``"320x240"`` -> ``(320, 240)`` (width, height), both >= 1; ``X`` works as well as ``x``.
-
-    Raises:
-        DtypeError: not of the form ``WxH`` with integers.
-        ValueRangeError: a size < 1.
-    """
-    w, sep, h = str(text).lower().partition("x")
-    try:
-        width, height = int(w), int(h)
-    except ValueError:
-        width = height = None
-    if not sep or width is None or height is None:
-        raise DtypeError(f"{flag}: expected WxH with integers (e.g. 320x240), got {text!r}")
-    if width < 1 or height < 1:
-        raise ValueRangeError(f"{flag}: expected width and height >= 1, got {width}x{height}")
-    return width, height
 
 
 def names(values: list[str] | None) -> list[str] | None:

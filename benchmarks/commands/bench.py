@@ -52,7 +52,7 @@ from benchmarks.commands._args import (
 from benchmarks.reports import write_report
 from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
-from benchmarks.suites import SUITES
+from benchmarks.suites import SUITES, Suite
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names
@@ -180,7 +180,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
-def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
+def _run_speed(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
@@ -195,7 +195,7 @@ def _run_speed(args: argparse.Namespace, suite, out: Path) -> str:
     return run_speed(suite, out, progress=not args.quiet, only=args.scripts)
 
 
-def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
+def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += ["--ray"] if args.ray is not None else []
@@ -211,7 +211,7 @@ def _report_only(args: argparse.Namespace, suite, out: Path) -> str:
     return write_report(out, records, title=title, charts=not args.no_charts)
 
 
-def _run_cells(args: argparse.Namespace, suite, out: Path) -> str:
+def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     if args.report_only:
         return _report_only(args, suite, out)

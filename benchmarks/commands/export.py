@@ -58,8 +58,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _load(args: argparse.Namespace) -> tuple[str, np.ndarray, bool]:
     """``(name, [S, T, T, C] array, is_keys)`` of the asked-for set."""
     if args.ldbn is not None:
-        from bnerr.ldbn.keys import ldbn_file_name, load_ldbn_keys  # noqa: PLC0415
-        from bnerr.strategies.ldbn import LDBN_SETS  # noqa: PLC0415
+        from bnerr.ldbn.keys import ldbn_file_name, load_ldbn_keys
+        from bnerr.strategies.ldbn import LDBN_SETS
 
         kind, frames, levels = next(s for s in LDBN_SETS.values() if s[0] == args.ldbn)
         keys = load_ldbn_keys(kind, args.size, frames, levels)
@@ -71,12 +71,12 @@ def _load(args: argparse.Namespace) -> tuple[str, np.ndarray, bool]:
         name = ldbn_file_name(kind, args.size, frames).removesuffix(".npy")
         return name, torch.stack(slices).numpy(), True
     if args.stbn is not None:
-        from bnerr.stbn import load_stbn  # noqa: PLC0415
+        from bnerr.stbn import load_stbn
 
         mask = load_stbn(args.stbn, args.size, 32).numpy()
         array = mask[..., None] if mask.ndim == 3 else mask.transpose(0, 2, 3, 1)
         return f"stbn_{args.stbn}_{args.size}x32", array, False
-    from bnerr.fast import load_fast_mask  # noqa: PLC0415
+    from bnerr.fast import load_fast_mask
 
     return f"fast_gauss_{args.size}", load_fast_mask(args.size).numpy()[None, ..., None], False
 
@@ -115,7 +115,7 @@ def _write_exr_slice(path: Path, slice_: np.ndarray) -> Path:
 
 
 def _write_pngs(folder: Path, name: str, array: np.ndarray, keys: bool) -> list[Path]:
-    from skimage.io import imsave  # noqa: PLC0415 - slow to import
+    from skimage.io import imsave  # slow to import
 
     dims = (array.shape[-1] * 2) // 3 if keys else 0  # LDBN: D scrambling + D/2 ranking keys
     paths = []

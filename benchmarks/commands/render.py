@@ -48,7 +48,7 @@ import functools
 import os
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import torch
@@ -66,8 +66,8 @@ from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
-from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
-from renderers import aot, get_scene, render
+from bnerr.strategies import Strategy, first_frame, make_strategy, pixel_seeds, play
+from renderers import Scene, aot, get_scene, render
 from renderers.budget import (
     COMPILE_SPEEDUP,
     SHOW_ESTIMATE_S,
@@ -155,7 +155,9 @@ def compile_choice(args: argparse.Namespace, width: int, height: int) -> bool | 
     return False
 
 
-def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: int) -> None:
+def _check_time(
+    args: argparse.Namespace, scene: Scene, strategy: Strategy | None, width: int, height: int
+) -> None:
     """Estimate the render's time from the tracer's throughput measured on this machine
     (:mod:`renderers.budget`): refuse it beyond :data:`TIME_LIMIT_S` unless ``--force``, print
     the estimate beyond :data:`SHOW_ESTIMATE_S`. Counts every render: a stateful strategy's
@@ -175,7 +177,9 @@ def _check_time(args: argparse.Namespace, scene, strategy, width: int, height: i
         print(f"bnerr render: estimated {format_seconds(seconds)} ({paths:.3g} paths)", flush=True)
 
 
-def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, scene, path: str):
+def _report(
+    stem: Path, elapsed: float, width: int, height: int, spp: int, scene: Scene, path: str
+) -> None:
     elapsed = max(elapsed, 1e-9)
     rate = width * height * spp / elapsed / 1e6
     tqdm.write(  # above the progress bar, if there is one
@@ -185,7 +189,11 @@ def _report(stem: Path, elapsed: float, width: int, height: int, spp: int, scene
     )
 
 
-def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int):
+#: ``(t, frame, seconds)`` of the frames a render writes.
+_Frames = Iterator[tuple[int, Frame, float]]
+
+
+def _fixed_seed_frames(args: argparse.Namespace, scene: Scene, height: int, width: int) -> _Frames:
     """``(t, frame, seconds)`` of the fixed-seed renders: every frame its own seed image."""
 
     sampler = make_sampler(args.sampler or "white")
@@ -197,7 +205,7 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
         yield t, frame, time.perf_counter() - start
 
 
-def _strategy_frames(args: argparse.Namespace, strategy, scene):
+def _strategy_frames(args: argparse.Namespace, strategy: Strategy, scene: Scene) -> _Frames:
     """``(t, frame, seconds)`` of ``strategy``'s frames ``--start ..``, played as the benchmark
     plays them (:func:`bnerr.strategies.play`, the renderer's frame t): a stateful strategy's
     earlier frames are rendered, not yielded, and not counted in the seconds."""

@@ -7,16 +7,29 @@ bnerr scenes --layout medium     # which sampler dimension feeds which decision
 from __future__ import annotations
 
 import argparse
+from typing import TypedDict
 
 from renderers import SCENES, get_scene
 
-__all__ = ["register", "run", "table"]
+__all__ = ["SceneRow", "register", "run", "table"]
 
 
-def table() -> list[dict[str, object]]:
-    """One row per named scene: name, D, depth, lights, objects, medium, animated, description."""
+class SceneRow(TypedDict):
+    """One named scene in the table."""
 
-    rows = []
+    name: str
+    D: int
+    depth: int
+    lights: int
+    objects: int
+    medium: bool
+    description: str
+
+
+def table() -> list[SceneRow]:
+    """One row per named scene: name, D, depth, lights, objects, medium, description."""
+
+    rows: list[SceneRow] = []
     for name in SCENES:
         scene = get_scene(name)
         rows.append(

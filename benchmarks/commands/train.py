@@ -52,7 +52,9 @@ def check_data_time(spec: TrainingSpec) -> None:
         print(f"bnerr train: rendering the data, estimated {format_seconds(seconds)}", flush=True)
 
 
-def load_or_render(spec, path: Path, progress: bool, force: bool = True):
+def load_or_render(
+    spec: TrainingSpec, path: Path, progress: bool, force: bool = True
+) -> TrainingSet:
     """The :class:`~denoisers.train.TrainingSet` of ``spec``: read from ``path`` if it holds
     that spec's data, else rendered and written there (atomically), after
     :func:`check_data_time` unless ``force``."""
@@ -105,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
         torch.set_num_threads(before)
 
 
-def _settings(args: argparse.Namespace):
+def _settings(args: argparse.Namespace) -> tuple[TrainingSpec, TrainConfig]:
     """The run's :class:`TrainingSpec` and :class:`TrainConfig`, checked before any work: the
     network's size, the memory the training set and a batch need, and the output files."""
 
@@ -166,7 +168,9 @@ def _run(args: argparse.Namespace) -> int:
         return _train(args, spec, config, out, start)
 
 
-def _train(args: argparse.Namespace, spec, config, out: Path, start: float) -> int:
+def _train(
+    args: argparse.Namespace, spec: TrainingSpec, config: TrainConfig, out: Path, start: float
+) -> int:
 
     data = load_or_render(spec, _data_path(out), not args.no_progress, force=args.force)
     render_s = time.perf_counter() - start

@@ -22,11 +22,13 @@ __all__ = ["make_server", "register", "run"]
 
 
 class _QuietHandler(http.server.SimpleHTTPRequestHandler):
-    def log_message(self, format: str, *args: object) -> None:  # noqa: A002 (the base's name)
+    def log_message(self, format: str, *args: object) -> None:  # `format`: the base's name
         pass  # one line per request would bury the address
 
 
-def make_server(folder: str | Path, host: str = "127.0.0.1", port: int = 8000):
+def make_server(
+    folder: str | Path, host: str = "127.0.0.1", port: int = 8000
+) -> http.server.ThreadingHTTPServer:
     """A :class:`http.server.ThreadingHTTPServer` serving ``folder`` (not started).
 
     Raises:
@@ -46,7 +48,7 @@ def make_server(folder: str | Path, host: str = "127.0.0.1", port: int = 8000):
 
 def run(args: argparse.Namespace) -> int:
     server = make_server(args.dir, args.host, args.port)
-    host, port = server.server_address[:2]
+    host, port = str(server.server_address[0]), server.server_address[1]
     print(f"serving {args.dir} at http://{host}:{port}/ (Ctrl-C stops)", flush=True)
     try:
         server.serve_forever()

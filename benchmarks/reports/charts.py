@@ -30,6 +30,7 @@ import math
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +39,11 @@ from benchmarks.reports.groups import group_key, group_slug, group_title, strate
 from benchmarks.reports.palette import strategy_style
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
+
+if TYPE_CHECKING:  # matplotlib takes 2 s to import: only when charts are drawn
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 __all__ = [
     "KEY_DENOISERS",
@@ -71,21 +77,22 @@ def key_denoisers(denoisers: Sequence[str]) -> list[str]:
     return keys or sorted(present)
 
 
-def _save(fig, path: Path) -> None:
+def _save(fig: Figure, path: Path) -> None:
     """Save as PNG in 256 colours (a third of the bytes of a line chart, no visible change)."""
     from PIL import Image
 
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png", dpi=100)
     buffer.seek(0)
-    with Image.open(buffer) as image:
-        image = image.convert("RGB")
-        image = image.quantize(colors=256, method=Image.Quantize.MEDIANCUT, dither=0)
+    with Image.open(buffer) as png:
+        image = png.convert("RGB").quantize(
+            colors=256, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE
+        )
         with atomic_write(path) as tmp:
             image.save(tmp, format="PNG", optimize=True)
 
 
-def _figure(panels: int, width: float = 3.6, height: float = 3.0):
+def _figure(panels: int, width: float = 3.6, height: float = 3.0) -> tuple[Figure, list[Axes]]:
     from matplotlib.figure import Figure  # 2 s to import: only when charts are drawn
 
     cols = min(3, panels)
@@ -94,9 +101,9 @@ def _figure(panels: int, width: float = 3.6, height: float = 3.0):
     return fig, [fig.add_subplot(rows, cols, i + 1) for i in range(panels)]
 
 
-def _legend(fig, axes) -> None:
+def _legend(fig: Figure, axes: Sequence[Axes]) -> None:
     """One legend for the figure, right of the panels, one entry per strategy."""
-    seen: dict[str, object] = {}
+    seen: dict[str, Artist] = {}
     for ax in axes:
         for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
             seen.setdefault(label, handle)
@@ -104,7 +111,7 @@ def _legend(fig, axes) -> None:
         fig.legend(list(seen.values()), list(seen), loc="outside right upper", fontsize=8)
 
 
-def _ratio_panel(ax, rows: list[dict], denoiser: str) -> None:
+def _ratio_panel(ax: Axes, rows: list[dict], denoiser: str) -> None:
     sizes = sorted({r["spp"] for r in rows})
     for s in strategy_order(r["strategy"] for r in rows):
         pts = sorted(
@@ -132,7 +139,7 @@ def _ratio_panel(ax, rows: list[dict], denoiser: str) -> None:
                 for r in pts
             ],
         ]
-        style = strategy_style(s)
+        style: dict[str, Any] = strategy_style(s)  # matplotlib keywords
         ax.errorbar(x, y, yerr=err, capsize=2, lw=1.2, ms=0, label=s, **style)
         ax.scatter(
             x, y, s=[12 + 10 * sizes.index(r["spp"]) for r in pts], color=style["color"], zorder=3
@@ -146,7 +153,7 @@ def _ratio_panel(ax, rows: list[dict], denoiser: str) -> None:
     ax.grid(True, which="both", alpha=0.3)
 
 
-def _log_ms_axis(ax) -> None:
+def _log_ms_axis(ax: Axes) -> None:
     """A log x axis labelled in plain numbers at 1-2-5 steps (1 per decade past two decades),
     minor ticks unlabelled, so that labels never run into each other."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
@@ -159,7 +166,7 @@ def _log_ms_axis(ax) -> None:
     ax.xaxis.set_minor_formatter(NullFormatter())
 
 
-def error_vs_time_figure(title: str, rows: list[dict], denoisers: Sequence[str]):
+def error_vs_time_figure(title: str, rows: list[dict], denoisers: Sequence[str]) -> Figure:
     """The error-against-time figure of one group's rows: one panel per denoiser."""
     fig, axes = _figure(len(denoisers))
     for ax, d in zip(axes, denoisers, strict=True):
@@ -181,7 +188,7 @@ def share_slug(share: GapShare) -> str:
     return group_slug((share.scene, motion, depth, region, sampler))
 
 
-def oracle_share_figure(title: str, shares: Sequence[GapShare]):
+def oracle_share_figure(title: str, shares: Sequence[GapShare]) -> Figure:
     """Each strategy's share of the white-to-oracle gap against spp, one panel per measure."""
     from matplotlib.ticker import NullLocator
 
@@ -195,13 +202,14 @@ def oracle_share_figure(title: str, shares: Sequence[GapShare]):
             lo = [p.share - p.lo if math.isfinite(p.lo) else 0.0 for p in pts]
             hi = [p.hi - p.share if math.isfinite(p.hi) else 0.0 for p in pts]
             x = [p.spp for p in pts]
+            style: dict[str, Any] = strategy_style(name)  # matplotlib keywords
             ax.errorbar(
                 x,
                 [p.share for p in pts],
                 yerr=[lo, hi],
                 capsize=2,
                 label=name,
-                **strategy_style(name),
+                **style,
             )
         ax.axhline(0.0, color="#8c8c8c", lw=0.8)
         ax.axhline(1.0, color="#000000", lw=0.8, ls="--")
@@ -303,8 +311,8 @@ def write_charts(
             path = out / f"oracle_share_{slug}.png"
             _save(oracle_share_figure(title, share_groups[slug]), path)
             written.append(path)
-        path = _spectra(slug, title, group, lookup, out)
-        if path is not None:
-            written.append(path)
+        spectra = _spectra(slug, title, group, lookup, out)
+        if spectra is not None:
+            written.append(spectra)
         (out / f"crops_{slug}.png").unlink(missing_ok=True)  # a former chart: the page shows them
     return written

@@ -40,10 +40,12 @@ def _read_npz(path: Path) -> dict[str, np.ndarray]:
 
 
 def _read_png(path: Path) -> dict[str, np.ndarray]:
-    from PIL import Image
+    from PIL import Image, PngImagePlugin
 
     try:
         with Image.open(path) as image:
+            if not isinstance(image, PngImagePlugin.PngImageFile):
+                raise ValueError(f"a {image.format} image")
             names = json.loads(image.text[_TILES])
             strip = np.asarray(image.convert("RGB"))
     except (OSError, ValueError, KeyError) as err:

@@ -27,6 +27,7 @@ import dataclasses
 from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -44,6 +45,9 @@ from benchmarks.reports.previews import load_crop
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
 __all__ = ["GOALS", "seed_figure", "write_seed_report"]
 
 #: The issue's goal: the share of the oracle's dividend to keep at these spp (sigma-2 blur,
@@ -59,7 +63,7 @@ def _inset_box(size: int) -> tuple[int, int, int]:
     return min(size * 9 // 16, size - side), (size - side) // 2, side
 
 
-def seed_figure(title: str, images: dict[str, np.ndarray], spectra: dict[str, tuple]):
+def seed_figure(title: str, images: dict[str, np.ndarray], spectra: dict[str, tuple]) -> Figure:
     """The figure: ``images`` (name -> uint8 ``H x W x 3``, ``reference`` first) side by side
     with an inset each, then ``spectra`` (strategy -> ``(freq, power)``) on one log axis."""
     from matplotlib.figure import Figure

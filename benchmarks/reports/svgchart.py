@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import html
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 from benchmarks.reports.groups import strategy_order
 from benchmarks.reports.palette import strategy_color
@@ -31,7 +31,11 @@ def _points(rows: Sequence[dict], denoiser: str) -> list[dict]:
     ]
 
 
-def _scales(pts: list[dict]):
+#: A scale: data value -> SVG coordinate.
+_Scale = Callable[[float], float]
+
+
+def _scales(pts: list[dict]) -> tuple[_Scale, _Scale, tuple[float, float, float, float]]:
     xs = [math.log10(r["total_ms"]) for r in pts]
     ys = [v for r in pts for v in (r["den_mse_ratio_lo"], r["den_mse_ratio_hi"]) if v is not None]
     ys += [r["den_mse_ratio"] for r in pts] + [1.0]
@@ -49,7 +53,7 @@ def _scales(pts: list[dict]):
     return sx, sy, (x0, x1, y0, y1)
 
 
-def _axes(sx, sy, box) -> list[str]:
+def _axes(sx: _Scale, sy: _Scale, box: tuple[float, float, float, float]) -> list[str]:
     x0, x1, y0, y1 = box
     out = [f'<line x1="{_L}" y1="{sy(1.0):.1f}" x2="{_W - _R}" y2="{sy(1.0):.1f}" stroke="#aaa"/>']
     for k in range(5):
@@ -69,7 +73,7 @@ def _axes(sx, sy, box) -> list[str]:
     return out
 
 
-def _point(r: dict, strategy: str, color: str, sx, sy) -> str:
+def _point(r: dict, strategy: str, color: str, sx: _Scale, sy: _Scale) -> str:
     """One point: its interval bar and a circle whose ``<title>`` the browser shows on hover."""
     lo, hi, ratio = r["den_mse_ratio_lo"], r["den_mse_ratio_hi"], r["den_mse_ratio"]
     x, y = sx(r["total_ms"]), sy(ratio)
@@ -87,7 +91,7 @@ def _point(r: dict, strategy: str, color: str, sx, sy) -> str:
     )
 
 
-def _series(pts: list[dict], sx, sy) -> list[str]:
+def _series(pts: list[dict], sx: _Scale, sy: _Scale) -> list[str]:
     out = []
     for s in strategy_order(r["strategy"] for r in pts):
         line = sorted((r for r in pts if r["strategy"] == s), key=lambda r: r["spp"])
@@ -112,7 +116,7 @@ def ratio_svg(rows: Sequence[dict], denoiser: str) -> str:
     )
 
 
-def legend_html(strategies: Sequence[str]) -> str:
+def legend_html(strategies: Iterable[str]) -> str:
     """The colour legend of the given strategies, in table order."""
     items = "".join(
         f'<span><i style="background:{strategy_color(s)}"></i>{html.escape(s)}</span>'

@@ -88,7 +88,10 @@ def goal_met(name: str, seconds: Any, oidn: Any) -> str:
     bound, anchored = GOALS[name]
     s, anchor = number(seconds), number(oidn)
     goal = f"{fmt(bound)}x OIDN" if anchored else f"{fmt(bound)} s"
-    limit = None if anchored and anchor is None else bound * (anchor if anchored else 1.0)
+    if anchored:
+        limit = None if anchor is None else bound * anchor
+    else:
+        limit = bound
     if s is None or limit is None:
         return f"{goal}: -"
     return f"{goal}: {'yes' if s <= limit else 'no'}"

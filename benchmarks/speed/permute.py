@@ -36,7 +36,7 @@ from benchmarks.speed.copy import JOB_BYTES, PASS_JOBS
 from benchmarks.speed.formatting import DASH, fmt, get, number, ratio
 from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import luminance, plan_sort, sort_pass, sort_torch
+from bnerr.permute import SortPlan, luminance, plan_sort, sort_pass, sort_torch
 from bnerr.reproject import reproject_seeds
 from bnerr.retarget import Retarget, load_retarget, retarget_sources
 from bnerr.sortkeys import group_labels, sort_key
@@ -82,7 +82,9 @@ def _interleaved(
     return {name: statistics.median(ts) for name, ts in times.items()}
 
 
-def _inputs(width: int, height: int, block: int, device: torch.device, mask_size: int):
+def _inputs(
+    width: int, height: int, block: int, device: torch.device, mask_size: int
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor, torch.Tensor, SortPlan]:
     """``(color [3, H, W], lum [H, W], seeds [H, W], mask [H, W], plan)``, the sort pass checked
     against the argsort baseline."""
     gen = torch.Generator().manual_seed(0)
@@ -163,7 +165,7 @@ def measure(
     threads: int | None = 2,
     device: str | torch.device = "cpu",
     mask_size: int = 64,
-) -> dict[str, float | str]:
+) -> dict[str, Any]:
     """Time the permutation passes; returns milliseconds by name plus context.
 
     Keys: ``sort_pass_lum_ms``, ``sort_pass_rgb_ms``, ``argsort_ms``, ``ratio`` (argsort over
@@ -195,11 +197,12 @@ def measure(
             "retarget_ms": lambda: retarget(seeds, offsets[next(counter) % 16]),
             "retarget_torch_ms": retarget_torch,
         }
-        result: dict[str, float | str] = dict(_interleaved(fns, repeats, device))
+        times = _interleaved(fns, repeats, device)
+        result: dict[str, Any] = dict(times)
         result["plan_ms"] = _interleaved(
             {"plan": lambda: plan_sort(mask, block)}, max(3, repeats // 10), device
         )["plan"]
-        result["ratio"] = result["argsort_ms"] / result["sort_pass_lum_ms"]
+        result["ratio"] = times["argsort_ms"] / times["sort_pass_lum_ms"]
         result["gap"] = _interleaved(
             _gap_fns(color, lum, seeds, mask, block), max(3, repeats // 5), device
         )
@@ -215,7 +218,7 @@ def measure(
 def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     """The permutation passes against a memory copy of the same bytes."""
     copy = figures.get("speed.copy")
-    width, height = _size(values.get("size"))
+    size = _size(values.get("size"))
     names = {
         "sort_pass_lum_ms": "sort pass, luminance key",
         "sort_pass_rgb_ms": "sort pass, color key",
@@ -228,8 +231,8 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     for key, name in names.items():
         job = PASS_JOBS[key]
         moved = get(copy, job, "bytes")
-        if moved is None and width is not None:
-            moved = JOB_BYTES[job] * width * height
+        if moved is None and size is not None:
+            moved = JOB_BYTES[job] * size[0] * size[1]
         ms = number(values.get(key))
         rate = None if ms is None or moved is None else moved / (ms * 1e-3) / 1e9
         copy_ms = get(copy, job, "copy_ms")
@@ -267,13 +270,13 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
     return lines + _gap(values)
 
 
-def _size(size: Any) -> tuple[int | None, int | None]:
-    """``(width, height)`` from speed.permute's ``"1920x1080, block 4"``, or Nones."""
+def _size(size: Any) -> tuple[int, int] | None:
+    """``(width, height)`` from speed.permute's ``"1920x1080, block 4"``, or None."""
     try:
         width, height = str(size).split(",")[0].split("x")
         return int(width), int(height)
     except ValueError:
-        return None, None
+        return None
 
 
 def _gap(values: Mapping[str, Any]) -> list[str]:

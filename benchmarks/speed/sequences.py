@@ -33,6 +33,7 @@ from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import fmt, get, number, ratio
 from bnerr.sequences import SAMPLERS, LDBNKeys, cycles_keys, make_sampler, zsobol_keys
 from bnerr.strategies import make_strategy
+from bnerr.strategies.ldbn import LDBNStrategy
 from bnerr.timing import Stopwatch, sync
 
 __all__ = ["table", "main", "measure", "measure_render", "measure_samples"]
@@ -43,12 +44,18 @@ RENDERED = ("white", "owen_sobol", "zsobol", "zsobol_t", "cycles_pure", "cycles_
 RENDER_GOAL = 1.2
 
 
-def _lanes(n: int, device: torch.device):
+def _lanes(n: int, device: torch.device) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     lane = torch.arange(n, dtype=torch.int64, device=device)
     seed = (lane // 64) * 2654435761 % 2**32  # one seed per pixel, 64 samples each
     index = lane % 64
     pixel = torch.stack([(lane // 64) // 1024, (lane // 64) % 1024], dim=1)
     return seed, index, pixel
+
+
+def _ldbn_strategy(size: int, spp: int) -> LDBNStrategy:
+    strategy = make_strategy("ldbn", size, size, seed=0, spp=spp)
+    assert isinstance(strategy, LDBNStrategy)  # the class registered as "ldbn"
+    return strategy
 
 
 def _ldbn_keys() -> LDBNKeys:
@@ -77,7 +84,7 @@ def _render_setups(size: int, spp: int) -> dict[str, tuple[Any, torch.Tensor]]:
         "zsobol_t": (make_sampler("zsobol_t", **film, frame=3), morton),
         "cycles_pure": (make_sampler("cycles_pure", spp=spp), cycles_keys(size, size)),
         "cycles_first": (make_sampler("cycles_first", spp=spp), cycles_keys(size, size)),
-        "ldbn": (make_strategy("ldbn", size, size, seed=0, spp=spp).sampler(0), seeds),
+        "ldbn": (_ldbn_strategy(size, spp).sampler(0), seeds),
     }
 
 
@@ -112,8 +119,8 @@ def measure_samples(
     device = torch.device(device)
     seed, index, pixel = _lanes(n, device)
     mask = torch.rand(8, 64, 64, generator=torch.Generator().manual_seed(0)).to(device)
-    film = {"width": 1024, "height": max(n // 64 // 1024, 1), "spp": 64}
-    options = {
+    film: dict[str, object] = {"width": 1024, "height": max(n // 64 // 1024, 1), "spp": 64}
+    options: dict[str, dict[str, object]] = {
         "bnds": {"mask": mask, "offset": (3, 7), "seed0": 1},
         "zsobol": film,
         "zsobol_t": {**film, "frame": 3},

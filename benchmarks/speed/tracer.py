@@ -38,12 +38,12 @@ import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import IO, Any
 
 import torch
 
-from benchmarks.commands._args import parse_resolution
 from benchmarks.reports.markdown import table_lines
+from benchmarks.resolution import parse_resolution
 from benchmarks.speed.formatting import DASH, fmt, number
 from bnerr.errors import UnknownNameError
 from bnerr.io import atomic_write
@@ -122,7 +122,7 @@ class _Mitsuba:
     ) -> None:
         self.variant, self.timeout = variant, timeout
         self.error: str | None = None
-        self.proc: subprocess.Popen | None = None
+        self.proc: subprocess.Popen[str] | None = None
         self.warmup = 0.0
         if not mitsuba_available():
             self.error = "mitsuba is not installed (pip install 'bnerr[reference]')"
@@ -163,30 +163,39 @@ class _Mitsuba:
         if reply is not None:
             self.warmup = reply
 
+    def _child(self) -> tuple[subprocess.Popen[str], IO[str], IO[str]]:
+        """The child and its stdin and stdout pipes: there whenever ``error`` is None."""
+        proc = self.proc
+        assert proc is not None and proc.stdin is not None and proc.stdout is not None
+        return proc, proc.stdin, proc.stdout
+
     def _read(self) -> float | None:
-        line = self.proc.stdout.readline()
+        proc, _, stdout = self._child()
+        line = stdout.readline()
         try:
             return float(line)
         except ValueError:
-            self.proc.kill()
-            self.proc.wait(timeout=self.timeout)
+            proc.kill()
+            proc.wait(timeout=self.timeout)
             self.stderr.seek(0)
             err = self.stderr.read()
-            tail = (err or line).strip().splitlines()[-1:] or [f"exit code {self.proc.returncode}"]
-            self.error = f"{self.variant} failed (exit code {self.proc.returncode}): {tail[0]}"
+            tail = (err or line).strip().splitlines()[-1:] or [f"exit code {proc.returncode}"]
+            self.error = f"{self.variant} failed (exit code {proc.returncode}): {tail[0]}"
             return None
 
     def __call__(self) -> float | None:
         if self.error is not None:
             return None
-        self.proc.stdin.write("render\n")
-        self.proc.stdin.flush()
+        _, stdin, _ = self._child()
+        stdin.write("render\n")
+        stdin.flush()
         return self._read()
 
     def close(self) -> None:
         if self.proc is not None:
             if self.proc.poll() is None:
-                self.proc.stdin.close()
+                _, stdin, _ = self._child()
+                stdin.close()
                 self.proc.wait(timeout=self.timeout)
             self.stderr.close()
 
@@ -209,7 +218,7 @@ def _serve(
     def timed() -> float:
         nonlocal seed
         start = time.perf_counter()
-        image = mi.render(scene, spp=spp, seed=seed)
+        image = mi.render(scene, spp=spp, seed=seed)  # type: ignore[arg-type]  # stubs: UInt32
         dr.eval(image)  # the LLVM variant is lazy: wait for its kernels
         dr.sync_thread()
         seed += 1
@@ -249,7 +258,11 @@ def measure_mitsuba(
     """One Mitsuba variant alone: figures as :func:`measure_ours`, or an error string."""
     worker = _Mitsuba(variant, scene_name, width, height, spp, threads, timeout)
     try:
-        times = [worker() for _ in range(repeats)] if worker.error is None else []
+        times: list[float] = []
+        while worker.error is None and len(times) < repeats:
+            seconds = worker()
+            if seconds is not None:  # else the worker failed: its error says why
+                times.append(seconds)
         if worker.error is not None:
             return worker.error
         return _figures(times, worker.warmup, width * height * spp)
@@ -306,7 +319,7 @@ def measure(
     compile: str = "aot",
     variants: Sequence[str] = ("scalar_rgb", "llvm_ad_rgb"),
     threads: int | None = None,
-) -> dict[str, object]:
+) -> dict[str, Any]:
     """Throughput of our tracer and of Mitsuba 3 on each scene, in interleaved rounds.
 
     Returns ``{"settings": {...}, scene: {"bnerr": figures, "mitsuba_<variant>": figures or an
@@ -338,7 +351,7 @@ def measure(
     return out
 
 
-def _print(result: dict[str, object]) -> None:
+def _print(result: Mapping[str, Any]) -> None:
     settings = result["settings"]
     print(
         f"# {settings['width']}x{settings['height']} at {settings['spp']} spp, "
@@ -384,7 +397,8 @@ def table(values: Mapping[str, Any], figures: Mapping[str, Any]) -> list[str]:
         for renderer in ("bnerr", "mitsuba_scalar_rgb", "mitsuba_llvm_ad_rgb"):
             got = row.get(renderer)
             ratio = row.get(f"ratio_{renderer.removeprefix('mitsuba_')}")
-            inverse = DASH if number(ratio) in (None, 0) else f"{fmt(1 / ratio)}x"
+            speedup = number(ratio)
+            inverse = DASH if not speedup else f"{fmt(1 / speedup)}x"
             name = "bnerr" if renderer == "bnerr" else f"Mitsuba {renderer[8:]}"
             if not isinstance(got, Mapping):
                 note = DASH if got is None else f"failed: {got}"

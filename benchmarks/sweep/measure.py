@@ -35,12 +35,12 @@ import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Protocol, TypeGuard
 
 import numpy as np
 import torch
 
-from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, Scene
+from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, Scene, StatefulDenoiser
 from benchmarks.sweep.plan import Run
 from benchmarks.sweep.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
 from bnerr.color import preview_u8
@@ -172,7 +172,9 @@ class SeedSetResult:
     coverage: dict[str, list[float]] = field(default_factory=dict)
 
 
-def _stateful(denoiser: Denoiser) -> bool:
+def _stateful(denoiser: Denoiser) -> TypeGuard[StatefulDenoiser]:
+    """Whether ``denoiser`` carries state from frame to frame (a stand-in may have no
+    ``stateful`` at all: it is then stateless)."""
     return bool(getattr(denoiser, "stateful", False))
 
 
@@ -259,8 +261,9 @@ class _SeedSetMeasurement:
             _update(self.raw[region], frame.color, target, mask)
         err = frame.color - ref.color
         self._spectrum("raw", err)
-        if masks.get("coherent") is not None:
-            self._coherent_spectrum(err, masks["coherent"])
+        coherent = masks.get("coherent")
+        if coherent is not None:
+            self._coherent_spectrum(err, coherent)
         if self._prev_err is not None:
             self.tcorr.append(temporal_correlation(err, self._prev_err, frame.motion))
         self._prev_err = err
@@ -334,8 +337,9 @@ def merge_seed_sets(
         spp=run.reference_spp, floor=float(np.mean(floors)) if floors else None, version=version
     )
 
-    def stacked(pick: Callable[[SeedSetResult], dict[str, torch.Tensor]]) -> MetricPairs:
-        return {m: torch.stack([pick(r)[m] for r in ordered]).tolist() for m in run.metrics}
+    def stacked(tables: list[dict[str, torch.Tensor]]) -> MetricPairs:
+        """Per metric, the seed sets' ``[F, 2]`` pairs stacked in seed-set order."""
+        return {m: torch.stack([table[m] for table in tables]).tolist() for m in run.metrics}
 
     def series(name: str) -> list[list[float]]:
         return [list(r.timings[name]) for r in ordered]
@@ -348,8 +352,8 @@ def merge_seed_sets(
             cell=cell,
             dimensions=first.dimensions,
             t=list(first.measured_t),
-            raw=stacked(lambda r, region=cell.region: r.raw[region]),
-            den=stacked(lambda r, key=(cell.denoiser, cell.region): r.den[key]),
+            raw=stacked([r.raw[cell.region] for r in ordered]),
+            den=stacked([r.den[(cell.denoiser, cell.region)] for r in ordered]),
             denoiser_params=dict(last.denoiser_params[cell.denoiser]),
             timings=Timings(
                 render_ms=series("render_ms"),
@@ -415,7 +419,7 @@ def measure_seed_set(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
     # a stateful strategy, or a stateful denoiser, needs the warmup frames in order
-    in_order = parts.stateful(strategy) or any(_stateful(d) for d in chosen.values())
+    in_order = strategy.stateful or any(_stateful(d) for d in chosen.values())
     shown = range(run.warmup, run.warmup + run.frames)
     for _ in range(first_frame(strategy, shown, in_order)):  # skipped warmup frames count as done
         tick()
@@ -428,8 +432,7 @@ def measure_seed_set(
             measurement.add(t, frame, ref, _previous_reference(run, scene, references, t))
         else:
             measurement.feed_warmup(t, frame)
-    sampler = getattr(strategy, "sampler_name", "") or run.sampler
-    return measurement.result(int(getattr(scene, "dimensions", 0)), sampler)
+    return measurement.result(scene.dimensions, strategy.sampler_name or run.sampler)
 
 
 def finish_run(
@@ -492,5 +495,6 @@ def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path, merge: bo
             arrays = {**{k: kept[k] for k in kept.files}, **arrays}
     with atomic_write(crops_dir / name) as tmp:
         with open(tmp, "wb") as handle:
-            np.savez_compressed(handle, **arrays)
+            # numpy's stub lets a ** mapping reach the bool allow_pickle; these are arrays
+            np.savez_compressed(handle, **arrays)  # type: ignore[arg-type]
     return f"{crops_dir.name}/{name}"

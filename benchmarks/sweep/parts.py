@@ -33,11 +33,13 @@ if TYPE_CHECKING:
     from denoisers.tuning import TuneResult
 
 __all__ = [
+    "BatchRenderer",
     "BoundRender",
     "Denoiser",
     "Parts",
     "Renderer",
     "Scene",
+    "StatefulDenoiser",
     "Strategy",
     "known_names",
     "real_parts",
@@ -72,26 +74,40 @@ class Renderer(Protocol):
     ) -> Frame: ...
 
 
-class Strategy(Protocol):
-    """A seed strategy (:class:`bnerr.strategies.Strategy`): drives the renderer for its frame.
+class BatchRenderer(Protocol):
+    """``render_batch(scene, t, seeds [K, H, W] int64, sampler, spp) -> list[Frame]``: the K
+    frames of :class:`Renderer` (called without ``compile``) for ``seeds[k]``, bit-identical to
+    them, at once (:func:`renderers.render_batch`)."""
 
-    ``sampler_name`` is the sampler its renders use: the run's per-pixel ``sampler`` condition,
-    or the one the strategy dictates (the Z-order and dithering strategies,
-    :data:`bnerr.strategies.OWN_SAMPLERS`); the records keep it. ``stateful``: whether a frame
-    depends on the earlier frames.
-    """
+    def __call__(
+        self, scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    ) -> list[Frame]: ...
 
-    overhead_ms: float
-    sampler_name: str
-    stateful: bool
 
-    def frame(self, t: int, render: Callable[[torch.Tensor, Sampler], Frame]) -> Frame: ...
+#: A seed strategy: the library's :class:`bnerr.strategies.Strategy`, because the runner plays it
+#: with :func:`bnerr.strategies.play`. Of it the runner reads ``frame(t, render)``,
+#: ``overhead_ms``, ``sampler_name`` (the sampler its renders use: the run's per-pixel ``sampler``
+#: condition, or the one the strategy dictates, :data:`bnerr.strategies.OWN_SAMPLERS`; the records
+#: keep it) and ``stateful`` (whether a frame depends on the earlier frames); a stand-in needs
+#: those alone.
+Strategy = strategies.Strategy
 
 
 class Denoiser(Protocol):
     """``denoiser(frame) -> [3, H, W]`` float32 image."""
 
     def __call__(self, frame: Frame) -> torch.Tensor: ...
+
+
+class StatefulDenoiser(Protocol):
+    """A denoiser whose output depends on the frames it saw (``stateful`` true: ``taa``,
+    ``svgf``): told each frame's index, reset at the start of a sequence."""
+
+    stateful: bool
+
+    def __call__(self, frame: Frame, *, t: int) -> torch.Tensor: ...
+
+    def reset(self) -> None: ...
 
 
 @dataclass(frozen=True)
@@ -105,10 +121,6 @@ class Parts:
             ``sampler`` the per-pixel sampler condition (a strategy with its own sampler ignores
             it), ``spp`` the samples per pixel its renders take (the Z-order samplers' block
             length).
-        stateful: ``(strategy) -> bool``: whether a frame depends on the earlier frames (the
-            temporal strategies). Only those render the warmup frames; a stateless strategy's
-            frame t is the same whether or not frames 0..t-1 were rendered, so the runner skips
-            them (the oracle's warmup would cost K renders per frame for nothing).
         make_denoiser: ``(name, params) -> Denoiser`` (``params`` from ``tune_denoiser``, or None
             for a denoiser without parameters).
         tune_denoiser: ``(name, frames, references [3, H, W]) -> TuneResult | None``: grid-search
@@ -118,24 +130,28 @@ class Parts:
         with_depth: ``(scene, depth) -> scene`` with its maximum path depth replaced.
         code_version: a string that changes whenever a reference's pixels could change: the
             renderer's and the samplers' source code
-        (:func:`benchmarks.sweep.version.code_version`). render_batch: ``(scene, t, seeds [K, H, W],
-            sampler, spp) -> list[Frame]``, the K renders of :attr:`render` at once and
-            bit-identical to them (the oracle's candidates), or None to render them one by one.
+            (:func:`benchmarks.sweep.version.code_version`).
+        render_batch: the :class:`BatchRenderer` (the oracle's K candidates at once, each
+            bit-identical to its :attr:`render`), or None to render them one by one.
         plugins: the command line's plug-in specs, ``(group, spec)`` pairs
             (:mod:`benchmarks.sweep.plugins`): :func:`real_parts`' callables load them again
             wherever they run (a Ray worker), so the cells' names resolve there too.
+
+    Whether a strategy's frame depends on the earlier frames is its own ``stateful``
+    (:class:`Strategy`): only those render the warmup frames; a stateless strategy's frame t is
+    the same whether or not frames 0..t-1 were rendered, so the runner skips them (the oracle's
+    warmup would cost K renders per frame for nothing).
     """
 
     get_scene: Callable[[str, bool], Scene]
     render: Renderer
     make_strategy: Callable[[str, Scene, int, int, int, str, int], Strategy]
-    stateful: Callable[[Strategy], bool]
     make_denoiser: Callable[[str, dict | None], Denoiser]
     tune_denoiser: Callable[[str, list[Frame], list[torch.Tensor]], TuneResult | None]
     reference_sampler: Callable[[], Sampler]
     with_depth: Callable[[Scene, int], Scene]
     code_version: str
-    render_batch: Callable[..., list[Frame]] | None = None
+    render_batch: BatchRenderer | None = None
     plugins: tuple[tuple[str, str], ...] = ()
 
 
@@ -173,12 +189,14 @@ def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
         load_specs(specs)
         return denoisers.get_denoiser(name, **(params or {}))
 
-    def tune_denoiser(name: str, frames: list[Frame], refs: list[torch.Tensor]):
+    def tune_denoiser(
+        name: str, frames: list[Frame], refs: list[torch.Tensor]
+    ) -> TuneResult | None:
         return tuning.tune(name, frames, refs) if name in tuning.GRIDS else None
 
     def make_strategy(
         name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
-    ):
+    ) -> Strategy:
         load_specs(specs)
         return strategies.make_strategy(
             name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
@@ -189,19 +207,41 @@ def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
         # noise floor is lower for the same render time; it is unbiased like white noise.
         return sequences.make_sampler("owen_sobol")
 
+    def render(
+        scene: Scene,
+        t: int,
+        seeds: torch.Tensor,
+        sampler: Sampler,
+        spp: int,
+        *,
+        compile: bool | None = None,
+    ) -> Frame:
+        return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
+
+    def render_batch(
+        scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    ) -> list[Frame]:
+        return renderers.render_batch(_own(scene), t, seeds, sampler, spp)
+
     return Parts(
         get_scene=get_scene,
-        render=renderers.render,
+        render=render,
         make_strategy=make_strategy,
-        stateful=lambda strategy: bool(getattr(strategy, "stateful", False)),
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
-        with_depth=lambda scene, depth: dataclasses.replace(scene, max_depth=depth),
+        with_depth=lambda scene, depth: dataclasses.replace(_own(scene), max_depth=depth),
         code_version=code_version(),
-        render_batch=renderers.render_batch,
+        render_batch=render_batch,
         plugins=tuple(specs),
     )
+
+
+def _own(scene: Scene) -> renderers.Scene:
+    """The renderer's own scene behind the runner's view of it: what :func:`real_parts`'
+    ``get_scene`` made."""
+    assert isinstance(scene, renderers.Scene)  # real_parts' scenes are the renderer's
+    return scene
 
 
 def known_names() -> dict[str, tuple[str, ...]]:

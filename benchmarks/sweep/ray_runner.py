@@ -270,6 +270,7 @@ class _Scheduler:
             return  # a failed reference fails the tasks that need it
         value = self.ray.get(ref)
         if job.kind == "tune":
+            assert job.run is not None and job.tkey is not None  # a tuning carries both
             store_tuned(job.run, self.sweep.store, value, job.tkey[2])
             self.sweep.save_params()
             for run in self.waiting.pop(job.tkey):
@@ -277,19 +278,21 @@ class _Scheduler:
                 if not self.blocked[run]:
                     self._submit_measures(run)
             return
-        done = self.results[job.run]
+        measured = job.run
+        assert measured is not None  # a measure job carries its run
+        done = self.results[measured]
         done.append(value)
-        if len(done) == job.run.seed_sets:
-            del self.results[job.run]
+        if len(done) == measured.seed_sets:
+            del self.results[measured]
             crops = self.sweep.out / "crops"
             version, merge = self.sweep.parts.code_version, self.sweep.resumed
-            self.sweep.add(finish_run(job.run, done, version, crops, merge_crops=merge))
+            self.sweep.add(finish_run(measured, done, version, crops, merge_crops=merge))
 
     def cancel(self) -> None:
         for ref in list(self.inflight):
             try:
                 self.ray.cancel(ref)
-            except Exception:  # noqa: BLE001  (a task that just finished cannot be cancelled)
+            except Exception:  # a task that just finished cannot be cancelled
                 pass
         self.inflight.clear()
 
@@ -297,7 +300,8 @@ class _Scheduler:
 def _task_count(sweep: SweepState) -> int:
     """Every task the sweep will run: references, tunings and seed sets (for the progress bar)."""
     naming = ReferenceCache(None, sweep.parts)
-    refs, tunings = set(), set()
+    refs: set[Path] = set()
+    tunings: set[_TuneKey] = set()
     for run in sweep.todo:
         refs.update(naming.path(run, t) for t in _measure_refs(run))
         for source in missing_tuning(run, sweep.store):

@@ -150,7 +150,7 @@ def store_tuned(
         key = tuning_key(run)
         if split_own(name)[1]:
             key = f"{key}/{source}"
-            if dataclasses.is_dataclass(result):
+            if dataclasses.is_dataclass(result) and not isinstance(result, type):
                 result = dataclasses.replace(result, denoiser=name)
         store.put(result, key, run.spp)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import inspect
 from pathlib import Path
 
 __all__ = ["code_version", "reference_sources", "source_hash"]
@@ -26,8 +27,8 @@ def _module_files(name: str) -> dict[str, Path]:
     """A module's ``.py`` files (every one under a package's directory), keyed by their path
     relative to the top-level package's parent (``bnerr/hashing.py``)."""
     module = importlib.import_module(name)
-    top = Path(importlib.import_module(name.split(".")[0]).__file__).parent.parent
-    file = Path(module.__file__)
+    top = Path(inspect.getfile(importlib.import_module(name.split(".")[0]))).parent.parent
+    file = Path(inspect.getfile(module))
     files = sorted(file.parent.rglob("*.py")) if file.name == "__init__.py" else [file]
     return {f.relative_to(top).as_posix(): f for f in files}
 

@@ -28,7 +28,8 @@ quotes its first error lines, and the torch path runs instead. :func:`status` sa
 - :func:`load`: the bound kernels (:class:`Kernels`) or None.
 - :func:`native_sort_blocks`: the block sorting pass on CPU tensors (optional groups and block-grid
   offset; grouped blocks run scalar code, about half the torch path's time at 1080p).
-- :func:`native_retarget_gather`: the retargeting pass on CPU tensors.
+- :func:`native_retarget_gather`: the retargeting pass on CPU tensors, with the field in the
+  kernel's form (:func:`retarget_field`, made once per field).
 
 Not for: CUDA tensors (the callers run their torch path there). Other packages' C sources (the
 filter kernels of :mod:`denoisers.native`, package data there) use the same machinery through
@@ -54,6 +55,7 @@ from bnerr.native import build
 __all__ = [
     "Kernels",
     "Library",
+    "RetargetField",
     "SelfCheckedKernels",
     "available",
     "compiler_output",
@@ -62,6 +64,7 @@ __all__ = [
     "native_retarget_gather",
     "native_sort_blocks",
     "reset",
+    "retarget_field",
     "status",
 ]
 
@@ -335,11 +338,36 @@ def native_sort_blocks(
     return out if code == 0 else None
 
 
+@dataclass(frozen=True)
+class RetargetField:
+    """A displacement field and its inverse as the retargeting kernel reads them, made once per
+    field by :func:`retarget_field` (the conversion and the reach are not redone every frame).
+
+    Attributes:
+        field: ``[2, T, T]`` contiguous int32 CPU tensor, the displacement ``d``.
+        back: ``[2, T, T]`` contiguous int32 CPU tensor, its inverse.
+        size: the tile size T.
+        reach: the largest ``|dy|`` or ``|dx|`` of ``field``.
+    """
+
+    field: torch.Tensor
+    back: torch.Tensor
+    size: int
+    reach: int
+
+
+def retarget_field(displacement: torch.Tensor, inverse: torch.Tensor) -> RetargetField:
+    """The kernel's form of ``displacement [2, T, T]`` (an integer field, a permutation of the
+    tile, checked by the caller) and of ``inverse`` (its :func:`bnerr.retarget.inverse_field`)."""
+    field = displacement.to("cpu", torch.int32).contiguous()
+    back = inverse.to("cpu", torch.int32).contiguous()
+    return RetargetField(field, back, field.shape[-1], int(field.abs().max()))
+
+
 def native_retarget_gather(
     kernels: Kernels,
     seeds: torch.Tensor,
-    displacement: torch.Tensor,
-    inverse: torch.Tensor,
+    field: RetargetField,
     offset: tuple[int, int],
     threads: int = 1,
 ) -> torch.Tensor | None:
@@ -348,8 +376,7 @@ def native_retarget_gather(
     Args:
         kernels: from :func:`load`.
         seeds: ``[H, W]`` int64 CPU tensor.
-        displacement: ``[2, T, T]`` integer field, a permutation of the tile (checked by the
-            caller); ``inverse``: its inverse (:func:`bnerr.retarget.inverse_field`).
+        field: the displacement field and its inverse, from :func:`retarget_field`.
         offset: the frame's toroidal offset ``(oy, ox)``.
         threads: worker threads (split by rows; the result does not depend on it).
 
@@ -357,18 +384,15 @@ def native_retarget_gather(
         ``[H, W]`` int64, or None when the kernel refuses the sizes.
 
     Raises:
-        ValueRangeError: ``displacement`` and ``inverse`` are not inverse permutations.
+        ValueRangeError: ``field``'s displacement and inverse are not inverse permutations.
     """
     seeds = seeds.contiguous()
-    field = displacement.to("cpu", torch.int32).contiguous()
-    back = inverse.to("cpu", torch.int32).contiguous()
-    size = field.shape[-1]
-    reach = int(field.abs().max())
+    size = field.size
     h, w = seeds.shape
     out = torch.empty((h, w), dtype=torch.int64)
     code = kernels.retarget(
-        seeds.data_ptr(), field.data_ptr(), back.data_ptr(), out.data_ptr(),
-        h, w, size, offset[0] % size, offset[1] % size, reach, _threads(threads),
+        seeds.data_ptr(), field.field.data_ptr(), field.back.data_ptr(), out.data_ptr(),
+        h, w, size, offset[0] % size, offset[1] % size, field.reach, _threads(threads),
     )  # fmt: skip
     if code == 3:
         raise ValueRangeError(

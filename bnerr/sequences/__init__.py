@@ -44,17 +44,11 @@ from __future__ import annotations
 
 from bnerr import plugins
 from bnerr.errors import PluginError, check_name
-from bnerr.hashing import MASK32 as _MASK32
-from bnerr.hashing import lowbias32 as _lowbias32
-from bnerr.hashing import lowbias32_host as _lowbias32_host
-from bnerr.hashing import signed32 as _signed
-from bnerr.hashing import srl32 as _srl
 from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
 from bnerr.sequences.ldbn import LDBNKeyedSampler, LDBNKeys, LDBNSampler, ldbn_key_image
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
-from bnerr.sequences.tables import _sobol_directions
 from bnerr.sequences.white import WhiteSampler, white
 from bnerr.sequences.zsobol import ZSobolSampler, zsobol_1d, zsobol_2d, zsobol_keys
 from bnerr.sequences.zsobol_t import ZSobolTSampler
@@ -84,10 +78,6 @@ __all__ = [
     "zsobol_2d",
     "zsobol_keys",
 ]
-
-# Private names that callers outside the package imported from the old single module; kept until
-# they move to bnerr.hashing / bnerr.sequences.tables.
-_COMPAT = (_MASK32, _lowbias32, _lowbias32_host, _signed, _srl, _sobol_directions)
 
 #: The shipped per-pixel samplers (what the benchmark's ``sampler`` condition names).
 _PER_PIXEL = ("owen_sobol", "white")

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import torch
 
-__all__: list[str] = []
+__all__ = ["sobol_directions"]
 
 # Sobol direction numbers v_1 .. v_32 of dimension 1 (Joe & Kuo, "new-joe-kuo-6.21201", the
 # primitive polynomial x + 1: s = 1, a = 0, m_1 = 1), i.e. the upper triangular Pascal matrix mod 2.
@@ -21,7 +21,7 @@ def _reverse_bits_host(value: int, bits: int) -> int:
     return int(format(value, f"0{bits}b")[::-1], 2)
 
 
-def _sobol_directions(s: int, a: int, m: tuple[int, ...]) -> list[int]:
+def sobol_directions(s: int, a: int, m: tuple[int, ...]) -> list[int]:
     """Direction numbers ``v_1 .. v_32`` (as 32-bit words) of one Sobol dimension (Joe & Kuo 2008).
 
     ``v_k = m_k 2^(32-k)``; for k > s, ``v_k = v_(k-s) ^ (v_(k-s) >> s) ^ sum_j a_j v_(k-j)``.
@@ -61,7 +61,7 @@ class _Tables:
         self.rev_hi = _linear_table(rev_hi, device)
         # P y = reverse(sobol_1(reverse(y))): bit b of y is bit 31 - b of i', whose direction
         # number is v_(32 - b).
-        v = _sobol_directions(_SOBOL_DIM1_S, _SOBOL_DIM1_A, _SOBOL_DIM1_M)
+        v = sobol_directions(_SOBOL_DIM1_S, _SOBOL_DIM1_A, _SOBOL_DIM1_M)
         columns = [_reverse_bits_host(v[31 - b], 32) for b in range(32)]
         self.sobol1_lo = _linear_table(columns[:16], device)
         self.sobol1_hi = _linear_table(columns[16:], device)

@@ -84,13 +84,13 @@ def test_mitsuba_llvm_library():
     from renderers.mitsuba_render import _check_llvm
 
     class NoLLVM:
-        class detail:  # noqa: N801 - mimics drjit.detail
+        class detail:  # mimics drjit.detail
             @staticmethod
             def llvm_version():
                 raise RuntimeError("could not find libLLVM")
 
     class OldLLVM:
-        class detail:  # noqa: N801
+        class detail:
             @staticmethod
             def llvm_version():
                 return (15, 0, 7)

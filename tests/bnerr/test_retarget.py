@@ -90,7 +90,8 @@ def test_retarget_is_a_permutation_and_equals_the_loop_reference(h, w, size, oy,
     assert torch.equal(by_indices, want)
     kernels = retarget_module._native_kernels()
     if kernels is not None:  # the fast path itself, called directly
-        fast = native.native_retarget_gather(kernels, seeds, field, inverse_field(field), (oy, ox))
+        form = native.retarget_field(field, inverse_field(field))
+        fast = native.native_retarget_gather(kernels, seeds, form, (oy, ox))
         assert torch.equal(fast, want)
 
 
@@ -129,6 +130,29 @@ def test_module_and_function_agree_with_and_without_cache(monkeypatch):
         assert torch.equal(uncached(seeds, offset), want)
     assert len(cached._sources) == 2 and not uncached._sources
     assert "tile=16x16" in repr(cached)
+
+
+def test_module_converts_its_field_once_and_sees_an_edit_in_place(monkeypatch):
+    native_here = retarget_module._native_kernels() is not None  # its self-check runs first
+    made = []
+    real = native.retarget_field
+    monkeypatch.setattr(native, "retarget_field", lambda *a: made.append(1) or real(*a))
+    first, second = _random_field(12, 6), _random_field(12, 7)
+    seeds = torch.randperm(23 * 31, generator=torch.Generator().manual_seed(6)).view(23, 31)
+    module = Retarget(first.clone())
+    for t in range(4):
+        assert torch.equal(module(seeds, (t, 2 * t)), retarget(seeds, first, (t, 2 * t)))
+    assert len(made) == (2 if native_here else 0)  # once for the module's field, once for first
+    with torch.no_grad():
+        module.displacement.copy_(second)  # what load_state_dict does
+    assert torch.equal(module(seeds, (1, 5)), retarget(seeds, second, (1, 5)))
+
+
+def test_a_field_that_is_not_a_permutation_is_a_typed_error():
+    field = torch.zeros(2, 4, 4, dtype=torch.int64)
+    field[1, :, 3], field[0, 1, 0] = 1, 1  # column 3 points off screen; two targets share a source
+    with pytest.raises(ValueRangeError, match="4 targets outside but 5 free seeds"):
+        retarget_sources(4, 4, field, (0, 0))
 
 
 def test_retarget_is_a_torch_op_with_a_fake_implementation():

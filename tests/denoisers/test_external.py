@@ -427,8 +427,8 @@ def test_a_bare_program_is_looked_up_on_path(tmp_path):
 
 @pytest.mark.slow
 def test_the_sweep_runs_it_and_records_the_program_time_as_its_cost(tmp_path, monkeypatch):
-    from benchmarks.sweep.runner import run_suite  # noqa: PLC0415 - the sweep, for this test only
-    from tests._suites import tiny_suite  # noqa: PLC0415
+    from benchmarks.sweep.runner import run_suite
+    from tests._suites import tiny_suite
 
     slow = denoiser_class(
         _write(

@@ -4,8 +4,6 @@ import pytest
 import torch
 
 from benchmarks.cli import main
-from benchmarks.commands._args import parse_resolution
-from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.io import read_frame
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -74,17 +72,6 @@ def test_bad_arguments_are_reported(tmp_path, capsys):
     assert "--res: expected width and height >= 1, got 0x4" in capsys.readouterr().err
     assert main(["render", "--scene", "direct", "--spp", "-1", "--out", str(tmp_path)]) == 2
     assert "--spp: expected an integer >= 1, got -1" in capsys.readouterr().err
-
-
-def test_parse_resolution():
-    assert parse_resolution("320x240") == (320, 240)
-    assert parse_resolution("64X32") == (64, 32)
-    with pytest.raises(DtypeError, match="--res: expected WxH with integers"):
-        parse_resolution("320")
-    with pytest.raises(DtypeError, match="--res: expected WxH with integers"):
-        parse_resolution("ax3")
-    with pytest.raises(ValueRangeError, match="--res: expected width and height >= 1"):
-        parse_resolution("4x-2")
 
 
 # -- issue 18: sizes and output paths checked before any work; one writer --------------------------

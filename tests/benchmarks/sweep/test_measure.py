@@ -76,7 +76,6 @@ def _parts(render):
         get_scene=lambda name, animated: _Scene(),
         render=render,
         make_strategy=make_strategy,
-        stateful=lambda s: s.stateful,
         make_denoiser=make_denoiser,
         tune_denoiser=lambda name, frames, refs: name if name == "half" else None,
         reference_sampler=lambda: make_sampler("owen_sobol"),

@@ -21,12 +21,11 @@ def test_real_parts_render_through_a_strategy():
     assert parts.code_version == code_version()
     scene = parts.get_scene("direct", True)
     strategy = parts.make_strategy("temporal", scene, 6, 8, 0, "owen_sobol", 1)
-    assert parts.stateful(strategy) and not parts.stateful(
-        parts.make_strategy("white", scene, 6, 8, 0, "owen_sobol", 1)
-    )
+    assert strategy.stateful
+    assert not parts.make_strategy("white", scene, 6, 8, 0, "owen_sobol", 1).stateful
     zsobol = parts.make_strategy("temporal_zsobol", scene, 6, 8, 0, "white", 4)
-    assert parts.stateful(zsobol) and zsobol.sampler_name == "zsobol" and zsobol.spp == 4
-    assert not parts.stateful(parts.make_strategy("zsobol_t", scene, 6, 8, 0, "white", 4))
+    assert zsobol.stateful and zsobol.sampler_name == "zsobol" and zsobol.spp == 4
+    assert not parts.make_strategy("zsobol_t", scene, 6, 8, 0, "white", 4).stateful
     frame = strategy.frame(0, lambda seeds, sampler: parts.render(scene, 0, seeds, sampler, 1))
     assert frame.color.shape == (3, 6, 8) and frame.timings["render"] > 0
     assert parts.with_depth(scene, 2).max_depth == 2

@@ -311,12 +311,13 @@ def _check_retarget_kernel(kernels: native.Kernels) -> None:
     for size in (3, 5, 8, 12, 16):
         mask = torch.rand(size, size, generator=gen)
         field = optimize_retarget(mask, (1, 2), iterations=30, temperature=1.0, seed=size)
-        back, reach = inverse_field(field), int(field.abs().max())
+        form = native.retarget_field(field, inverse_field(field))
+        reach = form.reach
         for h, w in ((1, 1), (5, 3), (13, 2 * reach + 1), (17, 2 * reach + 9), (29, 77), (9, 203)):
             seeds = torch.randperm(h * w, generator=gen).view(h, w)
             for offset in ((0, 0), (1, size - 1), (size - 1, 2)):
                 want = seeds.reshape(-1)[retarget_sources(h, w, field, offset).long()].view(h, w)
-                got = native.native_retarget_gather(kernels, seeds, field, back, offset, threads=3)
+                got = native.native_retarget_gather(kernels, seeds, form, offset, threads=3)
                 assert torch.equal(got, want), (size, h, w, offset)
 
 

@@ -8,6 +8,7 @@ import torch
 
 from bnerr.sequences import (
     OwenSobolSampler,
+    tables,
 )
 from tests.bnerr.sequences._samplers import sobol_directions, sobol_point
 
@@ -43,13 +44,11 @@ def test_owen_sobol_pairs_are_nets():
 def test_sobol_dimensions_2_3_are_not_nets_which_is_why_we_pad_by_pairs():
     # The docstring's reason for padding by 2D pairs: Joe-Kuo's Sobol dimensions 2 and 3
     # (polynomials x^2 + x + 1 and x^3 + x + 1) fail the net test for m = 2, while (0, 1) pass.
-    from bnerr.sequences import _sobol_directions
-
     def points(*directions: list[int]) -> torch.Tensor:
         words = [[sobol_point(i, v) for v in directions] for i in range(4)]
         return torch.tensor(words, dtype=torch.float64) / 2**32
 
-    dim2 = _sobol_directions(2, 1, (1, 3))
-    dim3 = _sobol_directions(3, 1, (1, 3, 1))
+    dim2 = tables.sobol_directions(2, 1, (1, 3))
+    dim3 = tables.sobol_directions(3, 1, (1, 3, 1))
     assert _is_net(points(sobol_directions(0), sobol_directions(1)), 2)
     assert not _is_net(points(dim2, dim3), 2)
