@@ -24,6 +24,7 @@ import inspect
 from bnerr.errors import UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
+from denoisers.identity import DenoiserIdentity, identity_in, of_kind
 from denoisers.oidn import OIDN
 from denoisers.temporal import SVGF, TAA
 from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
@@ -31,30 +32,44 @@ from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
 __all__ = [
     "DENOISERS",
     "Denoiser",
+    "DenoiserIdentity",
     "MissingBufferError",
     "check_frame",
+    "denoiser_identity",
+    "denoisers_of_kind",
     "get_denoiser",
 ]
 
+# The filters' tuning grids (``Denoiser.grid``), parameter -> candidate values, small on purpose.
+# They belong on each filter's class: set here until ``denoisers/filters.py`` is split into one
+# file per filter, when each line moves to its class body.
+ATrous.grid = {"iterations": (1, 2, 3, 5), "sigma_color": (1.0, 4.0, 16.0, 64.0)}
+Bilateral.grid = {"sigma_color": (0.5, 1.0, 2.0, 4.0, 8.0), "sigma_space": (1.0, 2.0, 3.0)}
+Gaussian.grid = {"sigma": (0.5, 0.75, 1.0, 1.5, 2.0, 3.0)}
+Guided.grid = {"eps": (1e-2, 1e-1, 1.0, 10.0), "radius": (1, 2, 3, 5)}
+JointBilateral.grid = {
+    "sigma_color": (2.0, 4.0, 8.0),
+    "sigma_feature": (0.3, 1.0),
+    "sigma_space": (1.0, 2.0, 3.0),
+}
+Median.grid = {"kernel_size": (3, 5)}
+
+_SHIPPED: tuple[type[Denoiser], ...] = (
+    ATrous,
+    Bilateral,
+    Gaussian,
+    Guided,
+    JointBilateral,
+    Median,
+    OIDN,
+    SVGF,
+    TAA,
+    UNetBlueDenoiser,
+    UNetDenoiser,
+)
 #: Registry: name -> Denoiser class. Sorted by name.
 DENOISERS: dict[str, type[Denoiser]] = {
-    cls.name: cls
-    for cls in sorted(
-        (
-            ATrous,
-            Bilateral,
-            Gaussian,
-            Guided,
-            JointBilateral,
-            Median,
-            OIDN,
-            SVGF,
-            TAA,
-            UNetBlueDenoiser,
-            UNetDenoiser,
-        ),
-        key=lambda c: c.name,
-    )
+    cls.name: cls for cls in sorted(_SHIPPED, key=lambda c: c.name)
 }
 
 
@@ -77,3 +92,14 @@ def get_denoiser(name: str, **params: object) -> Denoiser:
             f"{', '.join(accepted) or '(none)'}"
         )
     return cls(**params)
+
+
+def denoiser_identity(name: str) -> DenoiserIdentity:
+    """The kind and tuning grid of denoiser ``name``, by name alone: a registered class's, the
+    base's of ``NAME:own``, else kind ``"other"`` (:mod:`denoisers.identity`)."""
+    return identity_in(DENOISERS, name)
+
+
+def denoisers_of_kind(kind: str) -> tuple[str, ...]:
+    """The registered denoisers whose class's ``kind`` is ``kind``, sorted by name."""
+    return of_kind(DENOISERS, kind)
