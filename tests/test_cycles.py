@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 import torch
-from _twins import lowbias32 as _lowbias32
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -18,6 +17,7 @@ from bnerr.sequences import (
     make_sampler,
     owen_sobol,
 )
+from tests._twins import lowbias32 as _lowbias32
 
 M32 = 0xFFFFFFFF
 

@@ -2,12 +2,12 @@
 figures are computed by hand here."""
 
 import pytest
-from _records import small_record
 
 from benchmarks.reports import denoisers as dr
 from benchmarks.reports import write_report
 from benchmarks.reports.table import summarize
 from bnerr.metrics import paired_ratio
+from tests._records import small_record
 
 _SETS, _FRAMES = 2, 3
 _WHITE_UNET = [[3.0, 4.0, 5.0], [3.0, 4.0, 5.0]]  # mean 4, varying frames

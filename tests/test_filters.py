@@ -9,7 +9,6 @@ import math
 import pytest
 import torch
 import torch.nn.functional as F
-from _twins import atrous_reference, guided_reference
 
 from bnerr.errors import DtypeError, ValueRangeError
 from bnerr.frame import Frame
@@ -29,6 +28,7 @@ from denoisers.filters import (
     joint_bilateral_filter,
     median_filter,
 )
+from tests._twins import atrous_reference, guided_reference
 
 FILTERS = [Gaussian(), Bilateral(), JointBilateral(), Guided(), Median(), ATrous()]
 

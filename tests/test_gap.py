@@ -6,7 +6,6 @@ import io
 import math
 
 import pytest
-from _records import small_record
 
 from benchmarks.reports.gap import (
     GAP_CSV,
@@ -17,6 +16,7 @@ from benchmarks.reports.gap import (
     write_gap_tables,
 )
 from bnerr.errors import ValueRangeError
+from tests._records import small_record
 
 _SETS, _FRAMES = 3, 4
 

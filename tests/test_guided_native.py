@@ -5,11 +5,11 @@ self-check of denoisers.filters."""
 import pytest
 import torch
 import torch.nn.functional as F
-from _twins import guided_reference
 
 from bnerr import native as bnerr_native
 from denoisers import filters, native
 from denoisers.filters import guided_filter, guided_torch
+from tests._twins import guided_reference
 
 KERNELS = native.GUIDED.load()
 needs_kernel = pytest.mark.skipif(

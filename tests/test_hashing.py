@@ -1,7 +1,6 @@
 """Tests for bnerr.hashing: tensor, in-place and host forms agree with a plain-Python twin."""
 
 import torch
-from _twins import M32, lowbias32
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -14,6 +13,7 @@ from bnerr.hashing import (
     srl32,
 )
 from bnerr.hashing import lowbias32 as lowbias32_tensor
+from tests._twins import M32, lowbias32
 
 words = st.integers(min_value=0, max_value=M32)
 

@@ -5,7 +5,6 @@ import struct
 import numpy as np
 import pytest
 import torch
-from _images import noisy_pair as _pair
 
 from bnerr.errors import ShapeError, UnknownNameError, ValueRangeError
 from bnerr.metrics import (
@@ -23,6 +22,7 @@ from bnerr.metrics import (
     relmse,
     ssim,
 )
+from tests._images import noisy_pair as _pair
 
 # -- the table -------------------------------------------------------------------------------------
 

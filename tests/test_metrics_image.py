@@ -5,7 +5,6 @@ import math
 import numpy as np
 import pytest
 import torch
-from _images import noisy_pair as _pair
 from kornia.filters import get_gaussian_kernel1d
 from skimage.metrics import structural_similarity
 
@@ -28,6 +27,7 @@ from bnerr.metrics import (
     temporal_correlation,
 )
 from bnerr.spectrum import low_frequency_fraction
+from tests._images import noisy_pair as _pair
 
 # -- per-image metrics -----------------------------------------------------------------------------
 

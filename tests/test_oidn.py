@@ -4,13 +4,13 @@ import importlib
 
 import pytest
 import torch
-from _scene_renders import SCENES, mse, scene_renders
 
 import denoisers.oidn as oidn_module
 from bnerr.errors import MissingExtraError
 from bnerr.frame import Frame
 from denoisers import get_denoiser
 from denoisers.oidn import oidn_denoise
+from tests._scene_renders import SCENES, mse, scene_renders
 
 pyoidn = pytest.importorskip("pyoidn", reason="needs the optional extra 'reference'")
 pytestmark = pytest.mark.reference

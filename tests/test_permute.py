@@ -5,7 +5,6 @@ import math
 
 import pytest
 import torch
-from _twins import REC709
 from hypothesis import example, given
 from hypothesis import strategies as st
 
@@ -22,6 +21,7 @@ from bnerr.permute import (
     sort_pass_reference,
     sort_torch,
 )
+from tests._twins import REC709
 
 # Values that stress the order: signed zeros, infinities, NaN, and few distinct values (ties).
 _SPECIAL = [0.0, -0.0, 1.0, -1.0, 0.5, float("inf"), float("-inf"), float("nan"), 2.0**-149]

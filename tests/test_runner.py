@@ -10,7 +10,6 @@ import json
 
 import pytest
 import torch
-from _suites import tiny_suite
 
 from benchmarks.suites import Condition
 from benchmarks.sweep import runner
@@ -19,6 +18,7 @@ from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import RESULTS_FILE, Record, ResultsExistError, load_records
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import FileFormatError
+from tests._suites import tiny_suite
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

@@ -10,7 +10,6 @@ import math
 
 import pytest
 import torch
-from _twins import lowbias32 as _lowbias32
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -31,6 +30,7 @@ from bnerr.sequences import (
     white,
     zsobol_keys,
 )
+from tests._twins import lowbias32 as _lowbias32
 
 M32 = 0xFFFFFFFF
 ADVERSARIAL = [0, 1, 2**31 - 1, 2**31, 2**32 - 1, 2**32, -1, 2**63 - 1, -(2**63)]

@@ -28,8 +28,6 @@ from contextlib import nullcontext
 from pathlib import Path
 
 import pytest
-from _disks import fill, no_space, read_only, small_disk
-from _suites import tiny_suite
 
 from benchmarks.sweep import records as records_module
 from benchmarks.sweep import references as references_module
@@ -37,6 +35,8 @@ from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.records import RESULTS_FILE, load_records
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE, run_suite
 from bnerr.outputs import OutputPathError
+from tests._disks import fill, no_space, read_only, small_disk
+from tests._suites import tiny_suite
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -106,7 +106,7 @@ import dataclasses, os, signal, sys
 import torch
 sys.path.insert(0, {tests!r})
 torch.set_num_threads(1)
-from _suites import tiny_suite
+from tests._suites import tiny_suite
 from test_sweep_faults import _parts, _Os
 from benchmarks.sweep import records
 from benchmarks.sweep.runner import run_suite

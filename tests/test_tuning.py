@@ -5,7 +5,6 @@ import json
 
 import pytest
 import torch
-from _scene_renders import SCENES, mse, scene_renders
 
 from bnerr.errors import (
     DtypeError,
@@ -27,6 +26,7 @@ from denoisers.tuning import (
     tune,
     tuned_denoiser,
 )
+from tests._scene_renders import SCENES, mse, scene_renders
 
 SPATIAL = sorted(name for name in GRIDS if not DENOISERS[name].stateful)
 

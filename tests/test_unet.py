@@ -4,7 +4,6 @@ import functools
 
 import pytest
 import torch
-from _scene_renders import SCENES, measured_frames, mse, scene_renders
 
 from bnerr.errors import DtypeError, FileFormatError, ShapeError, ValueRangeError
 from bnerr.frame import Frame
@@ -28,6 +27,7 @@ from denoisers.unet import (
     unet_denoise,
     upsampled_transpose_kernel,
 )
+from tests._scene_renders import SCENES, measured_frames, mse, scene_renders
 
 
 def _frame(h=20, w=28, seed=0, scale=1.0):

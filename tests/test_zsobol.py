@@ -10,15 +10,15 @@ import warnings
 import numpy as np
 import pytest
 import torch
-from _twins import M32
-from _twins import mix_bits as _mix
-from _twins import pbrt_hash as _hash
 from hypothesis import given
 from hypothesis import strategies as st
 
 from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 from bnerr.sequences import SAMPLERS, ZSobolSampler, make_sampler, zsobol_1d, zsobol_2d, zsobol_keys
 from bnerr.sequences.zsobol import _Layout, _zsobol_words, morton2
+from tests._twins import M32
+from tests._twins import mix_bits as _mix
+from tests._twins import pbrt_hash as _hash
 
 # ------------------------------------------------------------------------------------------------
 # The slow twin: Python ints, one loop per rule, written from pbrt-v4's samplers.h

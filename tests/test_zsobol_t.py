@@ -8,15 +8,15 @@ import struct
 import numpy as np
 import pytest
 import torch
-from _twins import M32
-from _twins import mix_bits as _mix
-from _twins import pbrt_hash as _hash
 from hypothesis import given
 from hypothesis import strategies as st
 
 from bnerr.errors import ValueRangeError
 from bnerr.sequences import SAMPLERS, ZSobolTSampler, make_sampler, zsobol_keys
 from bnerr.sequences.zsobol_t import morton3
+from tests._twins import M32
+from tests._twins import mix_bits as _mix
+from tests._twins import pbrt_hash as _hash
 
 # ------------------------------------------------------------------------------------------------
 # The slow twin: Python ints, one loop per rule
