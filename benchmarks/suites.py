@@ -77,6 +77,8 @@ from dataclasses import dataclass
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 from bnerr.sequences import per_pixel_samplers
 from bnerr.strategies import check_strategy_name
+from denoisers import denoiser_identity
+from renderers.catalog import SCENES
 
 __all__ = [
     "GAP_BEST",
@@ -224,7 +226,8 @@ class Suite:
     coherent: bool = False
 
 
-_ALL_SCENES = ("direct", "indirect", "cornell", "snooker", "snooker_plain", "medium")
+#: Every registered scene (:data:`renderers.catalog.SCENES`).
+_ALL_SCENES = tuple(SCENES)
 #: The a-priori patterns and the temporal method over ZSobol (issue 13), measured against the rest.
 RIVALS: tuple[str, ...] = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
@@ -245,7 +248,9 @@ _ALL_DENOISERS = (
     "svgf",
 )
 #: The oracle's: the denoisers that see one frame at a time, trained or tuned on white noise.
-_ORACLE_DENOISERS = tuple(d for d in _ALL_DENOISERS if d not in ("taa", "svgf", "unet_blue"))
+_ORACLE_DENOISERS = tuple(
+    d for d in _ALL_DENOISERS if denoiser_identity(d).kind != "temporal" and d != "unet_blue"
+)
 #: Filters also tuned on each strategy's own frames (``NAME:own``; the fair columns stay tuned on
 #: white noise): the cheap ones whose tuned width decides most of their error.
 _OWN_TUNED = ("gaussian:own", "atrous:own", "guided:own")

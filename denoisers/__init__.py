@@ -37,6 +37,7 @@ from bnerr import plugins
 from bnerr.errors import PluginError, UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
+from denoisers.identity import DenoiserIdentity, identity_in, of_kind
 from denoisers.oidn import OIDN
 from denoisers.temporal import SVGF, TAA
 from denoisers.unet import UNetBlueDenoiser, UNetDenoiser
@@ -45,9 +46,12 @@ from denoisers.wrapped import as_denoiser
 __all__ = [
     "DENOISERS",
     "Denoiser",
+    "DenoiserIdentity",
     "MissingBufferError",
     "as_denoiser",
     "check_frame",
+    "denoiser_identity",
+    "denoisers_of_kind",
     "get_denoiser",
     "load_denoiser",
 ]
@@ -146,3 +150,14 @@ def get_denoiser(name: str, **params: object) -> Denoiser:
     if plugin is None:
         return cls(**params)
     return plugins.call_plugin(plugin, "denoiser", cls, **params)
+
+
+def denoiser_identity(name: str) -> DenoiserIdentity:
+    """The kind and tuning grid of denoiser ``name``, by name alone: a registered class's, the
+    base's of ``NAME:own``, else kind ``"other"`` (:mod:`denoisers.identity`)."""
+    return identity_in(DENOISERS, name)
+
+
+def denoisers_of_kind(kind: str) -> tuple[str, ...]:
+    """The registered denoisers whose class's ``kind`` is ``kind``, sorted by name."""
+    return of_kind(DENOISERS, kind)

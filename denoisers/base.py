@@ -15,6 +15,8 @@ order. For a stateless denoiser both are no-ops.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from types import MappingProxyType
 from typing import ClassVar
 
 import torch
@@ -105,10 +107,20 @@ class Denoiser:
         requires: buffer names the denoiser reads besides ``color``.
         infinite_ok: buffers of ``requires`` that may hold ``+inf`` (see :func:`check_frame`).
         stateful: whether the output depends on the frames denoised before (since :meth:`reset`).
+        kind: what kind of denoiser it is, for the reports' sections and the suites:
+            ``"filter"`` (a classic single-frame filter, the default), ``"temporal"``
+            (accumulates over frames), ``"learned"`` (a network trained here), ``"reference"``
+            (the production denoiser the others are judged against: OIDN) or a new kind's name.
+        grid: its tuning grid, parameter -> candidate values (:func:`denoisers.tuning.tune`
+            searches it on white noise); empty when it is not tuned.
+        Subclasses inherit these unless they set their own; :func:`denoisers.denoiser_identity`
+        reads them by name.
     """
 
     name: ClassVar[str] = ""
     stateful: ClassVar[bool] = False
+    kind: ClassVar[str] = "filter"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = MappingProxyType({})
     requires: frozenset[str] = frozenset()
     infinite_ok: frozenset[str] = frozenset()
 

@@ -68,6 +68,7 @@ class OIDN(Denoiser):
     """
 
     name = "oidn"
+    kind = "reference"
     requires = frozenset({"albedo", "normal"})
 
     _QUALITIES = ("balanced", "fast", "high")

@@ -154,6 +154,7 @@ class TemporalDenoiser(Denoiser):
     """
 
     stateful: ClassVar[bool] = True
+    kind = "temporal"
     requires = frozenset({"motion", "depth", "normal", "object_id"})
 
     def __init__(self, alpha: float = 0.2) -> None:
@@ -201,6 +202,7 @@ class TAA(TemporalDenoiser):
     """Temporal accumulation alone: the reprojected, consistency-checked exponential average."""
 
     name = "taa"
+    grid = {"alpha": (0.05, 0.1, 0.2, 0.3, 0.5)}
 
     def _output(
         self, frame: Frame, color: torch.Tensor, moments: torch.Tensor, length: torch.Tensor
@@ -218,6 +220,7 @@ class SVGF(TemporalDenoiser):
     """
 
     name = "svgf"
+    grid = {"alpha": (0.1, 0.2, 0.4), "iterations": (1, 3), "sigma_color": (0.5, 1.0, 2.0)}
 
     def __init__(
         self,

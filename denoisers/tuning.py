@@ -13,8 +13,9 @@ File format (JSON, written atomically)::
          "params": {...}, "mse": float, "noisy_mse": float, "frames": int,
          "sampler": "white"}}}}}
 
-Only the filters have parameters to tune (:data:`GRIDS`); ``unet`` and ``oidn`` have none and are
-looked up with their defaults.
+Only the denoisers with a tuning grid have parameters to tune (their class's ``grid``, collected
+in :data:`GRIDS`); the others (``unet``, ``oidn``) have none and are looked up with their
+defaults.
 
 Stateful denoisers (``taa``, ``svgf``: ``stateful = True``) are tuned on a sequence: the frames in
 their order, each candidate reset and fed all of them, its MSE taken over the frames after the
@@ -46,6 +47,7 @@ from bnerr.errors import (
 )
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
+from bnerr.views import LiveMapping
 from denoisers import DENOISERS, get_denoiser
 from denoisers.base import Denoiser
 
@@ -63,21 +65,14 @@ __all__ = [
 #: Format tag of the stored-parameters file.
 PARAMS_FORMAT = "bnerr-tuned-params-v1"
 
-#: The search grid of each tunable filter: parameter -> candidate values (small on purpose).
-GRIDS: dict[str, dict[str, tuple]] = {
-    "atrous": {"iterations": (1, 2, 3, 5), "sigma_color": (1.0, 4.0, 16.0, 64.0)},
-    "bilateral": {"sigma_color": (0.5, 1.0, 2.0, 4.0, 8.0), "sigma_space": (1.0, 2.0, 3.0)},
-    "gaussian": {"sigma": (0.5, 0.75, 1.0, 1.5, 2.0, 3.0)},
-    "guided": {"eps": (1e-2, 1e-1, 1.0, 10.0), "radius": (1, 2, 3, 5)},
-    "joint_bilateral": {
-        "sigma_color": (2.0, 4.0, 8.0),
-        "sigma_feature": (0.3, 1.0),
-        "sigma_space": (1.0, 2.0, 3.0),
-    },
-    "median": {"kernel_size": (3, 5)},
-    "svgf": {"alpha": (0.1, 0.2, 0.4), "iterations": (1, 3), "sigma_color": (0.5, 1.0, 2.0)},
-    "taa": {"alpha": (0.05, 0.1, 0.2, 0.3, 0.5)},
-}
+
+def _grids() -> dict[str, Mapping[str, Sequence]]:
+    return {name: cls.grid for name, cls in DENOISERS.items() if cls.grid}
+
+
+#: The search grid of each tunable denoiser, parameter -> candidate values: its class's ``grid``
+#: (:class:`denoisers.base.Denoiser`), read from :data:`denoisers.DENOISERS` whenever asked.
+GRIDS: Mapping[str, Mapping[str, Sequence]] = LiveMapping(_grids)
 
 #: Frames a stateful denoiser is fed, by default, before the frames its MSE is measured on.
 STATEFUL_SKIP = 2

@@ -621,6 +621,7 @@ class UNetDenoiser(Denoiser):
     """
 
     name = "unet"
+    kind = "learned"
     requires = frozenset({"albedo", "normal"})
 
     def __init__(self, weights: str | Path | None = None) -> None:

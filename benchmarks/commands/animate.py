@@ -41,7 +41,7 @@ from benchmarks.commands._args import (
 from benchmarks.sweep.parts import known_names
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE
 from bnerr.errors import FileFormatError, check_positive_int
-from bnerr.strategies import parse_variant
+from bnerr.strategies import strategy_identity
 from renderers import get_scene
 from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 
@@ -130,9 +130,9 @@ ORACLE_K = 32
 
 def _animation_paths(spec: Animation) -> int:
     """Paths traced for ``spec``, at most: every strategy's warmup and shown frames (the
-    oracle's K renders each) and the shown frames' references (counted even when cached)."""
-    many = ("oracle", "vertical")  # K renders per frame
-    renders = sum(ORACLE_K if parse_variant(n)[0] in many else 1 for n in spec.strategies)
+    bounds' K renders each) and the shown frames' references (counted even when cached)."""
+    # A bound (the oracle, vertical) renders K candidates per frame.
+    renders = sum(ORACLE_K if strategy_identity(n).bound else 1 for n in spec.strategies)
     pixels = spec.width * spec.height
     strategies = pixels * spec.spp * (spec.warmup + spec.frames) * renders
     return strategies + pixels * spec.reference_spp * spec.frames

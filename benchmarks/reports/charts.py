@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from benchmarks.highlights import KEY_DENOISERS, SHARE_DENOISERS
 from benchmarks.reports.gap import GapShare
 from benchmarks.reports.groups import group_key, group_slug, group_title, strategy_order
 from benchmarks.reports.palette import strategy_style
@@ -54,17 +55,8 @@ __all__ = [
     "write_charts",
 ]
 
-#: The denoisers an adopter chooses among, in panel order: the own-tuned Gaussian and a-trous,
-#: the U-Net trained on blue-noise frames, OIDN and TAA (plain names when no tuned one is run).
-KEY_DENOISERS: tuple[tuple[str, ...], ...] = (
-    ("gaussian:own", "gaussian"),
-    ("atrous:own", "atrous"),
-    ("unet_blue",),
-    ("oidn",),
-    ("taa",),
-)
 #: Measures of the oracle-share chart, when present: the blurred raw error and the key denoisers.
-_SHARE_MEASURES = ("raw mse_blur1", "gaussian mse", "atrous mse", "unet_blue mse", "oidn mse")
+_SHARE_MEASURES = ("raw mse_blur1", *(f"{d} mse" for d in SHARE_DENOISERS))
 
 
 def key_denoisers(denoisers: Sequence[str]) -> list[str]:

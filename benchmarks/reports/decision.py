@@ -12,18 +12,19 @@ white's; equal (within a stated margin) and not resolved are said as such.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
 from bnerr.metrics import Estimate, better, equivalent, relevel_ratio
+from bnerr.strategies import baseline, bounds, strategy_identity
 
 __all__ = [
-    "DECISION_EXCLUDES",
     "EQUAL_MARGIN",
     "LEVEL",
     "best_rows",
     "corrected",
+    "decision_excludes",
     "decision_table",
     "headline_table",
     "rival_counts",
@@ -31,18 +32,25 @@ __all__ = [
 ]
 
 
-#: Left out of the decision table by default: the oracle renders K candidates per frame (an
-#: upper bound on what the temporal method approximates, not a strategy to adopt), and so does
-#: the vertical bound, which then searches the whole image.
-DECISION_EXCLUDES: tuple[str, ...] = ("oracle", "vertical")
+def decision_excludes(names: Iterable[str] = ()) -> tuple[str, ...]:
+    """What the decision table leaves out by default: the bounds (family ``"bound"``: the oracle
+    renders K candidates per frame, an upper bound on what the temporal method approximates, not
+    a strategy to adopt; the vertical bound then searches the whole image), the registered ones
+    and those among ``names`` (a variant of a bound, a record's bound no longer registered), in
+    table order."""
+    found = {*bounds(), *(n for n in names if strategy_identity(n).bound)}
+    return tuple(strategy_order(found))
 
 
-def best_rows(
-    rows: Sequence[dict], exclude: Sequence[str] = DECISION_EXCLUDES
-) -> dict[tuple, dict]:
+def _excludes(rows: Sequence[dict], exclude: Sequence[str] | None) -> Sequence[str]:
+    return decision_excludes(r["strategy"] for r in rows) if exclude is None else exclude
+
+
+def best_rows(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> dict[tuple, dict]:
     """Per (group key, spp, denoiser): the row of the strategy with the lowest pooled post-denoise
-    MSE (white included, ``exclude`` left out; ties go to the earlier strategy in the report's
-    order)."""
+    MSE (the baseline included, ``exclude`` left out, by default :func:`decision_excludes`; ties
+    go to the earlier strategy in the report's order)."""
+    exclude = _excludes(rows, exclude)
     best: dict[tuple, dict] = {}
     order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
     for row in rows:
@@ -57,12 +65,9 @@ def best_rows(
 
 
 def _left_out(exclude: Sequence[str]) -> str:
-    """The decision table's note on the strategies it leaves out."""
-    why = {
-        "oracle": "it renders K candidates per frame: an upper bound, not a strategy to adopt",
-        "vertical": "it renders K candidates per frame and searches the image: a second bound",
-    }
-    return "".join(f" Left out: {s}" + (f" ({why[s]})." if s in why else ".") for s in exclude)
+    """The decision table's note on the strategies it leaves out (a bound's ``bound_note``)."""
+    notes = {s: strategy_identity(s).bound_note for s in exclude}
+    return "".join(f" Left out: {s}" + (f" ({notes[s]})." if notes[s] else ".") for s in exclude)
 
 
 #: The level of the decision table's intervals before the correction for choosing the best.
@@ -74,14 +79,14 @@ LEVEL = 0.95
 EQUAL_MARGIN = 0.05
 
 
-def rival_counts(
-    rows: Sequence[dict], exclude: Sequence[str] = DECISION_EXCLUDES
-) -> dict[tuple, int]:
-    """Per (group key, spp, denoiser): how many strategies other than white compete for the best
-    (the m of the Bonferroni correction of :func:`verdict`)."""
+def rival_counts(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> dict[tuple, int]:
+    """Per (group key, spp, denoiser): how many strategies other than the baseline compete for
+    the best (the m of the Bonferroni correction of :func:`verdict`); ``exclude`` as in
+    :func:`best_rows`."""
+    exclude = _excludes(rows, exclude)
     names: dict[tuple, set[str]] = {}
     for row in rows:
-        if row.get("den_mse") is None or row["strategy"] in (*exclude, "white"):
+        if row.get("den_mse") is None or row["strategy"] in (*exclude, baseline()):
             continue
         names.setdefault((group_key(row), row["spp"], row["denoiser"]), set()).add(row["strategy"])
     return {key: len(v) for key, v in names.items()}
@@ -110,7 +115,7 @@ _MARKS = {"better": "", "equal": " ≈", "not resolved": " n.r."}
 
 def _decision_cell(row: dict, rivals: int) -> str:
     cost = f"{row['render_ms']:.0f} + {row['perm_ms']:.1f} ms"
-    if row["strategy"] == "white" or row.get("den_mse_ratio") is None:
+    if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
         return f"{row['strategy']} ({cost})"
     est = corrected(row, rivals)
     said = verdict(est)
@@ -122,14 +127,17 @@ def _decision_cell(row: dict, rivals: int) -> str:
 def decision_table(
     rows: Sequence[dict],
     title: str = "Which strategy to use",
-    exclude: Sequence[str] = DECISION_EXCLUDES,
+    exclude: Sequence[str] | None = None,
 ) -> str:
     """For each scene, condition and spp, per denoiser: the strategy with the lowest post-denoise
     MSE, its MSE as a fraction of white's (95% paired interval) and its cost per frame (render +
-    permutation milliseconds, the strategy's whole overhead included); ``exclude`` left out."""
+    permutation milliseconds, the strategy's whole overhead included); ``exclude`` left out (by
+    default :func:`decision_excludes`)."""
+    exclude = _excludes(rows, exclude)
     best = best_rows(rows, exclude)
     rivals = rival_counts(rows, exclude)
-    measured = {r["strategy"] for r in rows}  # the note names the oracle always, others if run
+    # The note names the first registered bound (the oracle) always, the others if run.
+    named = {*bounds()[:1], *(r["strategy"] for r in rows)}
     groups = sorted({k[0] for k in best}, key=group_order)
     denoisers = sorted({k[2] for k in best})
     body = []
@@ -154,8 +162,7 @@ def decision_table(
         "below white beyond that interval (superiority); ≈: equal to white within "
         f"{EQUAL_MARGIN:.0%} (the whole interval inside 1 -+ {EQUAL_MARGIN}, equivalence); "
         "n.r.: not resolved, neither below white nor equal to it at this many seed sets; white: "
-        "no strategy was lower."
-        + _left_out([s for s in exclude if s == "oracle" or s in measured]),
+        "no strategy was lower." + _left_out([s for s in exclude if s in named]),
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",
@@ -169,7 +176,7 @@ def _headline_cell(row: dict | None, rivals: int) -> str:
     lower, ``-`` when not measured."""
     if row is None:
         return "-"
-    if row["strategy"] == "white" or row.get("den_mse_ratio") is None:
+    if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
         return row["strategy"]
     said = verdict(corrected(row, rivals))
     text = f"{row['strategy']} {row['den_mse_ratio']:.2f}"
@@ -180,12 +187,13 @@ def headline_table(
     rows: Sequence[dict],
     denoisers: Sequence[str],
     scenes: Sequence[str],
-    exclude: Sequence[str] = DECISION_EXCLUDES,
+    exclude: Sequence[str] | None = None,
 ) -> str:
     """The README's headline: the decision table of ``scenes`` in that order, each without a
     condition (the scene's own motion, depth, every pixel, the default sampler), one column per
     denoiser of ``denoisers``, each cell the best strategy and its ratio to white (bold: below
     white beyond the interval). Markdown lines, no title."""
+    exclude = _excludes(rows, exclude)
     best = best_rows(rows, exclude)
     rivals = rival_counts(rows, exclude)
     plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}

@@ -38,14 +38,22 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from benchmarks.highlights import (
+    BLUE_TRAINED,
+    HEADLINE_METHOD,
+    PLAIN_ACCUMULATOR,
+    SINGLE_FRAME,
+    WHITE_TRAINED,
+)
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import paired_ratio
+from bnerr.strategies import baseline, strategy_identity
+from denoisers import denoisers_of_kind
 
 __all__ = [
-    "ACCUMULATORS",
     "BEST_GOAL",
     "BEST_GOAL_SCENES",
     "DENOISERS_MD",
@@ -55,6 +63,7 @@ __all__ = [
     "UnetGain",
     "accumulation",
     "accumulation_flag",
+    "accumulators",
     "best_denoisers",
     "denoise_markdown",
     "mean_tcorr",
@@ -66,16 +75,12 @@ __all__ = [
 
 #: File name :func:`write_denoise_tables` writes.
 DENOISERS_MD = "denoisers.md"
-#: The temporal (stateful) denoisers of section 1.
-ACCUMULATORS: tuple[str, ...] = ("taa", "svgf")
 #: Section 3's goal: the best strategy's best MSE at most this fraction of white's, at 4 spp ...
 BEST_GOAL = 0.7
 #: ... on these scenes.
 BEST_GOAL_SCENES: tuple[str, ...] = ("direct", "snooker_plain", "medium")
 _GOAL_SPP = 4
 _OWN = ":own"
-_LEARNED = ("gaussian", "oidn", "unet", "unet_blue")
-_BOUNDS = ("oracle", "vertical")
 
 #: ``(value, lo, hi)`` of a ratio and its 95% paired interval (:func:`bnerr.metrics.paired_ratio`).
 Interval = tuple[float, float, float]
@@ -83,6 +88,18 @@ Interval = tuple[float, float, float]
 
 # --------------------------------------------------------------------------------------------------
 # Lookups shared by the sections
+
+
+def accumulators() -> tuple[str, ...]:
+    """The temporal denoisers of section 1 (kind ``"temporal"``): the plain accumulator first,
+    then the others by name."""
+    found = denoisers_of_kind("temporal")
+    return tuple(sorted(found, key=lambda d: (d != PLAIN_ACCUMULATOR, d)))
+
+
+def _single_frame_columns() -> tuple[str, ...]:
+    """Section 2's denoisers: the single-frame filter, the reference (OIDN), the learned ones."""
+    return (SINGLE_FRAME, *denoisers_of_kind("reference"), *denoisers_of_kind("learned"))
 
 
 def _cells(rows: Iterable[dict]) -> dict[tuple, dict[tuple[str, str], dict]]:
@@ -177,7 +194,7 @@ def _tcorr(index: dict[tuple, Record], key: tuple, spp: int, strategy: str) -> f
     """The strategy's mean tcorr on a cell (the raw frames' figure: taa's record first, else any
     denoiser's that has one)."""
     found = [r for k, r in index.items() if k[:3] == (key, spp, strategy) and r.tcorr]
-    found.sort(key=lambda r: r.cell.denoiser != "taa")
+    found.sort(key=lambda r: r.cell.denoiser != PLAIN_ACCUMULATOR)
     return mean_tcorr(found[0]) if found else None
 
 
@@ -189,18 +206,19 @@ def _taa_over_raw(row: dict | None) -> float | None:
 
 def accumulation(rows: Iterable[dict], records: Iterable[Record]) -> list[Accumulation]:
     """One :class:`Accumulation` per strategy of every (scene and condition, spp) that has a taa
-    or svgf row; white first, then the report's strategy order."""
+    or svgf row (:func:`accumulators`); white first, then the report's strategy order."""
     index = _record_index(records)
     out = []
+    white, plain = baseline(), PLAIN_ACCUMULATOR
     for (key, spp), by in _cells(rows).items():
-        if not any(d in ACCUMULATORS for _, d in by):
+        if not any(d in accumulators() for _, d in by):
             continue
-        white_tcorr = _tcorr(index, key, spp, "white")
-        white_factor = _taa_over_raw(by.get(("white", "taa")))
-        names = ("gaussian", *ACCUMULATORS)
+        white_tcorr = _tcorr(index, key, spp, white)
+        white_factor = _taa_over_raw(by.get((white, plain)))
+        names = (SINGLE_FRAME, *accumulators())
         for s in strategy_order(s for s, d in by if d in names):
             ratios = {d: _ratio(by.get((s, d))) for d in names}
-            mine = _taa_over_raw(by.get((s, "taa")))
+            mine = _taa_over_raw(by.get((s, plain)))
             factor = None if mine is None or not white_factor else mine / white_factor
             out.append(
                 Accumulation(
@@ -213,16 +231,16 @@ def accumulation(rows: Iterable[dict], records: Iterable[Record]) -> list[Accumu
                     white_tcorr=white_tcorr,
                     factor=factor,
                     flag=""
-                    if s == "white"
-                    else accumulation_flag(ratios["gaussian"], ratios["taa"]),
+                    if s == white
+                    else accumulation_flag(ratios[SINGLE_FRAME], ratios[plain]),
                 )
             )
     return out
 
 
 def _accumulation_cells(a: Accumulation) -> list[str]:
-    names = ("gaussian", *ACCUMULATORS)
-    if a.strategy == "white":
+    names = (SINGLE_FRAME, *accumulators())
+    if a.strategy == baseline():
         den = [f"MSE {_num(a.mse[d], '.4g')}" if a.mse[d] is not None else "-" for d in names]
     else:
         den = [_fmt(a.ratios[d]) for d in names]
@@ -239,7 +257,7 @@ def _accumulation_cells(a: Accumulation) -> list[str]:
 
 def _accumulation_markdown(items: Sequence[Accumulation]) -> list[str]:
     lines = [
-        "## Temporal accumulation (taa, svgf)",
+        f"## Temporal accumulation ({', '.join(accumulators())})",
         "",
         "Post-denoise MSE as a fraction of white's (95% paired interval; white's row: its absolute "
         "MSE) after the single-frame Gaussian, after taa and after svgf, next to the raw error's "
@@ -249,7 +267,7 @@ def _accumulation_markdown(items: Sequence[Accumulation]) -> list[str]:
         "when frames are accumulated.",
         "",
     ]
-    head = ["spp", "strategy", "gaussian", "taa", "svgf", "tcorr", "white tcorr", "acc. factor"]
+    head = ["spp", "strategy", SINGLE_FRAME, *accumulators(), "tcorr", "white tcorr", "acc. factor"]
     for group in dict.fromkeys(a.group for a in items):
         mine = [a for a in items if a.group == group]
         lines += [
@@ -264,7 +282,8 @@ def _accumulation_markdown(items: Sequence[Accumulation]) -> list[str]:
         return lines + ["- none: no strategy loses, or loses its gain, under accumulation.", ""]
     for a in flagged:
         lines.append(
-            f"- {a.group}, {a.spp} spp, {a.strategy}: {a.flag} (taa {_fmt(a.ratios['taa'])}); "
+            f"- {a.group}, {a.spp} spp, {a.strategy}: {a.flag} "
+            f"({PLAIN_ACCUMULATOR} {_fmt(a.ratios[PLAIN_ACCUMULATOR])}); "
             f"tcorr {_num(a.tcorr)} against white's {_num(a.white_tcorr)}, accumulation factor "
             f"{_num(a.factor)}."
         )
@@ -318,16 +337,17 @@ def oidn_response(
         their raw MSE differs from white's beyond the interval.
     """
     kept, left = [], []
+    reference = denoisers_of_kind("reference")[:1]
     for (key, spp), by in _cells(rows).items():
-        for s in strategy_order(s for s, d in by if d == "oidn" and s != "white"):
-            row = by[(s, "oidn")]
+        for s in strategy_order(s for s, d in by if d in reference and s != baseline()):
+            row = by[(s, reference[0])]
             raw, oidn = _ratio(row, "raw_mse"), _ratio(row)
             if raw is None or oidn is None:
                 continue
             if raw[1] > 1.0 or raw[2] < 1.0:
                 left.append((group_title(key), spp, s, raw))
                 continue
-            ratios = {d: _ratio(by.get((s, d))) for d in _LEARNED}
+            ratios = {d: _ratio(by.get((s, d))) for d in _single_frame_columns()}
             blur2 = _ratio(row, "raw_mse_blur2")
             title = group_title(key)
             kept.append(OidnResponse(title, spp, s, raw, blur2, ratios, oidn_verdict(oidn)))
@@ -335,7 +355,7 @@ def oidn_response(
 
 
 def _oidn_markdown(kept: Sequence[OidnResponse], left: Sequence[tuple]) -> list[str]:
-    shown = [d for d in _LEARNED if any(k.ratios[d] is not None for k in kept)]
+    shown = [d for d in _single_frame_columns() if any(k.ratios[d] is not None for k in kept)]
     lines = [
         "## OIDN on blue-noise input of the same raw MSE",
         "",
@@ -400,11 +420,12 @@ def best_denoisers(rows: Iterable[dict]) -> list[BestDenoisers]:
             if mse is not None and (s not in best or mse < best[s][1]):
                 best[s] = (d, mse)
         best = {s: best[s] for s in strategy_order(best)}
-        rivals = [s for s in best if s != "white" and s not in _BOUNDS]
+        white = baseline()
+        rivals = [s for s in best if s != white and not strategy_identity(s).bound]
         challenger = min(rivals, key=lambda s: best[s][1]) if rivals else None
         ratio = None
-        if challenger is not None and best.get("white", (None, 0.0))[1] > 0:
-            ratio = best[challenger][1] / best["white"][1]
+        if challenger is not None and best.get(white, (None, 0.0))[1] > 0:
+            ratio = best[challenger][1] / best[white][1]
         out.append(BestDenoisers(group_title(key), key[0], spp, best, challenger, ratio))
     return out
 
@@ -432,7 +453,7 @@ def _goal_lines(items: Sequence[BestDenoisers]) -> list[str]:
 
 def _best_markdown(items: Sequence[BestDenoisers]) -> list[str]:
     strategies = strategy_order(s for b in items for s in b.best)
-    head = [f"{s} (bound)" if s in _BOUNDS else s for s in strategies]
+    head = [f"{s} (bound)" if strategy_identity(s).bound else s for s in strategies]
     body = [
         [b.group, str(b.spp)]
         + [_best_cell(b.best.get(s)) for s in strategies]
@@ -486,7 +507,7 @@ class UnetGain:
 
 def _white_blue_over_white(index: dict[tuple, Record], key: tuple, spp: int) -> Interval | None:
     """White's post-unet_blue MSE over its post-unet MSE, paired over the same frames."""
-    blue, plain = (index.get((key, spp, "white", d)) for d in ("unet_blue", "unet"))
+    blue, plain = (index.get((key, spp, baseline(), d)) for d in (BLUE_TRAINED, WHITE_TRAINED))
     if blue is None or plain is None or "mse" not in blue.den or "mse" not in plain.den:
         return None
     a, b = blue.den["mse"], plain.den["mse"]
@@ -502,12 +523,13 @@ def unet_gains(rows: Iterable[dict], records: Iterable[Record]) -> list[UnetGain
     index = _record_index(records)
     out = []
     for (key, spp), by in _cells(rows).items():
-        if not any(d == "unet_blue" for _, d in by):
+        if not any(d == BLUE_TRAINED for _, d in by):
             continue
         white = _white_blue_over_white(index, key, spp)
-        names = [s for s, d in by if d in ("unet", "unet_blue") and s != "white"]
+        nets = (WHITE_TRAINED, BLUE_TRAINED)
+        names = [s for s, d in by if d in nets and s != baseline()]
         for s in strategy_order(names):
-            plain, blue = _ratio(by.get((s, "unet"))), _ratio(by.get((s, "unet_blue")))
+            plain, blue = (_ratio(by.get((s, d))) for d in nets)
             g_plain = None if plain is None else 1.0 - plain[0]
             g_blue = None if blue is None else 1.0 - blue[0]
             g_ratio = g_blue / g_plain if g_blue is not None and g_plain and g_plain > 0 else None
@@ -522,7 +544,7 @@ def _unet_goal(items: Sequence[UnetGain], group: str) -> str:
     """The goal line of one scene and condition: temporal's gain at 4 spp at least doubled
     after unet_blue (and positive), white's unet_blue/unet interval not above 1."""
     at4 = [u for u in items if u.group == group and u.spp == _GOAL_SPP]
-    temporal = next((u for u in at4 if u.strategy == "temporal"), None)
+    temporal = next((u for u in at4 if u.strategy == HEADLINE_METHOD), None)
     if temporal is None or temporal.gain_blue is None or temporal.gain_unet is None:
         return f"- {group}: not measured (temporal at {_GOAL_SPP} spp after both U-Nets)."
     doubled = temporal.gain_blue > 0 and temporal.gain_blue >= 2 * temporal.gain_unet
@@ -544,7 +566,8 @@ def _unet_markdown(items: Sequence[UnetGain]) -> list[str]:
     ]
     cells = dict.fromkeys((u.group, u.spp, u.white) for u in items)
     whites = [[g, str(spp), _fmt(w)] for g, spp, w in cells]
-    head = ["scene", "spp", "strategy", "unet", "unet_blue", "gain unet", "gain unet_blue"]
+    nets = (WHITE_TRAINED, BLUE_TRAINED)
+    head = ["scene", "spp", "strategy", *nets, *(f"gain {d}" for d in nets)]
     return [
         "## U-Net trained on blue noise",
         "",
@@ -572,13 +595,13 @@ def denoise_markdown(records: Sequence[Record], rows: Sequence[dict]) -> str:
     ``NAME:own``; unet_blue); '' when none."""
     present = _denoisers(records) | _denoisers(rows)
     lines: list[str] = []
-    if present & set(ACCUMULATORS):
+    if present & set(accumulators()):
         lines += _accumulation_markdown(accumulation(rows, records))
-    if "oidn" in present:
+    if present & set(denoisers_of_kind("reference")[:1]):
         lines += _oidn_markdown(*oidn_response(rows))
     if any(d.endswith(_OWN) for d in present):
         lines += _best_markdown(best_denoisers(rows))
-    if "unet_blue" in present:
+    if BLUE_TRAINED in present:
         lines += _unet_markdown(unet_gains(rows, records))
     if not lines:
         return ""

@@ -6,7 +6,9 @@ strategy and ``oracle`` over the same frames and seed sets::
     share = (W - V) / (W - O)
 
 0 is white's error, 1 the oracle's; below 0 the strategy is worse than white, above 1 better than
-the oracle. It is computed for each *measure*: the raw frames' MSE after the sigma-1 and sigma-2
+the oracle. White is the registered baseline and the oracle the first registered bound
+(:func:`bnerr.strategies.baseline`, :func:`bnerr.strategies.bounds`). It is computed for each
+*measure*: the raw frames' MSE after the sigma-1 and sigma-2
 blurs (``raw mse_blur1``, ``raw mse_blur2``: where a blue-noise error pays off) and each
 denoiser's output MSE (``den mse``, per denoiser). The interval is a Student t-interval over the
 seed sets (:mod:`bnerr.metrics.stats`, like every other interval of the reports): each seed set
@@ -43,6 +45,7 @@ import torch
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import as_stats, check_bootstrap, replicates, t_interval
+from bnerr.strategies import baseline, bounds
 
 __all__ = [
     "GAP_CSV",
@@ -59,7 +62,11 @@ __all__ = [
 RAW_MEASURES: tuple[str, ...] = ("mse_blur1", "mse_blur2")
 #: File names :func:`write_gap_tables` writes.
 GAP_MD, GAP_CSV = "gap.md", "gap.csv"
-_BOUNDS = ("white", "oracle")
+
+
+def _ends() -> tuple[str, str]:
+    """The two ends of the gap: the baseline (white) and the first bound (the oracle)."""
+    return (baseline(), bounds()[0])
 
 
 @dataclass(frozen=True)
@@ -150,14 +157,15 @@ def gap_shares(
         oracle themselves are left out (their shares are 0 and 1 by definition).
     """
     check_bootstrap(level, resamples)
+    ends = _ends()
     rows = []
     for key, by_measure in _measures(records).items():
         for measure, by_strategy in by_measure.items():
-            if not all(b in by_strategy for b in _BOUNDS):
+            if not all(b in by_strategy for b in ends):
                 continue
-            w, o = by_strategy["white"], by_strategy["oracle"]
+            w, o = (by_strategy[b] for b in ends)
             for strategy, v in by_strategy.items():
-                if strategy in _BOUNDS or v.shape != w.shape or o.shape != w.shape:
+                if strategy in ends or v.shape != w.shape or o.shape != w.shape:
                     continue
                 share, lo, hi, gap = _share(w, v, o, level)
                 rows.append(GapShare(*key[:3], measure, strategy, share, lo, hi, gap, level))

@@ -1,6 +1,8 @@
 """How the reports group and order table rows: one scene and condition per group, strategies in
 a fixed order from the baseline to the bound.
 
+Strategies are ordered by their class's ``rank`` (:func:`bnerr.strategies.strategy_identity`).
+
 A **group** is a scene with its condition (camera motion, path depth, pixel region, per-pixel
 sampler): the rows the report compares strategy against strategy, ``(scene, motion, depth,
 region, sampler)`` as :func:`group_key` gives it from a ``table.csv`` row. Every report module
@@ -15,33 +17,15 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
+from bnerr.strategies import strategy_identity
+
 __all__ = [
-    "STRATEGY_ORDER",
     "group_key",
     "group_order",
     "group_slug",
     "group_title",
     "strategy_order",
 ]
-
-#: Table order of the strategies: the baseline, the a-priori patterns, the a-posteriori
-#: permutations, the bound. Names not listed (the temporal variants) follow, alphabetically.
-STRATEGY_ORDER: tuple[str, ...] = (
-    "white",
-    "bnds",
-    "bnds_st",
-    "zsobol",
-    "cycles_blue",
-    "zsobol_t",
-    "ldbn",
-    "ldbn_st",
-    "ldbn_fast",
-    "temporal_sort",
-    "temporal",
-    "temporal_zsobol",
-    "oracle",
-    "vertical",
-)
 
 
 def group_key(row: dict) -> tuple:
@@ -81,9 +65,12 @@ def group_slug(key: tuple) -> str:
 
 
 def strategy_order(names: Iterable[str]) -> list[str]:
-    """The distinct ``names`` in :data:`STRATEGY_ORDER`; unlisted ones after them, sorted."""
+    """The distinct ``names`` in table order: the registered strategies by their class's ``rank``
+    (the baseline, the a-priori patterns, LDBN, the a-posteriori permutations, the bounds), then
+    the others (temporal variants, names no longer registered) by name."""
 
     def rank(s: str) -> tuple:
-        return (STRATEGY_ORDER.index(s) if s in STRATEGY_ORDER else len(STRATEGY_ORDER), s)
+        identity = strategy_identity(s)
+        return (0, identity.rank, s) if identity.registered else (1, 0, s)
 
     return sorted(set(names), key=rank)

@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from benchmarks.highlights import HEADLINE_METHOD
 from benchmarks.reports.charts import _legend, _save
 from benchmarks.reports.gap import GapShare
 from benchmarks.reports.groups import (
@@ -40,7 +41,7 @@ from benchmarks.reports.groups import (
     group_title,
     strategy_order,
 )
-from benchmarks.reports.palette import strategy_style
+from benchmarks.reports.palette import family, strategy_style
 from benchmarks.reports.previews import load_crop
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
@@ -148,10 +149,12 @@ def _share_lines(shares: list[GapShare], strategies: list[str]) -> list[str]:
 
 
 def _verdict(shares: list[GapShare]) -> list[str]:
-    """One line per goal spp: the best temporal variant's share against the goal."""
+    """One line per goal spp: the best share of the method's family (the temporal strategies and
+    their variants) against the goal."""
     lines = []
     for spp, goal in GOALS.items():
-        mine = [g for g in shares if g.spp == spp and g.strategy.startswith("temporal")]
+        method = family(HEADLINE_METHOD)
+        mine = [g for g in shares if g.spp == spp and family(g.strategy) == method]
         if not mine:
             continue
         best = max(mine, key=lambda g: g.share)

@@ -27,18 +27,18 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
+from benchmarks.highlights import HEADLINE_METHOD
 from benchmarks.reports.groups import group_key, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record
 from bnerr.metrics import METRIC_TABLE, Metric, bootstrap_interval, paired_ratio
-from bnerr.strategies import OWN_SAMPLERS
+from bnerr.strategies import OWN_SAMPLERS, baseline, bounds, strategy_identity
 
 __all__ = [
     "COLUMNS",
-    "HEADLINE_STRATEGIES",
-    "RAW_CAUSES",
     "csv_text",
+    "headline_strategies",
     "markdown_table",
     "render_sampler",
     "summarize",
@@ -123,8 +123,8 @@ def _stats(record: Record, kind: str, metric: str) -> np.ndarray | None:
     return None if values is None else np.asarray(values, dtype=np.float64)
 
 
-def _baseline_key(record: Record) -> tuple:
-    return dataclasses.astuple(dataclasses.replace(record.cell, strategy="white"))
+def _baseline_key(record: Record, white: str) -> tuple:
+    return dataclasses.astuple(dataclasses.replace(record.cell, strategy=white))
 
 
 def _mean_ms(series: list[list[float]]) -> float:
@@ -199,9 +199,13 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     denoiser, condition, frames and seed sets); None when the suite has no such white record.
     """
     records = list(records)
-    whites = {_baseline_key(r): r for r in records if r.cell.strategy == "white"}
+    white = baseline()
+    whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
     columns = table_columns()
-    return [_row(rec, whites.get(_baseline_key(rec)), resamples, seed, columns) for rec in records]
+    return [
+        _row(rec, whites.get(_baseline_key(rec, white)), resamples, seed, columns)
+        for rec in records
+    ]
 
 
 def csv_text(rows: Sequence[dict]) -> str:
@@ -236,14 +240,15 @@ def _ratio_text(row: dict | None, name: str) -> str:
 def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
     """Post-denoise MSE per spp and denoiser: white's value, the others' ratios to it."""
     by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
+    base = baseline()
     body = []
     for spp in sorted({r["spp"] for r in rows}):
         for d in sorted({r["denoiser"] for r in rows}):
-            white = by.get((spp, d, "white"))
+            white = by.get((spp, d, base))
             cells = [str(spp), d]
             for s in strategies:
                 row = by.get((spp, d, s))
-                if s == "white" or white is None:
+                if s == base or white is None:
                     cells.append("-" if row is None else f"{row['den_mse']:.4g}")
                 else:
                     cells.append(_ratio_text(row, "den_mse"))
@@ -341,42 +346,20 @@ def _raw_differences(rows: Sequence[dict]) -> list[str]:
     return lines + _raw_causes(sorted({b[2] for b in body}))
 
 
-_SHARED_SCRAMBLE = (
-    "one scramble shared by all pixels, each pixel an aligned block of one sequence: the image's "
-    "raw MSE is one draw per scramble instead of an average over per-pixel scrambles; "
-)
-_SCRAMBLE_SOURCE = " (docs/METHODS.md, section 7; tests/test_sequences.py)."
-#: The measured cause of a strategy's raw MSE differing from white's, by strategy (a temporal
-#: variant by its base name): what the strategy samples differently, with where it was measured.
-RAW_CAUSES: dict[str, str] = {
-    "bnds": "Cranley-Patterson rotation of one sequence shared by all pixels: an independently "
-    "written sampler that shifts the shared sequence by uniform random offsets, with no mask, has "
-    "the same excess over per-pixel Owen-scrambled Sobol (docs/METHODS.md, section 3).",
-    "zsobol": _SHARED_SCRAMBLE + "ZSobol draws a fresh scramble each frame, so its MSE varies "
-    "more from frame to frame and not on average" + _SCRAMBLE_SOURCE,
-    "cycles_blue": "one scramble shared by all pixels with a fixed sequence seed: its raw MSE is "
-    "one draw that never changes, above or below white's depending on the scene and spp "
-    "(docs/METHODS.md, section 7; tests/test_sequences.py).",
-}
-RAW_CAUSES["bnds_st"] = RAW_CAUSES["bnds"]
-RAW_CAUSES["zsobol_t"] = RAW_CAUSES["temporal_zsobol"] = (
-    _SHARED_SCRAMBLE + "this strategy keeps one scramble per seed set, so a suite's few seed sets "
-    "are few draws" + _SCRAMBLE_SOURCE
-)
-
-
 def _raw_causes(strategies: Sequence[str]) -> list[str]:
-    """One line per strategy of the raw-difference table: its measured cause, or that none is
-    established."""
+    """One line per strategy of the raw-difference table: its measured cause (its class's
+    ``raw_mse_note``, a temporal variant's base's), or that none is established."""
     lines = []
     for name in strategies:
-        cause = RAW_CAUSES.get(name.split("+")[0])
+        cause = strategy_identity(name).raw_mse_note
         lines.append(f"- {name}: " + (cause or "cause not established."))
     return lines + [""]
 
 
-#: Strategies the headline compares with white, in its cells' order.
-HEADLINE_STRATEGIES: tuple[str, ...] = ("temporal", "oracle")
+def headline_strategies() -> tuple[str, ...]:
+    """The strategies the headline compares with the baseline, in its cells' order: the method
+    under test and the first registered bound (temporal, oracle)."""
+    return (HEADLINE_METHOD, *bounds()[:1])
 
 
 def _headline_ratio(row: dict | None) -> str:
@@ -392,23 +375,22 @@ def _headline(groups: dict[tuple, list[dict]], order: list[tuple]) -> list[str]:
     """One line per scene, condition and spp; one column per denoiser; in each cell the
     post-denoise MSE of temporal / oracle as a fraction of white's (the headline figures)."""
     denoisers = sorted({r["denoiser"] for rows in groups.values() for r in rows})
+    headline = headline_strategies()
     body = []
     for key in order:
         by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in groups[key]}
-        if not any(s in HEADLINE_STRATEGIES for _, _, s in by):
+        if not any(s in headline for _, _, s in by):
             continue
         for spp in sorted({r["spp"] for r in groups[key]}):
             cells = [
-                " / ".join(_headline_ratio(by.get((spp, d, s))) for s in HEADLINE_STRATEGIES)
+                " / ".join(_headline_ratio(by.get((spp, d, s))) for s in headline)
                 for d in denoisers
             ]
             body.append([group_title(key), str(spp), *cells])
     if not body:
         return []
     return [
-        "## Headline: "
-        + " / ".join(HEADLINE_STRATEGIES)
-        + " post-denoise MSE as a fraction of white's",
+        "## Headline: " + " / ".join(headline) + " post-denoise MSE as a fraction of white's",
         "",
         "Bold: below white beyond the 95% paired interval (a superiority claim: the whole "
         "t-interval over seed sets below 1); ↑: above white beyond it; -: not measured. "

@@ -24,7 +24,7 @@ from typing import Any, Protocol
 from benchmarks.sweep.measure import References, scene_for, t_reference
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts
 from benchmarks.sweep.plan import Run
-from bnerr.strategies import play
+from bnerr.strategies import baseline, play
 
 __all__ = [
     "OWN_SUFFIX",
@@ -77,9 +77,9 @@ def tuning_key(run: Run) -> str:
 
 
 def tuning_source(run: Run, name: str) -> str:
-    """The strategy whose frames ``name`` is tuned on: ``white``, or the run's own for
-    ``NAME:own``."""
-    return run.strategy if split_own(name)[1] else "white"
+    """The strategy whose frames ``name`` is tuned on: the baseline (white,
+    :func:`bnerr.strategies.baseline`), or the run's own for ``NAME:own``."""
+    return run.strategy if split_own(name)[1] else baseline()
 
 
 def _store_key(run: Run, name: str) -> str:
@@ -107,7 +107,7 @@ def missing_tuning(run: Run, store: TuningStore) -> dict[str, list[str]]:
 
 
 def tune_missing(
-    run: Run, parts: Parts, references: References, names: list[str], source: str = "white"
+    run: Run, parts: Parts, references: References, names: list[str], source: str
 ) -> dict[str, Any]:
     """Tune ``names`` for ``run``'s scene, condition and spp on the frames of strategy
     ``source``: name -> TuneResult, or None for a denoiser with nothing to tune.
@@ -138,9 +138,7 @@ def tune_missing(
     return {name: tuned[split_own(name)[0]] for name in names}
 
 
-def store_tuned(
-    run: Run, store: TuningStore, results: dict[str, Any], source: str = "white"
-) -> None:
+def store_tuned(run: Run, store: TuningStore, results: dict[str, Any], source: str) -> None:
     """Put the results of :func:`tune_missing` on ``source``'s frames (those not None) in
     ``store`` under ``run``'s key and spp; ``NAME:own`` under its own name, its key naming
     ``source`` (the strategy it was tuned on, whichever run asked)."""

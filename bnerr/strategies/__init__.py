@@ -30,7 +30,10 @@ across them: only where the error lands differs. The others dictate their own (t
 records ``sampler_name`` with each cell.
 
 **A new strategy** is one module in this package: a :class:`Strategy` subclass with a ``name``
-registers itself when imported (import it here, or from anywhere before ``make_strategy``).
+registers itself when imported (import it here, or from anywhere before ``make_strategy``). It
+carries its identity for the reports as class attributes (``family``, ``rank``,
+``raw_mse_note``, ...); :func:`strategy_identity` reads it by name alone (a variant takes its
+base's, an unknown name a neutral one: :mod:`bnerr.strategies.identity`).
 Outside bnerr it is a plug-in (:mod:`bnerr.plugins`): ``make_strategy("path/file.py:Cls")``
 or ``"pkg.mod:Cls"``, or an entry point of the group ``bnerr.strategies``; it subclasses
 :class:`Strategy` (or a shipped strategy) and declares ``family``.
@@ -45,7 +48,7 @@ a renderer that draws its own random numbers.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping
 
 import torch
 
@@ -62,6 +65,7 @@ from bnerr.strategies.base import (
     stream_key,
 )
 from bnerr.strategies.dithered import STBN_MASK, BNDSStrategy, BNDSSTStrategy
+from bnerr.strategies.identity import StrategyIdentity, baseline, bounds, strategy_identity
 from bnerr.strategies.ldbn import LDBNFastStrategy, LDBNStrategy, LDBNSTStrategy
 from bnerr.strategies.oracle import OracleStrategy
 from bnerr.strategies.registry import REGISTRY
@@ -82,6 +86,7 @@ from bnerr.strategies.variants import (
 from bnerr.strategies.vertical import VerticalStrategy
 from bnerr.strategies.white import WhiteStrategy
 from bnerr.strategies.zorder import CyclesBlueStrategy, ZSobolStrategy, ZSobolTStrategy
+from bnerr.views import LiveMapping
 
 __all__ = [
     "OWN_SAMPLERS",
@@ -118,6 +123,10 @@ __all__ = [
     "pixel_seeds",
     "play",
     "stream_key",
+    "StrategyIdentity",
+    "baseline",
+    "bounds",
+    "strategy_identity",
 ]
 
 for _variant in VARIANTS:
@@ -129,29 +138,14 @@ for _variant in VARIANTS:
 STRATEGIES = REGISTRY
 
 
-class _OwnSamplers(Mapping[str, str]):
-    """Strategy -> the sampler it dictates (its class's ``own_sampler``), read from the registry
-    whenever asked, so that it cannot disagree with the classes."""
-
-    def _table(self) -> dict[str, str]:
-        return {n: c.own_sampler for n, c in REGISTRY.classes().items() if c.own_sampler}
-
-    def __getitem__(self, name: str) -> str:
-        return self._table()[name]
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self._table())
-
-    def __len__(self) -> int:
-        return len(self._table())
-
-    def __repr__(self) -> str:
-        return repr(self._table())
+def _own_samplers() -> dict[str, str]:
+    return {n: c.own_sampler for n, c in REGISTRY.classes().items() if c.own_sampler}
 
 
-#: Strategy -> the sampler it dictates, whatever per-pixel sampler it is given; the strategies
-#: not listed render with the per-pixel sampler they are given.
-OWN_SAMPLERS: Mapping[str, str] = _OwnSamplers()
+#: Strategy -> the sampler it dictates, whatever per-pixel sampler it is given (its class's
+#: ``own_sampler``, read from the registry whenever asked, so that it cannot disagree with the
+#: classes); the strategies not listed render with the per-pixel sampler they are given.
+OWN_SAMPLERS: Mapping[str, str] = LiveMapping(_own_samplers)
 
 
 def estimate_bytes(name: str, height: int, width: int, K: int = 32) -> int:

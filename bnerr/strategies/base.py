@@ -266,6 +266,22 @@ class Strategy:
             (:meth:`peak_bytes_per_pixel` adds the frame; measured, see the subclasses).
         stateful: whether frame t depends on the frames before it (the temporal strategies); a
             stateless strategy's frame t is the same whether or not frames 0..t-1 were made.
+        family: what kind of strategy it is, for the reports' colours, line styles and verdicts:
+            ``"baseline"`` (white, the control), ``"rival"`` (a-priori patterns), ``"temporal"``
+            (a-posteriori permutations), ``"ldbn"``, ``"bound"`` (renders several candidates per
+            frame: a bound, not a strategy to adopt) or a new family's own name (``"other"``: none
+            declared).
+        rank: its place in the reports' tables and legends, lower first (ties by name); the
+            shipped strategies use 0..130, one not declaring any comes after them.
+        raw_mse_note: why its raw MSE may differ from white's (what it samples differently, and
+            where that was measured); ``""`` when it should not differ.
+        bound_note: for a bound, why the decision table leaves it out; ``""`` otherwise.
+        color: its fixed ``#rrggbb`` colour in every chart, or None: a shade of its family's hue
+            (:mod:`benchmarks.reports.palette`). Not inherited: a subclass that sets none gets
+            a shade of its family's hue, not its parent's colour.
+        Subclasses inherit the others unless they set their own;
+        :func:`bnerr.strategies.strategy_identity` reads them by name (a temporal variant takes
+        its base's).
 
     Attributes:
         height, width: the image size every render must return.
@@ -278,6 +294,11 @@ class Strategy:
     stream: ClassVar[int] = 0
     bytes_per_pixel: ClassVar[int] = 44
     stateful: ClassVar[bool] = False
+    family: ClassVar[str] = "other"
+    rank: ClassVar[int] = 1000
+    raw_mse_note: ClassVar[str] = ""
+    bound_note: ClassVar[str] = ""
+    color: ClassVar[str | None] = None
     sampler_name: str = ""
 
     def __init_subclass__(cls, **kwargs: object) -> None:

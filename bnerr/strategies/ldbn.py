@@ -52,6 +52,9 @@ class LDBNStrategy(Strategy):
     name = "ldbn"
     own_sampler = "ldbn"
     stream = 20
+    family = "ldbn"
+    rank = 60
+    color = "#6a3d9a"
     #: whether frame t reads slice t mod F unshifted (True) or shifts slice 0 per frame
     per_frame_slices: ClassVar[bool] = False
 
@@ -108,6 +111,8 @@ class LDBNSTStrategy(LDBNStrategy):
     name = "ldbn_st"
     stream = 21
     per_frame_slices = True
+    rank = 70
+    color = "#9467bd"
 
 
 class LDBNFastStrategy(LDBNStrategy):
@@ -115,3 +120,5 @@ class LDBNFastStrategy(LDBNStrategy):
 
     name = "ldbn_fast"
     stream = 22
+    rank = 80
+    color = "#c5b0d5"

@@ -43,6 +43,10 @@ class OracleStrategy(Strategy):
 
     name = "oracle"
     stream = 4
+    family = "bound"
+    rank = 120
+    bound_note = "it renders K candidates per frame: an upper bound, not a strategy to adopt"
+    color = "#000000"
 
     def __init__(
         self,

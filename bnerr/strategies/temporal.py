@@ -58,6 +58,7 @@ from bnerr.strategies.base import (
 )
 from bnerr.strategies.ldbn import LDBN_SETS, LDBNStrategy
 from bnerr.strategies.variants import TemporalOptions
+from bnerr.strategies.zorder import SCRAMBLE_PER_SEED_SET_NOTE
 
 __all__ = [
     "TemporalLDBNStrategy",
@@ -110,6 +111,9 @@ class TemporalStrategy(Strategy):
     stream = 2
     bytes_per_pixel = 112
     stateful = True
+    family = "temporal"
+    rank = 100
+    color = "#d62728"
 
     def __init__(
         self,
@@ -221,6 +225,8 @@ class TemporalSortStrategy(TemporalStrategy):
     """``temporal_sort``: :class:`TemporalStrategy` without the retargeting pass (same seeds)."""
 
     name = "temporal_sort"
+    rank = 90
+    color = "#ff7f0e"
 
 
 def _passes(name: str, build: BuildOptions, options: TemporalOptions) -> dict:
@@ -262,6 +268,9 @@ class TemporalZSobolStrategy(TemporalStrategy):
     name = "temporal_zsobol"
     own_sampler = "zsobol"
     stream = 9
+    rank = 110
+    raw_mse_note = SCRAMBLE_PER_SEED_SET_NOTE
+    color = "#8c564b"
 
     def __init__(
         self,
@@ -353,6 +362,9 @@ class TemporalLDBNStrategy(TemporalStrategy):
     name = "temporal_ldbn"
     own_sampler = "ldbn_keyed"
     stream = 23
+    family = "ldbn"
+    rank = 85
+    color = "#e377c2"
 
     def __init__(
         self,

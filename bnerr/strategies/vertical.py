@@ -30,6 +30,8 @@ class VerticalStrategy(OracleStrategy):
     started from the oracle's histogram choice."""
 
     name = "vertical"
+    rank = 130
+    bound_note = "it renders K candidates per frame and searches the image: a second bound"
 
     def _choose(self, t: int, colors: list[torch.Tensor]) -> torch.Tensor:
         start = super()._choose(t, colors)

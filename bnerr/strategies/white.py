@@ -33,6 +33,9 @@ class WhiteStrategy(Strategy):
     name = "white"
     stream = 1
     bytes_per_pixel = 44
+    family = "baseline"
+    rank = 0
+    color = "#8c8c8c"
 
     def __init__(
         self,

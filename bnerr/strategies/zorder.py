@@ -26,7 +26,25 @@ from bnerr.sequences import ZSobolTSampler, cycles_keys, make_sampler, zsobol_ke
 from bnerr.strategies.base import BuildOptions, RenderFn, Strategy, power_of_two_spp, stream_key
 from bnerr.strategies.variants import TemporalOptions
 
-__all__ = ["CyclesBlueStrategy", "ZSobolStrategy", "ZSobolTStrategy"]
+__all__ = [
+    "SCRAMBLE_PER_SEED_SET_NOTE",
+    "SHARED_SCRAMBLE",
+    "CyclesBlueStrategy",
+    "ZSobolStrategy",
+    "ZSobolTStrategy",
+]
+
+#: The start of a ``raw_mse_note`` of a strategy whose pixels share one scramble.
+SHARED_SCRAMBLE = (
+    "one scramble shared by all pixels, each pixel an aligned block of one sequence: the image's "
+    "raw MSE is one draw per scramble instead of an average over per-pixel scrambles; "
+)
+_SCRAMBLE_SOURCE = " (docs/METHODS.md, section 7; tests/test_sequences.py)."
+#: Why zsobol_t's and temporal_zsobol's raw MSE differs from white's (their ``raw_mse_note``).
+SCRAMBLE_PER_SEED_SET_NOTE = (
+    SHARED_SCRAMBLE + "this strategy keeps one scramble per seed set, so a suite's few seed sets "
+    "are few draws" + _SCRAMBLE_SOURCE
+)
 
 
 class _SppStrategy(Strategy):
@@ -69,6 +87,13 @@ class ZSobolStrategy(_ZOrderKeys):
     name = "zsobol"
     own_sampler = "zsobol"
     stream = 5
+    family = "rival"
+    rank = 30
+    raw_mse_note = (
+        SHARED_SCRAMBLE + "ZSobol draws a fresh scramble each frame, so its MSE varies more from "
+        "frame to frame and not on average" + _SCRAMBLE_SOURCE
+    )
+    color = "#2ca02c"
 
     def _frame(self, t: int, render: RenderFn) -> Frame:
         key = stream_key(self.seed, t, self.stream)
@@ -93,6 +118,14 @@ class CyclesBlueStrategy(_SppStrategy):
     own_sampler = "cycles_pure"
     stream = 6
     bytes_per_pixel = 96
+    family = "rival"
+    rank = 40
+    raw_mse_note = (
+        "one scramble shared by all pixels with a fixed sequence seed: its raw MSE is one draw "
+        "that never changes, above or below white's depending on the scene and spp "
+        "(docs/METHODS.md, section 7; tests/test_sequences.py)."
+    )
+    color = "#17becf"
 
     def __init__(
         self,
@@ -128,6 +161,10 @@ class ZSobolTStrategy(_ZOrderKeys):
     name = "zsobol_t"
     own_sampler = "zsobol_t"
     stream = 7
+    family = "rival"
+    rank = 50
+    raw_mse_note = SCRAMBLE_PER_SEED_SET_NOTE
+    color = "#98df8a"
 
     def __init__(
         self,

@@ -8,6 +8,8 @@ kernel itself (:mod:`denoisers.native.filters` binds the C code), or temporal ac
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
 
 import torch
 import torch.nn.functional as F
@@ -371,6 +373,10 @@ class ATrous(Denoiser):
     """
 
     name = "atrous"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {
+        "iterations": (1, 2, 3, 5),
+        "sigma_color": (1.0, 4.0, 16.0, 64.0),
+    }
     requires = frozenset({"depth", "normal"})
     infinite_ok = frozenset({"depth"})  # +inf depth = escaped ray; see atrous_filter
 

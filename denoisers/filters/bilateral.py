@@ -7,6 +7,9 @@ The kernel and its native dispatch are shared with the joint bilateral filter
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
 import torch
 
 from bnerr.frame import Frame
@@ -41,6 +44,10 @@ class Bilateral(Denoiser):
     """Bilateral filter; see :func:`bilateral_filter`. Reads color only."""
 
     name = "bilateral"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {
+        "sigma_color": (0.5, 1.0, 2.0, 4.0, 8.0),
+        "sigma_space": (1.0, 2.0, 3.0),
+    }
 
     def __init__(self, sigma_color: float = 1.0, sigma_space: float = 1.5) -> None:
         self.sigma_color = _number(sigma_color, "bilateral: sigma_color", 1e-3, 1e3)

@@ -6,6 +6,9 @@ filters of this package keep them).
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
 import kornia.filters as KF
 import torch
 
@@ -30,6 +33,7 @@ class Gaussian(Denoiser):
     """Gaussian blur of ``sigma`` pixels; see :func:`gaussian_filter`. Reads color only."""
 
     name = "gaussian"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {"sigma": (0.5, 0.75, 1.0, 1.5, 2.0, 3.0)}
 
     def __init__(self, sigma: float = 1.0) -> None:
         self.sigma = _number(sigma, "gaussian: sigma", 0.1, 16.0)

@@ -8,6 +8,9 @@ than ``[albedo; normal; luminance]``.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
 import torch
 import torch.nn.functional as F
 
@@ -206,6 +209,10 @@ class Guided(Denoiser):
     """Guided filter with the guide ``[albedo; normal; luminance]``; see :func:`guided_filter`."""
 
     name = "guided"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {
+        "eps": (1e-2, 1e-1, 1.0, 10.0),
+        "radius": (1, 2, 3, 5),
+    }
     requires = frozenset({"albedo", "normal"})
 
     def __init__(self, radius: int = 2, eps: float = 1.0) -> None:

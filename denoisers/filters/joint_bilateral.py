@@ -6,6 +6,9 @@ Its weights go through the bilateral dispatch of :mod:`denoisers.filters.common`
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
 import torch
 
 from bnerr.frame import Frame
@@ -55,6 +58,11 @@ class JointBilateral(Denoiser):
     """Cross bilateral filter guided by albedo, normal and color: :func:`joint_bilateral_filter`."""
 
     name = "joint_bilateral"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {
+        "sigma_color": (2.0, 4.0, 8.0),
+        "sigma_feature": (0.3, 1.0),
+        "sigma_space": (1.0, 2.0, 3.0),
+    }
     requires = frozenset({"albedo", "normal"})
 
     def __init__(

@@ -6,6 +6,9 @@ Not for: unbiased denoising (the median of skewed Monte Carlo noise sits below i
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import ClassVar
+
 import kornia.filters as KF
 import torch
 
@@ -36,6 +39,7 @@ class Median(Denoiser):
     """Per-channel median filter; see :func:`median_filter`. Reads color only."""
 
     name = "median"
+    grid: ClassVar[Mapping[str, Sequence[object]]] = {"kernel_size": (3, 5)}
 
     def __init__(self, kernel_size: int = 3) -> None:
         check_positive_int(kernel_size, "median: kernel_size", minimum=3)

@@ -2,13 +2,13 @@
 order."""
 
 from benchmarks.reports.groups import (
-    STRATEGY_ORDER,
     group_key,
     group_order,
     group_slug,
     group_title,
     strategy_order,
 )
+from bnerr.strategies import STRATEGIES
 
 
 def _row(**condition):
@@ -44,4 +44,9 @@ def test_strategies_follow_the_table_order_and_unlisted_names_come_last():
     assert strategy_order(names) == [
         "white", "temporal", "oracle", "temporal+demod", "temporal+groups",
     ]  # fmt: skip
-    assert strategy_order(STRATEGY_ORDER) == list(STRATEGY_ORDER)
+    # the registered classes by rank: temporal_ldbn among LDBN's, vertical with the bounds
+    assert strategy_order(STRATEGIES.classes()) == [
+        "white", "bnds", "bnds_st", "zsobol", "cycles_blue", "zsobol_t", "ldbn", "ldbn_st",
+        "ldbn_fast", "temporal_ldbn", "temporal_sort", "temporal", "temporal_zsobol", "oracle",
+        "vertical",
+    ]  # fmt: skip

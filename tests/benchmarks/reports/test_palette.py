@@ -5,7 +5,8 @@ import re
 
 import pytest
 
-from benchmarks.reports.palette import FIXED, family, strategy_color, strategy_style
+from benchmarks.reports.palette import family, family_hue, strategy_color, strategy_style
+from bnerr.strategies import STRATEGIES
 
 
 def _hue(color: str) -> float:
@@ -14,7 +15,7 @@ def _hue(color: str) -> float:
 
 
 def test_every_strategy_gets_a_stable_colour():
-    names = [*FIXED, "temporal+demod", "temporal+fast", "bnds_x", "ldbn_new"]
+    names = [*STRATEGIES.classes(), "temporal+demod", "temporal+fast", "bnds_x", "ldbn_new"]
     colours = [strategy_color(n) for n in names]
     assert all(re.fullmatch(r"#[0-9a-f]{6}", c) for c in colours)
     assert colours == [strategy_color(n) for n in names]  # the same on every call
@@ -26,6 +27,8 @@ def test_every_strategy_gets_a_stable_colour():
     [
         ("white", "baseline"),
         ("oracle", "bound"),
+        ("vertical", "bound"),
+        ("bnds_x", "other"),
         ("bnds", "rival"),
         ("zsobol_t", "rival"),
         ("temporal+relative+demod+groups", "temporal"),
@@ -42,7 +45,20 @@ def test_a_new_temporal_variant_stays_in_the_temporal_hue():
     assert min(abs(hue - 0.06), 1 - abs(hue - 0.06)) < 0.06
 
 
+def test_a_strategy_keeps_its_class_colour_and_a_variant_gets_its_own_shade():
+    assert strategy_color("temporal") == STRATEGIES["temporal"].color == "#d62728"
+    assert strategy_color("temporal+demod") != strategy_color("temporal")
+    assert strategy_color("vertical") != strategy_color("oracle")  # both bounds, told apart
+
+
+def test_a_new_family_gets_a_stable_hue_of_its_own():
+    hue, saturation = family_hue("my_family")
+    assert (hue, saturation) == family_hue("my_family") and saturation > 0
+    assert family_hue("my_family") != family_hue("their_family")
+
+
 def test_bounds_are_dashed_and_the_baseline_dotted():
     assert strategy_style("oracle")["linestyle"] == "--"
+    assert strategy_style("vertical")["linestyle"] == "--"
     assert strategy_style("white")["linestyle"] == ":"
     assert strategy_style("temporal")["linestyle"] == "-"

@@ -24,6 +24,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
+from bnerr.strategies import strategy_identity
 from tests._paths import RESULTS
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
@@ -205,13 +206,13 @@ def test_raw_mse_differences_from_white_are_listed_once_per_run():
         section.count("| direct | direct | bnds | 1 |") == 1
         and section.count("| direct | direct | bnds | 4 |") == 1
     )
-    assert f"- bnds: {table.RAW_CAUSES['bnds']}" in section  # the measured cause, once
+    assert f"- bnds: {strategy_identity('bnds').raw_mse_note}" in section  # the cause, once
 
 
 def test_a_raw_difference_without_a_known_cause_says_so():
     assert table._raw_causes(["temporal+groups", "zsobol_t"]) == [
         "- temporal+groups: cause not established.",
-        f"- zsobol_t: {table.RAW_CAUSES['zsobol_t']}",
+        f"- zsobol_t: {strategy_identity('zsobol_t').raw_mse_note}",
         "",
     ]
 
@@ -317,7 +318,7 @@ def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed
             for r in rows
             if group_key(r) == group
             and (r["spp"], r["denoiser"]) == (spp, denoiser)
-            and r["strategy"] not in decision.DECISION_EXCLUDES
+            and r["strategy"] not in decision.decision_excludes()
         ]
         assert row["den_mse"] == min(r["den_mse"] for r in same) and row["strategy"] != "oracle"
     text = decision.decision_table(rows)
