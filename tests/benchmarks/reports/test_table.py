@@ -25,6 +25,7 @@ from benchmarks.sweep.records import (
 )
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
 from tests._paths import RESULTS
+from tests._records import metric_pairs
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
 
@@ -36,7 +37,7 @@ def _record(
     count = 3 * 16 * 16
 
     def pairs(values):
-        return [[[v * count, count] for v in row] for row in values]
+        return metric_pairs(values, count)
 
     def flat(value):
         return [[value] * 3] * 2
