@@ -437,18 +437,15 @@ MIRROR_EXEMPT = {
         "tests/benchmarks/reports/test_table.py", "write_report writes the tables tested there"
     ),
     "benchmarks/reports/decision.py": (
-        "tests/benchmarks/reports/test_table.py", "the decision rows are table rows"
+        "tests/benchmarks/reports/test_table.py", "decision.md, from the same records"
     ),
     **{
         f"benchmarks/speed/{name}.py": (
-            "tests/benchmarks/speed/test_init.py", "run_speed runs the scripts and their tables"
+            "tests/benchmarks/speed/test_init.py",
+            "run_speed and the tables of the shipped figures; the timings themselves take minutes",
         )
-        for name in ("copy", "denoise", "formatting", "masks", "permute", "process")
+        for name in ("copy", "denoise", "formatting", "masks", "permute", "process", "sequences")
     },
-    "benchmarks/speed/sequences.py": (
-        "tests/benchmarks/speed/test_init.py",
-        "only through the suite's script list; its own tests are being written on another branch",
-    ),
     "benchmarks/sweep/tuning.py": (
         "tests/benchmarks/sweep/test_measure.py", "the denoisers are tuned there with stand-ins"
     ),
@@ -463,7 +460,7 @@ MIRROR_EXEMPT = {
         "tests/bnerr/sequences/test_init.py", "the Sampler interface, through every sampler"
     ),
     "bnerr/sequences/tables.py": (
-        "tests/bnerr/sequences/test_owen_sobol.py", "the direction numbers against Joe and Kuo's"
+        "tests/bnerr/sequences/test_owen_sobol.py", "the sampler's nets, from these tables"
     ),
     "bnerr/sequences/white.py": (
         "tests/bnerr/sequences/test_init.py", "white and Owen-Sobol against one Python twin"
@@ -473,7 +470,7 @@ MIRROR_EXEMPT = {
     ),
     "denoisers/base.py": ("tests/denoisers/test_init.py", "the interface, through every denoiser"),
     "denoisers/native/__init__.py": (
-        "tests/denoisers/native/test_filters.py", "the dispatch to the C kernels"
+        "tests/denoisers/native/test_filters.py", "the kernels it loads, their thread count"
     ),
 }  # fmt: skip
 
