@@ -1,4 +1,5 @@
-"""A small benchmark record for report tests: 16x16 frames, metrics given as per-frame pairs."""
+"""A small benchmark record for report tests: 16x16 frames, metrics given as per-frame pairs; and
+those pairs built from per-frame values."""
 
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record, ReferenceInfo, Spectrum, Timings
@@ -28,3 +29,9 @@ def small_record(
         crop=None,
         tcorr=tcorr,
     )
+
+
+def metric_pairs(values, count=256.0):
+    """A record's per-frame metric pairs ``(value * count, count)`` from ``[S][F]`` values (seed
+    sets x frames): the sum and the pixel count the runner stores for each frame."""
+    return [[[v * count, count] for v in row] for row in values]

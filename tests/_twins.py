@@ -45,6 +45,24 @@ def pbrt_hash(e: int, seed: int) -> int:
     return h ^ (h >> 47)
 
 
+def rev32(x: int) -> int:
+    """The low 32 bits of ``x`` in reverse order."""
+    return int(format(x & M32, "032b")[::-1], 2)
+
+
+def pbrt_sobol(a: int, dim: int) -> int:
+    """pbrt-v4's 32-bit Sobol value of index ``a`` (52 bits) in dimension 0 (bit reversal) or 1
+    (the Pascal-matrix dimension), as in its ZSobol sampler."""
+    v = 0
+    for j in range(52):
+        if (a >> j) & 1:
+            if dim == 0:
+                v ^= (1 << (31 - j)) if j < 32 else 0
+            else:
+                v ^= sum(1 << (31 - i) for i in range(32) if (i & j) == i)
+    return v
+
+
 # -- the denoisers' filters: every constant written out from its published definition ----------
 #
 # These twins import nothing from denoisers.filters or bnerr.color, so that a wrong tap, window,

@@ -7,7 +7,7 @@ from benchmarks.reports import denoisers as dr
 from benchmarks.reports import write_report
 from benchmarks.reports.table import summarize
 from bnerr.metrics import paired_ratio
-from tests._records import small_record
+from tests._records import metric_pairs, small_record
 
 _SETS, _FRAMES = 2, 3
 _WHITE_UNET = [[3.0, 4.0, 5.0], [3.0, 4.0, 5.0]]  # mean 4, varying frames
@@ -20,10 +20,9 @@ def _frames(value):
 def _record(strategy, denoiser, den, raw=10.0, *, blur2=0.5, spp=4, scene="direct", tcorr=None):
     """A record whose per-frame MSE pairs are (value * count, count); ``den`` and ``raw`` are a
     constant or ``[S][F]`` values, the sigma-2 blurred raw MSE is ``blur2`` times the raw MSE."""
-    count = 256
 
     def pairs(values):
-        return [[[v * count, count] for v in row] for row in _frames(values)]
+        return metric_pairs(_frames(values))
 
     raw_frames = _frames(raw)
     raw_pairs = {

@@ -16,7 +16,7 @@ from benchmarks.reports.gap import (
     write_gap_tables,
 )
 from bnerr.errors import ValueRangeError
-from tests._records import small_record
+from tests._records import metric_pairs, small_record
 
 _SETS, _FRAMES = 3, 4
 
@@ -24,13 +24,14 @@ _SETS, _FRAMES = 3, 4
 def _record(strategy, level, *, denoiser="gaussian", spp=4, motion=1, noise=0.0, den=None):
     """A record whose every metric's per-frame MSE is ``level`` (plus a small frame-dependent
     ``noise``), as (value * count, count) pairs over 3 seed sets x 4 frames."""
-    count = 256
 
     def pairs(value):
-        return [
-            [[(value + noise * ((s * _FRAMES + f) % 5 - 2)) * count, count] for f in range(_FRAMES)]
-            for s in range(_SETS)
-        ]
+        return metric_pairs(
+            [
+                [value + noise * ((s * _FRAMES + f) % 5 - 2) for f in range(_FRAMES)]
+                for s in range(_SETS)
+            ]
+        )
 
     raw = {m: pairs(level) for m in ("mse", "mse_blur1", "mse_blur2")}
     den_pairs = {"mse": pairs(level if den is None else den)}

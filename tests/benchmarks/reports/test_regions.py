@@ -8,17 +8,15 @@ import dataclasses
 
 from benchmarks.reports import write_report
 from benchmarks.reports.regions import coverage_markdown
-from tests._records import small_record
-
-
-def _pairs(value, count=256.0):
-    return [[[value * count, count]] * 2] * 2
+from tests._records import metric_pairs, small_record
 
 
 def _records(region="all", coverage=None, scale=1.0):
     out = []
     for strategy, v in (("white", 1.0), ("temporal", 0.8), ("oracle", 0.3)):
-        metrics = {m: _pairs(v * scale) for m in ("mse", "mse_blur1", "mse_blur2")}
+        metrics = {
+            m: metric_pairs([[v * scale] * 2] * 2) for m in ("mse", "mse_blur1", "mse_blur2")
+        }
         rec = small_record(strategy, "gaussian", raw=metrics, den=metrics, frames=2, seed_sets=2)
         cell = dataclasses.replace(rec.cell, region=region)
         out.append(dataclasses.replace(rec, cell=cell, coverage=coverage))

@@ -10,7 +10,7 @@ from PIL import Image
 from benchmarks.reports.gap import gap_shares
 from benchmarks.reports.seed import write_seed_report
 from benchmarks.sweep.records import Spectrum
-from tests._records import small_record
+from tests._records import metric_pairs, small_record
 
 _VALUES = {"white": 1.0, "temporal": 0.8, "oracle": 0.3}
 
@@ -20,7 +20,7 @@ def _records(tmp_path, spp=16, coherent_spectrum=True):
     gen = np.random.default_rng(5)
     out = []
     for strategy, v in _VALUES.items():
-        pairs = [[[v * 256.0, 256.0]] * 2] * 2
+        pairs = metric_pairs([[v] * 2] * 2)
         metrics = {m: pairs for m in ("mse", "mse_blur1", "mse_blur2")}
         rec = small_record(
             strategy, "gaussian", raw=metrics, den=metrics, frames=2, seed_sets=2, spp=spp

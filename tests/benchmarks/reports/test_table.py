@@ -26,6 +26,7 @@ from benchmarks.sweep.records import (
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
 from bnerr.strategies import strategy_identity
 from tests._paths import RESULTS
+from tests._records import metric_pairs
 
 _METRICS = ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq")
 
@@ -37,7 +38,7 @@ def _record(
     count = 3 * 16 * 16
 
     def pairs(values):
-        return [[[v * count, count] for v in row] for row in values]
+        return metric_pairs(values, count)
 
     def flat(value):
         return [[value] * 3] * 2

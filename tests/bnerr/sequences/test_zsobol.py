@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 from bnerr.errors import DtypeError, UnknownNameError, ValueRangeError
 from bnerr.sequences import SAMPLERS, ZSobolSampler, make_sampler, zsobol_1d, zsobol_2d, zsobol_keys
 from bnerr.sequences.zsobol import _Layout, _zsobol_words, morton2
-from tests._twins import M32
+from tests._twins import M32, pbrt_sobol, rev32
 from tests._twins import mix_bits as _mix
 from tests._twins import pbrt_hash as _hash
 
@@ -55,34 +55,19 @@ def _sample_index(morton_index: int, d: int, log2spp: int, n_digits: int) -> int
     return out
 
 
-def _rev32(x: int) -> int:
-    return int(format(x & M32, "032b")[::-1], 2)
-
-
-def _sobol(a: int, dim: int) -> int:
-    v = 0
-    for j in range(52):
-        if (a >> j) & 1:
-            if dim == 0:
-                v ^= (1 << (31 - j)) if j < 32 else 0
-            else:
-                v ^= sum(1 << (31 - i) for i in range(32) if (i & j) == i)
-    return v
-
-
 def _randomize(v: int, s: int, randomizer: str) -> int:
     if randomizer == "none":
         return v
     if randomizer == "permutedigits":
         return v ^ s
     if randomizer == "fastowen":
-        x = _rev32(v)
+        x = rev32(v)
         x ^= (x * 0x3D20ADEA) & M32
         x = (x + s) & M32
         x = (x * ((s >> 16) | 1)) & M32
         x ^= (x * 0x05526C56) & M32
         x ^= (x * 0x53A22864) & M32
-        return _rev32(x)
+        return rev32(x)
     if s & 1:
         v ^= 1 << 31
     for b in range(1, 32):
@@ -104,7 +89,7 @@ def twin(x, y, index, dim, seed, width, height, spp, randomizer="fastowen", ndim
     a = _sample_index((_morton(x, y) << log2spp) | index, dim, log2spp, n_digits)
     h = _hash(dim + ndim, seed)
     seeds = (h & M32, h >> 32)
-    return [_float_bits(_randomize(_sobol(a, c), seeds[c], randomizer)) for c in range(ndim)]
+    return [_float_bits(_randomize(pbrt_sobol(a, c), seeds[c], randomizer)) for c in range(ndim)]
 
 
 def _bits(t: torch.Tensor) -> list[int]:

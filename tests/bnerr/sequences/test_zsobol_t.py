@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from bnerr.errors import ValueRangeError
 from bnerr.sequences import SAMPLERS, ZSobolTSampler, make_sampler, zsobol_keys
 from bnerr.sequences.zsobol_t import morton3
-from tests._twins import M32
+from tests._twins import M32, pbrt_sobol, rev32
 from tests._twins import mix_bits as _mix
 from tests._twins import pbrt_hash as _hash
 
@@ -41,29 +41,14 @@ def _morton3(x: int, y: int, t: int) -> int:
     )
 
 
-def _rev32(x: int) -> int:
-    return int(format(x & M32, "032b")[::-1], 2)
-
-
-def _sobol(a: int, dim: int) -> int:
-    v = 0
-    for j in range(52):
-        if (a >> j) & 1:
-            if dim == 0:
-                v ^= (1 << (31 - j)) if j < 32 else 0
-            else:
-                v ^= sum(1 << (31 - i) for i in range(32) if (i & j) == i)
-    return v
-
-
 def _fast_owen(v: int, s: int) -> int:
-    x = _rev32(v)
+    x = rev32(v)
     x ^= (x * 0x3D20ADEA) & M32
     x = (x + s) & M32
     x = (x * ((s >> 16) | 1)) & M32
     x ^= (x * 0x05526C56) & M32
     x ^= (x * 0x53A22864) & M32
-    return _rev32(x)
+    return rev32(x)
 
 
 def _float(v: int) -> float:
@@ -85,7 +70,7 @@ def twin(x, y, t, i, d, spp, n_digits, frames, seed) -> float:
         out |= (((index >> b) & 1) ^ (_mix((index >> (b + 1)) ^ salt) & 1)) << b
     h = _hash(d - d % 2 + 2, seed)
     s = (h & M32, h >> 32)[d % 2]
-    return _float(_fast_owen(_sobol(out, d % 2), s))
+    return _float(_fast_owen(pbrt_sobol(out, d % 2), s))
 
 
 def test_twin_permutations_are_lexicographic():

@@ -12,6 +12,7 @@ import torch
 
 from bnerr.frame import Frame
 from bnerr.metrics import Estimate, t_quantile
+from bnerr.strategies import make_strategy
 
 
 def hash_render(record: list | None = None, special: bool = False):
@@ -140,3 +141,28 @@ REAL = dict(size=48, spp=4, frames=8, tile=4)
 #: repeated seeds (bnds here: 2.29x), and that is all it is asked. Equivalence within the strict
 #: RAW_MARGIN is tested on the analytic integrand, which resolves it.
 REAL_MARGIN = 0.35
+
+
+def small_render_errors(names) -> dict[str, torch.Tensor]:
+    """Per-tile raw MSE of each named strategy on a small real render (direct, animated, at
+    :data:`REAL`'s size, spp and frames, against 256-spp references): name -> ``[tiles]``."""
+    import renderers
+    from benchmarks.sweep.references import reference_seeds
+    from bnerr.sequences import make_sampler
+
+    n, spp, frames, tile = (REAL[k] for k in ("size", "spp", "frames", "tile"))
+    scene = renderers.get_scene("direct", animated=True)
+    refs = [
+        renderers.render(scene, t, reference_seeds(n, n, t), make_sampler("owen_sobol"), 256)
+        for t in range(frames)
+    ]
+    out = {}
+    for name in names:
+        strategy = make_strategy(name, n, n, seed=0, spp=spp, dimensions=scene.dimensions)
+        squared = []
+        for t in range(frames):
+            frame = strategy.frame(t, lambda s, smp, t=t: renderers.render(scene, t, s, smp, spp))
+            squared.append((frame.color.double() - refs[t].color.double()).square().mean(0))
+        per_pixel = torch.stack(squared).mean(0)
+        out[name] = per_pixel.view(n // tile, tile, n // tile, tile).mean(dim=(1, 3)).reshape(-1)
+    return out

@@ -33,13 +33,13 @@ from bnerr.strategies import (
 )
 from tests.bnerr.strategies._renders import (
     RAW_MARGIN,
-    REAL,
     REAL_MARGIN,
     SIZE,
     hash_render,
     paired_ratio,
     pixels,
     shadow_errors,
+    small_render_errors,
     tiles,
 )
 
@@ -301,26 +301,7 @@ _BNDS_RAW = (
 @pytest.fixture(scope="module")
 def real_raw_errors(one_thread):
     """Per-tile raw MSE of white and the rivals on small real renders: name -> ``[tiles]``."""
-    import renderers
-    from benchmarks.sweep.references import reference_seeds
-    from bnerr.sequences import make_sampler
-
-    n, spp, frames, tile = (REAL[k] for k in ("size", "spp", "frames", "tile"))
-    scene = renderers.get_scene("direct", animated=True)
-    refs = [
-        renderers.render(scene, t, reference_seeds(n, n, t), make_sampler("owen_sobol"), 256)
-        for t in range(frames)
-    ]
-    out = {}
-    for name in ("white", *RIVALS):
-        strategy = make_strategy(name, n, n, seed=0, spp=spp, dimensions=scene.dimensions)
-        squared = []
-        for t in range(frames):
-            frame = strategy.frame(t, lambda s, smp, t=t: renderers.render(scene, t, s, smp, spp))
-            squared.append((frame.color.double() - refs[t].color.double()).square().mean(0))
-        per_pixel = torch.stack(squared).mean(0)
-        out[name] = per_pixel.view(n // tile, tile, n // tile, tile).mean(dim=(1, 3)).reshape(-1)
-    return out
+    return small_render_errors(("white", *RIVALS))
 
 
 @pytest.mark.slow

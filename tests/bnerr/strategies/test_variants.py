@@ -28,13 +28,13 @@ from tests.bnerr.strategies._renders import (
     FRAMES,
     MEASURED,
     RAW_MARGIN,
-    REAL,
     REAL_MARGIN,
     SIZE,
     coverage,
     features,
     hash_render,
     paired_ratio,
+    small_render_errors,
     soft_shadow_render,
     tiles,
 )
@@ -281,26 +281,7 @@ def test_variants_raw_mse_is_whites_on_the_analytic_integrand(analytic_variants,
 def variant_raw_errors(one_thread):
     """Per-tile raw MSE of white, temporal and every registered variant on a small real render
     (direct, animated, 48x48, 4 spp, 8 frames, 256-spp references): name -> ``[tiles]``."""
-    import renderers
-    from benchmarks.sweep.references import reference_seeds
-    from bnerr.sequences import make_sampler
-
-    n, spp, frames, tile = (REAL[k] for k in ("size", "spp", "frames", "tile"))
-    scene = renderers.get_scene("direct", animated=True)
-    refs = [
-        renderers.render(scene, t, reference_seeds(n, n, t), make_sampler("owen_sobol"), 256)
-        for t in range(frames)
-    ]
-    out = {}
-    for name in ("white", "zsobol", "temporal", *VARIANTS):
-        strategy = make_strategy(name, n, n, seed=0, spp=spp, dimensions=scene.dimensions)
-        squared = []
-        for t in range(frames):
-            frame = strategy.frame(t, lambda s, smp, t=t: renderers.render(scene, t, s, smp, spp))
-            squared.append((frame.color.double() - refs[t].color.double()).square().mean(0))
-        per_pixel = torch.stack(squared).mean(0)
-        out[name] = per_pixel.view(n // tile, tile, n // tile, tile).mean(dim=(1, 3)).reshape(-1)
-    return out
+    return small_render_errors(("white", "zsobol", "temporal", *VARIANTS))
 
 
 @pytest.mark.slow
