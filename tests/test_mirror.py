@@ -69,6 +69,9 @@ MIRROR_EXEMPT = {
 
 #: Test files that test several modules together, under no one module's name.
 CROSS_CUTTING = {
+    "tests/benchmarks/reports/test_identity_end_to_end.py": (
+        "a new strategy and denoiser through every report"
+    ),
     "tests/benchmarks/sweep/test_ordering.py": "oracle < temporal < white end to end",
     "tests/benchmarks/sweep/test_ordering_coherent.py": "the same in coherent regions",
 }
