@@ -46,7 +46,7 @@ def package(tmp_path_factory) -> Path:
         assert done.returncode == 0, done.stderr
         built = Path(done.stdout.strip())
         st = scene_tensors(get_scene("direct", animated=False), 0, torch.device("cpu"))
-        assert built == aot.package_path(st) and built.parent == root / "aot"
+        assert built == aot.package_path(st) and built.parent == root / "bnerr" / "aot"
         assert aot.has_package("direct", static=True)
         yield built
 
