@@ -10,10 +10,8 @@ covered here, so a new subcommand fails this file until it has its run.
 
 from __future__ import annotations
 
-import os
 import signal
 import subprocess
-import sys
 import urllib.request
 from pathlib import Path
 
@@ -21,8 +19,8 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import command_names
+from tests._processes import bnerr_command, child_env
 
-ROOT = Path(__file__).resolve().parents[2]
 #: The subcommands this file runs (each test below names the one it runs).
 COVERED = (
     "animate",
@@ -38,23 +36,15 @@ COVERED = (
 )
 
 
-def _script() -> list[str]:
-    """The console script next to this interpreter, else the module it runs."""
-    script = Path(sys.executable).parent / "bnerr"
-    return [str(script)] if script.is_file() else [sys.executable, "-m", "benchmarks.cli"]
-
-
 def _env() -> dict[str, str]:
-    """This checkout first on the path (the script may be installed from another checkout), one
-    torch thread, no background build of the compiled tracer."""
-    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
-    return dict(os.environ, PYTHONPATH=path, BNERR_BACKGROUND_BUILD="0", OMP_NUM_THREADS="1")
+    """One torch thread, no background build of the compiled tracer."""
+    return child_env(BNERR_BACKGROUND_BUILD="0", OMP_NUM_THREADS="1")
 
 
 def bnerr(cwd: Path, *args: str) -> subprocess.CompletedProcess:
     """Run ``bnerr ARGS`` in ``cwd``; fail with its output unless it exits 0."""
     done = subprocess.run(
-        [*_script(), *args], cwd=cwd, env=_env(), capture_output=True, text=True, timeout=120
+        [*bnerr_command(), *args], cwd=cwd, env=_env(), capture_output=True, text=True, timeout=120
     )
     assert done.returncode == 0, f"bnerr {' '.join(args)}: {done.stdout}\n{done.stderr}"
     return done
@@ -136,7 +126,7 @@ def test_bench_writes_the_tables_and_the_index(benched):
 
 
 def test_view_serves_the_results_folder_until_interrupted(work, benched):
-    cmd = [*_script(), "view", str(benched), "--port", "0"]
+    cmd = [*bnerr_command(), "view", str(benched), "--port", "0"]
     proc = subprocess.Popen(cmd, cwd=work, env=_env(), stdout=subprocess.PIPE, text=True)
     try:
         line = proc.stdout.readline() if proc.stdout else ""

@@ -3,16 +3,13 @@ results folder: it rewrites every report from ``DIR/cells.jsonl`` and prints ``t
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
-from pathlib import Path
 
 from benchmarks.reports.table import markdown_table, summarize
 from benchmarks.sweep.records import write_records
+from tests._processes import child_env
 from tests._records import small_record
-
-ROOT = Path(__file__).resolve().parents[3]
 
 
 def _records():
@@ -32,11 +29,10 @@ def test_the_module_rewrites_the_reports_of_a_folder_and_prints_its_table(tmp_pa
     folder = tmp_path / "tiny"
     folder.mkdir()
     write_records(folder, _records())
-    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     done = subprocess.run(
         [sys.executable, "-m", "benchmarks.reports", str(folder)],
         cwd=tmp_path,
-        env=dict(os.environ, PYTHONPATH=path),
+        env=child_env(),
         capture_output=True,
         text=True,
         timeout=300,

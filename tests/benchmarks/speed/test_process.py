@@ -10,7 +10,6 @@ layout (``direct``, static), once, into a temporary ``BNERR_CACHE_DIR`` and
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -23,10 +22,9 @@ from benchmarks.speed import process
 from bnerr.sequences import make_sampler
 from renderers import aot, get_scene, render
 from renderers.geometry import scene_tensors
+from tests._processes import bnerr_command, child_env
 
 pytestmark = [pytest.mark.slow, pytest.mark.usefixtures("one_thread")]
-
-ROOT = Path(__file__).resolve().parents[3]
 
 
 @pytest.fixture(scope="module")
@@ -34,12 +32,11 @@ def package(tmp_path_factory) -> Path:
     """The package of the static ``direct`` layout, built by the module entry point into
     temporary caches that this module's processes (and this one) use."""
     root = tmp_path_factory.mktemp("caches")
-    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
     with pytest.MonkeyPatch.context() as env:
         env.setenv("BNERR_CACHE_DIR", str(root / "bnerr"))
         env.setenv("TORCHINDUCTOR_CACHE_DIR", str(root / "inductor"))
         env.setenv("BNERR_BACKGROUND_BUILD", "0")
-        env.setenv("PYTHONPATH", path)
+        env.setenv("PYTHONPATH", child_env()["PYTHONPATH"])
         assert not aot.has_package("direct", static=True)
         cmd = [sys.executable, "-m", "renderers.aot", "direct", "--static"]
         done = subprocess.run(cmd, cwd=root, capture_output=True, text=True, timeout=600)
@@ -68,11 +65,12 @@ def test_the_package_renders_what_the_eager_tracer_renders_and_the_same_twice(pa
 def test_a_large_render_runs_the_cached_package_by_default(package, tmp_path):
     # 512 x 512 x 8 spp: the smallest render the default choice runs compiled.
     assert 512 * 512 * 8 == AUTO_COMPILE_PATHS
-    script = Path(sys.executable).parent / "bnerr"
-    cli = [str(script)] if script.is_file() else [sys.executable, "-m", "benchmarks.cli"]
     args = ["render", "--scene", "direct", "--static", "--res", "512x512", "--spp", "8"]
     done = subprocess.run(
-        [*cli, *args, "--out", str(tmp_path)], capture_output=True, text=True, timeout=300
+        [*bnerr_command(), *args, "--out", str(tmp_path)],
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert done.returncode == 0, done.stderr
     assert "512x512 8 spp" in done.stdout and "compiled)" in done.stdout, done.stdout
