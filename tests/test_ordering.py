@@ -447,8 +447,9 @@ def test_temporal_beats_white_after_a_sigma2_blur_in_coherent_regions_at_16spp(c
 # Where the seed's claim holds (issue 26): the untextured snooker table's coherent region at 16
 # spp, where the quality suite measured the temporal method keeping 0.73 [0.69, 0.77] of the
 # oracle's dividend after a sigma-2 blur (128x128, 4 seed sets). One comparison, at 95 %. At
-# 64x64 (a quarter of the renders: this was the module's slowest set-up, about 100 s) the claim
-# holds as clearly: temporal / white measured 0.563 [0.476, 0.667] there (8 seed sets).
+# 64x64 (a quarter of the pixels; the set-up took 16 s here, about a minute at 128x128) the claim
+# holds as clearly: temporal / white measured 0.563 [0.476, 0.667] there (8 seed sets; 0.368
+# [0.307, 0.440] at 128x128 with 4).
 @pytest.fixture(scope="module")
 def coherent_plain(tmp_path_factory, cache):
     sweep = Sweep(
