@@ -33,7 +33,7 @@ MIRROR_EXEMPT = {
             "tests/benchmarks/speed/test_init.py",
             "run_speed and the tables of the shipped figures; the timings themselves take minutes",
         )
-        for name in ("copy", "denoise", "formatting", "masks", "permute", "process", "sequences")
+        for name in ("copy", "formatting")
     },
     "benchmarks/sweep/plugins.py": (
         "tests/benchmarks/commands/test_bench_plugins.py",

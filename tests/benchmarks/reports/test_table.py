@@ -2,14 +2,16 @@
 
 import csv
 import dataclasses
+import functools
 import re
-import shutil
 
 import numpy as np
 import pytest
 import torch
 
-from benchmarks.reports import decision, table, write_report
+import benchmarks.reports as reports
+from benchmarks.reports import decision, seed, table, write_report
+from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.groups import group_key
 from benchmarks.reports.table import COLUMNS, markdown_table, summarize, table_columns
 from benchmarks.sweep.plan import Cell
@@ -286,20 +288,69 @@ def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
 _TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoisers.md")
 
 
+@functools.cache
+def _committed_records(suite: str) -> tuple[Record, ...]:
+    """The committed records of ``results/<suite>``, read once per test process (the quality
+    suite's take seconds to parse)."""
+    return tuple(load_records(RESULTS / suite))
+
+
+@functools.cache
+def _committed_rows(suite: str) -> tuple[dict, ...]:
+    """``summarize`` of :func:`_committed_records`, computed once per test process and shared by
+    every test below that reads the committed rows (the quality suite's take about 16 s)."""
+    return tuple(summarize(list(_committed_records(suite))))
+
+
+def _rows_of(suite: str) -> list[dict]:
+    """A fresh copy of the shared rows (a test that edits one leaves the others' intact)."""
+    return [dict(row) for row in _committed_rows(suite)]
+
+
+def _shared_summary(suite: str, records, **options) -> list[dict]:
+    """``summarize`` for ``write_report``: the shared rows when it is given exactly the committed
+    records (the rows are a pure function of them), else a real summary."""
+    committed = _committed_records(suite)
+    same = len(records) == len(committed) and all(a is b for a, b in zip(records, committed))
+    return _rows_of(suite) if same and not options else summarize(records, **options)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("suite", ["quick", "stability", "gap", "quality"])
-def test_every_committed_table_regenerates_byte_identical_from_its_cells(tmp_path, suite):
+@pytest.mark.parametrize("suite", ["quick", "stability", "gap", "quality", "seed"])
+def test_every_committed_table_regenerates_byte_identical_from_its_cells(
+    tmp_path, monkeypatch, suite
+):
     # What bnerr bench --suite SUITE --report-only writes, file for file: a committed table that
     # no longer follows from its cells.jsonl (the code changed, the file was edited) fails here.
-    folder = RESULTS / suite
-    cells = next(folder / n for n in (RESULTS_FILE, RESULTS_ARCHIVE) if (folder / n).exists())
-    shutil.copy(cells, tmp_path / cells.name)
-    write_report(tmp_path, title=f"bnerr bench --suite {suite}", charts=False)
+    folder, out = RESULTS / suite, tmp_path / suite
+    assert any((folder / n).exists() for n in (RESULTS_FILE, RESULTS_ARCHIVE))
+    records = _committed_records(suite)
+    shares: list = []
+
+    def gap_tables(out_dir, recs):
+        shares.extend(write_gap_tables(out_dir, recs))
+        return shares
+
+    monkeypatch.setattr(reports, "summarize", functools.partial(_shared_summary, suite))
+    monkeypatch.setattr(reports, "write_gap_tables", gap_tables)
+    out.mkdir()
+    write_report(out, records, title=f"bnerr bench --suite {suite}", charts=False)
     committed = [name for name in _TABLES if (folder / name).exists()]
     assert "table.md" in committed and "decision.md" in committed
     for name in committed:
-        assert (tmp_path / name).read_bytes() == (folder / name).read_bytes(), name
-    assert not [n for n in _TABLES if (tmp_path / n).exists() and n not in committed]
+        assert (out / name).read_bytes() == (folder / name).read_bytes(), name
+    assert not [n for n in _TABLES if (out / n).exists() and n not in committed]
+    # The seed figures' README.md (written with the charts): its text, figures not drawn (PNG
+    # bytes depend on the fonts), from the committed crops, which it only reads.
+    readme = tmp_path / "readme" / suite
+    readme.mkdir(parents=True)
+    (readme / "crops").symlink_to(folder / "crops", target_is_directory=True)
+    monkeypatch.setattr(seed, "seed_figure", lambda *args: None)
+    monkeypatch.setattr(seed, "_save", lambda figure, path: None)
+    seed.write_seed_report(readme, [r for r in records if r.has_pixels], shares)
+    assert (readme / "README.md").exists() == (folder / "README.md").exists()
+    if (folder / "README.md").exists():
+        assert (readme / "README.md").read_bytes() == (folder / "README.md").read_bytes()
 
 
 _COMMITTED = [RESULTS / name for name in ("quick", "quality")]
@@ -307,9 +358,9 @@ _COMMITTED = [RESULTS / name for name in ("quick", "quality")]
 
 @pytest.mark.parametrize("folder", _COMMITTED, ids=lambda p: p.name)
 def test_the_decision_table_names_the_lowest_post_denoise_error_of_the_committed_results(folder):
-    if not load_records(folder):
+    if not _committed_records(folder.name):
         pytest.skip(f"no committed results in {folder.name}")
-    rows = summarize(load_records(folder), resamples=200)
+    rows = _rows_of(folder.name)
     best = decision.best_rows(rows)
     cells = {(r["scene"], r["spp"], r["denoiser"]) for r in rows if r["region"] == "all"}
     assert {(k[0][0], k[1], k[2]) for k in best} == cells
@@ -379,5 +430,5 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     lines = found.group(1).splitlines()
     denoisers = [c.strip() for c in lines[0].strip("|").split("|")][2:]
     scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
-    rows = summarize(load_records(RESULTS / "quality"))
+    rows = _rows_of("quality")
     assert found.group(1) == decision.headline_table(rows, denoisers, scenes)
