@@ -1,122 +1,23 @@
-"""Tests of denoisers/filters.py: the kornia filters and the edge-avoiding a-trous filter.
+"""Tests of denoisers/filters/atrous.py: the edge-avoiding a-trous filter (spatial SVGF), its
+background rule, its initial variance and its fast pass against the slow twin.
 
-The slow twins (:mod:`_twins`: ``atrous_reference``, ``guided_reference``) write every constant
-out themselves, so a wrong tap or window in the code under test fails here.
+The slow twin (:mod:`_twins`: ``atrous_reference``) writes every constant out itself, so a wrong
+tap or window in the code under test fails here.
 """
-
-import math
 
 import pytest
 import torch
 import torch.nn.functional as F
 
-from bnerr.errors import DtypeError, ValueRangeError
-from bnerr.frame import Frame
+from bnerr.errors import ShapeError, ValueRangeError
 from denoisers import get_denoiser, native
-from denoisers.filters import (
-    ATrous,
-    Bilateral,
-    Gaussian,
-    Guided,
-    JointBilateral,
-    Median,
-    atrous_filter,
-    atrous_planes,
-    atrous_torch,
-    gaussian_filter,
-    guided_filter,
-    joint_bilateral_filter,
-    median_filter,
-)
-from tests._images import random_frame
-from tests._twins import atrous_reference, guided_reference
-
-FILTERS = [Gaussian(), Bilateral(), JointBilateral(), Guided(), Median(), ATrous()]
-
-
-def _two_surfaces(h=24, w=24, noise=0.0, seed=0, gradient=0.2):
-    """Left half: red albedo facing +z at depth 2; right half: grey albedo facing +x at depth 3.
-
-    Lighting rises linearly from top to bottom by ``gradient``; color = albedo * lighting *
-    (1 + noise * N(0, 1)) clamped at 0.
-    """
-    g = torch.Generator().manual_seed(seed)
-    left = torch.arange(w) < w // 2
-    albedo = torch.where(
-        left, torch.tensor([0.8, 0.1, 0.1])[:, None, None], torch.full((3, 1, 1), 0.5)
-    )
-    albedo = albedo.expand(3, h, w).clone()
-    normal = torch.where(
-        left, torch.tensor([0.0, 0.0, 1.0])[:, None, None], torch.tensor([1.0, 0, 0])[:, None, None]
-    )
-    normal = normal.expand(3, h, w).clone()
-    depth = torch.where(left, 2.0, 3.0).expand(1, h, w).clone()
-    light = 1.0 + gradient * torch.linspace(0, 1, h)[:, None].expand(h, w)
-    clean = albedo * light
-    color = (clean * (1 + noise * torch.randn(3, h, w, generator=g))).clamp_min(0.0)
-    return Frame(color=color, albedo=albedo, normal=normal, depth=depth), clean
-
-
-@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
-def test_constant_image_is_a_fixed_point(denoiser):
-    frame = Frame(
-        color=torch.full((3, 16, 20), 0.7),
-        albedo=torch.full((3, 16, 20), 0.5),
-        normal=torch.tensor([0.0, 1.0, 0.0])[:, None, None].expand(3, 16, 20).clone(),
-        depth=torch.full((1, 16, 20), 4.0),
-    )
-    torch.testing.assert_close(denoiser(frame), frame.color, rtol=1e-5, atol=1e-6)
-
-
-@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
-def test_deterministic_and_float64_follows_input(denoiser):
-    frame, _ = _two_surfaces(noise=0.5)
-    a, b = denoiser(frame), denoiser(frame)
-    assert torch.equal(a, b)
-    assert a.dtype == torch.float32
-
-
-@pytest.mark.parametrize("denoiser", FILTERS, ids=lambda d: d.name)
-def test_lowers_error_on_noisy_two_surface_image(denoiser):
-    frame, clean = _two_surfaces(noise=0.5, seed=1)
-    noisy_mse = float((frame.color - clean).square().mean())
-    mse = float((denoiser(frame) - clean).square().mean())
-    assert mse < 0.5 * noisy_mse, (mse, noisy_mse)
-
-
-def test_gaussian_removes_white_noise_variance_as_theory_says():
-    # A unit-sum kernel k turns white noise of variance v into variance v * sum(k^2); for a
-    # sampled Gaussian of sigma s that is close to 1 / (4 pi s^2).
-    noise = torch.randn(3, 256, 256, generator=torch.Generator().manual_seed(2))
-    sigma = 2.0
-    out = gaussian_filter(noise, sigma)[:, 16:-16, 16:-16]
-    expected = 1.0 / (4 * math.pi * sigma**2)
-    # The estimate of the variance of ~ 3 * 224^2 / (4 pi s^2 * 4) independent values has a relative
-    # standard error of about sqrt(2 / N_eff) = 1.5 %; allow 4 standard errors.
-    assert abs(float(out.var()) / expected - 1) < 0.06
-
-
-def test_feature_guided_filters_keep_geometry_edges_that_gaussian_blurs():
-    # Constant lighting: then the only thing to blur is the edge between the two surfaces.
-    frame, clean = _two_surfaces(noise=0.0, gradient=0.0)
-    edge = slice(10, 14)  # the two columns either side of the material / normal / depth edge
-    for out in (
-        joint_bilateral_filter(frame.color, frame.albedo, frame.normal, 2.0, 0.05, 100.0),
-        atrous_filter(frame.color, frame.normal, frame.depth),
-    ):
-        assert float((out - clean)[:, :, edge].abs().max()) < 1e-3
-    blurred = gaussian_filter(frame.color, 2.0)
-    assert float((blurred - clean)[:, :, edge].abs().max()) > 0.05
-
-
-def test_median_removes_an_isolated_firefly():
-    color = torch.full((3, 9, 9), 0.5)
-    color[:, 4, 4] = 100.0
-    assert torch.equal(median_filter(color, 3), torch.full((3, 9, 9), 0.5))
+from denoisers.filters import ATrous, atrous_filter, atrous_planes, atrous_torch
+from tests._images import random_frame, two_surfaces
+from tests._twins import atrous_reference
 
 
 def test_atrous_does_not_mix_background_and_surfaces():
-    frame, clean = _two_surfaces(noise=0.0, gradient=0.0)
+    frame, clean = two_surfaces(noise=0.0, gradient=0.0)
     frame.normal[:, :, :4] = 0.0  # escaped rays: no normal, no albedo, depth 0
     frame.albedo[:, :, :4] = 0.0
     frame.depth[:, :, :4] = 0.0
@@ -126,40 +27,14 @@ def test_atrous_does_not_mix_background_and_surfaces():
     assert float((out[:, :, 4:] - clean[:, :, 4:]).abs().max()) < 1e-3
 
 
-def test_parameters_are_checked():
-    with pytest.raises(ValueRangeError, match="bilateral: sigma_space: expected a value in"):
-        Bilateral(sigma_space=0.0)
-    with pytest.raises(DtypeError, match="guided: radius: expected an integer, got float"):
-        Guided(radius=2.5)
+def test_atrous_parameters_are_checked():
     with pytest.raises(
         ValueRangeError, match=r"atrous: iterations: expected a value in \[1, 10\], got 11"
     ):
         ATrous(iterations=11)
-    with pytest.raises(
-        DtypeError, match="joint_bilateral: sigma_color: expected a number, got str"
-    ):
-        JointBilateral(sigma_color="wide")
 
 
-def test_params_round_trip_through_constructor():
-    for denoiser in FILTERS:
-        again = type(denoiser)(**denoiser.params())
-        assert again.params() == denoiser.params()
-
-
-# -- values a renderer writes: fireflies and infinite depth (issue 18) ----------------------------
-
-
-@pytest.mark.parametrize("firefly", [1e20, 3e38])
-@pytest.mark.parametrize("name", ["atrous", "guided", "joint_bilateral", "bilateral", "median"])
-def test_one_huge_finite_firefly_gives_a_finite_image(name, firefly):
-    # A single 1e20 made atrous's output all NaN (its squared luminance overflowed float32),
-    # and a 3e38 one guided's.
-    frame = random_frame(24, 24, seed=5)
-    frame.color[1, 5, 7] = firefly
-    out = get_denoiser(name)(frame)
-    assert out.dtype == torch.float32 and torch.isfinite(out).all()
-    assert not torch.equal(out, torch.zeros_like(out))
+# -- values a renderer writes: infinite depth (issue 18) ------------------------------------------
 
 
 def test_atrous_reads_infinite_depth_as_the_background_depth():
@@ -176,20 +51,6 @@ def test_atrous_float64_switch_agrees_with_float32_on_ordinary_frames():
     narrow = atrous_filter(frame.color, frame.normal, frame.depth)
     wide = atrous_filter(frame.color.double(), frame.normal.double(), frame.depth.double())
     torch.testing.assert_close(narrow, wide.float(), rtol=1e-4, atol=1e-5)
-
-
-@pytest.mark.parametrize(
-    ("name", "params", "match"),
-    [
-        ("median", {"kernel_size": 2001}, "median: kernel_size 2001 on 24x24: expected a size"),
-        ("guided", {"radius": 100000}, "guided: radius 100000 on 24x24: expected a size"),
-    ],
-)
-def test_absurd_windows_are_refused_before_allocating(name, params, match):
-    from bnerr.errors import MemoryLimitError
-
-    with pytest.raises(MemoryLimitError, match=match + r" that fits in memory .* got an estimate"):
-        get_denoiser(name, **params)(random_frame(24, 24, seed=5))
 
 
 # -- an initial luminance variance (SVGF's temporal estimate) -------------------------------------
@@ -225,8 +86,6 @@ def test_atrous_variance_sets_how_much_luminance_difference_is_noise():
 
 
 def test_atrous_variance_is_checked():
-    from bnerr.errors import ShapeError
-
     frame = random_frame(24, 24, seed=5)
     args = (frame.color, frame.normal, frame.depth)
     h, w = frame.color.shape[1:]
@@ -286,33 +145,10 @@ def test_fast_atrous_matches_its_slow_twin(iterations, sigma_color, sigma_normal
 
 
 def test_fast_atrous_strips_meet_without_a_seam(monkeypatch):
-    import denoisers.filters.atrous as filters
+    import denoisers.filters.atrous as atrous
 
     color, normal, depth = _atrous_case(h=45)
     planes = atrous_planes(color, normal, depth, None)  # the torch path (strips are its own)
     whole = atrous_torch(planes, 3, (4.0, 128.0, 1.0))
-    monkeypatch.setattr(filters, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
+    monkeypatch.setattr(atrous, "_ATROUS_ROWS", 7)  # strips of 7 rows, taps up to 8 rows away
     assert torch.equal(atrous_torch(planes, 3, (4.0, 128.0, 1.0)), whole)
-
-
-# -- the fast guided filter against kornia's guided_blur (its slow twin) --------------------------
-#
-# Tolerance: 1e-5 of the image's largest value, relative and absolute. Both compute the same
-# window statistics in float32, in another order (separable sums against a 2-D convolution), and
-# solve the same 7 x 7 system per pixel (Cholesky against LU): at eps >= 1e-2 (the grid's
-# smallest) the system's condition number is below 1e3, so a rounding of 6e-8 in the statistics
-# moves the output by at most about 6e-5 relative; measured below 2e-6 of the largest value.
-
-
-@pytest.mark.parametrize(("radius", "eps"), [(1, 1e-2), (2, 1.0), (3, 0.1), (5, 10.0)])
-def test_fast_guided_matches_kornia(radius, eps):
-    g = torch.Generator().manual_seed(radius)
-    color = torch.rand(3, 41, 37, generator=g).square() * 4.0
-    color[0, 7, 9] = 60.0
-    albedo = torch.rand(3, 41, 37, generator=g)
-    albedo[:, :, :10] = 0.5  # a flat region: a singular covariance but for eps
-    normal = F.normalize(torch.randn(3, 41, 37, generator=g), dim=0)
-    want = guided_reference(color, albedo, normal, radius, eps)
-    got = guided_filter(color, albedo, normal, radius, eps)
-    scale = float(want.abs().amax())
-    torch.testing.assert_close(got, want, rtol=1e-5, atol=1e-5 * scale)
