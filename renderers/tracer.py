@@ -309,9 +309,9 @@ def render_batch(
     frames' pixels share a chunk (a 128 x 128 frame at 1 spp fills a quarter of one), so the
     per-operation overhead is paid once per chunk instead of once per frame. Every lane still
     runs the same elementwise operations on the same values at the same SIMD position, so each
-    frame is bit-identical to its own :func:`render` (tests/test_tracer.py). A compiled stage
-    (``compile``, ``BNERR_COMPILE``) renders the frames one by one: its kernels are specialised
-    on the lane count.
+    frame is bit-identical to its own :func:`render` (tests/renderers/test_tracer.py). A
+    compiled stage (``compile``, ``BNERR_COMPILE``) renders the frames one by one: its kernels
+    are specialised on the lane count.
 
     Args:
         seeds: ``[K, H, W]`` int64, one seed image per frame; the rest as :func:`render`.

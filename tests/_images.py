@@ -1,5 +1,6 @@
-"""Small images and frames for tests: a noisy copy of an image (the metrics tests) and a random
-frame with every buffer a denoiser reads (the denoiser and command tests)."""
+"""Small images and frames for tests: a noisy copy of an image (the metrics tests), a random
+frame with every buffer a denoiser reads (the denoiser and command tests) and a frame of two
+surfaces with known clean colour (the filter tests)."""
 
 import torch
 
@@ -30,6 +31,30 @@ def random_frame(h=12, w=10, seed=0, *, scale=1.0, drop=(), **fields) -> Frame:
     for name in drop:
         buffers.pop(name)
     return Frame(**buffers, **fields)
+
+
+def two_surfaces(h=24, w=24, noise=0.0, seed=0, gradient=0.2) -> tuple[Frame, torch.Tensor]:
+    """``(frame, clean)``. Left half: red albedo facing +z at depth 2; right half: grey albedo
+    facing +x at depth 3.
+
+    Lighting rises linearly from top to bottom by ``gradient``; color = albedo * lighting *
+    (1 + noise * N(0, 1)) clamped at 0; ``clean`` is the colour without noise.
+    """
+    g = torch.Generator().manual_seed(seed)
+    left = torch.arange(w) < w // 2
+    albedo = torch.where(
+        left, torch.tensor([0.8, 0.1, 0.1])[:, None, None], torch.full((3, 1, 1), 0.5)
+    )
+    albedo = albedo.expand(3, h, w).clone()
+    normal = torch.where(
+        left, torch.tensor([0.0, 0.0, 1.0])[:, None, None], torch.tensor([1.0, 0, 0])[:, None, None]
+    )
+    normal = normal.expand(3, h, w).clone()
+    depth = torch.where(left, 2.0, 3.0).expand(1, h, w).clone()
+    light = 1.0 + gradient * torch.linspace(0, 1, h)[:, None].expand(h, w)
+    clean = albedo * light
+    color = (clean * (1 + noise * torch.randn(3, h, w, generator=g))).clamp_min(0.0)
+    return Frame(color=color, albedo=albedo, normal=normal, depth=depth), clean
 
 
 def block_multisets(x: torch.Tensor, block: int) -> list[list[int]]:

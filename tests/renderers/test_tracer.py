@@ -1,6 +1,6 @@
-"""Tests for renderers.tracer: buffers, determinism, samplers, motion vectors, typed errors."""
+"""Tests for renderers.tracer, the driver: buffers, determinism, chunks, batches, threads,
+compilation, motion vectors, typed errors (the per-path physics: test_integrator.py)."""
 
-import dataclasses
 import warnings
 
 import pytest
@@ -9,7 +9,7 @@ import torch.nn.functional as F
 
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.sequences import make_sampler
-from renderers import get_scene, render, tracer
+from renderers import get_scene, integrator, render, tracer
 from renderers.camera import camera_frame, generate_rays
 from renderers.compare import compare_images
 from renderers.geometry import intersect, scene_tensors
@@ -309,7 +309,7 @@ def test_render_is_the_per_pixel_mean_of_trace():
     index = torch.arange(spp).repeat(height * width)
     py, px = pix // width, pix % width
     u = WHITE.sample(seeds.flatten()[pix], index, 0, scene.dimensions, torch.stack([py, px], 1))
-    paths = tracer.trace(st, cam, scene.layout, px, py, u.T.contiguous())
+    paths = integrator.trace(st, cam, scene.layout, px, py, u.T.contiguous())
     radiance = paths.radiance.view(3, height, width, spp)
     assert torch.equal(frame.color, radiance.mean(-1))
     torch.testing.assert_close(frame.variance, radiance.var(-1) / spp, rtol=1e-4, atol=1e-9)
@@ -332,67 +332,3 @@ def test_result_does_not_depend_on_the_thread_count(name):
     assert torch.get_num_threads() == 1
     for key, value in serial.buffers().items():
         assert torch.equal(value, parallel.buffers()[key]), key
-
-
-@pytest.mark.slow
-@pytest.mark.parametrize("name", ["cornell", "medium"])
-def test_the_compiled_vertex_stage_traces_as_one_graph(name):
-    """A graph break inside :func:`tracer.vertex_step` splits each compiled vertex into pieces
-    that dynamo compiles and guards separately (it once made compiled cornell renders 6x slower:
-    ``torch.result_type`` in ``geometry.where``). Dynamo's explain traces without compiling."""
-    scene = get_scene(name)
-    st, cam = scene_tensors(scene, 0), camera_frame(scene.camera, 0, 4, 4)
-    pix = torch.arange(16)
-    u = WHITE.sample(
-        pix, torch.zeros_like(pix), 0, scene.dimensions, torch.stack([pix // 4, pix % 4], 1)
-    )
-    breaks, explained = [], {}
-
-    def explained_step(*args):
-        # Dynamo specializes on what _guard_signature keeps (shapes, dtypes, flags, Python
-        # values), never on tensor values: vertices with one signature trace the same graph, so
-        # each signature is explained once (one per scene: the compiled stage's one variant).
-        key = _guard_signature(args)
-        if key not in explained:
-            explained[key] = torch._dynamo.explain(tracer.vertex_step)(*args).graph_break_count
-        breaks.append(explained[key])
-        return tracer.vertex_step(*args)
-
-    explained_step.uniform = True  # the arguments the compiled stage gets
-    tracer.trace(st, cam, scene.layout, pix % 4, pix // 4, u.T.contiguous(), explained_step)
-    assert len(breaks) == scene.layout.vertices and breaks == [0] * len(breaks)
-    assert len(explained) == 1  # every vertex of the scene is one compiled variant
-
-
-def _guard_signature(value):
-    """What dynamo's guards see of ``value``: tensors by shape, dtype and device, containers
-    element by element, dataclasses field by field, anything else by its value."""
-    if isinstance(value, torch.Tensor):
-        return ("tensor", tuple(value.shape), value.dtype, value.device.type)
-    if isinstance(value, (tuple, list)):
-        return tuple(_guard_signature(v) for v in value)
-    if dataclasses.is_dataclass(value):
-        return tuple(_guard_signature(getattr(value, f.name)) for f in dataclasses.fields(value))
-    return ("value", repr(value))
-
-
-@pytest.mark.parametrize("name", ["cornell", "medium", "direct"])
-def test_uniform_vertex_arguments_give_the_same_paths_bit_for_bit(name):
-    """The compiled stage gets tensors and flags where the eager one gets None (one compiled
-    variant per scene instead of three); the flags select exactly the values None selects."""
-    scene = get_scene(name)
-    st, cam = scene_tensors(scene, 1), camera_frame(scene.camera, 1, 6, 5)
-    pix = torch.arange(30).repeat_interleave(3)
-    index = torch.arange(3).repeat(30)
-    rows = torch.stack([pix // 6, pix % 6], 1)
-    u = WHITE.sample(pix * 7 + 1, index, 0, scene.dimensions, rows).T.contiguous()
-
-    def uniform_step(*args):
-        assert len(args) == 12 and all(args[i] is not None for i in (6, 10, 11))  # pdf, u, ends
-        return tracer.vertex_step(*args)
-
-    uniform_step.uniform = True
-    plain = tracer.trace(st, cam, scene.layout, pix % 6, pix // 6, u)
-    flagged = tracer.trace(st, cam, scene.layout, pix % 6, pix // 6, u, uniform_step)
-    for field in ("radiance", "albedo", "normal"):
-        assert torch.equal(getattr(plain, field), getattr(flagged, field)), field
