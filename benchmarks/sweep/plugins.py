@@ -49,19 +49,13 @@ def load_names(
         return None
     names = []
     for value in values:
-        own = group == "bnerr.denoisers" and value.endswith(_OWN) and value not in _known(group)
+        own = group == "bnerr.denoisers" and value.endswith(_OWN)
         bare = value.removesuffix(_OWN) if own else value
         name = LOADERS[group](bare)
         if name != bare:
             specs.append((group, bare))
         names.append(name + (_OWN if own else ""))
     return names
-
-
-def _known(group: str) -> set[str]:
-    if group != "bnerr.denoisers":
-        return set()
-    return {f"{name}{_OWN}" for name in denoisers.DENOISERS}
 
 
 def load_specs(specs: Iterable[tuple[str, str]]) -> None:

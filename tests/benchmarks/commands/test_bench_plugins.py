@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+from tests._paths import ROOT
 
 PACKAGE = '''
 import torch.nn.functional as F
