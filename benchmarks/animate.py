@@ -37,7 +37,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 import torch
@@ -61,6 +61,7 @@ __all__ = [
     "require_ffmpeg",
     "SHOWN_RIVALS",
     "Animation",
+    "AnimationResult",
     "Tiles",
     "animate_scene",
     "compose_frame",
@@ -443,13 +444,22 @@ def _caption(spec: Animation, tiles: Tiles, t: int) -> list[str]:
     ]
 
 
+class AnimationResult(TypedDict):
+    """What :func:`animate_scene` wrote: the two files, and the seconds spent on each column and
+    on the encoding (``"encode"``)."""
+
+    mp4: Path
+    gif: Path
+    seconds: dict[str, float]
+
+
 def animate_scene(
     parts: Parts,
     references: ReferenceCache,
     spec: Animation,
     out_dir: str | Path,
     store: TuningStore | None = None,
-) -> dict[str, object]:
+) -> AnimationResult:
     """Render ``spec`` and write ``<scene>.mp4`` (every frame, whole tiles) and ``<scene>.gif``
     (the first ``gif_frames`` frames, centre crops of ``gif_crop`` pixels) into ``out_dir``.
 
@@ -468,7 +478,7 @@ def animate_scene(
     ]
     gif = write_gif(out / f"{spec.scene}.gif", small, spec.fps)
     seconds = dict(tiles.seconds, encode=time.perf_counter() - start)
-    return {"mp4": mp4, "gif": gif, "seconds": seconds}
+    return AnimationResult(mp4=mp4, gif=gif, seconds=seconds)
 
 
 def load_store(path: str | Path | None) -> ParamStore | None:
@@ -489,7 +499,7 @@ def write_animations(
     scenes: Sequence[str] | None = None,
     strategies: Sequence[str] | None = None,
     **options: Any,
-) -> list[dict[str, object]]:
+) -> list[AnimationResult]:
     """One animation per scene of ``suite`` (a :class:`benchmarks.suites.Suite` or its name),
     written into ``out_dir`` (checked first, then locked for the whole run).
 
@@ -529,8 +539,8 @@ def animate(
     cache_dir: str | Path,
     params: str | Path | None = None,
     parts: Parts | None = None,
-    on_scene: Callable[[Animation, dict[str, object]], object] | None = None,
-) -> list[dict[str, object]]:
+    on_scene: Callable[[Animation, AnimationResult], object] | None = None,
+) -> list[AnimationResult]:
     """Write every animation of ``specs`` into ``out_dir``: the folder is checked
     (:func:`bnerr.outputs.check_output`) and the tuned parameters read before any render, and
     the folder's lock (:func:`bnerr.outputs.output_lock`) is held throughout (the temporaries a
@@ -566,7 +576,7 @@ def _command(specs: Sequence[Animation], out: Path) -> str:
     )
 
 
-def manifest(specs: Sequence[Animation], results: Sequence[dict], out: Path) -> str:
+def manifest(specs: Sequence[Animation], results: Sequence[AnimationResult], out: Path) -> str:
     """``README.md`` of an animation folder: the command, what the grids show, files and times."""
     s = specs[0]
     lines = [

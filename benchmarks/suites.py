@@ -73,6 +73,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypedDict, cast
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
 from bnerr.sequences import per_pixel_samplers
@@ -226,6 +227,36 @@ class Suite:
     coherent: bool = False
 
 
+class _Sets(TypedDict):
+    """Settings several sweeps share, spread into each with ``**`` (fields of :class:`Sweep`)."""
+
+    seed_sets: int
+    frames: int
+    warmup: int
+
+
+class _GapSets(_Sets):
+    """The gap suite's shared settings: :class:`_Sets` and its resolution and reference spp."""
+
+    res: tuple[int, int]
+    reference_spp: int
+
+
+class _Overrides(TypedDict, total=False):
+    """The command line's overrides of a sweep (:func:`resolve`; the fields of :class:`Sweep`)."""
+
+    scenes: tuple[str, ...]
+    strategies: tuple[str, ...]
+    spp: tuple[int, ...]
+    denoisers: tuple[str, ...]
+    frames: int
+    warmup: int
+    res: tuple[int, int]
+    seed_sets: int
+    reference_spp: int
+    metrics: tuple[str, ...]
+
+
 #: Every registered scene (:data:`renderers.catalog.SCENES`).
 _ALL_SCENES = tuple(SCENES)
 #: The a-priori patterns and the temporal method over ZSobol (issue 13), measured against the rest.
@@ -284,7 +315,7 @@ _GAP_STRATEGIES = ("white", "temporal", *GAP_SINGLE, *GAP_BEST, "oracle")
 #: never worse than white beyond the interval on any of its failure cases).
 _BEST = GAP_BEST[0]
 _GAP_STILL = tuple(s for s in GAP_BEST if not s.endswith("+reproject"))
-_GAP_SETS = dict(seed_sets=2, frames=2, warmup=4, res=(128, 128), reference_spp=256)
+_GAP_SETS = _GapSets(seed_sets=2, frames=2, warmup=4, res=(128, 128), reference_spp=256)
 _GAP_METRICS = ("mse", "mse_blur1", "mse_blur2")
 
 # Why 4 seed sets x 3 frames and not 1 x 12: a temporal run reuses one set of seeds for all its
@@ -301,7 +332,7 @@ _GAP_METRICS = ("mse", "mse_blur1", "mse_blur2")
 # Why 128x128: at 64x64 the scenes' features vary inside a 4x4 block, the sort orders by that
 # signal instead of by the error, and the temporal method's gain after denoising is not measurable
 # (tests/test_ordering.py's docstring has the figures).
-_SETS = dict(seed_sets=4, frames=3, warmup=6)
+_SETS = _Sets(seed_sets=4, frames=3, warmup=6)
 
 SUITES: dict[str, Suite] = {
     "quick": Suite(
@@ -651,7 +682,7 @@ def resolve(
     of every sweep's conditions (each condition once per sampler); ``metrics`` the measured
     metrics.
     """
-    changes = {
+    given = {
         "scenes": _known(scenes, known_scenes, "scene"),
         "strategies": _known_strategies(strategies, known_strategies),
         "spp": tuple(spp) if spp is not None else None,
@@ -663,7 +694,8 @@ def resolve(
         "reference_spp": reference_spp,
         "metrics": _known(metrics, known_metrics, "metric"),
     }
-    changes = {k: v for k, v in changes.items() if v is not None}
+    # The keys are _Overrides' and each value given has its type.
+    changes = cast(_Overrides, {k: v for k, v in given.items() if v is not None})
     sweeps = tuple(dataclasses.replace(s, **changes) for s in suite.sweeps)
     chosen = _known(samplers, known_samplers, "per-pixel sampler")
     if chosen is not None:

@@ -41,7 +41,7 @@ from bnerr.errors import (
     check_shape,
 )
 from bnerr.frame import Frame
-from denoisers.base import check_frame
+from denoisers.base import check_frame, required
 from denoisers.unet import (
     DEFAULT_WIDTHS,
     UNet,
@@ -175,7 +175,8 @@ def make_training_set(pairs: Sequence[tuple[Frame, torch.Tensor]]) -> TrainingSe
                 f"got {frame.height} x {frame.width}"
             )
         exposure = auto_exposure(frame.color)
-        inputs.append(network_input(frame.color, frame.albedo, frame.normal, exposure))
+        albedo, normal = required(frame, "albedo"), required(frame, "normal")
+        inputs.append(network_input(frame.color, albedo, normal, exposure))
         targets.append(torch.log1p(reference.clamp_min(0.0) * exposure))
     return TrainingSet(torch.stack(inputs).cpu(), torch.stack(targets).cpu())
 

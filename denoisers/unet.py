@@ -28,7 +28,7 @@ training and other devices run :class:`UNet` itself.
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 import torch
@@ -116,7 +116,7 @@ def _conv(cin: int, cout: int) -> nn.Conv2d:
 def _check_widths(widths: object) -> tuple[int, int, int, int]:
     """``widths`` as 4 positive Python ints; :class:`ValueRangeError` otherwise."""
     try:
-        values = list(widths)  # type: ignore[call-overload]
+        values = list(widths) if isinstance(widths, Iterable) else None
     except TypeError:
         values = None
     if (
@@ -125,7 +125,7 @@ def _check_widths(widths: object) -> tuple[int, int, int, int]:
         or any(isinstance(c, bool) or not isinstance(c, int) or c < 1 for c in values)
     ):
         raise ValueRangeError(f"UNet: widths: expected 4 positive integers, got {widths!r:.80}")
-    return tuple(values)  # type: ignore[return-value]
+    return tuple(values)
 
 
 def _layer_shapes(widths: Sequence[int], in_channels: int = 9) -> list[tuple[int, int]]:
@@ -628,12 +628,14 @@ class UNetDenoiser(Denoiser):
         if weights is not None and not isinstance(weights, (str, Path)):
             raise DtypeError(f"unet: weights: expected a path, got {type(weights).__name__}")
         self.weights = Path(weights) if weights is not None else DEFAULT_WEIGHTS
-        self._models: dict[object, UNet | FastUNet] = {"cpu": load_weights(self.weights)}
+        self._model = load_weights(self.weights)
+        #: Inference copies by ``("fast", device)``, made on first use there.
+        self._models: dict[tuple[str, str], UNet | FastUNet] = {}
 
     @property
     def model(self) -> UNet:
         """The network on the CPU."""
-        return self._models["cpu"]
+        return self._model
 
     def denoise(self, frame: Frame) -> torch.Tensor:
         device = frame.color.device
@@ -651,7 +653,7 @@ class UNetDenoiser(Denoiser):
             return FastUNet(self.model)
         fast = UNet(self.model.widths, residual=self.model.residual)
         fast.load_state_dict(self.model.state_dict())
-        return fast.eval().to(device, memory_format=torch.channels_last)
+        return fast.eval().to(device).to(memory_format=torch.channels_last)
 
     def params(self) -> dict[str, float | int | str]:
         return {"weights": str(self.weights)}
@@ -673,13 +675,15 @@ def parameter_count_reference(widths: Sequence[int] = DEFAULT_WIDTHS) -> int:
     return sum(p.numel() for p in UNet(widths).parameters())
 
 
-def check_parameter_count(widths: Sequence[int], name: str) -> int:
-    """Raise :class:`ValueRangeError` if a U-Net of ``widths`` exceeds :data:`MAX_PARAMETERS`."""
-    count = parameter_count(widths)
+def check_parameter_count(widths: object, name: str) -> int:
+    """Raise :class:`ValueRangeError` if a U-Net of ``widths`` exceeds :data:`MAX_PARAMETERS`, or
+    if ``widths`` (which may come from a file) are not 4 positive integers."""
+    checked = _check_widths(widths)
+    count = parameter_count(checked)
     if count > MAX_PARAMETERS:
         raise ValueRangeError(
             f"{name}: expected at most {MAX_PARAMETERS} parameters, got widths "
-            f"{list(widths)} with {count}"
+            f"{list(checked)} with {count}"
         )
     return count
 

@@ -47,6 +47,12 @@ from bnerr.errors import check_positive_int
 __all__ = ["Layout"]
 
 
+#: Layout's offsets: light, direction, distance and light-choice dimension per vertex, and D.
+_Table = tuple[
+    tuple[int, ...], tuple[int | None, ...], tuple[int | None, ...], tuple[int | None, ...], int
+]
+
+
 @dataclass(frozen=True)
 class Layout:
     """Offsets of every decision in the sample vector of one path.
@@ -60,14 +66,16 @@ class Layout:
     max_depth: int
     lights: int = 1
     medium: bool = False
-    _table: tuple = field(init=False, repr=False, compare=False)
+    _table: _Table = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         check_positive_int(self.max_depth, "max_depth", minimum=2)
         check_positive_int(self.lights, "lights", minimum=1)
         vertices = self.max_depth - 1
-        light, direction = [0] * vertices, [None] * vertices
-        distance, choice = [None] * vertices, [None] * vertices
+        light: list[int] = [0] * vertices
+        direction: list[int | None] = [None] * vertices
+        distance: list[int | None] = [None] * vertices
+        choice: list[int | None] = [None] * vertices
         d = 2
         for k in range(vertices):
             light[k], d = d, d + 2
@@ -119,11 +127,11 @@ class Layout:
         for k in range(self.vertices):
             names[self.light(k)] = f"vertex {k} light u"
             names[self.light(k) + 1] = f"vertex {k} light v"
-            if self.direction(k) is not None:
-                names[self.direction(k)] = f"vertex {k} direction u"
-                names[self.direction(k) + 1] = f"vertex {k} direction v"
-            if self.distance(k) is not None:
-                names[self.distance(k)] = f"vertex {k} free-flight distance"
-            if self.light_choice(k) is not None:
-                names[self.light_choice(k)] = f"vertex {k} light choice"
+            if (direction := self.direction(k)) is not None:
+                names[direction] = f"vertex {k} direction u"
+                names[direction + 1] = f"vertex {k} direction v"
+            if (distance := self.distance(k)) is not None:
+                names[distance] = f"vertex {k} free-flight distance"
+            if (choice := self.light_choice(k)) is not None:
+                names[choice] = f"vertex {k} light choice"
         return [f"{d}: {names[d]}" for d in range(self.dimensions)]

@@ -34,6 +34,7 @@ sources other than rectangles, heterogeneous media, or motion blur inside a fram
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -69,12 +70,14 @@ Affine = tuple[tuple[float, float, float, float], ...]
 def _vec3(value: object, name: str) -> Vec3:
     """Validate a 3-vector of finite numbers and return it as a float tuple."""
     try:
-        out = tuple(float(v) for v in value)  # type: ignore[union-attr]
+        if not isinstance(value, Iterable):
+            raise TypeError(name)
+        out = tuple(float(v) for v in value)
     except TypeError:
         raise DtypeError(f"{name}: expected 3 numbers, got {type(value).__name__}") from None
     if len(out) != 3 or not all(math.isfinite(v) for v in out):
         raise ValueRangeError(f"{name}: expected 3 finite numbers, got {value!r}")
-    return out  # type: ignore[return-value]
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -102,7 +105,8 @@ class Linear:
     velocity: Vec3
 
     def at(self, t: int) -> Vec3:
-        return tuple(s + t * v for s, v in zip(self.start, self.velocity))  # type: ignore[return-value]
+        (sx, sy, sz), (vx, vy, vz) = self.start, self.velocity
+        return sx + t * vx, sy + t * vy, sz + t * vz
 
     def frozen(self) -> Fixed:
         return Fixed(self.at(0))
@@ -192,7 +196,8 @@ class Felt:
 
     def mean(self) -> Vec3:
         """The texture's mean albedo (for the untextured twin of a scene)."""
-        return tuple(float(v) for v in self.texels().reshape(-1, 3).mean(0))  # type: ignore
+        r, g, b = (float(v) for v in self.texels().reshape(-1, 3).mean(0))
+        return r, g, b
 
 
 Texture = Checker | Felt
@@ -264,7 +269,8 @@ class Rectangle:
     @property
     def normal(self) -> Vec3:
         n = np.cross(self.u, self.v)
-        return tuple(float(x) for x in n / np.linalg.norm(n))  # type: ignore[return-value]
+        x, y, z = (float(c) for c in n / np.linalg.norm(n))
+        return x, y, z
 
     @property
     def area(self) -> float:
@@ -452,4 +458,4 @@ def affine(
     if rotate is not None:
         linear = rotation(*rotate) @ linear
     m = np.concatenate([linear, np.asarray(translate, dtype=np.float64)[:, None]], axis=1)
-    return tuple(tuple(float(v) for v in row) for row in m)  # type: ignore[return-value]
+    return tuple((float(r[0]), float(r[1]), float(r[2]), float(r[3])) for r in m)

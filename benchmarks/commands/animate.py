@@ -30,7 +30,7 @@ from pathlib import Path
 
 import torch
 
-from benchmarks.animate import Animation, animate, default_strategies, load_store
+from benchmarks.animate import Animation, AnimationResult, animate, default_strategies, load_store
 from benchmarks.commands._args import (
     names,
     nonnegative_int,
@@ -120,7 +120,7 @@ def _specs(args: argparse.Namespace) -> list:
             gif_crop=args.gif_crop,
             gif_frames=args.gif_frames,
         ).check(known)
-        for scene in names(args.scenes)
+        for scene in names(args.scenes) or ()
     ]
 
 
@@ -195,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
         _check_time(specs)
     start = time.perf_counter()
 
-    def report(spec, result) -> None:
+    def report(spec: Animation, result: AnimationResult) -> None:
         seconds = "  ".join(f"{k} {v:.1f}s" for k, v in result["seconds"].items())
         sizes = "  ".join(
             f"{result[k]} ({Path(result[k]).stat().st_size / 1024:.0f} KiB)" for k in ("mp4", "gif")

@@ -102,14 +102,18 @@ def _condition(record: Record) -> str:
     return f"m{c.motion}{depth} {c.region} {c.sampler}"
 
 
-def _group_key(record: Record) -> tuple:
+#: Records measured on the same frames: scene, spp, condition, frames, seed sets, width, height.
+_GroupKey = tuple[str, int, str, int, int, int, int]
+
+
+def _group_key(record: Record) -> _GroupKey:
     c = record.cell
     return (c.scene, c.spp, _condition(record), c.frames, c.seed_sets, c.width, c.height)
 
 
-def _measures(records: Iterable[Record]) -> dict[tuple, dict[str, dict[str, torch.Tensor]]]:
+def _measures(records: Iterable[Record]) -> dict[_GroupKey, dict[str, dict[str, torch.Tensor]]]:
     """group key -> measure -> strategy -> ``[S, F, 2]`` stats (raw: the first denoiser's)."""
-    out: dict[tuple, dict[str, dict[str, torch.Tensor]]] = {}
+    out: dict[_GroupKey, dict[str, dict[str, torch.Tensor]]] = {}
     for r in records:
         by_measure = out.setdefault(_group_key(r), {})
         wanted = [(f"raw {m}", r.raw.get(m)) for m in RAW_MEASURES]

@@ -48,8 +48,8 @@ def group_title(key: tuple) -> str:
         "coherent regions only" if region == "coherent" else None,
         f"{sampler} sequences" if sampler != "owen_sobol" else None,
     ]
-    extra = [e for e in extra if e]
-    return scene + (f" ({', '.join(extra)})" if extra else "")
+    shown = [e for e in extra if e]
+    return scene + (f" ({', '.join(shown)})" if shown else "")
 
 
 def group_slug(key: tuple) -> str:

@@ -135,9 +135,9 @@ def _mean_ms(series: list[list[float]]) -> float:
 def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
     """The pooled value of every metric and the interval of those that have one."""
     for kind in ("raw", "den"):
-        for metric in getattr(rec, kind):
-            stats = _stats(rec, kind, metric)
-            row[f"{kind}_{metric}"] = float(stats[..., 0].sum() / stats[..., 1].sum())  # pooled
+        for metric, values in getattr(rec, kind).items():
+            pairs = np.asarray(values, dtype=np.float64)
+            row[f"{kind}_{metric}"] = float(pairs[..., 0].sum() / pairs[..., 1].sum())  # pooled
     for name in _interval_names():
         kind, metric = name.split("_", 1)
         stats = _stats(rec, kind, metric)
@@ -178,7 +178,9 @@ def _row(
     lo = row.get("den_mse_ratio_lo")
     row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
     raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
-    row["raw_differs_from_white"] = None if raw_lo is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
+    row["raw_differs_from_white"] = (
+        None if raw_lo is None or raw_hi is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
+    )
     row["render_sampler"] = render_sampler(rec)
     return {c: row.get(c) for c in columns}
 

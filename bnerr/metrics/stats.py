@@ -48,6 +48,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+import numpy as np
 import torch
 from scipy.special import stdtrit
 
@@ -65,6 +66,7 @@ from bnerr.reduce import fixed_sum
 __all__ = [
     "METHODS",
     "Estimate",
+    "PerFrameValues",
     "as_stats",
     "better",
     "bootstrap_interval",
@@ -87,6 +89,16 @@ __all__ = [
 #: default, a t-interval over seed sets) and ``"bootstrap"`` (the former two-stage percentile
 #: bootstrap, which undercovers at 4 seed sets; kept for comparison and for old results).
 METHODS = ("t", "bootstrap")
+
+#: What :func:`as_stats` reads: per-frame values ``[F]``, ``[S, F]`` or pairs ``[S, F, 2]``, as a
+#: tensor, a NumPy array or nested sequences (a record's ``MetricPairs`` entry).
+PerFrameValues = (
+    torch.Tensor
+    | np.ndarray
+    | Sequence[float]
+    | Sequence[Sequence[float]]
+    | Sequence[Sequence[Sequence[float]]]
+)
 
 
 def pooled_mean(stats: torch.Tensor) -> torch.Tensor:
@@ -244,7 +256,7 @@ def _check_method(level: float, resamples: int, method: str) -> None:
 
 
 def bootstrap_interval(
-    values: torch.Tensor | Sequence[float],
+    values: PerFrameValues,
     level: float = 0.95,
     resamples: int = 2000,
     seed: int = 0,
@@ -284,8 +296,8 @@ def bootstrap_interval(
 
 
 def paired_ratio(
-    values: torch.Tensor | Sequence[float],
-    baseline: torch.Tensor | Sequence[float],
+    values: PerFrameValues,
+    baseline: PerFrameValues,
     level: float = 0.95,
     resamples: int = 2000,
     seed: int = 0,

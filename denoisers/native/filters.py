@@ -21,6 +21,7 @@ the a-trous filter, the self-check of each kernel against its torch path and the
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import kornia.filters as KF
@@ -52,9 +53,9 @@ _SYMBOLS = ("bnerr_atrous", "bnerr_bilateral", "bnerr_luminance_variance")
 class FilterKernels:
     """The bound C functions of one loaded library (``why`` says where it came from)."""
 
-    atrous: ctypes._CFuncPtr
-    bilateral: ctypes._CFuncPtr
-    variance: ctypes._CFuncPtr
+    atrous: Callable[..., int]
+    bilateral: Callable[..., int]
+    variance: Callable[..., int]
     why: str
 
 
@@ -78,7 +79,7 @@ def _bind(library: ctypes.CDLL, why: str) -> FilterKernels:
 LIBRARY = native.library(__package__, "filters.c", _bind, _SYMBOLS, TORCH_PATH_COST)
 
 
-def _floats(values) -> torch.Tensor:
+def _floats(values: Sequence[float] | Sequence[Sequence[float]]) -> torch.Tensor:
     return torch.tensor(values, dtype=torch.float32).flatten().contiguous()
 
 

@@ -26,6 +26,7 @@ count: each value is computed by the same operations whatever band it falls in.
 from __future__ import annotations
 
 import ctypes
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import torch
@@ -45,7 +46,7 @@ _SYMBOLS = ("bnerr_guided",)
 class GuidedKernels:
     """The bound C function of one loaded library (``why`` says where it came from)."""
 
-    guided: ctypes._CFuncPtr
+    guided: Callable[..., int]
     why: str
 
 
