@@ -67,7 +67,8 @@ from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
-from renderers import aot, get_scene, render
+from benchmarks.sweep.parts import render_any
+from renderers import aot, get_scene, renders_itself
 from renderers.budget import (
     COMPILE_SPEEDUP,
     SHOW_ESTIMATE_S,
@@ -193,7 +194,7 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
     for t in range(args.start, args.start + args.frames):
         seeds = pixel_seeds(height, width, (seed * 100003 + t) * height * width)
         start = time.perf_counter()
-        frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
+        frame = render_any(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
         yield t, frame, time.perf_counter() - start
 
 
@@ -203,7 +204,7 @@ def _strategy_frames(args: argparse.Namespace, strategy, scene):
     earlier frames are rendered, not yielded, and not counted in the seconds."""
 
     def render_at(k: int) -> Callable[[torch.Tensor, Sampler], Frame]:
-        return functools.partial(render, scene, k, spp=args.spp, compile=args.compile_now)
+        return functools.partial(render_any, scene, k, spp=args.spp, compile=args.compile_now)
 
     shown = range(args.start, args.start + args.frames)
     start = time.perf_counter()
@@ -216,8 +217,11 @@ def _strategy_frames(args: argparse.Namespace, strategy, scene):
 def run(args: argparse.Namespace) -> int:
 
     width, height, out = _check_args(args)
-    args.compile_now = compile_choice(args, width, height)
     scene = get_scene(args.scene, animated=not args.static)
+    if renders_itself(scene):  # a Mitsuba XML scene: Mitsuba renders, the tracer's stage is moot
+        args.compile_now, args.build_later = False, False
+    else:
+        args.compile_now = compile_choice(args, width, height)
     strategy = None
     if args.strategy is None:
         frames = _fixed_seed_frames(args, scene, height, width)
@@ -245,7 +249,7 @@ def run(args: argparse.Namespace) -> int:
             stem = out / f"{scene.name}_{t:04d}"
             write_frame(stem.with_suffix(".exr"), frame)
             write_png(stem.with_suffix(".png"), frame.color, exposure=args.exposure)
-            path = "compiled" if args.compile_now else "eager"
+            path = "mitsuba" if renders_itself(scene) else "compiled" if args.compile_now else "eager"
             _report(stem, seconds, width, height, args.spp, scene, path)
             bar.update(1)
     if args.build_later:
