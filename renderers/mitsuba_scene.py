@@ -43,6 +43,8 @@ import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 import torch
@@ -121,9 +123,7 @@ class MitsubaScene:
         """The camera's ``(origin, target, up)`` at frame t, or None (the XML's camera)."""
         return None if self.camera is None else self.camera.pose(t)
 
-    def render(
-        self, t: int, seeds: torch.Tensor, sampler: Sampler | None, spp: int
-    ) -> Frame:
+    def render(self, t: int, seeds: torch.Tensor, sampler: Sampler | None, spp: int) -> Frame:
         """Frame ``t`` rendered by Mitsuba with ``sampler`` at ``seeds [H, W]`` int64: colour,
         albedo, normal, depth, object id and motion, as the tracer's frames. Same inputs give
         bit-identical frames.
@@ -226,7 +226,7 @@ def _dimensions(path: str, max_depth: int | None) -> int:
     return render.dimensions
 
 
-def _look_at(mi, pose: tuple[Vec3, Vec3, Vec3]):
+def _look_at(mi: ModuleType, pose: tuple[Vec3, Vec3, Vec3]) -> Any:
     origin, target, up = (list(map(float, v)) for v in pose)
     return mi.ScalarTransform4f().look_at(origin=origin, target=target, up=up)
 
@@ -238,14 +238,12 @@ def _set_pose(render: MitsubaRender, pose: tuple[Vec3, Vec3, Vec3]) -> None:
     params.update()
 
 
-def _matrix(transform) -> np.ndarray:
+def _matrix(transform: Any) -> np.ndarray:
     """A Mitsuba transform's 4 x 4 matrix as float64."""
     return np.array(transform.matrix, dtype=np.float64).reshape(4, 4)
 
 
-def camera_motion(
-    render: MitsubaRender, previous: tuple[Vec3, Vec3, Vec3] | None
-) -> torch.Tensor:
+def camera_motion(render: MitsubaRender, previous: tuple[Vec3, Vec3, Vec3] | None) -> torch.Tensor:
     """Motion ``[2, H, W]`` float32 in pixels from the camera at ``previous`` (``look_at``
     pose; None: the sensor's own pose, so zero motion) to the sensor's current pose.
 

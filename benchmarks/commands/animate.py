@@ -103,7 +103,7 @@ def _specs(args: argparse.Namespace) -> list:
 
     width, height = parse_resolution(args.res)
     strategies = tuple(names(args.strategies) or default_strategies())
-    scenes = [load_scene(name) for name in names(args.scenes)]  # scene files, XML, plug-ins
+    scenes = [load_scene(name) for name in names(args.scenes) or ()]  # scene files, XML, plug-ins
     known = known_names()
     return [
         Animation(

@@ -61,13 +61,13 @@ from benchmarks.commands._args import (
     positive_int,
     seed_int,
 )
+from benchmarks.sweep.parts import render_any as render  # the tracer, or a Mitsuba scene's own
 from bnerr.errors import FileFormatError, ValueRangeError, check_memory, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import first_frame, make_strategy, pixel_seeds, play
-from benchmarks.sweep.parts import render_any
 from renderers import aot, get_scene, renders_itself
 from renderers.budget import (
     COMPILE_SPEEDUP,
@@ -194,7 +194,7 @@ def _fixed_seed_frames(args: argparse.Namespace, scene, height: int, width: int)
     for t in range(args.start, args.start + args.frames):
         seeds = pixel_seeds(height, width, (seed * 100003 + t) * height * width)
         start = time.perf_counter()
-        frame = render_any(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
+        frame = render(scene, t, seeds, sampler, args.spp, compile=args.compile_now)
         yield t, frame, time.perf_counter() - start
 
 
@@ -204,7 +204,7 @@ def _strategy_frames(args: argparse.Namespace, strategy, scene):
     earlier frames are rendered, not yielded, and not counted in the seconds."""
 
     def render_at(k: int) -> Callable[[torch.Tensor, Sampler], Frame]:
-        return functools.partial(render_any, scene, k, spp=args.spp, compile=args.compile_now)
+        return functools.partial(render, scene, k, spp=args.spp, compile=args.compile_now)
 
     shown = range(args.start, args.start + args.frames)
     start = time.perf_counter()
@@ -249,7 +249,8 @@ def run(args: argparse.Namespace) -> int:
             stem = out / f"{scene.name}_{t:04d}"
             write_frame(stem.with_suffix(".exr"), frame)
             write_png(stem.with_suffix(".png"), frame.color, exposure=args.exposure)
-            path = "mitsuba" if renders_itself(scene) else "compiled" if args.compile_now else "eager"
+            path = "compiled" if args.compile_now else "eager"
+            path = "mitsuba" if renders_itself(scene) else path
             _report(stem, seconds, width, height, args.spp, scene, path)
             bar.update(1)
     if args.build_later:

@@ -182,7 +182,7 @@ def render_any(
     tracer's and does not apply)."""
     if renderers.renders_itself(scene):
         return scene.render(t, seeds, sampler, spp)  # type: ignore[attr-defined]
-    return renderers.render(scene, t, seeds, sampler, spp, compile=compile)
+    return renderers.render(scene, t, seeds, sampler, spp, compile=compile)  # type: ignore[arg-type]
 
 
 def render_batch_any(
@@ -192,7 +192,7 @@ def render_batch_any(
     scene that renders itself (:func:`render_any`)."""
     if renderers.renders_itself(scene):
         return [render_any(scene, t, s, sampler, spp) for s in seeds]
-    return renderers.render_batch(scene, t, seeds, sampler, spp)
+    return renderers.render_batch(scene, t, seeds, sampler, spp)  # type: ignore[arg-type]
 
 
 def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
