@@ -6,7 +6,8 @@
   renders of one frame with K seed images at once, each bit-identical to its own render.
 - :func:`get_scene` and :data:`SCENES` (:mod:`renderers.catalog`): the named scenes, each animated
   over frames t with a static variant; ``scene.dimensions`` is D and ``scene.max_depth`` the
-  depth in Mitsuba's convention.
+  depth in Mitsuba's convention; a Mitsuba XML scene (:mod:`renderers.mitsuba_scene`) is a
+  scene that renders itself (:func:`renders_itself`).
 - :mod:`renderers.scene`: the scene description; :mod:`renderers.layout`: which dimension feeds
   what; :mod:`renderers.mitsuba`: the same scene as a Mitsuba 3 dictionary (optional dependency);
   :mod:`renderers.compare`: the statistical test that two Monte Carlo images agree, used by the
@@ -15,9 +16,19 @@
 This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmarks`.
 """
 
-from renderers.catalog import SCENES, get_scene, load_scene
+from renderers.catalog import SCENES, get_scene, load_scene, renders_itself, scene_version
 from renderers.layout import Layout
 from renderers.scene import Scene
 from renderers.tracer import render, render_batch
 
-__all__ = ["Layout", "SCENES", "Scene", "get_scene", "load_scene", "render", "render_batch"]
+__all__ = [
+    "Layout",
+    "SCENES",
+    "Scene",
+    "get_scene",
+    "load_scene",
+    "render",
+    "render_batch",
+    "renders_itself",
+    "scene_version",
+]

@@ -19,6 +19,7 @@ import torch
 
 from bnerr.errors import ValueRangeError
 from bnerr.sequences import make_sampler
+from renderers.catalog import renders_itself
 from renderers.scene import Scene
 from renderers.tracer import render
 
@@ -106,13 +107,15 @@ def check_render_time(
     """Estimate the seconds of tracing ``paths`` paths of ``scene``; refuse beyond ``limit_s``.
 
     Renders of fewer than :data:`UNMEASURED_PATHS` paths return 0.0 without calibrating: they
-    take seconds at most, and a tiny render stays as fast as it was.
+    take seconds at most, and a tiny render stays as fast as it was; so does a scene that
+    renders itself (a Mitsuba XML scene, :func:`renderers.catalog.renders_itself`): the
+    tracer's throughput says nothing of its time.
 
     Raises:
         ValueRangeError: ``"<name>: expected a render of at most <limit>, got an estimate of
             <time> (...); pass --force to render anyway"``.
     """
-    if paths < UNMEASURED_PATHS:
+    if paths < UNMEASURED_PATHS or renders_itself(scene):
         return 0.0
     seconds = estimate_seconds(scene, paths, compile=compile)
     if seconds > limit_s:

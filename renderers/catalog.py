@@ -29,8 +29,11 @@ estimation at every vertex and a free-flight dimension per segment, 8 scattering
 (``get_scene("mymod:make_scene")``, :func:`load_scene`) or installed as an entry point of the
 group ``bnerr.scenes`` joins :data:`SCENES` under its ``name`` attribute (else the spec's or
 entry point's name); a path ending in ``.toml`` or ``.json`` is a scene file
-(``renderers.scene_file.load_scene_file``), registered under its scene's name. Mitsuba XML
-scenes are not supported yet (a :class:`~bnerr.errors.PluginError` says so).
+(``renderers.scene_file.load_scene_file``), registered under its scene's name; a path ending in
+``.xml`` is a Mitsuba 3 scene (``renderers.mitsuba_scene.load_mitsuba_scene``, with its camera
+path ``scene.camera.toml`` when it exists), registered under the file's stem: its
+:class:`~renderers.mitsuba_scene.MitsubaScene` renders itself through Mitsuba.
+:func:`scene_version` is what identifies a registered scene's content for cached references.
 
 Not for: measuring a renderer's speed on realistic geometry: every scene has under 20 primitives.
 """
@@ -38,6 +41,7 @@ Not for: measuring a renderer's speed on realistic geometry: every scene has und
 from __future__ import annotations
 
 import importlib
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
@@ -59,7 +63,7 @@ from renderers.scene import (
     affine,
 )
 
-__all__ = ["SCENES", "get_scene", "load_scene"]
+__all__ = ["SCENES", "get_scene", "load_scene", "renders_itself", "scene_version"]
 
 _WHITE = Diffuse((0.8, 0.8, 0.8))
 
@@ -275,17 +279,22 @@ def load_scene(name_or_spec: str) -> str:
     ``renderers.scene_file.load_scene_file``, or a spec ``pkg.mod:make`` / ``file.py:make``.
 
     Raises:
-        PluginError: the plug-in cannot be loaded or is not a scene builder; a Mitsuba XML file.
+        PluginError: the plug-in cannot be loaded or is not a scene builder.
+        SceneFileError, FileFormatError: a scene file or Mitsuba XML scene that is not valid.
     """
     registry = SCENES
     assert isinstance(registry, plugins.PluginRegistry)
     if name_or_spec in registry:
         return name_or_spec
     if name_or_spec.endswith(".xml"):
-        raise PluginError(
-            f"scene {name_or_spec!r}: Mitsuba XML scenes: not yet supported; expected a scene "
-            "file (.toml, .json), a spec 'pkg.mod:make_scene' or a registered name"
-        )
+        path = Path(name_or_spec)
+        known = plugins.loaded("bnerr.scenes", path.stem)
+        if known is not None and known.files[:1] == (str(path.resolve()),):
+            return path.stem  # loaded before (a worker's parts load their specs on every use)
+        # renderers.mitsuba_scene, loaded when used (Mitsuba itself only when it renders)
+        mitsuba_scene = importlib.import_module("renderers.mitsuba_scene")
+        builder = mitsuba_scene.load_mitsuba_scene(name_or_spec)
+        return registry.add(plugins.Plugin(builder.__name__, builder, None, builder.files))
     if name_or_spec.endswith(SCENE_FILE_SUFFIXES):
         # renderers.scene_file, loaded when used (a scene-file run only)
         scene_file = importlib.import_module("renderers.scene_file")
@@ -314,8 +323,29 @@ def get_scene(name: str, animated: bool = True) -> Scene:
         scene = SCENES[name]()
     else:
         scene = plugins.call_plugin(plugin, "scene", SCENES[name])
-        if not isinstance(scene, Scene):
+        if not isinstance(scene, Scene) and not renders_itself(scene):
             raise PluginError(
                 f"{plugin.who}: expected a renderers.scene.Scene, got {type(scene).__name__}"
             )
     return scene if animated else scene.static()
+
+
+def renders_itself(scene: object) -> bool:
+    """Whether ``scene`` renders itself: a Mitsuba XML scene's
+    :class:`renderers.mitsuba_scene.MitsubaScene`, whose ``render(t, seeds, sampler, spp)`` the
+    sweep and ``bnerr render`` call instead of the tracer (and whose time the tracer's budget
+    does not model). That module is imported only once an XML scene was loaded."""
+    module = sys.modules.get("renderers.mitsuba_scene")
+    return module is not None and isinstance(scene, module.MitsubaScene)
+
+
+def scene_version(name: str) -> str:
+    """What identifies the content of the registered scene ``name`` beyond the code: "" for a
+    shipped scene (the code version covers it), a Mitsuba scene's ``version`` (Mitsuba's version
+    and its files' hash), else the plug-in's fingerprint (a scene file's hash, a distribution's
+    version). Keys the sweep's cached references."""
+    plugin = plugins.loaded("bnerr.scenes", name)
+    if plugin is None:
+        return ""
+    version = getattr(get_scene(name), "version", None)
+    return version if isinstance(version, str) else plugin.fingerprint

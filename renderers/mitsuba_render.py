@@ -335,8 +335,15 @@ def _prepare_dict(scene: dict, spec: dict) -> dict:
     return out
 
 
-def _prepare_xml(text: str, spec: dict, where: str) -> str:
-    """The XML scene ``text`` with the sampler ``spec`` and a box filter."""
+def _prepare_xml(
+    text: str,
+    spec: dict,
+    where: str,
+    max_depth: int | None = None,
+    size: tuple[int, int] | None = None,
+) -> str:
+    """The XML scene ``text`` with the sampler ``spec``, a box filter and (unless None) the
+    integrator's ``max_depth`` and the film's ``size`` (height, width)."""
     try:
         root = ET.fromstring(text)
     except ET.ParseError as err:
@@ -356,16 +363,42 @@ def _prepare_xml(text: str, spec: dict, where: str) -> str:
     for old in film.findall("rfilter"):
         film.remove(old)
     ET.SubElement(film, "rfilter", type="box")
+    if max_depth is not None:
+        _set_max_depth(root, max_depth, where)
+    if size is not None:
+        for key, value in zip(("height", "width"), size, strict=True):
+            for old in film.findall(f"integer[@name='{key}']"):
+                film.remove(old)
+            ET.SubElement(film, "integer", name=key, value=str(value))
     return ET.tostring(root, encoding="unicode")
+
+
+def _set_max_depth(root: ET.Element, max_depth: int, where: str) -> None:
+    """Set the top-level integrator's ``max_depth`` (the sweep's depth condition)."""
+    integrator = root.find("integrator")
+    if integrator is None:
+        raise FileFormatError(f"{where}: expected an <integrator> to set max_depth on, got none")
+    for old in integrator.findall("integer[@name='max_depth']"):
+        integrator.remove(old)
+    ET.SubElement(integrator, "integer", name="max_depth", value=str(max_depth))
 
 
 def _aov_string() -> str:
     return ",".join(f"{name}:{kind}" for name, kind, _ in _AOVS)
 
 
-def _load(mi: ModuleType, scene: SceneSource, spec: dict, params: dict):
+def _load(
+    mi: ModuleType,
+    scene: SceneSource,
+    spec: dict,
+    params: dict,
+    max_depth: int | None = None,
+    size: tuple[int, int] | None = None,
+):
     """Load ``scene`` (an XML path or a scene dict) prepared by the functions above."""
     if isinstance(scene, dict):
+        if max_depth is not None or size is not None:
+            raise DtypeError("scene: expected an XML file path for max_depth or size, got a dict")
         return mi.load_dict(_prepare_dict(scene, spec))
     if not isinstance(scene, (str, os.PathLike)):
         raise DtypeError(
@@ -380,7 +413,7 @@ def _load(mi: ModuleType, scene: SceneSource, spec: dict, params: dict):
     folder = str(path.resolve().parent)
     if folder not in [str(p) for p in resolver]:
         resolver.prepend(folder)  # relative paths inside the scene (meshes, textures)
-    return mi.load_string(_prepare_xml(text, spec, str(path)), **params)
+    return mi.load_string(_prepare_xml(text, spec, str(path), max_depth, size), **params)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -391,7 +424,9 @@ class MitsubaRender:
     """``render(seeds [H, W] int64, sampler=None) -> Frame``: Mitsuba renders with bnerr samples.
 
     Built by :func:`mitsuba_render_fn`. Attributes: ``height``, ``width`` (the film's crop),
-    ``spp``, ``scene`` (the loaded ``mi.Scene``), ``plugin`` (the sensor's sampler).
+    ``spp``, ``scene`` (the loaded ``mi.Scene``), ``plugin`` (the sensor's sampler),
+    ``dimensions`` (the sampler dimensions the last colour render drew, 0 before the first: the
+    integrand's D, measured).
     """
 
     def __init__(self, mi: ModuleType, loaded, spp: int, aovs: bool = True) -> None:
@@ -401,6 +436,7 @@ class MitsubaRender:
         self.integrator = loaded.integrator()
         self.aov = mi.load_dict({"type": "aov", "aovs": _aov_string()}) if aovs else None
         self.plugin = self.sensor.sampler()
+        self.dimensions = 0
         self.width, self.height = (int(v) for v in self.sensor.film().crop_size())
         if self.sensor.film().sample_border():
             raise FileFormatError("film: expected sample_border = false, got true")
@@ -417,6 +453,7 @@ class MitsubaRender:
                 self.mi.set_variant(self.variant)
             watch = Stopwatch()
             color = self._render(self.integrator)
+            self.dimensions = self.plugin.lanes.dim
             aovs = None if self.aov is None else self._render(self.aov)
             ms = watch.ms()
         return _frame(color, aovs, ms, seeds.device)
@@ -457,6 +494,8 @@ def mitsuba_render_fn(
     variant: str = "llvm_ad_rgb",
     params: dict | None = None,
     aovs: bool = True,
+    max_depth: int | None = None,
+    size: tuple[int, int] | None = None,
 ) -> MitsubaRender:
     """A ``RenderFn`` that renders ``scene`` with Mitsuba and bnerr's samplers.
 
@@ -469,6 +508,10 @@ def mitsuba_render_fn(
         variant: one of :data:`VARIANTS`.
         params: values of the XML's ``$name`` parameters (``mi.load_string``'s keyword arguments).
         aovs: False renders colour only (no second, AOV render).
+        max_depth: the integrator's ``max_depth`` instead of the scene's (None keeps it; an XML
+            scene only).
+        size: the film's ``(height, width)`` instead of the scene's (None keeps it; an XML
+            scene only).
 
     Returns:
         :class:`MitsubaRender`: ``render(seeds [H, W] int64, sampler) -> Frame`` with ``color``,
@@ -486,7 +529,8 @@ def mitsuba_render_fn(
     with _keep_variant():
         mi = load_mitsuba(variant)
         register(variant)
-        loaded = _load(mi, scene, _sampler_spec(spp, PLUGIN, sampler_name), params or {})
+        spec = _sampler_spec(spp, PLUGIN, sampler_name)
+        loaded = _load(mi, scene, spec, params or {}, max_depth, size)
         return MitsubaRender(mi, loaded, spp, aovs)
 
 

@@ -71,6 +71,7 @@ __all__ = [
     "MAX_TEXTURE_CELLS",
     "MIN_LENGTH",
     "dump_scene",
+    "load_camera_path",
     "load_scene_file",
     "loads_scene",
     "scene_dict",
@@ -266,20 +267,20 @@ def _camera(value: object) -> Camera:
         _number(_get(t, "fov", "camera", _REQUIRED), "camera.fov", 1e-3, 179.0),
         fov_axis,
     )
-    _check_pose(camera)
+    _check_pose(camera.origin, camera.target, camera.up)
     return camera
 
 
-def _check_pose(camera: Camera) -> None:
+def _check_pose(origin_motion: Motion, target_motion: Motion, up_vector: Vec3) -> None:
     """Refuse a camera whose pose degenerates in the first :data:`CAMERA_CHECK_FRAMES` frames:
     origin on the target, or up parallel to the viewing direction (no image plane)."""
-    up = np.asarray(camera.up)
+    up = np.asarray(up_vector)
     if np.linalg.norm(up) < MIN_LENGTH:
-        raise _fail("camera.up", f"a vector longer than {MIN_LENGTH}", list(camera.up))
-    moving = not (isinstance(camera.origin, Fixed) and isinstance(camera.target, Fixed))
+        raise _fail("camera.up", f"a vector longer than {MIN_LENGTH}", list(up_vector))
+    moving = not (isinstance(origin_motion, Fixed) and isinstance(target_motion, Fixed))
     frames = range(CAMERA_CHECK_FRAMES if moving else 1)
-    origin = np.array([camera.origin.at(t) for t in frames])
-    forward = np.array([camera.target.at(t) for t in frames]) - origin
+    origin = np.array([origin_motion.at(t) for t in frames])
+    forward = np.array([target_motion.at(t) for t in frames]) - origin
     length = np.linalg.norm(forward, axis=1)
     if length.min() < MIN_LENGTH:
         t = int(length.argmin())
@@ -292,7 +293,7 @@ def _check_pose(camera: Camera) -> None:
         t = int(sine.argmin())
         raise SceneFileError(
             f"camera.up: expected a direction not parallel to the view direction, got "
-            f"{camera.up} along {tuple(forward[t].tolist())} at frame {t}"
+            f"{up_vector} along {tuple(forward[t].tolist())} at frame {t}"
         )
 
 
@@ -663,6 +664,30 @@ def load_scene_file(path: str | os.PathLike) -> Callable[[], Scene]:
     build.__doc__ = scene.description
     build.__name__ = build.__qualname__ = scene.name
     return build
+
+
+def load_camera_path(path: str | os.PathLike) -> tuple[Motion, Motion, Vec3]:
+    """``(origin, target, up)`` of a camera path file: a TOML file whose keys ``origin`` and
+    ``target`` are motions and ``up`` a vector, as in a scene file's ``[camera]`` (without the
+    optics): the sidecar ``scene.camera.toml`` of a Mitsuba XML scene
+    (:mod:`renderers.mitsuba_scene`). Checked like a scene file's camera.
+
+    Raises:
+        SceneFileError: the file is missing, unreadable or too large; not TOML; an unknown or
+            missing key, a bad value, or a pose that degenerates within
+            :data:`CAMERA_CHECK_FRAMES` frames.
+    """
+    path = Path(path)
+    document = _parse(_read_limited(path), "toml", str(path))
+    try:
+        t = _table(document, "camera path", ("origin", "target", "up"))
+        origin = _motion(_get(t, "origin", "camera path", _REQUIRED), "origin")
+        target = _motion(_get(t, "target", "camera path", _REQUIRED), "target")
+        up = _vector(_get(t, "up", "camera path", [0.0, 1.0, 0.0]), "up")
+        _check_pose(origin, target, up)
+    except SceneFileError as err:
+        raise SceneFileError(f"{path}: {err}") from None
+    return origin, target, up
 
 
 # --------------------------------------------------------------------------------------------

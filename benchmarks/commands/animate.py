@@ -42,7 +42,7 @@ from benchmarks.sweep.parts import known_names
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE
 from bnerr.errors import FileFormatError, check_positive_int
 from bnerr.strategies import strategy_identity
-from renderers import get_scene
+from renderers import get_scene, load_scene
 from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 
 __all__ = ["register", "run"]
@@ -103,6 +103,7 @@ def _specs(args: argparse.Namespace) -> list:
 
     width, height = parse_resolution(args.res)
     strategies = tuple(names(args.strategies) or default_strategies())
+    scenes = [load_scene(name) for name in names(args.scenes) or ()]  # scene files, XML, plug-ins
     known = known_names()
     return [
         Animation(
@@ -120,7 +121,7 @@ def _specs(args: argparse.Namespace) -> list:
             gif_crop=args.gif_crop,
             gif_frames=args.gif_frames,
         ).check(known)
-        for scene in names(args.scenes) or ()
+        for scene in scenes
     ]
 
 

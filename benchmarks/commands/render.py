@@ -61,13 +61,14 @@ from benchmarks.commands._args import (
     positive_int,
     seed_int,
 )
+from benchmarks.sweep.parts import render_any as render  # the tracer, or a Mitsuba scene's own
 from bnerr.errors import FileFormatError, ValueRangeError, check_memory, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import Strategy, first_frame, make_strategy, pixel_seeds, play
-from renderers import Scene, aot, get_scene, render
+from renderers import Scene, aot, get_scene, renders_itself
 from renderers.budget import (
     COMPILE_SPEEDUP,
     SHOW_ESTIMATE_S,
@@ -224,8 +225,11 @@ def _strategy_frames(args: argparse.Namespace, strategy: Strategy, scene: Scene)
 def run(args: argparse.Namespace) -> int:
 
     width, height, out = _check_args(args)
-    args.compile_now = compile_choice(args, width, height)
     scene = get_scene(args.scene, animated=not args.static)
+    if renders_itself(scene):  # a Mitsuba XML scene: Mitsuba renders, the tracer's stage is moot
+        args.compile_now, args.build_later = False, False
+    else:
+        args.compile_now = compile_choice(args, width, height)
     strategy = None
     if args.strategy is None:
         frames = _fixed_seed_frames(args, scene, height, width)
@@ -254,6 +258,7 @@ def run(args: argparse.Namespace) -> int:
             write_frame(stem.with_suffix(".exr"), frame)
             write_png(stem.with_suffix(".png"), frame.color, exposure=args.exposure)
             path = "compiled" if args.compile_now else "eager"
+            path = "mitsuba" if renders_itself(scene) else path
             _report(stem, seconds, width, height, args.spp, scene, path)
             bar.update(1)
     if args.build_later:

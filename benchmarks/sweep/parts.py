@@ -43,6 +43,8 @@ __all__ = [
     "Strategy",
     "known_names",
     "real_parts",
+    "render_any",
+    "render_batch_any",
 ]
 
 
@@ -136,6 +138,9 @@ class Parts:
         plugins: the command line's plug-in specs, ``(group, spec)`` pairs
             (:mod:`benchmarks.sweep.plugins`): :func:`real_parts`' callables load them again
             wherever they run (a Ray worker), so the cells' names resolve there too.
+        scene_version: ``(name) -> str``, what identifies a scene's content beyond
+            ``code_version`` ("" for the shipped scenes; a plug-in scene's file hash, a Mitsuba
+            scene's files and Mitsuba's version): enters the references' cache key.
 
     Whether a strategy's frame depends on the earlier frames is its own ``stateful``
     (:class:`Strategy`): only those render the warmup frames; a stateless strategy's frame t is
@@ -153,6 +158,7 @@ class Parts:
     code_version: str
     render_batch: BatchRenderer | None = None
     plugins: tuple[tuple[str, str], ...] = ()
+    scene_version: Callable[[str], str] = lambda name: ""
 
 
 class BoundRender:
@@ -177,9 +183,38 @@ class BoundRender:
         return self.parts.render_batch(self.scene, self.t_render, seeds, sampler, self.spp)
 
 
+def render_any(
+    scene: Scene,
+    t: int,
+    seeds: torch.Tensor,
+    sampler: Sampler,
+    spp: int,
+    *,
+    compile: bool | None = None,
+) -> Frame:
+    """The :class:`Renderer` of :func:`real_parts`: bnerr's tracer (:func:`renderers.render`),
+    or the scene's own ``render(t, seeds, sampler, spp)`` for a scene that renders itself (a
+    Mitsuba XML scene, :class:`renderers.mitsuba_scene.MitsubaScene`; ``compile`` is the
+    tracer's and does not apply)."""
+    if renderers.renders_itself(scene):
+        return scene.render(t, seeds, sampler, spp)  # type: ignore[attr-defined]
+    return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
+
+
+def render_batch_any(
+    scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+) -> list[Frame]:
+    """:func:`renderers.render_batch` (K seed images ``[K, H, W]`` at once), or one by one for a
+    scene that renders itself (:func:`render_any`)."""
+    if renderers.renders_itself(scene):
+        return [render_any(scene, t, s, sampler, spp) for s in seeds]
+    return renderers.render_batch(_own(scene), t, seeds, sampler, spp)
+
+
 def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
-    """The project's own parts: ``renderers``, :mod:`bnerr.strategies` and ``denoisers``, with
-    the plug-ins of ``specs`` (``(group, spec)`` pairs) loaded again by each call."""
+    """The project's own parts: ``renderers`` (and a scene's own renderer, :func:`render_any`),
+    :mod:`bnerr.strategies` and ``denoisers``, with the plug-ins of ``specs`` (``(group, spec)``
+    pairs) loaded again by each call."""
 
     def get_scene(name: str, animated: bool) -> Scene:
         load_specs(specs)  # first in every unit of work: a fresh worker registers the plug-ins
@@ -202,38 +237,27 @@ def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
             name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
         )
 
+    def scene_version(name: str) -> str:
+        load_specs(specs)
+        return renderers.scene_version(name)
+
     def reference_sampler() -> Sampler:
         # Owen-scrambled Sobol converges faster than white noise at equal spp, so the reference
         # noise floor is lower for the same render time; it is unbiased like white noise.
         return sequences.make_sampler("owen_sobol")
 
-    def render(
-        scene: Scene,
-        t: int,
-        seeds: torch.Tensor,
-        sampler: Sampler,
-        spp: int,
-        *,
-        compile: bool | None = None,
-    ) -> Frame:
-        return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
-
-    def render_batch(
-        scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
-    ) -> list[Frame]:
-        return renderers.render_batch(_own(scene), t, seeds, sampler, spp)
-
     return Parts(
         get_scene=get_scene,
-        render=render,
+        render=render_any,
         make_strategy=make_strategy,
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
         with_depth=lambda scene, depth: dataclasses.replace(_own(scene), max_depth=depth),
         code_version=code_version(),
-        render_batch=render_batch,
+        render_batch=render_batch_any,
         plugins=tuple(specs),
+        scene_version=scene_version,
     )
 
 

@@ -14,7 +14,10 @@ file name, :meth:`ReferenceCache.path`) holds every input of the render:
 - the code version (``Parts.code_version``, :func:`benchmarks.sweep.version.code_version`): a hash
   of the source files a reference's pixels depend on (every ``.py`` of ``renderers``, of the
   ``bnerr.sequences`` module and ``bnerr/hashing.py``). A change to the tracer or to a sampler
-  never reuses a stale reference.
+  never reuses a stale reference;
+- for a plug-in scene, its content (``Parts.scene_version``): a scene file's hash, or for a
+  Mitsuba XML scene Mitsuba's version and the hash of the XML and its camera path, whose
+  references Mitsuba renders (the scene renders itself, :func:`benchmarks.sweep.parts.render_any`).
 
 **Compiled references.** A reference is rendered with ``compile=True`` exactly when it traces at
 least ``2^22`` paths (``H * W * spp >= REFERENCE_COMPILE_PATHS``; :func:`reference_compile`), and
@@ -28,7 +31,8 @@ is part of the cache key through :data:`REFERENCE_FORMAT`.
 The reference's own noise adds its variance to every strategy's MSE alike; the records keep it
 (``Record.reference.floor``) so that a reader can see when it matters.
 
-Not for: references of another renderer (:mod:`renderers.mitsuba` has its own).
+Not for: the cross-check's Mitsuba references of the built-in scenes (:mod:`renderers.mitsuba`
+has its own).
 """
 
 from __future__ import annotations
@@ -153,6 +157,9 @@ class ReferenceCache:
         sampler = self.parts.reference_sampler()
         sampler_name = getattr(sampler, "name", "") or type(sampler).__name__
         version = self.parts.code_version.replace("/", "_")
+        content = self.parts.scene_version(run.scene)
+        if content:  # a plug-in scene: its files' hash (a Mitsuba scene: and Mitsuba's version)
+            version += "_" + content.replace("/", "_").replace(":", "-")
         name = (
             f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
             f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"

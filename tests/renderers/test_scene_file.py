@@ -23,6 +23,7 @@ from renderers.scene_file import (
     MAX_FILE_BYTES,
     MAX_SHAPES,
     dump_scene,
+    load_camera_path,
     load_scene_file,
     loads_scene,
     scene_dict,
@@ -363,3 +364,14 @@ def test_the_documented_messages_are_the_real_ones():
     assert str(meaning.value) == (
         "my.toml: shapes[1].radius: expected a finite number in [1e-06, 1000000.0], got float -1.0"
     )
+
+
+def test_a_camera_path_file_reads_motions_like_a_scene_files_camera(tmp_path):
+    path = tmp_path / "x.camera.toml"
+    path.write_text('target = [0, 1, 0]\n[origin]\ntype = "orbit"\nradius = 2\nstep = 90\n')
+    origin, target, up = load_camera_path(path)
+    assert target.at(9) == (0.0, 1.0, 0.0) and up == (0.0, 1.0, 0.0)
+    assert origin.at(1) == pytest.approx((2.0, 0.0, 0.0), abs=1e-12)
+    path.write_text("origin = [0, 0, 1]\ntarget = [0, 0, 0]\nfov = 40\n")
+    with pytest.raises(SceneFileError, match="x.camera.toml: camera path: unknown key 'fov'"):
+        load_camera_path(path)
