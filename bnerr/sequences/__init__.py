@@ -25,6 +25,10 @@ sequence:
   (:func:`ldbn_key_image`), for the temporal permutation of LDBN's keys.
 - :mod:`~bnerr.sequences.zsobol_t`: :class:`ZSobolTSampler`, temporal Z-order (a base-8 digit
   scramble of the 3D Morton code of (x, y, t), after tauray's ``sobol-z3``).
+- :mod:`~bnerr.sequences.openqmc`: :class:`OpenQMCSobolBNSampler` /
+  :class:`OpenQMCLatticeBNSampler`, OpenQMC's ``sobolbn`` and ``latticebn`` bit for bit
+  (:func:`openqmc_draw`): per-pixel blue-noise ranks and keys from OpenQMC's 256x256 tables over
+  Owen-scrambled Sobol or a rank-1 lattice.
 
 The Z-order samplers take the pixel's key where the others take a random seed: the seed image of
 a Z-order strategy holds each pixel's Morton key (:func:`zsobol_keys`, :func:`cycles_keys`), so
@@ -48,6 +52,12 @@ from bnerr.sequences.base import ONE_MINUS_EPS, Sampler
 from bnerr.sequences.bnds import BNDSSampler
 from bnerr.sequences.cycles import CyclesFirstSampler, CyclesPureSampler, cycles_keys
 from bnerr.sequences.ldbn import LDBNKeyedSampler, LDBNKeys, LDBNSampler, ldbn_key_image
+from bnerr.sequences.openqmc import (
+    OpenQMCLatticeBNSampler,
+    OpenQMCSobolBNSampler,
+    openqmc_draw,
+    openqmc_float,
+)
 from bnerr.sequences.owen_sobol import OwenSobolSampler, owen_sobol
 from bnerr.sequences.white import WhiteSampler, white
 from bnerr.sequences.zsobol import ZSobolSampler, zsobol_1d, zsobol_2d, zsobol_keys
@@ -61,6 +71,8 @@ __all__ = [
     "LDBNKeys",
     "LDBNSampler",
     "ONE_MINUS_EPS",
+    "OpenQMCLatticeBNSampler",
+    "OpenQMCSobolBNSampler",
     "OwenSobolSampler",
     "SAMPLERS",
     "Sampler",
@@ -74,6 +86,8 @@ __all__ = [
     "load_sampler",
     "per_pixel_samplers",
     "ldbn_key_image",
+    "openqmc_draw",
+    "openqmc_float",
     "zsobol_1d",
     "zsobol_2d",
     "zsobol_keys",
@@ -105,6 +119,8 @@ SAMPLERS: dict[str, type[Sampler]] = plugins.PluginRegistry(
         "cycles_pure": CyclesPureSampler,
         "ldbn": LDBNSampler,
         "ldbn_keyed": LDBNKeyedSampler,
+        "openqmc_latticebn": OpenQMCLatticeBNSampler,
+        "openqmc_sobolbn": OpenQMCSobolBNSampler,
         "owen_sobol": OwenSobolSampler,
         "white": WhiteSampler,
         "zsobol": ZSobolSampler,
@@ -137,7 +153,8 @@ def make_sampler(name: str, **options: object) -> Sampler:
     ``offset (oy, ox)``, ``seed0``); ``zsobol`` (``width``, ``height``, ``spp``, ``seed``,
     ``randomizer``); ``zsobol_t`` (``width``, ``height``, ``spp``, ``frame``, ``frames``,
     ``seed``); ``cycles_pure``, ``cycles_first`` (``spp``, ``seed0``); ``ldbn`` (``keys``,
-    ``spp``, ``offset``); ``ldbn_keyed`` (``keys``, ``spp``). The Z-order samplers read
+    ``spp``, ``offset``); ``ldbn_keyed`` (``keys``, ``spp``); ``openqmc_sobolbn``,
+    ``openqmc_latticebn`` (``frame``). The Z-order samplers read
     the lane's seed as the pixel's key (:func:`zsobol_keys`, :func:`cycles_keys`). An unknown name
     raises :class:`UnknownNameError` listing the known ones; a plug-in spec
     (``path/file.py:MySampler``) is loaded first (:func:`load_sampler`), and a plug-in's

@@ -11,6 +11,8 @@ sections 3, 4, 5, 7 and 8):
 - ``dithered``: ``bnds``, ``bnds_st``, one sequence rotated per pixel by a blue-noise mask;
 - ``zorder``: ``zsobol``, ``cycles_blue``, ``zsobol_t``: pbrt-v4's ZSobol, Cycles' blue-noise
   pattern, temporal Z-order;
+- ``openqmc``: ``openqmc_sobolbn``, ``openqmc_latticebn``: OpenQMC's blue-noise samplers, per-pixel
+  ranks and keys from its 256x256 tables over Sobol or a rank-1 lattice;
 - ``ldbn``: ``ldbn``, ``ldbn_st``, ``ldbn_fast``: per-pixel ranking and scrambling keys over one
   shared sequence (Heitz et al. 2019), optimized here for the screen, for time and for the
   denoiser;
@@ -67,6 +69,7 @@ from bnerr.strategies.base import (
 from bnerr.strategies.dithered import STBN_MASK, BNDSStrategy, BNDSSTStrategy
 from bnerr.strategies.identity import StrategyIdentity, baseline, bounds, strategy_identity
 from bnerr.strategies.ldbn import LDBNFastStrategy, LDBNStrategy, LDBNSTStrategy
+from bnerr.strategies.openqmc import OpenQMCLatticeBNStrategy, OpenQMCSobolBNStrategy
 from bnerr.strategies.oracle import OracleStrategy
 from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.temporal import (
@@ -101,6 +104,8 @@ __all__ = [
     "LDBNFastStrategy",
     "LDBNSTStrategy",
     "LDBNStrategy",
+    "OpenQMCLatticeBNStrategy",
+    "OpenQMCSobolBNStrategy",
     "OracleStrategy",
     "RenderFn",
     "Strategy",

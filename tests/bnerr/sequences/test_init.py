@@ -239,8 +239,8 @@ def test_a_scramble_shared_by_all_pixels_makes_the_mse_one_draw_per_scramble():
 
 def test_make_sampler_builds_every_registered_sampler():
     assert sorted(SAMPLERS) == [
-        "bnds", "cycles_first", "cycles_pure", "ldbn", "ldbn_keyed", "owen_sobol", "white",
-        "zsobol", "zsobol_t",
+        "bnds", "cycles_first", "cycles_pure", "ldbn", "ldbn_keyed", "openqmc_latticebn",
+        "openqmc_sobolbn", "owen_sobol", "white", "zsobol", "zsobol_t",
     ]  # fmt: skip
     assert make_sampler("white").name == "white"
     assert make_sampler("owen_sobol").name == "owen_sobol"

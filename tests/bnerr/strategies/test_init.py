@@ -50,6 +50,7 @@ def test_names_are_sorted_and_complete():
         *("white", "bnds", "temporal", "temporal_sort", "oracle", "vertical"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
         *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
+        *("openqmc_sobolbn", "openqmc_latticebn"),
         *VARIANTS,
     }
     for name in VARIANTS:
@@ -197,6 +198,7 @@ def test_state_follows_the_render_device():
 RIVALS = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
     *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
+    *("openqmc_sobolbn", "openqmc_latticebn"),
 )
 
 
@@ -297,6 +299,15 @@ _BNDS_RAW = (
     "sequences have (issue 13, part 5 investigates whether this is inherent)"
 )
 
+_LATTICE_RAW = (
+    "openqmc_latticebn renders a rank-1 lattice rotated per pixel by OpenQMC's keys (a "
+    "Cranley-Patterson rotation, as bnds), bit for bit OpenQMC's: on this render raw MSE / white "
+    "1.58 [1.22, 1.94] (tile-paired, Bonferroni level); openqmc_sobolbn, Owen-scrambled Sobol "
+    "under the same tables, is not worse"
+)
+#: The rivals whose raw MSE is measured above white's on the small render, and why.
+_RAW_XFAIL = {"bnds_st": _BNDS_RAW, "openqmc_latticebn": _LATTICE_RAW}
+
 
 @pytest.fixture(scope="module")
 def real_raw_errors(one_thread):
@@ -308,8 +319,8 @@ def real_raw_errors(one_thread):
 @pytest.mark.parametrize(
     "name",
     [
-        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=_BNDS_RAW))
-        if n == "bnds_st"
+        pytest.param(n, marks=pytest.mark.xfail(strict=True, reason=_RAW_XFAIL[n]))
+        if n in _RAW_XFAIL
         else n
         for n in RIVALS
     ],
