@@ -30,6 +30,8 @@ Not for: exporting scenes to files, or any Mitsuba feature our scene model does 
 from __future__ import annotations
 
 import importlib.util
+from types import ModuleType
+from typing import Any
 
 import numpy as np
 import torch
@@ -45,7 +47,7 @@ def mitsuba_available() -> bool:
     return importlib.util.find_spec("mitsuba") is not None
 
 
-def _mi(variant: str | None = None):
+def _mi(variant: str | None = None) -> ModuleType:
     """The mitsuba module with ``variant`` set (or any variant already set, else scalar_rgb)."""
     if not mitsuba_available():
         raise MissingExtraError(
@@ -67,7 +69,7 @@ def _matrix(linear: np.ndarray, translation: np.ndarray) -> list[list[float]]:
     return m.tolist()
 
 
-def _material(mi, shape) -> dict:
+def _material(mi: ModuleType, shape: Any) -> dict:
     albedo = shape.material.albedo
     if shape.material.textured:
         reflectance = {
@@ -82,7 +84,7 @@ def _material(mi, shape) -> dict:
     return {"type": "diffuse", "reflectance": reflectance}
 
 
-def _shape(mi, shape, t: int) -> dict:
+def _shape(mi: ModuleType, shape: Any, t: int) -> dict:
     T = mi.ScalarTransform4f
     if isinstance(shape, Sphere):
         out = {"type": "sphere", "center": list(shape.center.at(t)), "radius": shape.radius}
@@ -136,7 +138,9 @@ def to_mitsuba(
     return out
 
 
-def _sensor(mi, scene: Scene, t: int, width: int, height: int, spp: int, seed: int) -> dict:
+def _sensor(
+    mi: ModuleType, scene: Scene, t: int, width: int, height: int, spp: int, seed: int
+) -> dict:
     """The ``perspective`` sensor of frame ``t``, its box-filtered film and its sampler."""
     origin, target, up = scene.camera.pose(t)
     return {
@@ -160,7 +164,7 @@ def _sensor(mi, scene: Scene, t: int, width: int, height: int, spp: int, seed: i
     }
 
 
-def _medium_box(mi, medium) -> dict:
+def _medium_box(mi: ModuleType, medium: Any) -> dict:
     """The medium as the interior of a ``cube`` with a ``null`` BSDF."""
     lo, hi = np.asarray(medium.bounds_min), np.asarray(medium.bounds_max)
     return {

@@ -60,6 +60,7 @@ import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
 import numpy as np
 import torch
@@ -98,8 +99,12 @@ VARIANTS = ("llvm_ad_rgb", "cuda_ad_rgb")
 #: The oldest LLVM seen to work with Dr.Jit 1.x's LLVM backend here (15 and 16 abort).
 MIN_LLVM = (19, 0, 0)
 #: The AOVs asked of Mitsuba's ``aov`` integrator, in output order, with their channel counts.
-_AOVS = (("albedo", "albedo", 3), ("normal", "sh_normal", 3), ("depth", "depth", 1))
-_AOVS += (("object_id", "shape_index", 1),)
+_AOVS: tuple[tuple[str, str, int], ...] = (
+    ("albedo", "albedo", 3),
+    ("normal", "sh_normal", 3),
+    ("depth", "depth", 1),
+    ("object_id", "shape_index", 1),
+)
 
 
 # --------------------------------------------------------------------------------------------------
@@ -206,10 +211,10 @@ def _sampler_class(mi: ModuleType) -> type:
     """The plugin class for the active variant (each variant has its own ``mi.Sampler``)."""
     Float, Point2f = mi.Float, mi.Point2f  # this variant's types, whatever is active later
 
-    class BnerrSampler(mi.Sampler):
+    class BnerrSampler(mi.Sampler):  # type: ignore[name-defined]  # the active variant's class
         """Mitsuba sampler whose numbers come from a bnerr sampler; see the module docstring."""
 
-        def __init__(self, props) -> None:
+        def __init__(self, props: Any) -> None:
             super().__init__(props)
             self.sequence = props.get("sequence", "owen_sobol")
             self.lanes = _Lanes()
@@ -218,7 +223,7 @@ def _sampler_class(mi: ModuleType) -> type:
             """Use ``seeds [H, W] int64`` and ``sampler`` (default: ``sequence``) from now on."""
             self.lanes.configure(seeds, sampler or make_sampler(self.sequence))
 
-        def seed(self, seed, wavefront_size: int = 0xFFFFFFFF) -> None:
+        def seed(self, seed: Any, wavefront_size: int = 0xFFFFFFFF) -> None:
             super().seed(seed, wavefront_size)
             self.lanes.seed(wavefront_size)
 
@@ -252,7 +257,9 @@ class _Lanes:
     def __init__(self) -> None:
         self.seeds: torch.Tensor | None = None  # [H, W] int64
         self.sampler: Sampler | None = None
-        self.lane_seed = self.lane_index = self.lane_pixel = None
+        self.lane_seed: torch.Tensor | None = None
+        self.lane_index: torch.Tensor | None = None
+        self.lane_pixel: torch.Tensor | None = None
         self.dim = 0
 
     def copy(self) -> _Lanes:
@@ -289,7 +296,7 @@ class _Lanes:
 
     def draw(self, count: int) -> np.ndarray:
         """Dimensions ``dim .. dim + count - 1`` of every lane: ``[count, N]`` float32."""
-        if self.lane_seed is None:
+        if self.lane_seed is None or self.lane_index is None or self.sampler is None:
             raise BnerrError(
                 "bnerr sampler: expected a seed image matching the film (render through "
                 "renderers.mitsuba_render.mitsuba_render_fn, or call configure(seeds) first), "
@@ -394,7 +401,7 @@ def _load(
     params: dict,
     max_depth: int | None = None,
     size: tuple[int, int] | None = None,
-):
+) -> Any:
     """Load ``scene`` (an XML path or a scene dict) prepared by the functions above."""
     if isinstance(scene, dict):
         if max_depth is not None or size is not None:
@@ -429,7 +436,7 @@ class MitsubaRender:
     integrand's D, measured).
     """
 
-    def __init__(self, mi: ModuleType, loaded, spp: int, aovs: bool = True) -> None:
+    def __init__(self, mi: ModuleType, loaded: Any, spp: int, aovs: bool = True) -> None:
         self.mi, self.scene, self.spp = mi, loaded, spp
         self.variant = mi.variant()
         self.sensor = loaded.sensors()[0]
@@ -458,7 +465,7 @@ class MitsubaRender:
             ms = watch.ms()
         return _frame(color, aovs, ms, seeds.device)
 
-    def _render(self, integrator) -> torch.Tensor:
+    def _render(self, integrator: Any) -> torch.Tensor:
         """One render of the scene by ``integrator`` with evaluated loops: ``[H, W, C]``."""
         dr = importlib.import_module("drjit")
         with dr.scoped_set_flag(dr.JitFlag.SymbolicLoops, False):
@@ -482,7 +489,9 @@ def _frame(
         for name, _, channels in _AOVS:
             setattr(out, name, chw[start : start + channels].contiguous())
             start += channels
-        out.object_id = out.object_id - 1.0  # registry index 1, 2, ...; 0 was background
+        object_id = out.object_id
+        assert object_id is not None  # set by the loop above
+        out.object_id = object_id - 1.0  # registry index 1, 2, ...; 0 was background
     out.timings = {"render": ms}
     return out
 
