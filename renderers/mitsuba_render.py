@@ -448,6 +448,15 @@ class MitsubaRender:
         if self.sensor.film().sample_border():
             raise FileFormatError("film: expected sample_border = false, got true")
 
+    @contextlib.contextmanager
+    def active(self) -> Iterator[None]:
+        """This render's Mitsuba variant active inside the block (``mi.Float``, ``mi.UInt32``
+        and the rest resolve to it), the variant active before restored after."""
+        with _keep_variant():
+            if self.mi.variant() != self.variant:
+                self.mi.set_variant(self.variant)
+            yield
+
     def __call__(self, seeds: torch.Tensor, sampler: Sampler | None = None) -> Frame:
         check_tensor(seeds, "seeds")
         if tuple(seeds.shape) != (self.height, self.width):
@@ -455,9 +464,7 @@ class MitsubaRender:
                 f"seeds: expected [{self.height}, {self.width}] (the film), got {list(seeds.shape)}"
             )
         self.plugin.configure(seeds, sampler)
-        with _keep_variant():
-            if self.mi.variant() != self.variant:
-                self.mi.set_variant(self.variant)
+        with self.active():
             watch = Stopwatch()
             color = self._render(self.integrator)
             self.dimensions = self.plugin.lanes.dim

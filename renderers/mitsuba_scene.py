@@ -252,6 +252,11 @@ def camera_motion(render: MitsubaRender, previous: tuple[Vec3, Vec3, Vec3] | Non
     projection (``x_fov``, the film's size and crop). Zero where the point is behind the previous
     camera.
     """
+    with render.active():  # its variant, whatever other code made active since
+        return _camera_motion(render, previous)
+
+
+def _camera_motion(render: MitsubaRender, previous: tuple[Vec3, Vec3, Vec3] | None) -> torch.Tensor:
     mi, sensor = render.mi, render.sensor
     height, width = render.height, render.width
     if previous is None:
