@@ -29,10 +29,11 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
+import struct
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import torch
 
@@ -56,6 +57,7 @@ __all__ = [
     "FrameFolder",
     "Manifest",
     "check_folder",
+    "exr_size",
     "frame_name",
     "load_manifest",
     "parse_manifest",
@@ -299,22 +301,42 @@ def load_manifest(folder: str | Path) -> Manifest:
     return parse_manifest(data)
 
 
-def _exr_size(path: Path) -> tuple[int, int]:
-    """``(width, height)`` of an EXR from its header alone (no pixel is read)."""
-    import OpenEXR  # noqa: PLC0415 - a compiled extension, as bnerr.io imports it
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+_HEADER_LIMIT = 1 << 20  # bytes of attributes read before the data window must have come
 
-    try:
-        if not OpenEXR.isOpenExrFile(str(path)):
+
+def _string(handle: BinaryIO, path: Path) -> str:
+    """A null-terminated attribute name or type (at most 255 bytes, as OpenEXR's long names)."""
+    raw = bytearray()
+    while (byte := handle.read(1)) not in (b"", b"\x00"):
+        raw += byte
+        if len(raw) > 255:
+            break
+    if byte != b"\x00":
+        raise FileFormatError(f"{path}: expected an OpenEXR header, got a truncated attribute")
+    return raw.decode("latin-1")
+
+
+def exr_size(path: Path) -> tuple[int, int]:
+    """``(width, height)`` of an EXR's data window, from its header alone: the attributes are
+    parsed here (OpenEXR's own reader would size its tables from a window first), no pixel read.
+
+    Raises:
+        FileFormatError: not an EXR, or a header without a data window.
+    """
+    with open(path, "rb") as handle:
+        if handle.read(4) != _EXR_MAGIC or len(handle.read(4)) != 4:
             raise FileFormatError(f"{path}: expected an OpenEXR file, got no EXR magic number")
-        header = OpenEXR.File(str(path), header_only=True).header()
-        low, high = header["dataWindow"]
-        return int(high[0]) - int(low[0]) + 1, int(high[1]) - int(low[1]) + 1
-    except FileFormatError:
-        raise
-    except Exception as err:  # the binding's RuntimeError or a header without a data window
-        raise FileFormatError(
-            f"{path}: expected an OpenEXR header, got {type(err).__name__}: {err}"
-        ) from None
+        while handle.tell() < _HEADER_LIMIT and (name := _string(handle, path)):
+            kind = _string(handle, path)
+            (size,) = struct.unpack("<i", handle.read(4).rjust(4, b"\xff"))
+            if size < 0:
+                break
+            value = handle.read(size)
+            if name == "dataWindow" and kind == "box2i" and len(value) == 16:
+                x0, y0, x1, y1 = struct.unpack("<4i", value)
+                return x1 - x0 + 1, y1 - y0 + 1
+    raise FileFormatError(f"{path}: expected an OpenEXR header with a dataWindow, got none")
 
 
 class FrameFolder:
@@ -365,7 +387,7 @@ class FrameFolder:
                 f"{path}: expected a frame the manifest implies, got no such file"
             )
         m = self.manifest
-        size = _exr_size(path)
+        size = exr_size(path)
         if size != (m.width, m.height):
             raise ShapeError(
                 f"{path}: expected {m.width} x {m.height} (the manifest's resolution), got "

@@ -13,7 +13,7 @@ from benchmarks.frame_folder import MANIFEST, frame_name
 from benchmarks.sweep.references import reference_seeds
 from benchmarks.sweep.tuning import TUNING_SEED_SET
 from bnerr import sequences, strategies
-from bnerr.io import write_frame
+from bnerr.io import write_exr, write_frame
 
 #: The auxiliary buffers the tracer writes (all but variance): the coherent region's among them.
 TRACER_BUFFERS = ("albedo", "normal", "depth", "motion", "object_id")
@@ -88,6 +88,56 @@ def render_folder(root: Path, **settings) -> Path:
     return root
 
 
-def zeros(width: int = 16, height: int = 16) -> torch.Tensor:
-    """A black ``[3, H, W]`` image."""
-    return torch.zeros(3, height, width)
+def toml_text(table: dict) -> str:
+    """A flat TOML table of strings, integers, booleans and lists of them."""
+
+    def value(v) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return f'"{v}"' if isinstance(v, str) else str(v)
+
+    return "".join(f"{k} = {value(v)}\n" for k, v in table.items())
+
+
+#: The manifest of :func:`synthetic_folder` (overridden key by key).
+SYNTHETIC = {
+    "scene": "gradient",
+    "spp": 1,
+    "resolution": [8, 8],
+    "methods": ["white", "mine"],
+    "seed_sets": ["0", "1"],
+    "frames": 2,
+}
+
+
+def synthetic_folder(root: Path, *, layers: dict | None = None, **manifest) -> Path:
+    """A frame folder of 8x8 synthetic frames, no renderer: a smooth reference per frame 0 ..
+    warmup + frames - 1, white noise for ``white`` and high-passed noise for the other methods,
+    seeded per seed set; ``layers`` (name -> ``[C, H, W]``) are written as layers of every
+    frame. ``manifest`` overrides :data:`SYNTHETIC`'s keys (None drops one)."""
+    table = {k: v for k, v in {**SYNTHETIC, **manifest}.items() if v is not None}
+    width, height = table["resolution"]
+    count = table.get("warmup", 0) + table["frames"]
+    y, x = torch.meshgrid(torch.linspace(0, 1, height), torch.linspace(0, 1, width), indexing="ij")
+    reference = torch.stack([x, y, 0.5 * (x + y)]) + 0.2
+    aux = dict(layers or {})
+    (root / "reference").mkdir(parents=True, exist_ok=True)
+    for t in range(count):
+        write_exr(root / "reference" / frame_name(t), {"color": reference, **aux})
+    sets = list(table["seed_sets"]) + (
+        [table["tuning_seed_set"]] if "tuning_seed_set" in table else []
+    )
+    for i, seed_set in enumerate(sets):
+        generator = torch.Generator().manual_seed(i)
+        for method in table["methods"]:
+            (root / method / seed_set).mkdir(parents=True, exist_ok=True)
+            for t in range(count):
+                noise = 0.1 * torch.randn(3, height, width, generator=generator)
+                if method != "white":
+                    noise = noise - noise.mean(dim=(1, 2), keepdim=True)
+                color = reference + noise
+                write_exr(root / method / seed_set / frame_name(t), {"color": color, **aux})
+    (root / MANIFEST).write_text(toml_text(table))
+    return root
