@@ -159,9 +159,11 @@ def _names(data: dict, key: str, default: tuple[str, ...] | None = None) -> tupl
 
 def _resolution(data: dict) -> tuple[int, int]:
     value = data.get("resolution")
-    ok = isinstance(value, list) and len(value) == 2
-    ok = ok and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in value)
-    if not ok:
+    if not (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in value)
+    ):
         raise ValueRangeError(f"{MANIFEST}: resolution: expected [width, height], got {value!r}")
     width, height = value
     if width * height > MAX_PIXELS:
@@ -403,7 +405,8 @@ class FrameFolder:
         for buffer in self.manifest.buffers:
             value = getattr(frame, buffer)
             found[buffer] = value if value is not None else self._sibling_buffer(path, buffer)
-        frame = dataclasses.replace(frame, **{b: found.get(b) for b in AUX_BUFFERS})
+        kept: dict[str, Any] = {b: found.get(b) for b in AUX_BUFFERS}
+        frame = dataclasses.replace(frame, **kept)
         for name, value in frame.buffers().items():
             try:
                 check_finite(value, name)

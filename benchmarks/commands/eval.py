@@ -28,6 +28,7 @@ from benchmarks.evaluate import evaluate
 from benchmarks.frame_folder import FrameFolder
 from benchmarks.reports import write_report
 from benchmarks.sweep.parts import known_names
+from benchmarks.sweep.plan import Run
 from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.records import check_no_results
 from bnerr.errors import check_name, check_positive_int
@@ -79,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     folder = FrameFolder(args.dir)  # the folder and its manifest, before --out is created
     out = args.out if args.out is not None else args.dir / "results"
 
-    def say(run) -> None:
+    def say(run: Run) -> None:
         if not args.quiet:
             print(f"bnerr eval: measuring {run.strategy}", file=sys.stderr)
 
