@@ -35,6 +35,7 @@ BASE = {
     ],
     "bench": ["bench", "--suite", "quick", "--out", "{tmp}/bench", "--quiet", "--no-charts"],
     "denoise": ["denoise", "--denoiser", "box", "--in", "{tmp}/frame.exr", "--out", "{tmp}/o.exr"],
+    "eval": ["eval", "{tmp}/no_frames", "--quiet", "--no-charts"],
     "export": ["export", "--fast", "--format", "npy", "--out", "{tmp}/x"],
     "mask": ["mask", "--size", "8", "--out", "{tmp}/m.npy"],
     "render": ["render", "--scene", "direct", "--res", "4x4", "--spp", "1", "--out", "{tmp}/r"],
@@ -59,6 +60,7 @@ PATHS = {
 #: What the Path-typed options name (every other Path option is a file).
 DIRS = {
     *(("animate", "--cache"), ("animate", "--out"), ("bench", "--cache"), ("bench", "--out")),
+    ("eval", "--out"),
     ("export", "--out"),
 }
 

@@ -1,0 +1,140 @@
+"""Tests of ``bnerr eval DIR`` (benchmarks.commands.eval): on frames of bnerr's tracer rendered
+outside ``bnerr bench`` (a strategy's ``play`` calling the tracer) it gives bench's metrics for
+the same frames; the tables, charts and page are written; every problem with the folder is one
+line; finished results are not overwritten silently; a plug-in denoiser runs."""
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import torch
+
+from benchmarks.cli import main
+from benchmarks.frame_folder import MANIFEST, frame_name
+from benchmarks.sweep.records import load_records
+from bnerr.io import write_exr
+from tests._frame_folders import SYNTHETIC, render_folder, synthetic_folder, toml_text
+from tests._paths import ROOT
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+#: What bnerr bench measures of the same frames, and bnerr eval must measure the same.
+_MEASURED = ("raw", "den", "spectrum", "tcorr", "coverage", "denoiser_params", "t")
+
+
+def test_eval_gives_the_metrics_bench_gives_for_the_same_frames(tmp_path, capsys):
+    frames = render_folder(tmp_path / "frames")  # direct, white + temporal, 16x16, 2 seed sets
+    bench = [
+        "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,temporal",
+        "--spp", "1", "--denoisers", "gaussian", "--frames", "2", "--warmup", "1",
+        "--res", "16x16", "--reference-spp", "8", "--seed-sets", "2", "--quiet",
+        "--out", str(tmp_path / "bench"), "--cache", str(tmp_path / "cache"), "--no-charts",
+    ]  # fmt: skip
+    assert main(bench) == 0
+    assert main(["eval", str(frames), "--quiet"]) == 0
+    assert f"results written to {frames / 'results'}" in capsys.readouterr().out
+    got = {r.key: r for r in load_records(frames / "results")}
+    want = {r.key: r for r in load_records(tmp_path / "bench")}
+    assert set(got) == set(want) and len(got) == 4  # white, temporal x all, coherent
+    for key, record in want.items():
+        for field in _MEASURED:
+            assert getattr(got[key], field) == getattr(record, field), (key, field)
+        assert got[key].reference.floor == record.reference.floor
+    for name in ("table.csv", "table.md", "decision.md", "index.html"):
+        assert (frames / "results" / name).is_file()
+
+
+def _fails(args, capsys) -> str:
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("bnerr eval: error: "), err
+    return err[0]
+
+
+def _broken(root, what):
+    """Break a synthetic folder one way."""
+    if what == "frame":
+        (root / "mine" / "1" / frame_name(1)).unlink()
+    elif what == "reference":
+        (root / "reference" / frame_name(0)).unlink()
+    elif what == "white":
+        (root / MANIFEST).write_text(toml_text({**SYNTHETIC, "methods": ["mine"]}))
+    elif what == "size":
+        write_exr(root / "white" / "0" / frame_name(0), {"color": torch.zeros(3, 4, 8)})
+    elif what == "nan":
+        write_exr(
+            root / "white" / "0" / frame_name(1), {"color": torch.full((3, 8, 8), float("inf"))}
+        )
+    elif what == "key":
+        (root / MANIFEST).write_text(toml_text({**SYNTHETIC, "fps": 24}))
+    elif what == "escape":
+        (root / MANIFEST).write_text(toml_text({**SYNTHETIC, "methods": ["white", "../x"]}))
+    elif what == "symlink":
+        os.symlink(root / "white" / "0" / frame_name(0), root / "mine" / "0" / "0002.exr")
+        (root / "mine" / "0" / frame_name(0)).unlink()
+        os.symlink(root / "white" / "0" / frame_name(0), root / "mine" / "0" / frame_name(0))
+
+
+@pytest.mark.parametrize(
+    ("what", "says"),
+    [
+        ("frame", "mine/1/0001.exr: expected a frame the manifest implies, got no such file"),
+        ("reference", "reference/0000.exr: expected a reference the manifest implies"),
+        ("white", "methods: expected the white baseline (a method named 'white'"),
+        ("size", "white/0/0000.exr: expected 8 x 8 (the manifest's resolution), got 8 x 4"),
+        ("nan", "white/0/0001.exr: color: expected finite values, got 0 NaN and 192 infinite"),
+        ("key", "manifest.toml: unknown keys fps; expected keys from scene, spp, resolution"),
+        ("escape", "methods: expected plain folder names inside the folder"),
+        ("symlink", "mine/0/0000.exr: expected a file inside"),
+    ],
+)
+def test_a_broken_folder_is_one_line(tmp_path, capsys, what, says):
+    root = synthetic_folder(tmp_path / "f")
+    _broken(root, what)
+    assert says in _fails(["eval", str(root), "--quiet", "--no-charts"], capsys)
+    if what != "nan":  # refused before any pixel is read: nothing written
+        assert not (root / "results" / "cells.jsonl").exists()
+
+
+def test_eval_refuses_to_discard_finished_results_and_says_one_seed_set(tmp_path, capsys):
+    root = synthetic_folder(tmp_path / "f", seed_sets=["only"])
+    out = tmp_path / "out"
+    assert main(["eval", str(root), "--out", str(out), "--no-charts"]) == 0
+    captured = capsys.readouterr()
+    assert "note: one seed set: the intervals over seed sets need two" in captured.err
+    assert "### gradient" in captured.out and (out / "table.md").is_file()
+    assert "--overwrite" in _fails(["eval", str(root), "--out", str(out), "--quiet"], capsys)
+    assert main(["eval", str(root), "--out", str(out), "--quiet", "--overwrite"]) == 0
+    assert "note: one seed set" in capsys.readouterr().err  # said under --quiet too
+    assert "nothing" in _fails(["eval", str(tmp_path / "nothing"), "--quiet"], capsys)
+    assert not (tmp_path / "nothing").exists()
+    assert "denoiser" in _fails(["eval", str(root), "--denoisers", "nope", "--quiet"], capsys)
+
+
+BOX = '''
+import torch.nn.functional as F
+
+
+def box(frame):
+    """A 3x3 box filter."""
+    return F.avg_pool2d(frame.color[None], 3, 1, 1, count_include_pad=False)[0]
+
+
+box.name = "box3"
+'''
+
+
+def test_a_plug_in_denoiser_runs_by_its_spec(tmp_path):
+    root = synthetic_folder(tmp_path / "f")
+    (tmp_path / "box.py").write_text(textwrap.dedent(BOX))
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    args = ["eval", str(root), "--denoisers", f"gaussian,{tmp_path / 'box.py'}:box"]
+    cmd = [sys.executable, "-m", "benchmarks.cli", *args, "--quiet", "--no-charts"]
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    records = load_records(root / "results")
+    assert {r.cell.denoiser for r in records} == {"gaussian", "box3"}
+    box = [r for r in records if r.cell.denoiser == "box3"]
+    assert all("box.py:box" in str(r.plugins) for r in box)
