@@ -3,6 +3,7 @@
 failure is a one-line PluginError naming the plug-in; the fingerprint follows the source; the
 sweep's parts load the specs again (what a fresh worker does)."""
 
+import importlib
 import sys
 import textwrap
 
@@ -162,3 +163,15 @@ def test_a_file_plugin_is_found_by_its_path_once_registered(tmp_path, forget):
     )
     assert plugins.registered_file("bnerr.denoisers", tmp_path / "." / "den.toml") == "ext_again"
     assert plugins.registered_file("bnerr.scenes", manifest) is None  # per group
+
+
+def test_a_strategy_file_also_imported_as_a_module_still_loads_by_its_spec(
+    tmp_path, monkeypatch, forget
+):
+    path = _write(tmp_path / "twice_mod.py", STRATEGY.format(name="plug_twice", stream=0x51A7E0F3))
+    forget.append(("bnerr.strategies", "plug_twice"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "twice_mod", raising=False)
+    importlib.import_module("twice_mod")  # an entry point's import: the class registers itself
+    assert strategies.REGISTRY.name_of(f"{path}:Mine") == "plug_twice"  # the file's own import
+    assert strategies.make_strategy("plug_twice", 4, 4).name == "plug_twice"
