@@ -297,7 +297,7 @@ def load_scene(name_or_spec: str) -> str:
         scene = plugins.call_plugin(plugin, "scene", builder)
         if _is_shipped(scene, scene_file.scene_dict, path):
             return scene.name  # the shipped scene written as a file (examples/scenes/*.toml)
-        builder.name = scene.name  # type: ignore[attr-defined]  # the name it registers under
+        setattr(builder, "name", scene.name)  # noqa: B010 - the name it registers under
         return registry.add(plugin)  # its spec the file's path, as the records keep it
     if not plugins.is_spec(name_or_spec):
         return name_or_spec
