@@ -14,6 +14,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import pytest
+
 from tests._paths import EXAMPLES, ROOT
 
 PAGE = ROOT / "docs" / "PLUGINS.md"
@@ -68,6 +70,7 @@ def _column(table: Path, column: str) -> set[str]:
     return {row[column] for row in csv.DictReader(table.open())}
 
 
+@pytest.mark.slow  # 14 commands, each a process: 340 s measured on the shared, loaded 2 cores
 def test_every_command_of_the_plugins_page_runs_as_written(tmp_path):
     work, env = _folder(tmp_path)
     commands = _commands()
