@@ -31,7 +31,7 @@ import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from benchmarks.frame_folder import FrameFolder, Manifest, check_folder
 from benchmarks.sweep.measure import measure_run
@@ -48,6 +48,7 @@ from benchmarks.sweep.tuning import (
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
 from bnerr.metrics import METRIC_TABLE
+from bnerr.strategies import Strategy
 from denoisers.tuning import ParamStore
 
 __all__ = [
@@ -134,8 +135,9 @@ def folder_parts(folder: FrameFolder, specs: Sequence[tuple[str, str]] = ()) -> 
         real_parts(tuple(specs)),
         get_scene=lambda name, animated: FolderScene(m.dimensions),
         render=_no_render,
-        make_strategy=make_strategy,
-        stateful=lambda strategy: False,
+        # a FolderStrategy plays a Strategy's part: what the measuring reads of one (frame,
+        # stateful, sampler_name, overhead_ms) and nothing else
+        make_strategy=cast(Callable[..., Strategy], make_strategy),
         with_depth=lambda scene, depth: scene,
         code_version=folder.fingerprint(),
         render_batch=None,

@@ -56,6 +56,7 @@ __all__ = [
     "plugin_fingerprint",
     "plugin_name",
     "record",
+    "registered_file",
     "resolve",
 ]
 
@@ -306,6 +307,18 @@ def record(group: str, name: str, plugin: Plugin) -> None:
 def loaded(group: str, name: str) -> Plugin | None:
     """The plug-in registered as ``name`` in ``group``'s registry, or None for a shipped entry."""
     return _LOADED.get((group, name))
+
+
+def registered_file(group: str, path: str | Path) -> str | None:
+    """The name a file plug-in (a manifest, a scene file) is registered under in ``group``, or
+    None when that file (by resolved path) is not loaded: loading the same file again (a
+    worker, a second command-line spec) returns the registered entry instead of building a new
+    one that would clash with it by name."""
+    resolved = (str(Path(path).resolve()),)
+    for (where, name), plugin in _LOADED.items():
+        if where == group and plugin.files == resolved:
+            return name
+    return None
 
 
 class PluginRegistry(dict):

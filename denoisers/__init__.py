@@ -113,6 +113,9 @@ def load_denoiser(name_or_spec: str) -> str:
     if name_or_spec in registry:
         return name_or_spec
     if name_or_spec.endswith(MANIFEST_SUFFIXES):
+        known = plugins.registered_file("bnerr.denoisers", name_or_spec)
+        if known is not None:  # loaded already (the driver, then each unit of work)
+            return known
         # denoisers.external, loaded when used (a manifest run only)
         external = importlib.import_module("denoisers.external")
         path = Path(name_or_spec)

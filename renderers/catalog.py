@@ -63,7 +63,7 @@ from renderers.scene import (
     affine,
 )
 
-__all__ = ["SCENES", "get_scene", "load_scene", "renders_itself", "scene_version"]
+__all__ = ["SCENES", "SHIPPED_SCENES", "get_scene", "load_scene", "renders_itself", "scene_version"]
 
 _WHITE = Diffuse((0.8, 0.8, 0.8))
 
@@ -254,20 +254,19 @@ def _adapt(plugin: plugins.Plugin) -> tuple[str, Callable[[], Scene]]:
     return plugins.plugin_name(plugin, "scene"), plugin.obj
 
 
+_SHIPPED: dict[str, Callable[[], Scene]] = {
+    "cornell": cornell,
+    "direct": direct,
+    "indirect": indirect,
+    "medium": medium,
+    "snooker": snooker,
+    "snooker_plain": snooker_plain,
+}
 #: Scene name -> builder of its animated version (``get_scene`` makes the static variant); the
 #: plug-ins included.
-SCENES: dict[str, Callable[[], Scene]] = plugins.PluginRegistry(
-    "bnerr.scenes",
-    _adapt,
-    {
-        "cornell": cornell,
-        "direct": direct,
-        "indirect": indirect,
-        "medium": medium,
-        "snooker": snooker,
-        "snooker_plain": snooker_plain,
-    },
-)
+SCENES: dict[str, Callable[[], Scene]] = plugins.PluginRegistry("bnerr.scenes", _adapt, _SHIPPED)
+#: The shipped scenes' names (no plug-in among them).
+SHIPPED_SCENES: tuple[str, ...] = tuple(_SHIPPED)
 
 #: Scene-file suffixes (``renderers.scene_file``).
 SCENE_FILE_SUFFIXES = (".toml", ".json")
@@ -296,16 +295,40 @@ def load_scene(name_or_spec: str) -> str:
         builder = mitsuba_scene.load_mitsuba_scene(name_or_spec)
         return registry.add(plugins.Plugin(builder.__name__, builder, None, builder.files))
     if name_or_spec.endswith(SCENE_FILE_SUFFIXES):
+        registered = plugins.registered_file("bnerr.scenes", name_or_spec)
+        if registered is not None:  # loaded already (the driver, then each unit of work)
+            return registered
         # renderers.scene_file, loaded when used (a scene-file run only)
         scene_file = importlib.import_module("renderers.scene_file")
         path = Path(name_or_spec)
         builder = scene_file.load_scene_file(path)
         plugin = plugins.Plugin(name_or_spec, builder, None, files=(str(path.resolve()),))
-        name = plugins.call_plugin(plugin, "scene", builder).name
-        return registry.add(plugins.Plugin(name, builder, None, plugin.files))
+        scene = plugins.call_plugin(plugin, "scene", builder)
+        if _is_shipped(scene, scene_file.scene_dict, path):
+            return scene.name  # the shipped scene written as a file (examples/scenes/*.toml)
+        setattr(builder, "name", scene.name)  # noqa: B010 - the name it registers under
+        return registry.add(plugin)  # its spec the file's path, as the records keep it
     if not plugins.is_spec(name_or_spec):
         return name_or_spec
     return registry.add(plugins.resolve(name_or_spec))
+
+
+def _is_shipped(scene: Scene, describe: Callable[[Scene], dict], path: Path) -> bool:
+    """Whether a scene file's ``scene`` is the shipped scene of its name, key for key (what
+    ``describe``, ``renderers.scene_file.scene_dict``, says of both): then it is that scene,
+    its references and cells shared. A different scene under a shipped name is refused.
+
+    Raises:
+        PluginError: ``scene`` takes a shipped scene's name but differs from it.
+    """
+    if scene.name not in SHIPPED_SCENES:
+        return False
+    if describe(scene) == describe(SCENES[scene.name]()):
+        return True
+    raise PluginError(
+        f"scene file {path}: expected a name other than a shipped scene's for a scene that "
+        f'differs from it, got {scene.name!r} (give it its own: name = "..." in the file)'
+    )
 
 
 def get_scene(name: str, animated: bool = True) -> Scene:

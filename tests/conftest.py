@@ -36,3 +36,29 @@ def one_thread():
     torch.set_num_threads(1)
     yield
     torch.set_num_threads(before)
+
+
+@pytest.fixture
+def forget():
+    """Unregister the plug-ins a test registered (the registries are process-wide): the test
+    appends ``(group, name)`` of each."""
+    import denoisers
+    import renderers
+    from bnerr import plugins, sequences, strategies
+    from bnerr.metrics import METRIC_TABLE
+
+    names: list[tuple[str, str]] = []
+    yield names
+    for group, name in names:
+        registry = {
+            "bnerr.strategies": None,
+            "bnerr.denoisers": denoisers.DENOISERS,
+            "bnerr.scenes": renderers.SCENES,
+            "bnerr.samplers": sequences.SAMPLERS,
+            "bnerr.metrics": METRIC_TABLE,
+        }[group]
+        if registry is None:
+            strategies.REGISTRY.remove(name)
+        else:
+            dict.pop(registry, name, None)
+        plugins._LOADED.pop((group, name), None)

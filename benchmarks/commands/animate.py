@@ -18,6 +18,10 @@ is ``results/quality/tuned_params.json`` when that exists, else the denoiser's d
 says so). A given path that holds no such file, or a file that is not valid, is a one-line error
 before any rendering: a mistyped path should not quietly animate untuned denoisers.
 
+``--scenes``, ``--strategies`` and ``--denoiser`` take plug-ins too (:mod:`bnerr.plugins`): specs
+``pkg.mod:attr`` and ``path/to/file.py:Name``, a scene file (``.toml``, ``.json``) and an executable
+denoiser's manifest, each loaded and shown under its registered name.
+
 Every name, number and the output folder are checked before any rendering; the command holds
 the folder's lock while it writes.
 """
@@ -39,10 +43,11 @@ from benchmarks.commands._args import (
     seed_int,
 )
 from benchmarks.sweep.parts import known_names
+from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE
 from bnerr.errors import FileFormatError, check_positive_int
 from bnerr.strategies import strategy_identity
-from renderers import get_scene, load_scene
+from renderers import get_scene
 from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
 
 __all__ = ["register", "run"]
@@ -63,10 +68,19 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         nargs="+",
         required=True,
         metavar="NAME",
-        help="scene name(s), space- or comma-separated",
+        help="scene name(s), space- or comma-separated (or scene files, pkg.mod:make_scene)",
     )
-    add("--strategies", nargs="+", metavar="NAME", help="strategy columns (default: see above)")
-    add("--denoiser", default="gaussian", help="denoiser of the second row (default gaussian)")
+    add(
+        "--strategies",
+        nargs="+",
+        metavar="NAME",
+        help="strategy columns (default: see above; plug-ins: pkg.mod:Cls, path/file.py:Cls)",
+    )
+    add(
+        "--denoiser",
+        default="gaussian",
+        help="denoiser of the second row (default gaussian; or pkg.mod:attr, a manifest .toml)",
+    )
     add("--frames", type=positive_int, default=16, help="frames shown (default 16)")
     add("--warmup", type=nonnegative_int, default=6, help="frames rendered before them (default 6)")
     add("--res", default="128x128", help="WIDTHxHEIGHT (default 128x128)")
@@ -102,14 +116,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _specs(args: argparse.Namespace) -> list:
 
     width, height = parse_resolution(args.res)
-    strategies = tuple(names(args.strategies) or default_strategies())
-    scenes = [load_scene(name) for name in names(args.scenes) or ()]  # scene files, XML, plug-ins
+    specs: list[tuple[str, str]] = []  # plug-ins: loaded, registered and named here
+    scenes = load_names("bnerr.scenes", names(args.scenes), specs) or []
+    strategies = tuple(
+        load_names("bnerr.strategies", names(args.strategies), specs) or default_strategies()
+    )
+    denoiser = (load_names("bnerr.denoisers", [args.denoiser], specs) or [args.denoiser])[0]
     known = known_names()
     return [
         Animation(
             scene=scene,
             strategies=strategies,
-            denoiser=args.denoiser,
+            denoiser=denoiser,
             frames=args.frames,
             warmup=args.warmup,
             width=width,

@@ -23,7 +23,9 @@ second ``bnerr bench`` into the same ``--out`` refuses at once instead of losing
 manifest or scene files ending in ``.toml`` / ``.json`` for denoisers and scenes); each is loaded,
 registered under its name, and loaded again in every worker. The white baseline is always run
 (added, with a note on stderr, when no sweep has it). Each record carries its plug-ins' specs and
-fingerprints, and ``--resume`` refuses to mix in cells of a plug-in that changed.
+fingerprints, and ``--resume`` refuses to mix in cells of a plug-in that changed; ``--report-only``
+loads them again from those specs (relative paths from the directory the run started in) before
+it builds the report, so the report is the measuring run's.
 
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
@@ -55,7 +57,7 @@ from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES, Suite
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import known_names, real_parts
-from benchmarks.sweep.plugins import load_names
+from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import RESULTS_ARCHIVE, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
@@ -207,6 +209,8 @@ def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
     records = load_records(out)
     if not records:
         raise ValueRangeError(f"--report-only: expected finished cells in {out}, got none")
+    for note in load_recorded(records):  # the plug-ins measured, for their columns and panels
+        print(f"bnerr bench: {note}", file=sys.stderr)
     title = f"bnerr bench --suite {suite.name}"
     return write_report(out, records, title=title, charts=not args.no_charts)
 

@@ -3,6 +3,9 @@
     bnerr denoise --denoiser gaussian --in frame.exr --out out.exr --params sigma=1.5
     bnerr denoise --denoiser atrous --in frame.exr --out out.exr --tuned params.json --scene cornell
 
+``--denoiser`` takes a plug-in too (:mod:`bnerr.plugins`): a spec ``pkg.mod:attr`` or
+``path/to/file.py:Name``, or an executable denoiser's manifest (``.toml``, ``.json``).
+
 ``--scene`` takes a key of the tuned-parameters file (``cornell/m1/owen_sobol/128x128``) or just
 the scene's name when the file holds one key for it; ``--spp`` may be left out when that key has
 one spp. Otherwise the error lists the candidates.
@@ -25,7 +28,7 @@ from bnerr.errors import DtypeError
 from bnerr.frame import Frame
 from bnerr.io import image_format, read_frame, write_image
 from bnerr.outputs import check_output
-from denoisers import get_denoiser
+from denoisers import get_denoiser, load_denoiser
 from denoisers.tuning import ParamStore
 
 __all__ = ["parse_params", "register", "run"]
@@ -71,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     output = check_output(args.output, "file", need_bytes=need)
     if output.resolve() == source.resolve():
         raise DtypeError(f"--out {output}: expected a file other than --in, got the same file")
+    args.denoiser = load_denoiser(args.denoiser)  # a plug-in: its registered name (for --tuned)
     denoiser = get_denoiser(args.denoiser, **_params(args))
     frame = read_frame(source)
     start = time.perf_counter()
@@ -92,8 +96,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--denoiser",
         required=True,
-        help="a registered denoiser (denoisers.DENOISERS: gaussian, atrous, unet, oidn, ...); "
-        "a temporal one (taa, svgf) sees the frame as the first of its sequence",
+        help="a registered denoiser (denoisers.DENOISERS: gaussian, atrous, unet, oidn, ...) or a "
+        "plug-in (pkg.mod:attr, path/file.py:Name, an executable's manifest .toml/.json); a "
+        "temporal one (taa, svgf) sees the frame as the first of its sequence",
     )
     p.add_argument(
         "--in", dest="input", required=True, metavar="FRAME.exr", help="frame from bnerr render"

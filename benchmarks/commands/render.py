@@ -62,11 +62,17 @@ from benchmarks.commands._args import (
     seed_int,
 )
 from benchmarks.sweep.parts import render_any as render  # the tracer, or a Mitsuba scene's own
-from bnerr.errors import FileFormatError, ValueRangeError, check_memory, check_positive_int
+from bnerr.errors import (
+    FileFormatError,
+    ValueRangeError,
+    check_memory,
+    check_name,
+    check_positive_int,
+)
 from bnerr.frame import Frame
 from bnerr.io import IMAGE_SUFFIXES, write_frame, write_png
 from bnerr.outputs import check_output, clean_stale_temporaries, output_lock
-from bnerr.sequences import Sampler, make_sampler
+from bnerr.sequences import Sampler, load_sampler, make_sampler, per_pixel_samplers
 from bnerr.strategies import Strategy, first_frame, make_strategy, pixel_seeds, play
 from renderers import Scene, aot, get_scene, renders_itself
 from renderers.budget import (
@@ -82,7 +88,6 @@ from renderers.tracer import StageSource
 
 __all__ = ["AOT_BUILD_S", "AUTO_COMPILE_PATHS", "compile_choice", "register", "run"]
 
-SAMPLER_NAMES = ("white", "owen_sobol")
 #: Fixed-seed renders of at least this many paths in all run the compiled tracer by default
 #: when its package is cached (loading it takes milliseconds; it pays from about 2^18 paths,
 #: kept at 2^21 so that small renders never start a background build).
@@ -127,6 +132,8 @@ def _check_args(args: argparse.Namespace) -> tuple[int, int, Path]:
         )
     if args.seed_set is not None:
         check_positive_int(args.seed_set, "--seed-set", minimum=0)
+    if args.sampler is not None:  # a plug-in spec loaded, registered and named
+        args.sampler = check_name(load_sampler(args.sampler), per_pixel_samplers(), "--sampler")
     check_memory(render_bytes(width, height), f"--res {width}x{height}")
     need = OUTPUT_BYTES_PER_PIXEL * width * height * args.frames
     return width, height, check_output(args.out, "dir", need_bytes=need)
@@ -277,7 +284,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="render frames of a named scene to EXR (+ PNG preview)",
         description=__doc__.split("\n\n")[0],
     )
-    p.add_argument("--scene", required=True, help="scene name (see: bnerr scenes)")
+    p.add_argument(
+        "--scene",
+        required=True,
+        help="scene name (see: bnerr scenes), scene file (.toml, .json) or plug-in "
+        "(pkg.mod:make_scene, path/file.py:make_scene)",
+    )
     p.add_argument("--res", default="256x256", metavar="WxH", help="resolution (default 256x256)")
     p.add_argument("--spp", type=positive_int, default=16, help="samples per pixel (default 16)")
     p.add_argument("--frames", type=positive_int, default=1, help="number of frames (default 1)")
@@ -286,15 +298,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--sampler",
-        choices=SAMPLER_NAMES,
-        help="sequence (default white; owen_sobol with --strategy, the benchmark's condition)",
+        metavar="NAME",
+        help="per-pixel sequence: white, owen_sobol or a plug-in (pkg.mod:Cls, path/file.py:Cls) "
+        "(default white; owen_sobol with --strategy, the benchmark's condition)",
     )
     p.add_argument("--seed", type=seed_int, help="seed-image key without --strategy (default 0)")
     p.add_argument(
         "--strategy",
         metavar="NAME",
-        help="render with a seed strategy (temporal, white, zsobol_t...), its state carried from "
-        "frame to frame: the frames bnerr bench renders for --seed-set",
+        help="render with a seed strategy (temporal, white, zsobol_t..., or a plug-in: "
+        "pkg.mod:Cls, path/file.py:Cls), its state carried from frame to frame: the frames "
+        "bnerr bench renders for --seed-set",
     )
     p.add_argument(
         "--seed-set", type=seed_int, help="the strategy's seed set, as in bnerr bench (default 0)"

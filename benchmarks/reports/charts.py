@@ -8,7 +8,8 @@ panels, right of them (constrained layout keeps titles, labels and ticks apart):
 - ``error_vs_time_<group>.png``: post-denoise MSE as a ratio to white's on the same frames, with
   its interval, against render + permutation + denoise milliseconds per frame, one line per
   strategy through its spp values (marker size grows with spp), one panel per key denoiser
-  (:data:`KEY_DENOISERS`, the ones an adopter chooses among; all of them when none is run);
+  (:data:`KEY_DENOISERS`, the ones an adopter chooses among, and every plug-in denoiser; all of
+  them when none is run);
 - ``error_vs_time_<group>_other.png``: the same for every other denoiser;
 - ``oracle_share_<group>.png``: each strategy's share of the white-to-oracle gap
   (:mod:`benchmarks.reports.gap`) against spp, one panel per measure;
@@ -39,6 +40,7 @@ from benchmarks.reports.gap import GapShare
 from benchmarks.reports.groups import group_key, group_slug, group_title, strategy_order
 from benchmarks.reports.palette import strategy_style
 from benchmarks.sweep.records import Record
+from bnerr import plugins
 from bnerr.io import atomic_write
 
 if TYPE_CHECKING:  # matplotlib takes 2 s to import: only when charts are drawn
@@ -61,10 +63,16 @@ _SHARE_MEASURES = ("raw mse_blur1", *(f"{d} mse" for d in SHARE_DENOISERS))
 
 def key_denoisers(denoisers: Sequence[str]) -> list[str]:
     """The key denoisers among ``denoisers`` (the first present name of each
-    :data:`KEY_DENOISERS` entry); all of them, sorted, when none is key."""
+    :data:`KEY_DENOISERS` entry), then every plug-in denoiser (:mod:`bnerr.plugins`: the one its
+    user came to measure); all of them, sorted, when none is key."""
     present = set(denoisers)
     keys = [
         next(n for n in names if n in present) for names in KEY_DENOISERS if present & set(names)
+    ]
+    keys += [
+        n
+        for n in sorted(present - set(keys))
+        if plugins.loaded("bnerr.denoisers", n.removesuffix(":own")) is not None
     ]
     return keys or sorted(present)
 

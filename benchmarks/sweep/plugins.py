@@ -11,7 +11,10 @@ installed entry points are found by the registries themselves.
 Each record keeps ``plugins``: ``"<group>:<name>"`` -> ``{"spec", "fingerprint"}`` for every
 plug-in its cell uses (scene, strategy, sampler, denoiser, metrics), the fingerprint being
 :attr:`bnerr.plugins.Plugin.fingerprint` (distribution and version, else a hash of the source).
-:func:`check_resume` compares them with the plug-ins loaded now.
+:func:`check_resume` compares them with the plug-ins loaded now, and :func:`load_recorded` loads
+them again from those specs in a process that only reports (``bnerr bench --report-only``,
+``python -m benchmarks.reports DIR``), so that its report is the measuring run's: a plug-in
+metric's columns, a plug-in denoiser's panel of the error-against-time chart.
 """
 
 from __future__ import annotations
@@ -24,9 +27,17 @@ import renderers
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record
 from bnerr import metrics, plugins, sequences, strategies
-from bnerr.errors import PluginError
+from bnerr.errors import BnerrError, PluginError
 
-__all__ = ["LOADERS", "cell_plugins", "check_resume", "load_names", "load_specs", "with_plugins"]
+__all__ = [
+    "LOADERS",
+    "cell_plugins",
+    "check_resume",
+    "load_names",
+    "load_recorded",
+    "load_specs",
+    "with_plugins",
+]
 
 #: Registry group -> its loader: a name or spec in, the registered name out.
 LOADERS: dict[str, Callable[[str], str]] = {
@@ -105,3 +116,31 @@ def check_resume(records: Iterable[Record]) -> None:
                     f"(was {then.get('fingerprint')}); measure again with --overwrite, or "
                     "into another --out"
                 )
+
+
+def load_recorded(records: Iterable[Record]) -> list[str]:
+    """Load again, from their specs, the plug-ins ``records`` were measured with (each once;
+    installed entry points are the registries' own), so that a report built in a new process
+    sees them as the measuring process did. A spec names a file or module as it was given
+    (relative to the directory the run started in), so it loads from there.
+
+    Returns:
+        one line per plug-in that cannot be loaded any more (moved, deleted, not importable
+        here): its report is then built from the records alone (a metric without its columns,
+        a denoiser drawn with the other denoisers).
+    """
+    notes, seen = [], set()
+    for record in records:
+        for key, entry in (record.plugins or {}).items():
+            group, _, name = key.partition(":")
+            spec = entry.get("spec") or ""
+            if (group, spec) in seen or group not in LOADERS or spec.startswith("entry point "):
+                continue
+            seen.add((group, spec))
+            try:
+                LOADERS[group](spec)
+            except BnerrError as err:
+                notes.append(
+                    f"plug-in {name!r} ({spec}) not loaded, reported from its records: {err}"
+                )
+    return notes

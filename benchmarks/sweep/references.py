@@ -6,7 +6,9 @@ resolution, spp and code version, and cached under ``cache/references/``. The **
 file name, :meth:`ReferenceCache.path`) holds every input of the render:
 
 - scene name, motion and depth condition and the frame the renderer sees (static scenes, motion 0,
-  share one reference across frames);
+  share one reference across frames); a plug-in scene's name carries its fingerprint too
+  (:attr:`bnerr.plugins.Plugin.fingerprint`: a scene file's hash, a distribution's version), so
+  that a scene edited under the same name never reuses the references of its former self;
 - resolution and spp;
 - the reference sampler's name and the seed salt (the seed image of frame t is a fixed function of
   the salt and t), plus :data:`REFERENCE_FORMAT`, bumped by hand when the seed scheme or the file
@@ -38,6 +40,7 @@ has its own).
 from __future__ import annotations
 
 import errno
+import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -46,6 +49,7 @@ import torch
 
 from benchmarks.sweep.parts import Parts, Scene
 from benchmarks.sweep.plan import Run
+from bnerr import plugins
 from bnerr.errors import BnerrError, FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
@@ -101,6 +105,14 @@ def _errno(err: OSError) -> int | None:
     """``err``'s errno, or that of the OSError it was raised from (atomic_write's one-liners)."""
     cause = err.__cause__
     return err.errno if err.errno is not None else getattr(cause, "errno", None)
+
+
+def _scene_key(scene: str) -> str:
+    """The scene's part of a cache file's name: its name, and a plug-in's fingerprint."""
+    plugin = plugins.loaded("bnerr.scenes", scene)
+    if plugin is None:
+        return scene  # a shipped scene: the committed results' keys, unchanged
+    return f"{scene}_{re.sub(r'[^A-Za-z0-9.-]+', '-', plugin.fingerprint)}"
 
 
 class ReferenceCache:
@@ -161,7 +173,7 @@ class ReferenceCache:
         if content:  # a plug-in scene: its files' hash (a Mitsuba scene: and Mitsuba's version)
             version += "_" + content.replace("/", "_").replace(":", "-")
         name = (
-            f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
+            f"{_scene_key(run.scene)}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
             f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"
             f"_{REFERENCE_FORMAT}_{version}.exr"
         )

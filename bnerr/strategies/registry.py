@@ -5,7 +5,9 @@ installed ``bnerr.strategies`` entry points, loaded the first time the registry 
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Iterator, Mapping
+from pathlib import Path
 from typing import Any
 
 from bnerr import plugins
@@ -48,8 +50,12 @@ class StrategyRegistry(Mapping[str, Any]):
         ``Strategy`` (it registered itself when defined) with a ``name`` and a ``family``."""
         cls = plugin.obj
         name = getattr(cls, "name", None)
-        if isinstance(cls, type) and name and hasattr(cls, "create") and name not in self._classes:
-            self.add(cls)  # loaded before and forgotten since (remove): registered again
+        if isinstance(cls, type) and name and hasattr(cls, "create"):
+            known = self._classes.get(name)
+            if known is None or _same_source(known, cls):
+                # loaded before and forgotten since (remove), or the same file imported under a
+                # second module name (a file spec and an installed entry point): registered again
+                self.add(cls)
         if not isinstance(cls, type) or not name or self._classes.get(name) is not cls:
             got = cls.__name__ if isinstance(cls, type) else type(cls).__name__
             raise PluginError(
@@ -135,3 +141,15 @@ class StrategyRegistry(Mapping[str, Any]):
 
 #: Every registered strategy, name -> class (``bnerr.strategies.STRATEGIES``).
 REGISTRY = StrategyRegistry()
+
+
+def _same_source(a: type, b: type) -> bool:
+    """Whether two classes are one class of one source file (imported under two module names)."""
+    try:
+        files = [inspect.getsourcefile(c) for c in (a, b)]
+    except TypeError:  # a class without a source file
+        return False
+    if None in files:
+        return False
+    same = Path(str(files[0])).resolve() == Path(str(files[1])).resolve()
+    return same and a.__qualname__ == b.__qualname__

@@ -3,6 +3,7 @@
 failure is a one-line PluginError naming the plug-in; the fingerprint follows the source; the
 sweep's parts load the specs again (what a fresh worker does)."""
 
+import importlib
 import sys
 import textwrap
 
@@ -29,26 +30,6 @@ class Mine(WhiteStrategy):
 def _write(path, text):
     path.write_text(textwrap.dedent(text))
     return path
-
-
-@pytest.fixture
-def forget():
-    """Unregister what a test registered (the registries are process-wide)."""
-    names = []
-    yield names
-    for group, name in names:
-        registry = {
-            "bnerr.strategies": None,
-            "bnerr.denoisers": denoisers.DENOISERS,
-            "bnerr.scenes": renderers.SCENES,
-            "bnerr.samplers": sequences.SAMPLERS,
-            "bnerr.metrics": METRIC_TABLE,
-        }[group]
-        if registry is None:
-            strategies.REGISTRY.remove(name)
-        else:
-            dict.pop(registry, name, None)
-        plugins._LOADED.pop((group, name), None)
 
 
 def test_a_strategy_file_registers_under_its_name_with_its_family(tmp_path, forget):
@@ -170,3 +151,27 @@ def test_the_parts_load_the_specs_again_in_a_fresh_worker(tmp_path, forget):
     plugins._resolve.cache_clear()
     scene = parts.get_scene("direct", True)
     assert parts.make_strategy("plug_b", scene, 4, 4, 0, "owen_sobol", 1).name == "plug_b"
+
+
+def test_a_file_plugin_is_found_by_its_path_once_registered(tmp_path, forget):
+    manifest = _write(tmp_path / "den.toml", "name = 'ext_again'\n")
+    assert plugins.registered_file("bnerr.denoisers", manifest) is None
+    forget.append(("bnerr.denoisers", "ext_again"))
+    files = (str(manifest.resolve()),)
+    plugins.record(
+        "bnerr.denoisers", "ext_again", plugins.Plugin(str(manifest), object(), None, files)
+    )
+    assert plugins.registered_file("bnerr.denoisers", tmp_path / "." / "den.toml") == "ext_again"
+    assert plugins.registered_file("bnerr.scenes", manifest) is None  # per group
+
+
+def test_a_strategy_file_also_imported_as_a_module_still_loads_by_its_spec(
+    tmp_path, monkeypatch, forget
+):
+    path = _write(tmp_path / "twice_mod.py", STRATEGY.format(name="plug_twice", stream=0x51A7E0F3))
+    forget.append(("bnerr.strategies", "plug_twice"))
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "twice_mod", raising=False)
+    importlib.import_module("twice_mod")  # an entry point's import: the class registers itself
+    assert strategies.REGISTRY.name_of(f"{path}:Mine") == "plug_twice"  # the file's own import
+    assert strategies.make_strategy("plug_twice", 4, 4).name == "plug_twice"

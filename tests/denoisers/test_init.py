@@ -8,6 +8,7 @@ from bnerr.errors import DtypeError, NonFiniteError, ShapeError, UnknownNameErro
 from bnerr.frame import Frame
 from denoisers import DENOISERS, Denoiser, MissingBufferError, check_frame, get_denoiser
 from tests._images import random_frame
+from tests._paths import EXAMPLES
 
 NAMES = [
     "atrous",
@@ -194,3 +195,12 @@ def test_a_denoiser_that_returns_nan_is_caught_at_the_boundary():
         NonFiniteError, match=r"denoiser 'broken' output \(finite input\): .* \(y, x\) = \(5, 6\)"
     ):
         Broken()(random_frame())
+
+
+def test_a_manifest_loaded_again_is_the_same_registered_class(forget):
+    manifest = str(EXAMPLES / "external_denoiser" / "manifest.toml")
+    forget.append(("bnerr.denoisers", "example_joint_bilateral"))
+    name = denoisers.load_denoiser(manifest)
+    cls = DENOISERS[name]
+    assert denoisers.load_denoiser(manifest) == name  # a worker loads the parts' specs again
+    assert DENOISERS[name] is cls

@@ -1,12 +1,15 @@
-"""Tests for renderers.catalog: the registry, D per scene, animation and static variants."""
+"""Tests for renderers.catalog: the registry, D per scene, animation and static variants, scene
+files loaded as plug-ins (a shipped scene's file is that scene)."""
 
 import pytest
 import torch
 
-from bnerr.errors import UnknownNameError
+from bnerr import plugins
+from bnerr.errors import PluginError, UnknownNameError
 from bnerr.sequences import make_sampler
-from renderers import SCENES, get_scene, render
+from renderers import SCENES, get_scene, load_scene, render
 from renderers.scene import Sphere
+from tests._paths import EXAMPLES
 
 EXPECTED = {  # name: (D, max_depth, lights, medium)
     "direct": (4, 2, 1, False),
@@ -74,3 +77,31 @@ def test_every_scene_renders(name):
 def test_unknown_scene():
     with pytest.raises(UnknownNameError, match="unknown scene 'Cornell': expected one of cornell"):
         get_scene("Cornell")
+
+
+def test_a_shipped_scene_written_as_a_file_is_the_shipped_scene():
+    path = EXAMPLES / "scenes" / "direct.toml"
+    assert load_scene(str(path)) == "direct"
+    assert plugins.loaded("bnerr.scenes", "direct") is None  # shipped: no plug-in record
+
+
+def test_a_changed_scene_under_a_shipped_name_is_refused(tmp_path):
+    text = (EXAMPLES / "scenes" / "direct.toml").read_text().replace("radius = 6.0", "radius = 7.0")
+    (tmp_path / "direct.toml").write_text(text)
+    with pytest.raises(
+        PluginError, match=r"expected a name other than a shipped scene's .* 'direct'"
+    ):
+        load_scene(str(tmp_path / "direct.toml"))
+
+
+def test_a_scene_file_loads_once_under_its_name_with_its_path_as_spec(tmp_path, forget):
+    text = (EXAMPLES / "scenes" / "direct.toml").read_text()
+    path = tmp_path / "mine.toml"
+    path.write_text(text.replace('name = "direct"', 'name = "cat_mine"'))
+    forget.append(("bnerr.scenes", "cat_mine"))
+    assert load_scene(str(path)) == "cat_mine"
+    builder = SCENES["cat_mine"]
+    assert load_scene(str(path)) == "cat_mine"  # again (each unit of work): the same entry
+    assert SCENES["cat_mine"] is builder
+    assert plugins.loaded("bnerr.scenes", "cat_mine").spec == str(path)
+    assert get_scene(str(path)).name == "cat_mine"

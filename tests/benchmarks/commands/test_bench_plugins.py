@@ -5,15 +5,16 @@ by ``bnerr bench`` beside white and a shipped denoiser; then ``--resume`` after 
 file changed refuses with one line naming it."""
 
 import csv
-import os
+import dataclasses
 import subprocess
-import sys
 import textwrap
 from pathlib import Path
 
 import pytest
 
-from tests._paths import ROOT
+from benchmarks.sweep.plugins import load_recorded
+from tests._paths import bnerr_cli
+from tests._records import small_record
 
 PACKAGE = '''
 import torch.nn.functional as F
@@ -78,10 +79,7 @@ def _install(site: Path) -> None:
 
 
 def _bnerr(site: Path, *args: str) -> subprocess.CompletedProcess:
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(site)]))
-    env.update(OMP_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    command = [sys.executable, "-m", "benchmarks.cli", *args]
-    return subprocess.run(command, env=env, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    return bnerr_cli(*args, path=[site])
 
 
 @pytest.fixture
@@ -128,3 +126,17 @@ def test_installed_plugins_are_listed_like_shipped_ones(site):
     listed = _bnerr(site / "site", "scenes")
     assert listed.returncode == 0, listed.stderr
     assert "tiny_installed" in listed.stdout and "cornell" in listed.stdout
+
+
+def test_a_recorded_plugin_that_cannot_be_loaded_any_more_is_named_not_fatal(tmp_path):
+    gone = {"spec": str(tmp_path / "gone.py") + ":maxerr", "fingerprint": "sha256:0"}
+    installed = {"spec": "entry point box3", "fingerprint": "boxden==1.2"}
+    pairs = [[[1.0, 1.0]]]
+    record = small_record("white", "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=1,
+                          seed_sets=1)  # fmt: skip
+    record = dataclasses.replace(
+        record, plugins={"bnerr.metrics:maxerr": gone, "bnerr.denoisers:box3": installed}
+    )
+    notes = load_recorded([record, record])  # each spec once; an entry point is the registry's
+    assert len(notes) == 1
+    assert notes[0].startswith(f"plug-in 'maxerr' ({gone['spec']}) not loaded, reported from")

@@ -14,6 +14,7 @@ from benchmarks.reports.charts import (
     write_charts,
 )
 from benchmarks.reports.gap import GapShare
+from bnerr import plugins
 
 _STRATEGIES = ("white", "bnds", "zsobol", "temporal", "temporal+relative+demod+groups", "oracle")
 _DENOISERS = ("gaussian:own", "atrous:own", "unet_blue", "oidn", "taa", "median", "bilateral")
@@ -127,3 +128,10 @@ def test_write_charts_splits_key_and_other_denoisers(tmp_path):
     key_only = [r for r in _rows() if r["denoiser"] in _DENOISERS[:5]]
     write_charts(key_only, [], tmp_path)
     assert not (tmp_path / "error_vs_time_snooker_other.png").exists()  # a stale one is removed
+
+
+def test_a_plugin_denoiser_is_a_key_denoiser(forget):
+    forget.append(("bnerr.denoisers", "mine"))
+    plugins.record("bnerr.denoisers", "mine", plugins.Plugin("mine.py:mine", object()))
+    assert key_denoisers(["gaussian", "median", "mine"]) == ["gaussian", "mine"]
+    assert key_denoisers(["median", "mine:own"]) == ["mine:own"]

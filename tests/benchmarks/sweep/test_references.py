@@ -2,6 +2,7 @@
 that follows every input of a reference (the tracer's and the samplers' code among them)."""
 
 import dataclasses
+import re
 import shutil
 
 import pytest
@@ -18,6 +19,7 @@ from benchmarks.sweep.references import (
     reference_seeds,
 )
 from benchmarks.sweep.version import code_version, reference_sources, source_hash
+from bnerr import plugins
 from bnerr.frame import Frame
 from bnerr.io import read_frame
 
@@ -175,3 +177,17 @@ def test_the_progress_text_names_each_reference_render_and_the_first_compile(tmp
         "reference t=1 at 1024 spp",
         "",
     ]
+
+
+def test_a_plugin_scene_keys_its_references_by_its_fingerprint(tmp_path, forget):
+    run = dataclasses.replace(_run(), scene="ref_plug")
+    cache = ReferenceCache(tmp_path, real_parts())
+    forget.append(("bnerr.scenes", "ref_plug"))
+    keys = []
+    for content in (b"one scene", b"the same scene, edited"):
+        (tmp_path / "s.toml").write_bytes(content)  # a scene file's fingerprint: its bytes
+        files = (str(tmp_path / "s.toml"),)
+        plugins.record("bnerr.scenes", "ref_plug", plugins.Plugin("s.toml", None, None, files))
+        keys.append(cache.path(run, 0).name)
+    assert re.match(r"ref_plug_sha256-[0-9a-f]{16}_m1_", keys[0]) and keys[0] != keys[1]
+    assert cache.path(_run(), 0).name.startswith("direct_m1_")  # a shipped scene: as before
