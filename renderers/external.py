@@ -306,7 +306,8 @@ def command_manifest(
 ) -> RendererManifest:
     """The manifest of ``bnerr bench --renderer-cmd "TEMPLATE"``: ``template`` split with
     :func:`shlex.split` into argv (never run through a shell), run in ``folder`` (default: the
-    current directory), named ``name`` (default: the program's file name without suffix).
+    current directory), named ``name`` (default: the program's file name without suffix, the
+    script's after ``{python}``).
     It lists ``samplers = ["owen_sobol", "ldbn"]`` when the template has ``{sampler}`` and the
     four ``{ldbn_...}`` placeholders, else ``["owen_sobol"]``; the other keys keep their
     defaults (every Frame buffer the file holds is kept).
@@ -328,7 +329,8 @@ def command_manifest(
     if not argv:
         raise ManifestError(f"--renderer-cmd: expected a command, got {template!r}")
     ldbn = all("{" + p + "}" in template for p in ("sampler", *_LDBN_PLACEHOLDERS))
-    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(argv[0]).stem) or "renderer"
+    program = argv[1] if argv[0] == "{python}" and len(argv) > 1 else argv[0]
+    stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(program).stem) or "renderer"
     raw = dict(
         RENDERER_KEYS,
         name=name if name is not None else (stem if stem[0].isalpha() else f"r{stem}"),
@@ -440,8 +442,9 @@ def _read(
         if value is not None:
             try:
                 check_finite(value, name)
-            except ValueError as err:
-                raise _fail(manifest, argv, "finite values", str(err), work) from None
+            except ValueError as err:  # "<name>: expected finite values, got ..."
+                got = str(err).partition("got ")[2]
+                raise _fail(manifest, argv, f"finite values in {name}", got, work) from None
     return frame
 
 
