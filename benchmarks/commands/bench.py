@@ -132,6 +132,24 @@ def _add_resume_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_renderer_options(parser: argparse.ArgumentParser) -> None:
+    """Which renderer: bnerr's tracer (neither), --renderer or --renderer-cmd."""
+    external = parser.add_mutually_exclusive_group()
+    external.add_argument(
+        "--renderer",
+        type=Path,
+        metavar="MANIFEST",
+        help="render with an external program through the seed protocol: its manifest (.toml, "
+        ".json; docs/RENDERER_PROTOCOL.md)",
+    )
+    external.add_argument(
+        "--renderer-cmd",
+        metavar="TEMPLATE",
+        help="the same with a command line: argv with {seeds} {out} {spp} {frame} {width} "
+        "{height} {sampler} placeholders (split with shlex, no shell)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -156,20 +174,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="override the per-pixel sampler condition (owen_sobol, white" + spec + ")",
     )
     add("--metrics", nargs="+", metavar="NAME", help="override the metrics measured" + spec)
-    external = parser.add_mutually_exclusive_group()
-    external.add_argument(
-        "--renderer",
-        type=Path,
-        metavar="MANIFEST",
-        help="render with an external program through the seed protocol: its manifest (.toml, "
-        ".json; docs/RENDERER_PROTOCOL.md)",
-    )
-    external.add_argument(
-        "--renderer-cmd",
-        metavar="TEMPLATE",
-        help="the same with a command line: argv with {seeds} {out} {spp} {frame} {width} "
-        "{height} {sampler} placeholders (split with shlex, no shell)",
-    )
+    _add_renderer_options(parser)
     add("--frames", type=positive_int, help="measured frames per seed set")
     add("--warmup", type=nonnegative_int, help="frames rendered before measuring (not measured)")
     add("--seed-sets", type=positive_int, help="independent seed sets")
