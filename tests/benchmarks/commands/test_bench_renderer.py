@@ -10,6 +10,7 @@ post-Gaussian MSE / white's, temporal 0.74 [0.62, 0.89], ldbn 0.31 [0.27, 0.36],
 
 from __future__ import annotations
 
+import re
 import shlex
 import shutil
 import subprocess
@@ -17,6 +18,7 @@ import subprocess
 import numpy as np
 import pytest
 
+from benchmarks.cli import main
 from benchmarks.sweep.records import load_records
 from bnerr.metrics import better, paired_ratio
 from tests._paths import ROOT
@@ -93,3 +95,23 @@ def test_the_manifest_runs_the_same_renderer_and_records_its_time_as_the_render_
     assert {r.render_sampler for r in records} == {"owen_sobol", "ldbn"}
     for record in records:
         assert all(ms > 0 for frames in record.timings.render_ms for ms in frames), record.timings
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--renderer-cmd", "tracer 'open"], "expected a command line, got No closing quotation"),
+        (["--renderer-cmd", "cat {seeds}"], r"expected the placeholder\(s\) \{seeds\}, \{out\}"),
+        (
+            ["--renderer-cmd", "cat {seeds} {out} {spp}", "--scenes", "direct"],
+            "--scenes: expected ",
+        ),
+        (["--renderer", "missing.toml"], "expected a renderer manifest file, got no such file"),
+    ],
+)
+def test_a_wrong_renderer_is_one_error_line_before_any_work(tmp_path, capsys, extra, message):
+    code = main(["bench", "--suite", "quick", "--out", str(tmp_path / "o"), "--quiet", *extra])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and err.startswith("bnerr bench: error: "), err
+    assert re.search(message, err), err
+    assert not (tmp_path / "o" / "cells.jsonl").exists()
