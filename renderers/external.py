@@ -395,8 +395,8 @@ def sampler_values(manifest: RendererManifest, sampler: object) -> dict[str, str
             f"{manifest.label}: expected a sampler it lists ({', '.join(manifest.samplers)}), "
             f"got {name!r}"
         )
-    values = dict(sampler=name, ldbn_keys="none", ldbn_slice="0", ldbn_offset_y="0")
-    values["ldbn_offset_x"] = "0"
+    values = {"sampler": name, "ldbn_keys": "none"}
+    values.update(dict.fromkeys(("ldbn_slice", "ldbn_offset_y", "ldbn_offset_x"), "0"))
     if name == "ldbn":
         values.update(_ldbn_values(sampler))
     return values
