@@ -144,11 +144,12 @@ class MemoryLimitError(BnerrError, MemoryError):
 
 
 class ExternalProcessError(BnerrError, RuntimeError):
-    """An external program (an executable denoiser, :mod:`denoisers.external`) did not do its
-    part: it would not start, exited with a non-zero status, ran past its time limit, or wrote no
-    output or one of the wrong size, channels, type or with non-finite values. The first line
-    names the program and its command and says what was expected; the last lines the program
-    wrote to stderr follow it, indented."""
+    """An external program (an executable denoiser, :mod:`denoisers.external`; a renderer driven
+    through the seed protocol, :mod:`renderers.external`; both run by :mod:`bnerr.external`) did
+    not do its part: it would not start, exited with a non-zero status, ran past its time limit,
+    or wrote no output or one of the wrong size, channels, type or with non-finite values. The
+    first line names the program and its command and says what was expected; the last lines the
+    program wrote to stderr follow it, indented."""
 
 
 def check_tensor(x: object, name: str) -> torch.Tensor:

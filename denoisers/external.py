@@ -71,19 +71,12 @@ using it costs.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
-import json
 import os
 import re
-import shlex
 import shutil
-import signal
-import string
-import subprocess
 import sys
 import tempfile
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -93,7 +86,18 @@ from typing import Any, ClassVar
 import numpy as np
 import torch
 
-from bnerr.errors import DtypeError, ExternalProcessError, FileFormatError, UnknownNameError
+from bnerr.errors import DtypeError, ExternalProcessError, UnknownNameError
+from bnerr.external import (
+    ManifestError,
+    command_placeholders,
+    describe_value,
+    expect,
+    log_tail,
+    program_error,
+    read_manifest,
+    resolve_program,
+    run_program,
+)
 from bnerr.frame import BUFFERS, Frame
 from bnerr.io import write_exr
 from denoisers.base import Denoiser
@@ -130,14 +134,8 @@ MANIFEST_KEYS: dict[str, object] = {
 _FIXED_PLACEHOLDERS = ("python", "output", "frame")
 _NAME = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
 _IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_STDERR_LINES = 20
 _SIZE_FACTOR = 4
 _SIZE_SLACK = 64 * 1024
-
-
-class ManifestError(FileFormatError):
-    """A denoiser manifest is malformed, holds an unknown key or a value of the wrong type, or
-    names a program that is missing or lies outside its folder; the message names the file."""
 
 
 @dataclass(frozen=True)
@@ -168,72 +166,33 @@ class Manifest:
 
 def _parse(path: Path) -> dict:
     """The manifest file as a dict; malformed TOML or JSON is reported with its line."""
-    suffix = path.suffix.lower()
-    if suffix not in (".toml", ".json"):
-        raise ManifestError(f"{path}: expected a manifest named *.toml or *.json, got {suffix!r}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = getattr(err, "strerror", None) or str(err)
-        raise ManifestError(f"{path}: expected a readable UTF-8 manifest, got {reason}") from None
-    try:
-        raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
-        where = f"(at the end of the document, after line {len(text.splitlines())})"
-        reason = str(err).replace("(at end of document)", where)
-        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
-    except json.JSONDecodeError as err:
-        raise ManifestError(
-            f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
-        ) from None
-    if not isinstance(raw, dict):
-        raise ManifestError(f"{path}: expected a table of keys, got a JSON {type(raw).__name__}")
-    unknown = sorted(set(raw) - set(MANIFEST_KEYS))
-    if unknown:
-        raise ManifestError(
-            f"{path}: unknown key(s) {', '.join(unknown)}: expected only {', '.join(MANIFEST_KEYS)}"
-        )
-    missing = [key for key, default in MANIFEST_KEYS.items() if default is ... and key not in raw]
-    if missing:
-        raise ManifestError(f"{path}: expected the key(s) {', '.join(missing)}, got none")
-    return {key: raw.get(key, default) for key, default in MANIFEST_KEYS.items()}
-
-
-def _type_name(value: object) -> str:
-    return f"{type(value).__name__} {value!r:.60}"
-
-
-def _expect(path: Path, key: str, value: object, types: tuple[type, ...], what: str) -> Any:
-    """``value`` if it is one of ``types`` (a bool is never a number); else a ManifestError."""
-    if isinstance(value, bool) and bool not in types or not isinstance(value, types):
-        raise ManifestError(f"{path}: {key}: expected {what}, got {_type_name(value)}")
-    return value
+    return read_manifest(path, MANIFEST_KEYS, "manifest")
 
 
 def _values(path: Path, raw: dict) -> dict[str, Any]:
     """The scalar keys checked: name, temporal, timeout_s, kind, description."""
-    name = _expect(path, "name", raw["name"], (str,), "a string")
+    name = expect(path, "name", raw["name"], (str,), "a string")
     if not _NAME.fullmatch(name):
         raise ManifestError(
             f"{path}: name: expected a letter then letters, digits, '_', '.' or '-', got {name!r}"
         )
-    temporal = _expect(path, "temporal", raw["temporal"], (bool,), "true or false")
-    timeout = _expect(path, "timeout_s", raw["timeout_s"], (int, float), "a number of seconds")
+    temporal = expect(path, "temporal", raw["temporal"], (bool,), "true or false")
+    timeout = expect(path, "timeout_s", raw["timeout_s"], (int, float), "a number of seconds")
     if not 0 < timeout < float("inf"):
         raise ManifestError(f"{path}: timeout_s: expected a number > 0, got {timeout}")
     kind = raw["kind"] if raw["kind"] is not None else ("temporal" if temporal else "filter")
-    if not _IDENTIFIER.fullmatch(_expect(path, "kind", kind, (str,), "a string")):
+    if not _IDENTIFIER.fullmatch(expect(path, "kind", kind, (str,), "a string")):
         raise ManifestError(
             f"{path}: kind: expected a word such as filter or learned, got {kind!r}"
         )
-    description = _expect(path, "description", raw["description"], (str,), "a string")
+    description = expect(path, "description", raw["description"], (str,), "a string")
     return dict(
         name=name, temporal=temporal, timeout_s=float(timeout), kind=kind, description=description
     )
 
 
 def _inputs(path: Path, raw: object) -> tuple[str, ...]:
-    inputs = _expect(path, "inputs", raw, (list,), "a list of buffer names")
+    inputs = expect(path, "inputs", raw, (list,), "a list of buffer names")
     for item in inputs:
         if not isinstance(item, str) or item not in BUFFER_INPUTS:
             raise ManifestError(
@@ -248,7 +207,7 @@ def _inputs(path: Path, raw: object) -> tuple[str, ...]:
 
 
 def _params(path: Path, raw: object) -> dict[str, int | float | str]:
-    params = _expect(path, "params", raw, (dict,), "a table of name = default")
+    params = expect(path, "params", raw, (dict,), "a table of name = default")
     reserved = (*_FIXED_PLACEHOLDERS, "previous_output", *BUFFER_INPUTS)
     for key, value in params.items():
         if not _IDENTIFIER.fullmatch(key) or key in reserved:
@@ -256,7 +215,7 @@ def _params(path: Path, raw: object) -> dict[str, int | float | str]:
                 f"{path}: params: expected identifiers other than {', '.join(reserved)}, "
                 f"got {key!r}"
             )
-        _expect(path, f"params.{key}", value, (int, float, str), "an int, a float or a string")
+        expect(path, f"params.{key}", value, (int, float, str), "an int, a float or a string")
     return dict(params)
 
 
@@ -270,7 +229,7 @@ def _coerce(value: object, default: int | float | str, what: str) -> int | float
 
 
 def _grid(path: Path, raw: object, params: Mapping[str, int | float | str]) -> dict[str, tuple]:
-    grid = _expect(path, "grid", raw, (dict,), "a table of name = [values]")
+    grid = expect(path, "grid", raw, (dict,), "a table of name = [values]")
     checked = {}
     for key, values in grid.items():
         if key not in params:
@@ -280,7 +239,7 @@ def _grid(path: Path, raw: object, params: Mapping[str, int | float | str]) -> d
             )
         if not isinstance(values, list) or not values:
             raise ManifestError(
-                f"{path}: grid.{key}: expected a non-empty list, got {_type_name(values)}"
+                f"{path}: grid.{key}: expected a non-empty list, got {describe_value(values)}"
             )
         try:
             checked[key] = tuple(_coerce(v, params[key], f"grid.{key}") for v in values)
@@ -289,26 +248,8 @@ def _grid(path: Path, raw: object, params: Mapping[str, int | float | str]) -> d
     return checked
 
 
-def _placeholders(path: Path, command: list[str], known: set[str]) -> set[str]:
-    """The placeholders ``command`` uses; an unknown one (or a format spec) is refused."""
-    used: set[str] = set()
-    for arg in command:
-        try:
-            fields = [(f, s, c) for _, f, s, c in string.Formatter().parse(arg) if f is not None]
-        except ValueError as err:
-            raise ManifestError(f"{path}: command: argument {arg!r}: {err}") from None
-        for field, spec, conversion in fields:
-            if field not in known or spec or conversion:
-                raise ManifestError(
-                    f"{path}: command: argument {arg!r}: expected placeholders among "
-                    f"{', '.join('{' + k + '}' for k in sorted(known))}, got {{{field}}}"
-                )
-            used.add(field)
-    return used
-
-
 def _command(path: Path, raw: object, values: dict, inputs: tuple, params: dict) -> list[str]:
-    command = _expect(path, "command", raw, (list,), "a list of arguments (argv)")
+    command = expect(path, "command", raw, (list,), "a list of arguments (argv)")
     if not command or not all(isinstance(a, str) and a for a in command):
         raise ManifestError(
             f"{path}: command: expected a non-empty list of non-empty strings (argv, no shell), "
@@ -317,7 +258,7 @@ def _command(path: Path, raw: object, values: dict, inputs: tuple, params: dict)
     known = {*_FIXED_PLACEHOLDERS, *BUFFER_INPUTS, *params}
     if values["temporal"]:
         known.add("previous_output")
-    used = _placeholders(path, command, known)
+    used = command_placeholders(path, command, known)
     if "output" not in used:
         raise ManifestError(f"{path}: command: expected an {{output}} placeholder, got none")
     buffers = used & set(BUFFER_INPUTS)
@@ -326,37 +267,7 @@ def _command(path: Path, raw: object, values: dict, inputs: tuple, params: dict)
             f"{path}: command: expected a placeholder for each of inputs = "
             f"{', '.join(inputs)} and no other buffer, got {', '.join(sorted(buffers))}"
         )
-    return _program(path, command)
-
-
-def _program(path: Path, command: list[str]) -> list[str]:
-    """``command`` with the program's path checked and, if relative, made absolute (see the
-    module docstring's rule)."""
-    index = 1 if command[0] == "{python}" else 0
-    if index >= len(command) or command[index].startswith("-"):
-        return command  # {python} -m module / -c code: no file to check
-    program = command[index]
-    what = f"{path}: command[{index}]"
-    if "{" in program or "}" in program:
-        raise ManifestError(f"{what}: expected the program's path, got a placeholder {program!r}")
-    if index == 0 and "/" not in program and os.sep not in program:
-        if shutil.which(program) is None:
-            raise ManifestError(f"{what}: expected a program on PATH, got {program!r}: not found")
-        return command
-    if Path(program).is_absolute():
-        return command
-    folder = path.parent.resolve()
-    resolved = (folder / program).resolve()
-    if not resolved.is_relative_to(folder):
-        raise ManifestError(
-            f"{what}: expected a path inside the manifest's folder {folder}, got {program!r}, "
-            f"which resolves to {resolved} (through '..' or a symlink)"
-        )
-    if not resolved.is_file():
-        raise ManifestError(f"{what}: expected an existing file, got {program!r}: no such file")
-    if index == 0 and not os.access(resolved, os.X_OK):
-        raise ManifestError(f"{what}: expected an executable file, got {program!r}: not executable")
-    return [*command[:index], str(resolved), *command[index + 1 :]]
+    return resolve_program(path, command)
 
 
 def load_manifest(manifest_path: str | os.PathLike) -> Manifest:
@@ -398,71 +309,15 @@ def _failure(
     manifest: Manifest, argv: Sequence[str], expected: str, got: str, log: str = ""
 ) -> ExternalProcessError:
     """The ExternalProcessError of one failed frame: one line, then the program's log tail."""
-    message = (
-        f"denoiser {manifest.name!r} ({manifest.path.name}): command {shlex.join(argv)}: "
-        f"expected {expected}, got {got}"
+    return program_error(
+        f"denoiser {manifest.name!r} ({manifest.path.name})", argv, expected, got, log
     )
-    return ExternalProcessError(message + log)
-
-
-def _log_tail(work: Path) -> str:
-    """The last lines the program wrote to stderr (else stdout), indented under a heading."""
-    for stream in ("stderr", "stdout"):
-        log = work / f"{stream}.txt"
-        text = log.read_bytes().decode("utf-8", "replace") if log.is_file() else ""
-        lines = text.rstrip().splitlines()[-_STDERR_LINES:]
-        if lines:
-            body = "\n".join(f"    {line}" for line in lines)
-            return f"\n  last {len(lines)} line(s) of the program's {stream}:\n{body}"
-    return ""
-
-
-def _kill_group(proc: subprocess.Popen) -> None:
-    """Kill the program's process group (its session: it and everything it started), then reap
-    it. Called before the program is reaped, so its id cannot name another group yet."""
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-
-
-def _status(code: int) -> str:
-    if code < 0:
-        with contextlib.suppress(ValueError):
-            return f"killed by signal {signal.Signals(-code).name}"
-    return f"exit status {code}"
 
 
 def _execute(manifest: Manifest, argv: list[str], work: Path) -> None:
     """Run ``argv`` in the manifest's folder, in a session of its own, with the time limit."""
-    with open(work / "stdout.txt", "wb") as out, open(work / "stderr.txt", "wb") as err:
-        try:
-            proc = subprocess.Popen(
-                argv,
-                cwd=manifest.folder,
-                stdin=subprocess.DEVNULL,
-                stdout=out,
-                stderr=err,
-                start_new_session=True,
-            )
-        except OSError as error:
-            reason = error.strerror or str(error)
-            raise _failure(manifest, argv, "a program that starts", reason) from None
-        try:
-            code = proc.wait(timeout=manifest.timeout_s)
-        except subprocess.TimeoutExpired:
-            _kill_group(proc)
-            raise _failure(
-                manifest,
-                argv,
-                f"an exit within timeout_s = {manifest.timeout_s:g} s",
-                "none (its process group was killed)",
-                _log_tail(work),
-            ) from None
-        except BaseException:  # an interrupt while waiting: leave no program running
-            _kill_group(proc)
-            raise
-    if code != 0:
-        raise _failure(manifest, argv, "exit status 0", _status(code), _log_tail(work))
+    what = f"denoiser {manifest.name!r} ({manifest.path.name})"
+    run_program(what, argv, cwd=manifest.folder, timeout_s=manifest.timeout_s, work=work)
 
 
 def _exr_header(path: Path) -> tuple[tuple[int, int], list[str]]:
@@ -492,7 +347,7 @@ def _read_output(
     its byte size and header before its pixels, then their type and finiteness."""
 
     def fail(expected: str, got: str) -> ExternalProcessError:
-        return _failure(manifest, argv, expected, got, _log_tail(path.parent))
+        return _failure(manifest, argv, expected, got, log_tail(path.parent))
 
     if not path.is_file():
         raise fail(f"an output EXR at {{output}} ({path.name})", "no such file")

@@ -27,6 +27,13 @@ fingerprints, and ``--resume`` refuses to mix in cells of a plug-in that changed
 loads them again from those specs (relative paths from the directory the run started in) before
 it builds the report, so the report is the measuring run's.
 
+**Any renderer** (:mod:`renderers.external`, docs/RENDERER_PROTOCOL.md): ``--renderer
+MANIFEST.toml`` or ``--renderer-cmd "TEMPLATE"`` (split into argv with shlex, never run through a
+shell) runs every strategy whose sampler the program implements through it, one run per frame
+(the oracle's K candidates: K runs), on its one scene, named after its manifest
+(:mod:`benchmarks.sweep.external_renderer`); the references are its own renders at the reference
+spp. ``--scenes`` does not go with them.
+
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
 no value) joins the cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else
@@ -56,12 +63,14 @@ from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES, Suite
 from benchmarks.sweep import runner
+from benchmarks.sweep.external_renderer import external_parts, renderer_suite
 from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import RESULTS_ARCHIVE, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 from bnerr.outputs import output_lock
+from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
 
 __all__ = ["register"]
 
@@ -77,6 +86,8 @@ _OVERRIDES = (
     "res",
     "samplers",
     "metrics",
+    "renderer",
+    "renderer_cmd",
 )
 
 
@@ -123,6 +134,24 @@ def _add_resume_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_renderer_options(parser: argparse.ArgumentParser) -> None:
+    """Which renderer: bnerr's tracer (neither), --renderer or --renderer-cmd."""
+    external = parser.add_mutually_exclusive_group()
+    external.add_argument(
+        "--renderer",
+        type=Path,
+        metavar="MANIFEST",
+        help="render with an external program through the seed protocol: its manifest (.toml, "
+        ".json; docs/RENDERER_PROTOCOL.md)",
+    )
+    external.add_argument(
+        "--renderer-cmd",
+        metavar="TEMPLATE",
+        help="the same with a command line: argv with {seeds} {out} {spp} {frame} {width} "
+        "{height} {sampler} placeholders (split with shlex, no shell)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -147,6 +176,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="override the per-pixel sampler condition (owen_sobol, white" + spec + ")",
     )
     add("--metrics", nargs="+", metavar="NAME", help="override the metrics measured" + spec)
+    _add_renderer_options(parser)
     add("--frames", type=positive_int, help="measured frames per seed set")
     add("--warmup", type=nonnegative_int, help="frames rendered before measuring (not measured)")
     add("--seed-sets", type=positive_int, help="independent seed sets")
@@ -215,11 +245,26 @@ def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
     return write_report(out, records, title=title, charts=not args.no_charts)
 
 
+def _renderer(args: argparse.Namespace) -> ExternalRenderer | None:
+    """The external renderer of ``--renderer`` / ``--renderer-cmd``, or None (bnerr's tracer)."""
+    if args.renderer is None and args.renderer_cmd is None:
+        return None
+    if args.scenes is not None:
+        raise ValueRangeError(
+            "--scenes: expected none with --renderer / --renderer-cmd (the program renders its "
+            f"one scene), got {' '.join(args.scenes)}"
+        )
+    if args.renderer is not None:
+        return ExternalRenderer(load_renderer_manifest(args.renderer))
+    return ExternalRenderer(command_manifest(args.renderer_cmd))
+
+
 def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     if args.report_only:
         return _report_only(args, suite, out)
 
+    renderer = _renderer(args)
     specs: list[tuple[str, str]] = []
     suite = suites.resolve(
         suite,
@@ -239,12 +284,23 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
     suite, added = suites.with_white(suite)
     if added:
         print("bnerr bench: added the white baseline (every ratio is to white)", file=sys.stderr)
+    specs = list(dict.fromkeys(specs))
+    parts = real_parts(tuple(specs))
+    if renderer is not None:
+        suite, dropped = renderer_suite(suite, renderer, named=args.strategies is not None)
+        if dropped:
+            print(
+                f"bnerr bench: left out {', '.join(dropped)}: {renderer.manifest.label} lists "
+                f"no sampler for them",
+                file=sys.stderr,
+            )
+        parts = external_parts(renderer, tuple(specs))
     common = dict(
         cache_dir=args.cache,
         resume=args.resume,
         overwrite=args.overwrite,
         progress=not args.quiet,
-        parts=real_parts(tuple(dict.fromkeys(specs))),
+        parts=parts,
     )
     if args.ray is not None:
         records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)

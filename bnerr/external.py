@@ -1,0 +1,247 @@
+"""External programs behind a manifest: the parts shared by the executable denoisers
+(:mod:`denoisers.external`) and the renderers driven through the seed protocol
+(:mod:`renderers.external`).
+
+A manifest is a TOML (``*.toml``, read with :mod:`tomllib`) or JSON (``*.json``) table whose
+``command`` is a list of arguments (argv, never a shell string) with ``{placeholders}``:
+
+- :func:`read_manifest` parses the file and refuses unknown keys (listing the known ones) and
+  missing required ones; a malformed file is reported with its line;
+- :func:`expect` checks one value's type; :func:`command_placeholders` the placeholders of the
+  command (an unknown one, or a format spec, is refused; ``{{`` and ``}}`` are literal braces);
+- :func:`resolve_program` checks the program's own file (``command[0]``, or ``command[1]`` when
+  ``command[0]`` is ``{python}``): given as a relative path it must exist and lie inside the
+  manifest's folder once ``..`` and symlinks are resolved, and is made absolute; an absolute path
+  is taken as written; a bare name (``oidnDenoise``) is looked up on ``PATH``;
+- :func:`run_program` runs one argv in a session of its own (``start_new_session``) with stdin
+  closed and stdout/stderr in files, kills its whole process group past the time limit, checks
+  its exit status and returns its wall time; every failure is an
+  :class:`~bnerr.errors.ExternalProcessError` whose first line names the program, its command and
+  what was expected, followed by the last lines of its stderr (:func:`log_tail`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import shlex
+import shutil
+import signal
+import string
+import subprocess
+import time
+import tomllib
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from bnerr.errors import ExternalProcessError, FileFormatError
+
+__all__ = [
+    "ManifestError",
+    "command_placeholders",
+    "describe_value",
+    "expect",
+    "log_tail",
+    "program_error",
+    "read_manifest",
+    "resolve_program",
+    "run_program",
+]
+
+#: How many of the program's last stderr (else stdout) lines an error quotes.
+STDERR_LINES = 20
+
+
+class ManifestError(FileFormatError):
+    """A manifest (an executable denoiser's, an external renderer's) is malformed, holds an
+    unknown key or a value of the wrong type, or names a program that is missing or lies outside
+    its folder; the message names the file."""
+
+
+# ------------------------------------------------------------------------------------------------
+# Reading a manifest
+
+
+def read_manifest(path: Path, keys: Mapping[str, object], what: str) -> dict:
+    """The manifest file ``path`` as a dict with every key of ``keys`` (its default filled in;
+    a default of ``...`` marks a required key); ``what`` names the kind in the messages.
+
+    Raises:
+        ManifestError: not ``*.toml`` / ``*.json``, unreadable, malformed (with the line), not a
+            table, an unknown key or a missing required one.
+    """
+    suffix = path.suffix.lower()
+    if suffix not in (".toml", ".json"):
+        raise ManifestError(f"{path}: expected a {what} named *.toml or *.json, got {suffix!r}")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        reason = getattr(err, "strerror", None) or str(err)
+        raise ManifestError(f"{path}: expected a readable UTF-8 {what}, got {reason}") from None
+    try:
+        raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
+    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
+        where = f"(at the end of the document, after line {len(text.splitlines())})"
+        reason = str(err).replace("(at end of document)", where)
+        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
+    except json.JSONDecodeError as err:
+        raise ManifestError(
+            f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
+        ) from None
+    if not isinstance(raw, dict):
+        raise ManifestError(f"{path}: expected a table of keys, got a JSON {type(raw).__name__}")
+    unknown = sorted(set(raw) - set(keys))
+    if unknown:
+        raise ManifestError(
+            f"{path}: unknown key(s) {', '.join(unknown)}: expected only {', '.join(keys)}"
+        )
+    missing = [key for key, default in keys.items() if default is ... and key not in raw]
+    if missing:
+        raise ManifestError(f"{path}: expected the key(s) {', '.join(missing)}, got none")
+    return {key: raw.get(key, default) for key, default in keys.items()}
+
+
+def describe_value(value: object) -> str:
+    """``value`` for a message: its type and its first 60 characters of repr."""
+    return f"{type(value).__name__} {value!r:.60}"
+
+
+def expect(path: Path, key: str, value: object, types: tuple[type, ...], what: str) -> Any:
+    """``value`` if it is one of ``types`` (a bool is never a number); else a ManifestError."""
+    if isinstance(value, bool) and bool not in types or not isinstance(value, types):
+        raise ManifestError(f"{path}: {key}: expected {what}, got {describe_value(value)}")
+    return value
+
+
+def command_placeholders(path: Path, command: Sequence[str], known: set[str]) -> set[str]:
+    """The placeholders ``command`` uses; an unknown one (or a format spec) is refused."""
+    used: set[str] = set()
+    for arg in command:
+        try:
+            fields = [(f, s, c) for _, f, s, c in string.Formatter().parse(arg) if f is not None]
+        except ValueError as err:
+            raise ManifestError(f"{path}: command: argument {arg!r}: {err}") from None
+        for field, spec, conversion in fields:
+            if field not in known or spec or conversion:
+                raise ManifestError(
+                    f"{path}: command: argument {arg!r}: expected placeholders among "
+                    f"{', '.join('{' + k + '}' for k in sorted(known))}, got {{{field}}}"
+                )
+            used.add(field)
+    return used
+
+
+def resolve_program(path: Path, command: list[str]) -> list[str]:
+    """``command`` with the program's path checked and, if relative, made absolute against the
+    manifest ``path``'s folder (see the module docstring's rule)."""
+    index = 1 if command[0] == "{python}" else 0
+    if index >= len(command) or command[index].startswith("-"):
+        return command  # {python} -m module / -c code: no file to check
+    program = command[index]
+    what = f"{path}: command[{index}]"
+    if "{" in program or "}" in program:
+        raise ManifestError(f"{what}: expected the program's path, got a placeholder {program!r}")
+    if index == 0 and "/" not in program and os.sep not in program:
+        if shutil.which(program) is None:
+            raise ManifestError(f"{what}: expected a program on PATH, got {program!r}: not found")
+        return command
+    if Path(program).is_absolute():
+        return command
+    folder = path.parent.resolve()
+    resolved = (folder / program).resolve()
+    if not resolved.is_relative_to(folder):
+        raise ManifestError(
+            f"{what}: expected a path inside the manifest's folder {folder}, got {program!r}, "
+            f"which resolves to {resolved} (through '..' or a symlink)"
+        )
+    if not resolved.is_file():
+        raise ManifestError(f"{what}: expected an existing file, got {program!r}: no such file")
+    if index == 0 and not os.access(resolved, os.X_OK):
+        raise ManifestError(f"{what}: expected an executable file, got {program!r}: not executable")
+    return [*command[:index], str(resolved), *command[index + 1 :]]
+
+
+# ------------------------------------------------------------------------------------------------
+# Running the program
+
+
+def program_error(
+    what: str, argv: Sequence[str], expected: str, got: str, log: str = ""
+) -> ExternalProcessError:
+    """The ExternalProcessError of one failed run: ``what`` (the program, e.g. ``denoiser 'x'
+    (manifest.toml)``), its command and what was expected on one line, then the log tail."""
+    message = f"{what}: command {shlex.join(argv)}: expected {expected}, got {got}"
+    return ExternalProcessError(message + log)
+
+
+def log_tail(work: Path) -> str:
+    """The last lines the program wrote to stderr (else stdout) in ``work``, indented under a
+    heading; "" when it wrote nothing."""
+    for stream in ("stderr", "stdout"):
+        log = work / f"{stream}.txt"
+        text = log.read_bytes().decode("utf-8", "replace") if log.is_file() else ""
+        lines = text.rstrip().splitlines()[-STDERR_LINES:]
+        if lines:
+            body = "\n".join(f"    {line}" for line in lines)
+            return f"\n  last {len(lines)} line(s) of the program's {stream}:\n{body}"
+    return ""
+
+
+def _kill_group(proc: subprocess.Popen) -> None:
+    """Kill the program's process group (its session: it and everything it started), then reap
+    it. Called before the program is reaped, so its id cannot name another group yet."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+
+
+def _status(code: int) -> str:
+    if code < 0:
+        with contextlib.suppress(ValueError):
+            return f"killed by signal {signal.Signals(-code).name}"
+    return f"exit status {code}"
+
+
+def run_program(what: str, argv: list[str], *, cwd: Path, timeout_s: float, work: Path) -> float:
+    """Run ``argv`` in ``cwd``, in a session of its own, with the time limit; its stdout and
+    stderr go to ``work/stdout.txt`` and ``work/stderr.txt``. Returns its wall time in
+    milliseconds (start to exit).
+
+    Raises:
+        ExternalProcessError: it would not start, ran past ``timeout_s`` (its process group is
+            killed) or exited with a non-zero status (:func:`program_error`).
+    """
+    with open(work / "stdout.txt", "wb") as out, open(work / "stderr.txt", "wb") as err:
+        start = time.perf_counter()
+        try:
+            proc = subprocess.Popen(
+                argv,
+                cwd=cwd,
+                stdin=subprocess.DEVNULL,
+                stdout=out,
+                stderr=err,
+                start_new_session=True,
+            )
+        except OSError as error:
+            reason = error.strerror or str(error)
+            raise program_error(what, argv, "a program that starts", reason) from None
+        try:
+            code = proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            _kill_group(proc)
+            raise program_error(
+                what,
+                argv,
+                f"an exit within timeout_s = {timeout_s:g} s",
+                "none (its process group was killed)",
+                log_tail(work),
+            ) from None
+        except BaseException:  # an interrupt while waiting: leave no program running
+            _kill_group(proc)
+            raise
+        elapsed = (time.perf_counter() - start) * 1000.0
+    if code != 0:
+        raise program_error(what, argv, "exit status 0", _status(code), log_tail(work))
+    return elapsed

@@ -1,0 +1,85 @@
+"""benchmarks.sweep.external_renderer: the sweep's parts and suite with a renderer program driven
+through the seed protocol (a Python stand-in here; the C example runs in
+tests/benchmarks/commands/test_bench_renderer.py)."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+import torch
+
+from benchmarks.suites import Condition
+from benchmarks.sweep.external_renderer import (
+    ExternalScene,
+    external_parts,
+    renderer_suite,
+    strategy_sampler,
+)
+from benchmarks.sweep.parts import BoundRender, real_parts
+from benchmarks.sweep.runner import run_suite
+from bnerr.errors import UnknownNameError, ValueRangeError
+from renderers.external import ExternalRenderer, command_manifest
+from tests._suites import tiny_suite
+
+pytestmark = pytest.mark.usefixtures("one_thread")
+
+#: color = seed / 2^32 (a seed's error moves with it), albedo and object_id constant.
+SCRIPT = """
+import struct, sys
+import numpy as np, OpenEXR
+seeds, out = sys.argv[1:3]
+data = open(seeds, 'rb').read()
+_, _, w, h, k, _ = struct.unpack_from('<4s5I', data)
+s = np.frombuffer(data, '<u4', offset=24).reshape(k, h, w)[0]
+r = np.ascontiguousarray(0.5 + (s / 2**32 - 0.5) * 0.2, dtype=np.float32)
+c = {'R': r, 'G': r, 'B': r, 'object_id.Y': np.zeros_like(r), 'depth.Z': np.ones_like(r)}
+c.update({f'albedo.{x}': np.ones_like(r) for x in 'RGB'})
+c.update({f'normal.{x}': np.ones_like(r) * (x == 'Z') for x in 'XYZ'})
+OpenEXR.File({'type': OpenEXR.scanlineimage}, c).write(out)
+"""
+
+
+@pytest.fixture
+def renderer(tmp_path):
+    (tmp_path / "flat.py").write_text(SCRIPT)
+    template = f"{sys.executable} flat.py {{seeds}} {{out}} --spp {{spp}}"
+    return ExternalRenderer(command_manifest(template, "flat", tmp_path))
+
+
+def test_the_parts_render_the_programs_one_scene_and_key_its_references_by_it(renderer):
+    parts = external_parts(renderer)
+    scene = parts.get_scene("flat", True)
+    assert scene == ExternalScene("flat", 8)
+    with pytest.raises(UnknownNameError, match="expected the external renderer's 'flat'"):
+        parts.get_scene("direct", False)
+    with pytest.raises(ValueRangeError, match="expected no depth condition"):
+        parts.with_depth(scene, 2)
+    assert parts.code_version.startswith(real_parts().code_version + "+flat-")
+    strategy = parts.make_strategy("oracle", scene, 6, 5, 0, "owen_sobol", 1)
+    frame = strategy.frame(0, BoundRender(parts, scene, 1))
+    assert frame.color.shape == (3, 6, 5) and frame.timings["render"] > 0
+
+
+def test_the_suite_keeps_the_strategies_whose_sampler_the_program_lists(renderer):
+    suite = tiny_suite(strategies=("white", "temporal", "oracle", "ldbn", "bnds"))
+    kept, dropped = renderer_suite(suite, renderer, named=False)
+    assert kept.sweeps[0].strategies == ("white", "temporal", "oracle")
+    assert kept.sweeps[0].scenes == ("flat",) and dropped == ("ldbn", "bnds")
+    with pytest.raises(ValueRangeError, match="--strategies ldbn: expected a strategy whose"):
+        renderer_suite(suite, renderer, named=True)
+    white = tiny_suite(conditions=(Condition(sampler="white"),))
+    with pytest.raises(ValueRangeError, match="expected to render the white baseline"):
+        renderer_suite(white, renderer, named=False)
+    assert strategy_sampler("temporal+relative", "owen_sobol") == "owen_sobol"
+    assert strategy_sampler("ldbn_fast", "owen_sobol") == "ldbn"
+
+
+@pytest.mark.slow
+def test_the_runner_measures_the_programs_frames_against_its_own_reference(renderer, tmp_path):
+    suite, _ = renderer_suite(tiny_suite(res=(8, 8), denoisers=("gaussian",)), renderer, False)
+    records = run_suite(suite, tmp_path / "out", parts=external_parts(renderer), progress=False)
+    assert {r.cell.scene for r in records} == {"flat"}
+    white = next(r for r in records if r.cell.strategy == "white" and r.cell.region == "all")
+    assert all(ms > 0 for frames in white.timings.render_ms for ms in frames)
+    assert torch.tensor(white.raw["mse"]).gt(0).all()
