@@ -131,6 +131,27 @@ def _add_resume_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_adaptive_options(parser: argparse.ArgumentParser) -> None:
+    """Adaptive seed sets: --until-resolved with its cap and batch."""
+    add = parser.add_argument
+    add(
+        "--until-resolved",
+        action="store_true",
+        help="add seed sets, in batches, only to the cells whose verdict is still open, up to "
+        "--seed-set-cap (a group-sequential design keeps every verdict's 95 %% coverage)",
+    )
+    add(
+        "--seed-set-cap",
+        type=positive_int,
+        help=f"with --until-resolved: the most seed sets a cell gets (default {DEFAULT_CAP})",
+    )
+    add(
+        "--batch",
+        type=positive_int,
+        help="with --until-resolved: seed sets added per look (default: doubled each look)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -178,22 +199,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "instance), local, or HOST:PORT of a head node (needs: pip install '.[cluster]')",
     )
     add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
-    add(
-        "--until-resolved",
-        action="store_true",
-        help="add seed sets, in batches, only to the cells whose verdict is still open, up to "
-        "--seed-set-cap (a group-sequential design keeps every verdict's 95 %% coverage)",
-    )
-    add(
-        "--seed-set-cap",
-        type=positive_int,
-        help=f"with --until-resolved: the most seed sets a cell gets (default {DEFAULT_CAP})",
-    )
-    add(
-        "--batch",
-        type=positive_int,
-        help="with --until-resolved: seed sets added per look (default: doubled each look)",
-    )
+    _add_adaptive_options(parser)
     add("--no-charts", action="store_true", help="write the tables only")
     compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
     add("--compress", action="store_true", help=compress)
