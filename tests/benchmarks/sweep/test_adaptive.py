@@ -40,9 +40,10 @@ class _StandIn:
     """A ``run_suite`` stand-in: a results file in memory, resumed like the real one; counts the
     runs it measured per call."""
 
-    def __init__(self) -> None:
+    def __init__(self, fail_after: int | None = None) -> None:
         self.records: dict[str, Record] = {}
         self.calls: list[list[tuple[str, int, int]]] = []
+        self.fail_after = fail_after  # cells measured before an interruption
 
     def __call__(self, suite, out, *, runs, resume, overwrite, **options) -> list[Record]:
         if not resume:
@@ -52,6 +53,8 @@ class _StandIn:
             for cell in run.cells():
                 if cell.key() in self.records:
                     continue
+                if self.fail_after is not None and len(self.records) >= self.fail_after:
+                    raise KeyboardInterrupt("simulated interruption")
                 pairs = metric_pairs([_values(run, g) for g in range(run.seed_sets)])
                 rec = small_record(
                     run.strategy, cell.denoiser, raw={"mse": pairs}, den={"mse": pairs},
@@ -83,6 +86,17 @@ def test_seed_sets_are_added_only_where_the_verdict_is_open_up_to_the_cap():
     # resumed: the rounds replay from each look's records, nothing is measured again
     adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=measure, resume=True)
     assert all(call == [] for call in measure.calls[4:])
+
+
+def test_an_interrupted_run_resumes_to_the_same_verdicts():
+    whole = _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=whole)
+    cut = _StandIn(fail_after=5)  # 4 cells at 2 seed sets, then one of the 2 at 4
+    with pytest.raises(KeyboardInterrupt):
+        adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=cut)
+    cut.fail_after = None
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=cut, resume=True)
+    assert cut.records == whole.records
 
 
 def test_a_batch_adds_that_many_seed_sets_per_look():
