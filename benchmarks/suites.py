@@ -324,8 +324,9 @@ _GAP_METRICS = ("mse", "mse_blur1", "mse_blur2")
 # calculation (bnerr.metrics.power, docs/METHODS.md) says 4 seed sets resolve a 10 % reduction in
 # the median cell (power 0.92) but a 5 % one in fewer than half (0.42), 8 would resolve 5 % in the
 # median cell (0.87); 8 doubles the quality suite's time (55 min with two Ray workers here), past
-# the 30 min the suites are allowed, so the tables keep 4 and say "n.r." (not resolved) where a
-# cell's interval neither excludes nor brackets white within 5 %; the ordering tests, which make
+# the 30 min the suites are allowed, so the tables keep 4 and say "open" where a cell's interval
+# neither excludes nor brackets white within 5 % (``bnerr bench --until-resolved`` adds seed sets
+# only to those, benchmarks.sweep.adaptive); the ordering tests, which make
 # the claims the README rests on, use 8. Stateless strategies (white, bnds, oracle) render the same
 # 12 measured frames either way and skip the warmup; the temporal ones pay 4 warmups. The sort
 # converges within about 3 frames; 6 warmup frames leave a margin.

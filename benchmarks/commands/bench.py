@@ -34,6 +34,13 @@ shell) runs every strategy whose sampler the program implements through it, one 
 (:mod:`benchmarks.sweep.external_renderer`); the references are its own renders at the reference
 spp. ``--scenes`` does not go with them.
 
+``--until-resolved [--seed-set-cap N] [--batch B]`` (:mod:`benchmarks.sweep.adaptive`): after
+the suite's seed sets, the runs of every scene, condition and spp whose decision-table verdict is
+still open are measured again at the next look (doubled seed sets, or B more), up to the cap
+(default 32), under a group-sequential design that keeps every verdict's 95 % coverage
+(:mod:`bnerr.metrics.sequential`); ``--resume`` continues an interrupted run to the same
+verdicts.
+
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
 no value) joins the cluster this machine belongs to (``ray start``, or ``RAY_ADDRESS``) or else
@@ -45,7 +52,9 @@ threads) of each task.
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import torch
@@ -63,11 +72,12 @@ from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import SUITES, Suite
 from benchmarks.sweep import runner
+from benchmarks.sweep.adaptive import DEFAULT_CAP, run_until_resolved
 from benchmarks.sweep.external_renderer import external_parts, renderer_suite
 from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
-from benchmarks.sweep.records import RESULTS_ARCHIVE, compress_records, load_records
+from benchmarks.sweep.records import RESULTS_ARCHIVE, Record, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
 from bnerr.outputs import output_lock
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
@@ -152,6 +162,27 @@ def _add_renderer_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_adaptive_options(parser: argparse.ArgumentParser) -> None:
+    """Adaptive seed sets: --until-resolved with its cap and batch."""
+    add = parser.add_argument
+    add(
+        "--until-resolved",
+        action="store_true",
+        help="add seed sets, in batches, only to the cells whose verdict is still open, up to "
+        "--seed-set-cap (a group-sequential design keeps every verdict's 95 %% coverage)",
+    )
+    add(
+        "--seed-set-cap",
+        type=positive_int,
+        help=f"with --until-resolved: the most seed sets a cell gets (default {DEFAULT_CAP})",
+    )
+    add(
+        "--batch",
+        type=positive_int,
+        help="with --until-resolved: seed sets added per look (default: doubled each look)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -200,6 +231,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "instance), local, or HOST:PORT of a head node (needs: pip install '.[cluster]')",
     )
     add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
+    _add_adaptive_options(parser)
     add("--no-charts", action="store_true", help="write the tables only")
     compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
     add("--compress", action="store_true", help=compress)
@@ -259,8 +291,20 @@ def _renderer(args: argparse.Namespace) -> ExternalRenderer | None:
     return ExternalRenderer(command_manifest(args.renderer_cmd))
 
 
+def _check_adaptive(args: argparse.Namespace) -> None:
+    """--seed-set-cap and --batch only with --until-resolved, which measures (no --report-only)."""
+    if not args.until_resolved:
+        given = [f for f in ("seed_set_cap", "batch") if getattr(args, f) is not None]
+        if given:
+            flags = ", ".join("--" + f.replace("_", "-") for f in given)
+            raise ValueRangeError(f"{flags}: expected with --until-resolved, got without it")
+    elif args.report_only:
+        raise ValueRangeError("--until-resolved: expected a run that measures, got --report-only")
+
+
 def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
+    _check_adaptive(args)
     if args.report_only:
         return _report_only(args, suite, out)
 
@@ -302,10 +346,16 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
         progress=not args.quiet,
         parts=parts,
     )
+    measure: Callable[..., list[Record]] = runner.run_suite
     if args.ray is not None:
-        records = run_suite_ray(suite, out, address=args.ray, cpus_per_task=args.ray_cpus, **common)
+        measure = functools.partial(run_suite_ray, address=args.ray, cpus_per_task=args.ray_cpus)
+    if args.until_resolved:
+        cap = DEFAULT_CAP if args.seed_set_cap is None else args.seed_set_cap
+        records = run_until_resolved(
+            suite, out, cap=cap, batch=args.batch, measure=measure, **common
+        )
     else:
-        records = runner.run_suite(suite, out, **common)
+        records = measure(suite, out, **common)
     title = f"bnerr bench --suite {suite.name}"
     return write_report(out, records, title=title, charts=not args.no_charts)
 

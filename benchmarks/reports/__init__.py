@@ -44,7 +44,7 @@ from benchmarks.reports.page import write_suite_page
 from benchmarks.reports.regions import coverage_markdown
 from benchmarks.reports.seed import write_seed_report
 from benchmarks.reports.table import csv_text, markdown_table, summarize
-from benchmarks.sweep.records import Record, load_records
+from benchmarks.sweep.records import Record, final_records, load_records
 from bnerr.io import atomic_write
 
 __all__ = ["write_report"]
@@ -68,7 +68,8 @@ def write_report(
     """
     out = Path(out_dir)
     records = load_records(out) if records is None else list(records)
-    records = [r for r in records if r.has_pixels]  # an empty coherent region measured nothing
+    # an empty coherent region measured nothing; an adaptive run's earlier looks are superseded
+    records = [r for r in final_records(records) if r.has_pixels]
     rows = summarize(records)
     text = markdown_table(rows, title or f"bnerr bench: {out.name}")
     regions = coverage_markdown(records)  # "" for results without coverage: table.md unchanged

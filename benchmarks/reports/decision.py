@@ -7,7 +7,8 @@ permutation ms): the table a renderer team choosing a strategy reads. Built from
 
 Not for: deciding for the reader beyond the measured ratios: a strategy is bold only when its
 whole interval, corrected for having been chosen as the best of the cell's strategies, lies below
-white's; equal (within a stated margin) and not resolved are said as such.
+white's; equal (within a stated margin), worse and open at the cap are said as such, each with
+the seed sets it rests on.
 """
 
 from __future__ import annotations
@@ -16,16 +17,19 @@ from collections.abc import Iterable, Sequence
 
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
-from bnerr.metrics import Estimate, better, equivalent, relevel_ratio
+from bnerr.metrics import Estimate, relevel_ratio
+from bnerr.metrics.sequential import Design, settle
 from bnerr.strategies import baseline, bounds, strategy_identity
 
 __all__ = [
     "EQUAL_MARGIN",
     "LEVEL",
     "best_rows",
+    "cell_verdicts",
     "corrected",
     "decision_excludes",
     "decision_table",
+    "design_of",
     "headline_table",
     "rival_counts",
     "verdict",
@@ -92,36 +96,75 @@ def rival_counts(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> 
     return {key: len(v) for key, v in names.items()}
 
 
+def design_of(row: dict) -> Design | None:
+    """The group-sequential design a row's seed sets were added under (``row["looks"]``, from a
+    ``bnerr bench --until-resolved`` record), or the fixed design of its seed sets (one look that
+    spends the whole ``1 - LEVEL``); None with fewer than 2 seed sets."""
+    sets = row["seed_sets"]
+    if sets < 2:
+        return None
+    return Design(tuple(row.get("looks") or (sets,)), 1.0 - LEVEL)
+
+
 def corrected(row: dict, rivals: int) -> Estimate:
     """The best row's post-denoise ratio to white with its interval widened for having been chosen
-    as the lowest of ``rivals`` strategies: the t-interval at level ``1 - (1 - LEVEL) / rivals``
-    (Bonferroni), so a bold cell keeps its stated 95 % family coverage."""
+    as the lowest of ``rivals`` strategies and for the looks of its design (:func:`design_of`):
+    the t-interval at level ``1 - alpha_k / rivals`` (Bonferroni; ``alpha_k = 1 - LEVEL`` for a
+    fixed number of seed sets, :mod:`bnerr.metrics.sequential`), so a verdict keeps its stated
+    95 % family coverage."""
     est = Estimate(row["den_mse_ratio"], row["den_mse_ratio_lo"], row["den_mse_ratio_hi"], 0, LEVEL)
-    sets = row["seed_sets"]
-    df = sets - 1 if sets >= 2 else max(row["frames"] - 1, 1)
-    return relevel_ratio(est, 1.0 - (1.0 - LEVEL) / max(rivals, 1), df)
+    design = design_of(row)
+    if design is None:
+        df = max(row["frames"] - 1, 1)
+        return relevel_ratio(est, 1.0 - (1.0 - LEVEL) / max(rivals, 1), df)
+    return design.interval(est, row["seed_sets"], rivals)
 
 
 def verdict(est: Estimate) -> str:
-    """``"better"`` (superiority: the corrected interval below 1), ``"equal"`` (equivalence within
-    :data:`EQUAL_MARGIN`) or ``"not resolved"`` (neither: more seed sets would be needed)."""
-    if better(est):
-        return "better"
-    return "equal" if equivalent(est, EQUAL_MARGIN) else "not resolved"
+    """``"better"`` (superiority: the corrected interval below 1), ``"worse"`` (above 1),
+    ``"equal"`` (equivalence within :data:`EQUAL_MARGIN`) or ``"open"`` (none of them: more seed
+    sets would be needed; :func:`bnerr.metrics.sequential.settle`)."""
+    return settle(est, EQUAL_MARGIN)
 
 
-_MARKS = {"better": "", "equal": " ≈", "not resolved": " n.r."}
+def cell_verdicts(
+    rows: Sequence[dict], exclude: Sequence[str] | None = None
+) -> dict[tuple, tuple[str, int]]:
+    """Per (group key, spp, denoiser): the verdict on the cell's lowest strategy other than white
+    (corrected, :func:`corrected`) and the seed sets it rests on. A cell whose lowest strategy is
+    white is settled when its lowest rival is worse or equal; ``bnerr bench --until-resolved``
+    adds seed sets to the cells still ``"open"``."""
+    exclude = _excludes(rows, exclude)
+    rivals = rival_counts(rows, exclude)
+    lowest = best_rows(rows, [*exclude, baseline()])
+    return {
+        key: (verdict(corrected(row, rivals.get(key, 1))), row["seed_sets"])
+        for key, row in lowest.items()
+        if row.get("den_mse_ratio") is not None
+    }
 
 
-def _decision_cell(row: dict, rivals: int) -> str:
+#: How a verdict is marked after the ratio (bold for "better").
+_MARKS = {"better": "", "equal": " ≈", "worse": " worse", "open": " open"}
+
+
+def _decision_cell(row: dict, rivals: int, rival: dict | None = None) -> str:
+    """The best strategy with its corrected interval, verdict and seed sets, then its cost; for
+    white, the lowest rival's ratio and verdict after it (``rival``)."""
     cost = f"{row['render_ms']:.0f} + {row['perm_ms']:.1f} ms"
+    sets = f", {row['seed_sets']} seed sets"
     if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
-        return f"{row['strategy']} ({cost})"
+        if rival is None or rival.get("den_mse_ratio") is None:
+            return f"{row['strategy']} ({cost})"
+        est = corrected(rival, rivals)
+        said = verdict(est)
+        ratio = f"{est.value:.2f} [{est.lo:.2f}, {est.hi:.2f}]{_MARKS[said]}"
+        return f"{row['strategy']} ({cost}; {rival['strategy']} {ratio}{sets})"
     est = corrected(row, rivals)
     said = verdict(est)
     name = f"**{row['strategy']}**" if said == "better" else row["strategy"]
     ratio = f"{est.value:.2f} [{est.lo:.2f}, {est.hi:.2f}]{_MARKS[said]}"
-    return f"{name} {ratio} ({cost})"
+    return f"{name} {ratio}{sets} ({cost})"
 
 
 def decision_table(
@@ -135,6 +178,7 @@ def decision_table(
     default :func:`decision_excludes`)."""
     exclude = _excludes(rows, exclude)
     best = best_rows(rows, exclude)
+    lowest = best_rows(rows, [*exclude, baseline()])
     rivals = rival_counts(rows, exclude)
     # The note names the first registered bound (the oracle) always, the others if run.
     named = {*bounds()[:1], *(r["strategy"] for r in rows)}
@@ -143,12 +187,14 @@ def decision_table(
     body = []
     for group in groups:
         for spp in sorted({k[1] for k in best if k[0] == group}):
-            cells = [best.get((group, spp, d)) for d in denoisers]
+            keys = [(group, spp, d) for d in denoisers]
             body.append(
                 [group_title(group), str(spp)]
                 + [
-                    "-" if c is None else _decision_cell(c, rivals.get((group, spp, d), 1))
-                    for c, d in zip(cells, denoisers, strict=True)
+                    "-"
+                    if k not in best
+                    else _decision_cell(best[k], rivals.get(k, 1), lowest.get(k))
+                    for k in keys
                 ]
             )
     lines = [
@@ -158,11 +204,15 @@ def decision_table(
         "its MSE as a fraction of white's with its paired interval, and its cost per frame "
         "(render + permutation ms). The interval is a Student t-interval on the seed sets' log "
         "ratios at 95 %, widened for having picked the lowest of the m strategies in the cell "
-        "(Bonferroni, level 1 - 0.05/m), so that bold keeps its 95 % family coverage. Bold: "
+        "(Bonferroni, level 1 - 0.05/m) and, where seed sets were added until the verdict was "
+        "settled (bnerr bench --until-resolved), for the looks taken (alpha spent equally over "
+        "them, docs/METHODS.md), so that every verdict keeps its 95 % family coverage. Bold: "
         "below white beyond that interval (superiority); ≈: equal to white within "
         f"{EQUAL_MARGIN:.0%} (the whole interval inside 1 -+ {EQUAL_MARGIN}, equivalence); "
-        "n.r.: not resolved, neither below white nor equal to it at this many seed sets; white: "
-        "no strategy was lower." + _left_out([s for s in exclude if s in named]),
+        "worse: above white beyond it; open: none of these at the seed sets given (the cap), "
+        "more would be needed. Each verdict gives the seed sets it rests on. White: no strategy "
+        "was lower (then the lowest rival's ratio and verdict follow its cost)."
+        + _left_out([s for s in exclude if s in named]),
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",
@@ -170,14 +220,18 @@ def decision_table(
     return "\n".join(lines)
 
 
-def _headline_cell(row: dict | None, rivals: int) -> str:
+def _headline_cell(row: dict | None, rivals: int, rival: dict | None) -> str:
     """``**name ratio**`` below white beyond the corrected interval, ``name ratio ≈`` equal to
-    white within the margin, ``name ratio n.r.`` not resolved, ``white`` when no strategy was
-    lower, ``-`` when not measured."""
+    white within the margin, ``name ratio open`` open at the cap; ``white`` when no strategy was
+    lower, marked by its lowest ``rival``'s verdict unless that is worse (``white ≈``, ``white
+    open``); ``-`` when not measured."""
     if row is None:
         return "-"
     if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
-        return row["strategy"]
+        if rival is None or rival.get("den_mse_ratio") is None:
+            return row["strategy"]
+        said = verdict(corrected(rival, rivals))
+        return row["strategy"] + ("" if said == "worse" else _MARKS[said])
     said = verdict(corrected(row, rivals))
     text = f"{row['strategy']} {row['den_mse_ratio']:.2f}"
     return f"**{text}**" if said == "better" else text + _MARKS[said]
@@ -195,12 +249,17 @@ def headline_table(
     white beyond the interval). Markdown lines, no title."""
     exclude = _excludes(rows, exclude)
     best = best_rows(rows, exclude)
+    lowest = best_rows(rows, [*exclude, baseline()])
     rivals = rival_counts(rows, exclude)
     plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}
     body = [
         [scene, str(spp)]
         + [
-            _headline_cell(best.get((group, spp, d)), rivals.get((group, spp, d), 1))
+            _headline_cell(
+                best.get((group, spp, d)),
+                rivals.get((group, spp, d), 1),
+                lowest.get((group, spp, d)),
+            )
             for d in denoisers
         ]
         for scene in scenes

@@ -204,17 +204,22 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     white = baseline()
     whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
     columns = table_columns()
-    return [
-        _row(rec, whites.get(_baseline_key(rec, white)), resamples, seed, columns)
-        for rec in records
-    ]
+    rows = []
+    for rec in records:
+        row = _row(rec, whites.get(_baseline_key(rec, white)), resamples, seed, columns)
+        if rec.looks:  # the design of an adaptive run, for its verdicts (not a table.csv column)
+            row["looks"] = tuple(rec.looks)
+        rows.append(row)
+    return rows
 
 
 def csv_text(rows: Sequence[dict]) -> str:
     """The text of ``table.csv``: the :data:`COLUMNS` header, one line per row, floats to 6
     significant digits, None as an empty field."""
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=table_columns(), lineterminator="\n")
+    writer = csv.DictWriter(
+        buffer, fieldnames=table_columns(), lineterminator="\n", extrasaction="ignore"
+    )
     writer.writeheader()
     for row in rows:
         writer.writerow(

@@ -372,6 +372,7 @@ def merge_seed_sets(
             coverage=(
                 [list(r.coverage[cell.region]) for r in ordered] if cell.region != "all" else None
             ),
+            looks=list(run.looks) or None,
         )
         for cell in run.cells()
     ]

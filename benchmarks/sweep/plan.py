@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Collection
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 
 from benchmarks.suites import Suite, Sweep
@@ -73,6 +73,10 @@ class Run(RunSpec):
     regions: tuple[str, ...]
     metrics: tuple[str, ...]
     crops: bool
+    #: The seed-set counts of the group-sequential design the run's seed sets are added under
+    #: (``bnerr bench --until-resolved``, :mod:`benchmarks.sweep.adaptive`); empty for a fixed
+    #: number. Recorded with its cells (``Record.looks``), not part of their key.
+    looks: tuple[int, ...] = ()
 
     def cells(self) -> list[Cell]:
         """Its cells: every denoiser x region, in that order."""
@@ -147,11 +151,11 @@ def plan(suite: Suite) -> list[Run]:
     return list(merged.values())
 
 
-def pending(suite: Suite, done: Collection[str]) -> list[Run]:
-    """The runs with cells whose key is not in ``done``, narrowed to their missing denoisers and
-    regions (a run is rendered again for those only)."""
+def pending(suite: Suite, done: Collection[str], runs: Sequence[Run] | None = None) -> list[Run]:
+    """The runs (``runs``, by default :func:`plan`'s) with cells whose key is not in ``done``,
+    narrowed to their missing denoisers and regions (a run is rendered again for those only)."""
     todo = []
-    for run in plan(suite):
+    for run in plan(suite) if runs is None else runs:
         missing = [c for c in run.cells() if c.key() not in done]
         if missing:
             todo.append(

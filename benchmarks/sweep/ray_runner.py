@@ -36,6 +36,7 @@ from __future__ import annotations
 import functools
 import socket
 from collections import defaultdict
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -354,6 +355,7 @@ def run_suite_ray(
     overwrite: bool = False,
     progress: bool = True,
     cpus_per_task: int = 1,
+    runs: Sequence[Run] | None = None,
 ) -> list[Record]:
     """:func:`benchmarks.sweep.runner.run_suite` with every seed set of every run a Ray task.
 
@@ -362,7 +364,7 @@ def run_suite_ray(
             ``RAY_ADDRESS``; else a new local instance), ``local`` (a new local instance) or
             ``HOST:PORT`` of a head node. Ignored when Ray is already initialised.
         cpus_per_task: CPUs each task asks Ray for, and torch's threads inside it.
-        suite, out_dir, parts, cache_dir, resume, overwrite, progress: as ``run_suite``.
+        suite, out_dir, parts, cache_dir, resume, overwrite, progress, runs: as ``run_suite``.
 
     Raises:
         MissingExtraError: ray is not installed.
@@ -374,7 +376,7 @@ def run_suite_ray(
 
     ray = require_ray()
     cpus = check_positive_int(cpus_per_task, "cpus_per_task")
-    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite)
+    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite, runs=runs)
     if not sweep.todo:
         sweep.write()
         return sweep.ordered()

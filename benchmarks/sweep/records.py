@@ -32,7 +32,10 @@ seed set x measured frame:
   and ``coverage`` (``[S][F]``: the fraction of the pixels the cell's region covers in each
   measured frame; None, and absent on disk, for region ``all`` and in older files) and
   ``plugins`` (``"<group>:<name>"`` -> ``{"spec", "fingerprint"}`` of every plug-in the cell
-  uses, :mod:`benchmarks.sweep.plugins`; None, and absent on disk, when it uses none).
+  uses, :mod:`benchmarks.sweep.plugins`; None, and absent on disk, when it uses none) and
+  ``looks`` (the seed-set counts of the group-sequential design its seed sets were added under,
+  ``bnerr bench --until-resolved``, :mod:`bnerr.metrics.sequential`; None, and absent on disk,
+  for a fixed number of seed sets).
   On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
@@ -70,6 +73,7 @@ __all__ = [
     "append_records",
     "check_no_results",
     "compress_records",
+    "final_records",
     "load_records",
     "write_records",
 ]
@@ -131,6 +135,7 @@ class Record:
     tcorr: list[list[float]] | None = None
     coverage: list[list[float]] | None = None
     plugins: dict[str, dict[str, str]] | None = None
+    looks: list[int] | None = None
 
     @property
     def key(self) -> str:
@@ -154,6 +159,7 @@ class Record:
             "tcorr",
             "coverage",
             "plugins",
+            "looks",
         ):  # files from before they were recorded stay
             if out[late] is None:  # byte-identical
                 del out[late]
@@ -185,10 +191,28 @@ class Record:
                 tcorr=data.get("tcorr"),
                 coverage=data.get("coverage"),
                 plugins=data.get("plugins"),
+                looks=data.get("looks"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)
             raise FileFormatError(f"expected a benchmark record, got {what}") from None
+
+
+def final_records(records: Iterable[Record]) -> list[Record]:
+    """``records`` without those an adaptive run superseded: a record with ``looks`` is dropped
+    when another record of the same cell (its key but for ``seed_sets``) with ``looks`` has more
+    seed sets (``bnerr bench --until-resolved`` keeps every look's records, so that a resumed
+    run replays the same verdicts; the reports show the last look). Order kept."""
+    records = list(records)
+
+    def bare(record: Record) -> str:
+        return dataclasses.replace(record.cell, seed_sets=0).key()
+
+    most: dict[str, int] = {}
+    for r in records:
+        if r.looks:
+            most[bare(r)] = max(most.get(bare(r), 0), r.cell.seed_sets)
+    return [r for r in records if not r.looks or r.cell.seed_sets == most[bare(r)]]
 
 
 def _spectra(data: dict) -> dict[str, Spectrum]:

@@ -25,6 +25,7 @@ Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
 from __future__ import annotations
 
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -130,9 +131,17 @@ def _load_params(path: Path) -> ParamStore:
 
 
 def start_sweep(
-    suite: Suite, out_dir: str | Path, parts: Parts | None, *, resume: bool, overwrite: bool
+    suite: Suite,
+    out_dir: str | Path,
+    parts: Parts | None,
+    *,
+    resume: bool,
+    overwrite: bool,
+    runs: Sequence[Run] | None = None,
 ) -> SweepState:
-    """Check the output folder, load what ``resume`` keeps and plan the pending runs.
+    """Check the output folder, load what ``resume`` keeps and plan the pending runs (of
+    ``runs``, by default ``plan(suite)``'s: :mod:`benchmarks.sweep.adaptive` passes the runs
+    with the seed sets each has reached).
 
     The temporaries of the results and parameters files that a killed writer left are removed
     (the caller is the folder's one writer).
@@ -154,8 +163,9 @@ def start_sweep(
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
-    todo = pending(suite, records)
-    planned = {c.key(): None for run in plan(suite) for c in run.cells()}  # ordered, no repeats
+    runs = plan(suite) if runs is None else list(runs)
+    todo = pending(suite, records, runs)
+    planned = {c.key(): None for run in runs for c in run.cells()}  # ordered, no repeats
     order = [k for k in records if k not in planned] + list(planned)
     return SweepState(
         out=out, parts=parts, records=records, store=store, todo=todo, order=order, resumed=resume
@@ -171,8 +181,10 @@ def run_suite(
     resume: bool = False,
     overwrite: bool = False,
     progress: bool = True,
+    runs: Sequence[Run] | None = None,
 ) -> list[Record]:
-    """Measure every cell of ``suite`` and write ``<out_dir>/cells.jsonl``; return all records.
+    """Measure every cell of ``suite`` (of ``runs``, by default ``plan(suite)``'s) and write
+    ``<out_dir>/cells.jsonl``; return all records.
 
     With ``resume`` the results file and the tuned parameters (``tuned_params.json``) are kept,
     and the cells already measured are not measured again: a run whose cells are all done is
@@ -186,7 +198,7 @@ def run_suite(
         FileFormatError: with ``resume``, a results file that is not valid (the message names
             the file and line).
     """
-    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite)
+    sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite, runs=runs)
     references = ReferenceCache(cache_dir, sweep.parts)
     total = sum(r.seed_sets * (r.warmup + r.frames) for r in sweep.todo)
     with tqdm(total=total, unit="frame", disable=not progress, dynamic_ncols=True) as bar:

@@ -13,8 +13,10 @@ One module per concern (docs/METHODS.md, section 6):
 - :mod:`bnerr.metrics.stats`: :class:`Estimate`, :func:`bootstrap_interval`,
   :func:`paired_ratio` (t-intervals over seed sets), the claims :func:`better`,
   :func:`not_worse` and :func:`equivalent`, and the pieces they are built from;
-- :mod:`bnerr.metrics.coverage`: the coverage study behind the choice of interval
-  (``python -m bnerr.metrics.coverage``);
+- :mod:`bnerr.metrics.sequential`: adaptive seed sets, a group-sequential design (alpha spent
+  over the looks) that keeps a verdict's coverage when seed sets are added until it is settled;
+- :mod:`bnerr.metrics.coverage`: the coverage study behind the choice of interval and of the
+  adaptive design (``python -m bnerr.metrics.coverage [--sequential TRIALS]``);
 - :mod:`bnerr.metrics.spectrum`: radially averaged power spectra and the low-frequency fraction
   (also importable as :mod:`bnerr.spectrum`).
 

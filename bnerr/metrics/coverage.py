@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import torch
 
+from bnerr.metrics.sequential import Design, looks, naive_design, run_sequential
 from bnerr.metrics.stats import resample_weights, set_means, t_interval
 
 __all__ = [
@@ -43,9 +44,11 @@ __all__ = [
     "LEVELS",
     "RHO",
     "Coverage",
+    "SequentialCoverage",
     "bootstrap_intervals",
     "coverage",
     "main",
+    "sequential_coverage",
     "simulate",
     "studentized_intervals",
     "t_intervals",
@@ -63,21 +66,37 @@ Intervals = list[tuple[torch.Tensor, torch.Tensor]]  # per level: (lo [T], hi [T
 
 
 def simulate(
-    trials: int, seed_sets: int, frames: int, set_sd: float, generator: torch.Generator
+    trials: int,
+    seed_sets: int,
+    frames: int,
+    set_sd: float,
+    generator: torch.Generator,
+    *,
+    effect: float = 0.0,
+    skewed: bool = False,
 ) -> tuple[torch.Tensor, torch.Tensor]:
-    """Per-frame MSE of two strategies with a true ratio of 1: ``(a, b)``, each
-    ``[trials, seed_sets, frames]`` float64 (the model of the module docstring)."""
+    """Per-frame MSE of two strategies whose expected MSE has the ratio ``1 - effect``: ``(a,
+    b)``, each ``[trials, seed_sets, frames]`` float64 (the model of the module docstring).
+    ``skewed``: the seed-set effects are a centred exponential times ``set_sd`` (mean 0, sd
+    ``set_sd``, skewness 2: a seed set that is rarely but much worse) instead of normal."""
     shape = (trials, seed_sets, frames)
 
     def normal(*size: int) -> torch.Tensor:
         return torch.randn(size, generator=generator, dtype=torch.float64)
 
+    def set_effect() -> torch.Tensor:
+        if not skewed:
+            return set_sd * normal(trials, seed_sets, 1)
+        u = torch.rand((trials, seed_sets, 1), generator=generator, dtype=torch.float64)
+        return set_sd * (-torch.log1p(-u) - 1.0)
+
     content = CONTENT_SD * normal(trials, 1, frames)
-    set_a, set_b = set_sd * normal(trials, seed_sets, 1), set_sd * normal(trials, seed_sets, 1)
+    set_a, set_b = set_effect(), set_effect()
     z1, z2 = normal(*shape), normal(*shape)
     noise_a = FRAME_CV * z1
     noise_b = FRAME_CV * (RHO * z1 + math.sqrt(1 - RHO * RHO) * z2)
-    return torch.exp(content + set_a + noise_a), torch.exp(content + set_b + noise_b)
+    scale = math.log1p(-effect)
+    return torch.exp(content + set_a + noise_a + scale), torch.exp(content + set_b + noise_b)
 
 
 def _pairs(x: torch.Tensor) -> torch.Tensor:
@@ -197,6 +216,102 @@ def coverage(
     return rows
 
 
+@dataclass(frozen=True)
+class SequentialCoverage:
+    """The adaptive procedure's record at one setting (:func:`sequential_coverage`): the share of
+    cells whose reported interval misses the true ratio, its binomial standard error, the
+    early-stopping bias of the reported ratio (mean of ``log(reported / true)``, and its
+    standard error), the mean and largest seed sets used, and the share open at the cap."""
+
+    name: str
+    looks: tuple[int, ...]
+    effect: float
+    set_sd: float
+    skewed: bool
+    rivals: int
+    trials: int
+    miss: float
+    miss_se: float
+    bias: float
+    bias_se: float
+    mean_seed_sets: float
+    open_share: float
+
+
+def sequential_coverage(
+    design: Design,
+    effect: float,
+    set_sd: float,
+    trials: int,
+    *,
+    name: str = "sequential",
+    rivals: int = 1,
+    skewed: bool = False,
+    frames: int = 3,
+    seed: int = 0,
+) -> SequentialCoverage:
+    """Simulate ``trials`` cells with a true ratio of ``1 - effect`` run through the whole
+    adaptive procedure of :func:`bnerr.metrics.sequential.run_sequential` with ``design``; a
+    miss is a reported interval (at the look the cell stopped at) that excludes the truth."""
+    gen = torch.Generator().manual_seed(seed)
+    a, b = simulate(trials, design.cap, frames, set_sd, gen, effect=effect, skewed=skewed)
+    logs = torch.log(set_means(_pairs(a)) / set_means(_pairs(b)))  # [T, N]
+    sa, sb = a.sum(dim=2).cumsum(dim=1), b.sum(dim=2).cumsum(dim=1)  # [T, N] running sums
+    index = torch.tensor([n - 1 for n in design.looks])
+    centres = torch.log(sa[:, index] / sb[:, index])  # [T, K]
+    stop, centre, lo, hi = run_sequential(logs, centres, design, rivals)
+    truth = math.log1p(-effect)
+    missed = ((lo > truth) | (hi < truth)).double()
+    err = centre - truth
+    looks = torch.tensor(design.looks, dtype=torch.float64)
+    settled_last = (lo > 0) | (hi < 0) | ((lo >= math.log(0.95)) & (hi <= math.log(1.05)))
+    open_at_cap = (stop == len(design.looks) - 1) & ~settled_last
+    miss = float(missed.mean())
+    return SequentialCoverage(
+        name,
+        design.looks,
+        effect,
+        set_sd,
+        skewed,
+        rivals,
+        trials,
+        miss,
+        math.sqrt(miss * (1 - miss) / trials),
+        float(err.mean()),
+        float(err.std() / math.sqrt(trials)),
+        float(looks[stop].mean()),
+        float(open_at_cap.double().mean()),
+    )
+
+
+def _sequential_table(trials: int) -> None:
+    """Print the adaptive procedure's table (``--sequential``): every effect, seed-set effect
+    (normal and skewed), first look (2, 3 or 4 seed sets, doubled to 8 times the first) and
+    level in use (95 % and the decision table's 1 - 0.05/6), and the naive procedure."""
+    print(
+        "| design | looks | effect | seed-set sd | skewed | m | miss % (nominal 5) | "
+        "bias of the ratio % | mean seed sets | open at cap % |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    designs = [("sequential", Design(looks(first, 8 * first))) for first in (2, 3, 4)]
+    designs.append(("naive", naive_design(32)))
+    for name, design in designs:
+        for rivals in (1, 6) if name == "sequential" else (1,):
+            for effect in (0.0, 0.02, 0.05, 0.10):
+                for set_sd, skewed in ((0.0, False), (0.05, False), (0.15, False), (0.15, True)):
+                    r = sequential_coverage(
+                        design, effect, set_sd, trials, name=name, rivals=rivals, skewed=skewed
+                    )
+                    print(
+                        f"| {name} | {'-'.join(map(str, r.looks)) if len(r.looks) < 6 else '2..32'}"
+                        f" | {effect:.0%} | {set_sd:.0%} | {'yes' if skewed else 'no'} | {rivals}"
+                        f" | {100 * r.miss:.2f} ± {100 * r.miss_se:.2f} | "
+                        f"{100 * math.expm1(r.bias):+.2f} ± {100 * r.bias_se:.2f} | "
+                        f"{r.mean_seed_sets:.1f} | {100 * r.open_share:.1f} |",
+                        flush=True,
+                    )
+
+
 def _cell(row: Coverage) -> str:
     if row.infinite > 0:
         width = f"inf ({100 * row.infinite:.3g} % of trials)"
@@ -213,8 +328,17 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser = argparse.ArgumentParser(prog="python -m bnerr.metrics.coverage", description=__doc__)
     parser.add_argument("--trials", type=int, default=40_000, help="trials per bootstrap setting")
     parser.add_argument("--t-trials", type=int, default=400_000, help="trials per t setting")
+    parser.add_argument(
+        "--sequential",
+        type=int,
+        metavar="TRIALS",
+        help="instead: the adaptive procedure's table (bnerr.metrics.sequential), TRIALS per row",
+    )
     args = parser.parse_args(argv)
     torch.set_num_threads(1)  # bit-identical tables, and fair to a shared machine
+    if args.sequential:
+        _sequential_table(args.sequential)
+        return
     names = list(METHODS)
     print("| S | seed-set sd | level | nominal miss % | " + " | ".join(names) + " |")
     print("|---|---|---|---|" + "---|" * len(names))

@@ -145,32 +145,45 @@ def test_unet_lowers_mse_on_every_scene_at_4spp(scene):
 #: shipped weights were trained on).
 SAMPLERS = ("white", "owen_sobol")
 
+#: The level of the held-out comparison's interval: 95 % for the family of every scene and
+#: sampler (Bonferroni over the len(SCENES) x len(SAMPLERS) = 12 comparisons the claim "beyond the
+#: interval" is made for at once).
+LEVEL = 1 - 0.05 / (len(SCENES) * len(SAMPLERS))
+
 #: Comparisons measured not to hold at this test's size (64 x 64, 4 spp, eight frames), with why.
 #: Each is a strict xfail, so the suite says so as soon as one starts to hold.
 _NOT_BELOW_ONE = {
     ("cornell", "owen_sobol"): (
-        "measured: U-Net / joint bilateral = 1.09 [0.90, 1.41] on 64 x 64 Owen-Sobol frames: the "
-        "error is a few pixels at the light's partly covered edge, and one or two frames where the "
-        "U-Net misses one decide the mean; at the benchmark's 128 x 128 it is 0.73 of a-trous "
+        "measured: U-Net / joint bilateral = 1.089 [0.632, 1.877] (t-interval over the eight "
+        "frames at the family level 1 - 0.05/12) on 64 x 64 Owen-Sobol frames: the error is a "
+        "few pixels at the light's partly covered edge, and one or two frames where the U-Net "
+        "misses one decide the mean; at the benchmark's 128 x 128 it is 0.73 of a-trous "
         "(denoisers/weights/README.md)"
     ),
 }
+#: Measured with this test's own run, at :data:`LEVEL` (every interval quoted is that one).
 _NOT_BEYOND_INTERVAL = {
     **_NOT_BELOW_ONE,
-    ("direct", "white"): (
-        "measured: U-Net / joint bilateral = 0.97 [0.91, 1.02] on independent-sample frames, which "
-        "these weights were not trained on; a tie on a direct-lighting scene the joint bilateral "
-        "filter's albedo and normal guides already denoise well"
+    ("cornell", "white"): (
+        "measured: U-Net / best tuned filter = 0.828 [0.598, 1.146] at the family level 1 - "
+        "0.05/12 (at an uncorrected 95 % it was [0.689, 0.996]: below 1 only because one of 12 "
+        "comparisons was picked without the correction)"
     ),
-    ("snooker", "owen_sobol"): "measured: U-Net / joint bilateral = 0.95 [0.90, 1.01]: a near tie",
+    ("direct", "white"): (
+        "measured: U-Net / best tuned filter = 0.971 [0.848, 1.112] on independent-sample "
+        "frames, which these weights were not trained on; a tie on a direct-lighting scene the "
+        "joint bilateral filter's albedo and normal guides already denoise well"
+    ),
+    ("snooker", "owen_sobol"): (
+        "measured: U-Net / best tuned filter = 0.954 [0.838, 1.086]: a near tie"
+    ),
     ("snooker_plain", "white"): (
-        "measured: U-Net / best tuned filter = 0.92 [0.84, 1.02] with the t-interval over the "
-        "eight independent frames (issue 24); the former frame bootstrap, too narrow at eight "
-        "frames, had put it below 1"
+        "measured: U-Net / best tuned filter = 0.921 [0.775, 1.095] with the t-interval over the "
+        "eight independent frames at the family level"
     ),
     ("snooker_plain", "owen_sobol"): (
-        "measured: U-Net / joint bilateral = 0.98 [0.91, 1.06]: a tie on an untextured, mostly "
-        "flat scene whose albedo and normal guides already separate its surfaces"
+        "measured: U-Net / best tuned filter = 0.981 [0.826, 1.166]: a tie on an untextured, "
+        "mostly flat scene whose albedo and normal guides already separate its surfaces"
     ),
 }
 
@@ -183,7 +196,7 @@ def _held_out_comparison(scene, sampler):
     never saw it. The best filter is picked by its mean MSE on the measured frames themselves,
     which favours the filters. The ratio's interval is :func:`bnerr.metrics.paired_ratio`'s
     t-interval over the eight frames, which are independent replicates here (each its own seed
-    image of a static scene); the intervals quoted below from before issue 24 were bootstraps.
+    image of a static scene), at :data:`LEVEL` (corrected for the 12 comparisons).
     """
     tune_frame, _, reference = scene_renders(scene, sampler)
     frames = measured_frames(scene, sampler)
@@ -195,7 +208,7 @@ def _held_out_comparison(scene, sampler):
     per_frame = {name: [mse(d(f), reference) for f in frames] for name, d in filters.items()}
     best = min(per_frame, key=lambda name: sum(per_frame[name]))
     unet = UNetDenoiser()
-    return paired_ratio([mse(unet(f), reference) for f in frames], per_frame[best])
+    return paired_ratio([mse(unet(f), reference) for f in frames], per_frame[best], level=LEVEL)
 
 
 def _expect_failure(request, known, scene, sampler):

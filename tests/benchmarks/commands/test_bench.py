@@ -228,3 +228,26 @@ def test_scripts_is_for_the_speed_suite_only(tmp_path, capsys):
     args = ["bench", "--suite", "quick", "--scripts", "speed.permute", "--out", str(tmp_path)]
     assert main([*args, "--quiet"]) == 2
     assert "--scripts: expected a suite of timing scripts (speed)" in capsys.readouterr().err
+
+
+def test_until_resolved_adds_seed_sets_to_open_cells_up_to_the_cap(tmp_path, capsys):
+    # 2 seed sets, cap 4: every open cell is measured again at 4; the report shows the last look
+    args = _two_strategies(tmp_path, "--no-charts", "--until-resolved", "--seed-set-cap", "4")
+    args[args.index("--seed-sets") + 1] = "2"
+    assert main(args) == 0
+    records = load_records(tmp_path / "out")
+    assert {r.cell.seed_sets for r in records} <= {2, 4}
+    assert all(r.looks == [2, 4] for r in records)
+    decision = (tmp_path / "out" / "decision.md").read_text()
+    assert " seed sets" in decision and "n.r." not in decision
+    before = (tmp_path / "out" / RESULTS_FILE).read_bytes()
+    assert main([*args, "--resume"]) == 0  # resumed: the same verdicts, nothing measured
+    assert (tmp_path / "out" / RESULTS_FILE).read_bytes() == before
+
+
+def test_the_adaptive_options_need_until_resolved_and_a_run_that_measures(tmp_path, capsys):
+    assert main(_two_strategies(tmp_path, "--seed-set-cap", "8")) == 2
+    assert "--seed-set-cap: expected with --until-resolved" in capsys.readouterr().err
+    out = ["--out", str(tmp_path / "o"), "--quiet"]
+    assert main(["bench", "--suite", "quick", *out, "--report-only", "--until-resolved"]) == 2
+    assert "--until-resolved: expected a run that measures" in capsys.readouterr().err

@@ -1,6 +1,7 @@
 """Tests of benchmarks.sweep.records: the typed record's JSON round trip, the committed results
 files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
 
+import dataclasses
 import json
 
 import pytest
@@ -17,11 +18,13 @@ from benchmarks.sweep.records import (
     append_records,
     check_no_results,
     compress_records,
+    final_records,
     load_records,
     write_records,
 )
 from bnerr.errors import BnerrError, FileFormatError
 from tests._paths import RESULTS
+from tests._records import metric_pairs, small_record
 
 
 def _record(strategy: str = "white", crop: str | None = None) -> Record:
@@ -191,3 +194,17 @@ def test_a_broken_compressed_file_is_a_typed_error(tmp_path):
     (tmp_path / RESULTS_ARCHIVE).write_bytes(b"not gzip")
     with pytest.raises(FileFormatError, match="cells.jsonl.gz"):
         load_records(tmp_path)
+
+
+def test_final_records_keep_an_adaptive_cells_last_look_and_every_fixed_record():
+    def rec(strategy, seed_sets, looks):
+        pairs = metric_pairs([[1.0, 1.0]] * seed_sets)
+        r = small_record(strategy, "gaussian", raw={}, den={"mse": pairs}, frames=2,
+                         seed_sets=seed_sets)  # fmt: skip
+        return dataclasses.replace(r, looks=looks)
+
+    first, last = rec("temporal", 2, [2, 4]), rec("temporal", 4, [2, 4])
+    fixed = [rec("white", 2, None), rec("white", 4, None)]  # two fixed runs: both kept
+    assert final_records([first, *fixed, last]) == [*fixed, last]
+    assert Record.from_json(json.loads(json.dumps(last.to_json()))).looks == [2, 4]
+    assert "looks" not in fixed[0].to_json()  # files without a design stay byte-identical

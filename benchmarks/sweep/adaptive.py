@@ -1,0 +1,116 @@
+"""``bnerr bench --until-resolved``: seed sets added in batches only where a verdict is open.
+
+Every run of the suite gets a group-sequential design (:mod:`bnerr.metrics.sequential`): looks
+at its seed sets, then doubled (or ``batch`` more) up to ``cap``, fixed before the first seed
+set and recorded with its cells (``Record.looks``). After each round the decision table's
+verdict of every cell (:func:`benchmarks.reports.decision.cell_verdicts`: the lowest strategy
+against white, corrected for the best of m and for the look) is computed from the records of
+that round's look; the runs of a scene, condition and spp with an open cell are planned again
+at the next look, the others keep theirs, and :func:`benchmarks.sweep.runner.run_suite` (or the
+Ray runner) measures what is missing, appending to the same ``cells.jsonl`` as ``--resume``.
+
+Each look's records stay in the file (the key of a cell holds its seed sets), so an interrupted
+run resumes to the same verdicts: the rounds are replayed from the records of each look, and
+only the missing ones are measured. The reports show each cell's last look
+(:func:`benchmarks.sweep.records.final_records`). A run at its next look measures all its seed
+sets again (seed set g is the same render at every look; reusing the earlier ones is left to
+do), so a cell that goes to the cap of 32 from 4 costs 4 + 8 + 16 + 32 seed sets.
+
+Not for: the statistics (:mod:`bnerr.metrics.sequential`) or measuring a run
+(:mod:`benchmarks.sweep.runner`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from benchmarks.reports.decision import cell_verdicts
+from benchmarks.reports.groups import group_key
+from benchmarks.reports.table import summarize
+from benchmarks.suites import Suite
+from benchmarks.sweep.plan import Run, plan
+from benchmarks.sweep.records import Record
+from benchmarks.sweep.runner import run_suite
+from bnerr.errors import ValueRangeError
+from bnerr.metrics.sequential import looks
+
+__all__ = ["DEFAULT_CAP", "adaptive_runs", "grow", "run_until_resolved"]
+
+#: The default cap on seed sets: what a 2 % difference needs at the median spread
+#: (``bnerr.metrics.power``: about 30).
+DEFAULT_CAP = 32
+
+Measure = Callable[..., list[Record]]
+
+
+def adaptive_runs(suite: Suite, cap: int, batch: int | None = None) -> list[Run]:
+    """The suite's runs at their first look, each with its design's looks.
+
+    Raises:
+        ValueRangeError: a run with fewer than 2 seed sets, or more than ``cap``.
+    """
+    runs = plan(suite)
+    for run in runs:
+        if not 2 <= run.seed_sets <= cap:
+            raise ValueRangeError(
+                f"--until-resolved: expected 2 <= seed sets <= the cap {cap} in every run, got "
+                f"{run.seed_sets} ({run.label})"
+            )
+    return [dataclasses.replace(r, looks=looks(r.seed_sets, cap, batch)) for r in runs]
+
+
+def _open_groups(runs: Sequence[Run], records: Sequence[Record]) -> set[tuple]:
+    """The (group key, spp) of the cells whose verdict is open at the runs' current looks,
+    judged on the records of exactly those looks."""
+    planned = {c.key() for run in runs for c in run.cells()}
+    current = [r for r in records if r.key in planned and r.has_pixels]
+    verdicts = cell_verdicts(summarize(current))
+    return {(key[0], key[1]) for key, (said, _) in verdicts.items() if said == "open"}
+
+
+def grow(runs: Sequence[Run], records: Sequence[Record]) -> list[Run]:
+    """The runs of the next round: those with a cell whose verdict is open, and not yet at their
+    cap, at their next look; the others as they are."""
+    open_groups = _open_groups(runs, records)
+    out = []
+    for run in runs:
+        cells = run.cells()
+        keys = {(group_key(dataclasses.asdict(c)), c.spp) for c in cells}
+        if keys & open_groups and run.seed_sets < run.looks[-1]:
+            later = [n for n in run.looks if n > run.seed_sets]
+            run = dataclasses.replace(run, seed_sets=later[0])
+        out.append(run)
+    return out
+
+
+def run_until_resolved(
+    suite: Suite,
+    out_dir: str | Path,
+    *,
+    cap: int = DEFAULT_CAP,
+    batch: int | None = None,
+    measure: Measure = run_suite,
+    resume: bool = False,
+    overwrite: bool = False,
+    **options: Any,
+) -> list[Record]:
+    """Measure ``suite`` at its seed sets, then add seed sets (doubling, or ``batch`` more) to the
+    runs with an open verdict until none is open or each is at ``cap``; return every record.
+
+    Args:
+        measure: :func:`benchmarks.sweep.runner.run_suite` or a function like it (the Ray
+            runner), called once per round with ``runs``.
+        resume, overwrite: the first round's, as ``run_suite``; the later rounds resume.
+        options: passed to ``measure`` (parts, cache_dir, progress, ...).
+    """
+    runs = adaptive_runs(suite, cap, batch)
+    records = measure(suite, out_dir, runs=runs, resume=resume, overwrite=overwrite, **options)
+    while True:
+        grown = grow(runs, records)
+        if grown == runs:
+            return records
+        runs = grown
+        records = measure(suite, out_dir, runs=runs, resume=True, overwrite=False, **options)

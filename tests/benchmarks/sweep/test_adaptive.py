@@ -1,0 +1,135 @@
+"""Tests of benchmarks.sweep.adaptive (bnerr bench --until-resolved): seed sets added only where
+a verdict is open, up to the cap, resumed to the same verdicts; with a stand-in measurement whose
+effects are known, and end to end on the tiny suite's real renders."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import zlib
+
+import pytest
+import torch
+
+from benchmarks.sweep import adaptive
+from benchmarks.sweep.parts import real_parts
+from benchmarks.sweep.plan import Run
+from benchmarks.sweep.records import Record, final_records, load_records
+from benchmarks.sweep.runner import run_suite
+from bnerr.errors import ValueRangeError
+from tests._records import metric_pairs, small_record
+from tests._suites import tiny_suite
+
+# temporal's true ratio to white: far below at 1 spp (settled at the first look), equal in
+# expectation at 4 spp with a 20 % seed-set spread (open to the cap)
+EFFECT = {1: 0.5, 4: 1.0}
+
+
+def _values(run: Run, group: int) -> list[float]:
+    """One seed set's per-frame MSE: a seed-set effect (log-sd 0.2 at 4 spp; 0.002 at 1, since
+    the first look's t quantile at 2 seed sets, df 1, is 51) on the strategy's true level, the
+    same draws whatever the look (seed set g is the same render)."""
+    gen = torch.Generator().manual_seed(zlib.crc32(f"{run.strategy} {run.spp} {group}".encode()))
+    sd = 0.2 if run.spp == 4 else 0.002
+    level = EFFECT[run.spp] if run.strategy == "temporal" else 1.0
+    z = float(torch.randn(1, generator=gen, dtype=torch.float64))
+    return [level * math.exp(sd * z + 0.01 * f) for f in range(run.frames)]
+
+
+class _StandIn:
+    """A ``run_suite`` stand-in: a results file in memory, resumed like the real one; counts the
+    runs it measured per call."""
+
+    def __init__(self, fail_after: int | None = None) -> None:
+        self.records: dict[str, Record] = {}
+        self.calls: list[list[tuple[str, int, int]]] = []
+        self.fail_after = fail_after  # cells measured before an interruption
+
+    def __call__(self, suite, out, *, runs, resume, overwrite, **options) -> list[Record]:
+        if not resume:
+            self.records.clear()
+        measured = []
+        for run in runs:
+            for cell in run.cells():
+                if cell.key() in self.records:
+                    continue
+                if self.fail_after is not None and len(self.records) >= self.fail_after:
+                    raise KeyboardInterrupt("simulated interruption")
+                pairs = metric_pairs([_values(run, g) for g in range(run.seed_sets)])
+                rec = small_record(
+                    run.strategy, cell.denoiser, raw={"mse": pairs}, den={"mse": pairs},
+                    frames=run.frames, seed_sets=run.seed_sets,
+                )  # fmt: skip
+                self.records[cell.key()] = dataclasses.replace(
+                    rec, cell=cell, looks=list(run.looks)
+                )
+                measured.append((run.strategy, run.spp, run.seed_sets))
+        self.calls.append(measured)
+        return list(self.records.values())
+
+
+def _suite():
+    return tiny_suite(spp=(1, 4), denoisers=("gaussian",), seed_sets=2)
+
+
+def test_seed_sets_are_added_only_where_the_verdict_is_open_up_to_the_cap():
+    measure = _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=measure)
+    final = {
+        (r.cell.strategy, r.cell.spp): r.cell.seed_sets
+        for r in final_records(measure.records.values())
+    }
+    # the large effect stops at the first look; the open cell goes 2 -> 4 -> 8 -> 16
+    assert final == {("white", 1): 2, ("temporal", 1): 2, ("white", 4): 16, ("temporal", 4): 16}
+    assert [sorted({c[2] for c in call}) for call in measure.calls] == [[2], [4], [8], [16]]
+    assert all(r.looks == [2, 4, 8, 16] for r in measure.records.values())
+    # resumed: the rounds replay from each look's records, nothing is measured again
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=measure, resume=True)
+    assert all(call == [] for call in measure.calls[4:])
+
+
+def test_an_interrupted_run_resumes_to_the_same_verdicts():
+    whole = _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=whole)
+    cut = _StandIn(fail_after=5)  # 4 cells at 2 seed sets, then one of the 2 at 4
+    with pytest.raises(KeyboardInterrupt):
+        adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=cut)
+    cut.fail_after = None
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=cut, resume=True)
+    assert cut.records == whole.records
+
+
+def test_a_batch_adds_that_many_seed_sets_per_look():
+    measure = _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=6, batch=2, measure=measure)
+    assert [sorted({c[2] for c in call}) for call in measure.calls] == [[2], [4], [6]]
+
+
+def test_the_seed_sets_must_fit_under_the_cap():
+    with pytest.raises(ValueRangeError, match="cap 2"):
+        adaptive.adaptive_runs(tiny_suite(seed_sets=3), cap=2)
+    with pytest.raises(ValueRangeError, match="seed sets"):
+        adaptive.adaptive_runs(tiny_suite(seed_sets=1), cap=8)
+
+
+@pytest.mark.usefixtures("one_thread")
+def test_end_to_end_on_real_renders_records_every_look_and_resumes(tmp_path):
+    suite = tiny_suite(denoisers=("gaussian",), seed_sets=2)
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    records = adaptive.run_until_resolved(
+        suite, out, cap=4, cache_dir=cache, progress=False, measure=run_suite
+    )
+    assert load_records(out) == records
+    assert {r.cell.seed_sets for r in records} <= {2, 4}
+    assert all(r.looks == [2, 4] for r in records)
+    final = final_records(records)
+    assert len(final) == 2 and len({r.cell.seed_sets for r in final}) == 1
+    parts = real_parts()
+    calls = []
+    counting = dataclasses.replace(
+        parts, render=lambda *a, **k: calls.append(1) or parts.render(*a, **k)
+    )
+    again = adaptive.run_until_resolved(
+        suite, out, cap=4, cache_dir=cache, progress=False, resume=True, parts=counting
+    )
+    assert again == records and not calls
