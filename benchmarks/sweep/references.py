@@ -40,7 +40,6 @@ has its own).
 from __future__ import annotations
 
 import errno
-import re
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -49,7 +48,6 @@ import torch
 
 from benchmarks.sweep.parts import Parts, Scene
 from benchmarks.sweep.plan import Run
-from bnerr import plugins
 from bnerr.errors import BnerrError, FileFormatError
 from bnerr.frame import Frame
 from bnerr.hashing import MASK32, mix32_45d9f3b
@@ -105,14 +103,6 @@ def _errno(err: OSError) -> int | None:
     """``err``'s errno, or that of the OSError it was raised from (atomic_write's one-liners)."""
     cause = err.__cause__
     return err.errno if err.errno is not None else getattr(cause, "errno", None)
-
-
-def _scene_key(scene: str) -> str:
-    """The scene's part of a cache file's name: its name, and a plug-in's fingerprint."""
-    plugin = plugins.loaded("bnerr.scenes", scene)
-    if plugin is None:
-        return scene  # a shipped scene: the committed results' keys, unchanged
-    return f"{scene}_{re.sub(r'[^A-Za-z0-9.-]+', '-', plugin.fingerprint)}"
 
 
 class ReferenceCache:
@@ -173,7 +163,7 @@ class ReferenceCache:
         if content:  # a plug-in scene: its files' hash (a Mitsuba scene: and Mitsuba's version)
             version += "_" + content.replace("/", "_").replace(":", "-")
         name = (
-            f"{_scene_key(run.scene)}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
+            f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
             f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"
             f"_{REFERENCE_FORMAT}_{version}.exr"
         )

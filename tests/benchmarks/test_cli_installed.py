@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import command_names
+from tests._frame_folders import synthetic_folder
 from tests._processes import bnerr_command, child_env
 
 #: The subcommands this file runs (each test below names the one it runs).
@@ -26,6 +27,7 @@ COVERED = (
     "animate",
     "bench",
     "denoise",
+    "eval",
     "export",
     "mask",
     "render",
@@ -156,3 +158,10 @@ def test_train_writes_weights(work):
     done = bnerr(work, "train", *args)
     assert "finished" in done.stdout and "step      1" in done.stdout
     assert (work / "w.pt").stat().st_size > 0
+
+
+def test_eval_measures_a_frame_folder(work):
+    folder = synthetic_folder(work / "frames")
+    bnerr(work, "eval", str(folder), "--denoisers", "gaussian", "--no-charts", "--quiet")
+    table = (folder / "results" / "table.md").read_text()
+    assert "white" in table and "gaussian" in table

@@ -13,7 +13,7 @@ import torch
 import denoisers
 import renderers
 from bnerr import plugins, sequences, strategies
-from bnerr.errors import PluginError
+from bnerr.errors import FileFormatError, PluginError
 from bnerr.frame import Frame
 from bnerr.metrics import METRIC_TABLE, FrameMetrics, load_metric
 
@@ -43,7 +43,7 @@ def test_a_strategy_file_registers_under_its_name_with_its_family(tmp_path, forg
     assert plugins.resolve(f"{path}:Mine").obj is strategies.STRATEGIES["plug_a"]
 
 
-def test_errors_name_the_plugin_and_what_was_expected(tmp_path):
+def test_errors_name_the_plugin_and_what_was_expected(tmp_path, forget):
     bad = _write(tmp_path / "bad.py", "import no_such_module_here\n")
     with pytest.raises(PluginError, match=r"plug-in '.*bad.py:X' \(no distribution\).*importable"):
         plugins.resolve(f"{bad}:X")
@@ -55,10 +55,11 @@ def test_errors_name_the_plugin_and_what_was_expected(tmp_path):
     with pytest.raises(PluginError, match="expected a denoisers.Denoiser subclass"):
         denoisers.get_denoiser(f"{good}:Thing.name")
     raising = _write(tmp_path / "raising.py", "def scene():\n    raise RuntimeError('boom')\n")
+    forget.append(("bnerr.scenes", "scene"))  # registered, though it cannot build
     with pytest.raises(PluginError, match="raising.py:scene.*expected its scene to build.*boom"):
         renderers.get_scene(f"{raising}:scene")
-    with pytest.raises(PluginError, match="Mitsuba XML scenes: not yet supported"):
-        renderers.get_scene("scene.xml")
+    with pytest.raises(FileFormatError, match="scene.xml: expected a readable Mitsuba XML scene"):
+        renderers.get_scene(str(tmp_path / "scene.xml"))  # XML scenes: renderers.mitsuba_scene
 
 
 def test_a_function_denoiser_is_wrapped_with_its_kind_and_grid(tmp_path, forget):
