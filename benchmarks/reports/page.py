@@ -33,30 +33,50 @@ from benchmarks.reports.groups import (
     strategy_order,
 )
 from benchmarks.reports.html import markdown_html, page
+from benchmarks.reports.links import broken_links
 from benchmarks.reports.previews import ERROR_GAIN, crop_strip
 from benchmarks.reports.svgchart import legend_html, ratio_svg
 from benchmarks.sweep.records import Record
+from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
 
-__all__ = ["PAGE", "write_index", "write_suite_page"]
+__all__ = ["ON_DEMAND", "PAGE", "write_index", "write_suite_page"]
 
 #: File name of every page.
 PAGE = "index.html"
+#: The reports a page names but never links: the per-cell tables, which ``bnerr bench
+#: --report-only`` writes from ``cells.jsonl.gz`` on demand and the committed ``results/`` leaves
+#: out (``results/.gitignore``), so a page reads the same with or without them.
+ON_DEMAND = ("table.csv", "gap.csv")
 _REPORTS = ("table.md", "gap.md", "denoisers.md")
 _CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_")
 
 
-def _write(path: Path, text: str) -> None:
+def _write(path: Path, text: str, root: Path, coming: tuple[Path, ...] = ()) -> None:
+    """Write a page, refusing one that links a file not there (:mod:`~.links`)."""
+    broken = broken_links(path, text, root=root, coming=coming)
+    if broken:
+        raise FileFormatError(
+            f"{path}: expected every link to name a file of {root}, got {len(broken)} broken: "
+            + "; ".join(broken[:5])
+        )
     with atomic_write(path) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
 
 
 def _files(out: Path) -> str:
     names = sorted(
-        p.name for p in out.iterdir() if p.is_file() and p.name != PAGE and p.name[0] != "."
+        p.name
+        for p in out.iterdir()
+        if p.is_file() and p.name not in (PAGE, *ON_DEMAND) and p.name[0] != "."
     )
     links = " · ".join(f'<a href="{html.escape(n)}">{html.escape(n)}</a>' for n in names)
-    return f"<p>Files: {links}</p>"
+    tables = " and ".join(f"<code>{n}</code>" for n in ON_DEMAND)
+    command = f"bnerr bench --suite {html.escape(out.name)} --report-only"
+    return (
+        f"<p>Files: {links}</p><p>{tables} (every column of every cell) are written from the "
+        f"cells on demand by <code>{command}</code>; the committed results leave them out.</p>"
+    )
 
 
 def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tuple[str, str]]:
@@ -175,7 +195,7 @@ def write_suite_page(
             parts.append(f"<details><summary>{name}</summary>{text}</details>")
     parts.append(_files(out))
     path = out / PAGE
-    _write(path, page(title, "\n".join(parts)))
+    _write(path, page(title, "\n".join(parts)), out.parent, coming=(out.parent / PAGE,))
     return path
 
 
@@ -186,6 +206,16 @@ def _folder_entry(folder: Path) -> str:
     docs = sorted(p.name for p in folder.glob("*.md"))
     links = ", ".join(f'<a href="{name}/{html.escape(d)}">{html.escape(d)}</a>' for d in docs)
     return f"<li>{name}: {links}</li>" if docs else ""
+
+
+#: What the index says a suite folder keeps, and what is written on demand.
+_KEPT = (
+    "<p>Each suite folder keeps its cells (<code>cells.jsonl.gz</code>), its reports, charts, "
+    "crops and page. <code>bnerr bench --suite NAME --report-only</code> rewrites all of them "
+    "from the cells (the charts' pixels follow the matplotlib build), and writes the per-cell "
+    "tables " + " and ".join(f"<code>{n}</code>" for n in ON_DEMAND) + ", which the committed "
+    "results leave out.</p>"
+)
 
 
 def write_index(results_dir: str | Path) -> Path:
@@ -200,9 +230,9 @@ def write_index(results_dir: str | Path) -> Path:
         for g in gifs
         if g.with_suffix(".mp4").exists()
     )
-    body = f"<h2>Suites and reports</h2><ul>{items}</ul>"
+    body = f"<h2>Suites and reports</h2><ul>{items}</ul>{_KEPT}"
     if anims:
         body += f'<h2>Animations</h2><div class="anims svgs">{anims}</div>'
     path = root / PAGE
-    _write(path, page("bnerr results", body))
+    _write(path, page("bnerr results", body), root)
     return path
