@@ -5,7 +5,8 @@ Every ``*.html`` (its ``href``, ``src``, comparison strips and ``#anchors``) and
 with ``results/`` as the folder no link may leave: a link to a missing file (the quality page
 once linked ``cells.jsonl`` beside ``cells.jsonl.gz``), to an id the page lacks, or to the network
 fails here. The per-cell tables written on demand (:data:`benchmarks.reports.page.ON_DEMAND`) are
-ignored by git, so a regenerated ``results/`` commits none of them.
+ignored by git, so a regenerated ``results/`` commits none of them, and so are the full-size
+animations (``animations/*.mp4``, which ``bnerr animate`` writes).
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ def test_the_tables_written_on_demand_are_ignored_by_git():
     if shutil.which("git") is None or not (ROOT / ".git").exists():
         pytest.skip("not a git checkout")
     paths = [f"results/{suite}/{name}" for suite in ("quality", "new_suite") for name in ON_DEMAND]
+    paths.append("results/animations/cornell.mp4")
     done = subprocess.run(
         ["git", "check-ignore", "--no-index", *paths], cwd=ROOT, capture_output=True, text=True
     )

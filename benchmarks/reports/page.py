@@ -3,7 +3,7 @@
 :func:`write_suite_page` writes a suite's page, static and self-contained (style and script
 inlined, :mod:`benchmarks.reports.html`), linking every file of the folder:
 
-- the decision table, then every other report (``table.md``, ``gap.md``, ``denoisers.md``) as
+- the decision table, then ``gap.md`` and ``denoisers.md`` (``table.md``, every cell, is linked) as
   tables sortable by column;
 - per group (scene and condition): the interactive error-against-time charts
   (:mod:`benchmarks.reports.svgchart`), the PNG charts, the image comparison of its crops (the
@@ -48,7 +48,10 @@ PAGE = "index.html"
 #: --report-only`` writes from ``cells.jsonl.gz`` on demand and the committed ``results/`` leaves
 #: out (``results/.gitignore``), so a page reads the same with or without them.
 ON_DEMAND = ("table.csv", "gap.csv")
-_REPORTS = ("table.md", "gap.md", "denoisers.md")
+_REPORTS = ("gap.md", "denoisers.md")
+#: The per-cell report, linked rather than inlined (a third of a page's bytes, and results/ has a
+#: size limit: the decision table above it holds its verdicts).
+_CELL_REPORT = "table.md"
 _CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_")
 
 
@@ -156,8 +159,8 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
     anim = out.parent / "animations" / f"{scene}.gif"
     animation = (
         f'<h4>Animation</h4><p><img src="../animations/{scene}.gif" alt="{scene} animation">'
-        f' <a href="../animations/{scene}.mp4">MP4</a></p>'
-        if anim.exists() and (anim.parent / f"{scene}.mp4").exists()
+        f" {_MP4}</p>"
+        if anim.exists()
         else ""
     )
     return (
@@ -189,6 +192,10 @@ def write_suite_page(
     if (out / "decision.md").exists():
         parts.append(markdown_html((out / "decision.md").read_text(encoding="utf-8")))
     parts += [_group_section(out, s, by_slug[s], recs[s]) for s in order]
+    if (out / _CELL_REPORT).exists():
+        parts.append(
+            f'<p>Every cell, with its intervals: <a href="{_CELL_REPORT}">{_CELL_REPORT}</a>.</p>'
+        )
     for name in _REPORTS:
         if (out / name).exists():
             text = markdown_html((out / name).read_text(encoding="utf-8"))
@@ -208,6 +215,14 @@ def _folder_entry(folder: Path) -> str:
     return f"<li>{name}: {links}</li>" if docs else ""
 
 
+#: Where the full animations are: ``bnerr animate`` writes ``<scene>.mp4`` (every frame at full
+#: size) beside the GIF (a crop), and the committed ``results/`` keeps the GIFs only (a size
+#: limit), so no page links an MP4 and a page reads the same with or without them.
+_MP4 = (
+    "The GIF is a 64-pixel crop of 8 frames; <code>bnerr animate</code> (the command is in "
+    "<code>animations/README.md</code>) also writes <code>&lt;scene&gt;.mp4</code>, every frame "
+    "at full size, which the committed results leave out."
+)
 #: What the index says a suite folder keeps, and what is written on demand.
 _KEPT = (
     "<p>Each suite folder keeps its cells (<code>cells.jsonl.gz</code>), its reports, charts, "
@@ -225,14 +240,13 @@ def write_index(results_dir: str | Path) -> Path:
     items = "".join(_folder_entry(f) for f in folders)
     gifs = sorted((root / "animations").glob("*.gif")) if (root / "animations").is_dir() else []
     anims = "".join(
-        f'<figure><img src="animations/{g.name}" alt="{g.stem}"><figcaption>{g.stem} '
-        f'<a href="animations/{g.stem}.mp4">MP4</a></figcaption></figure>'
+        f'<figure><img src="animations/{g.name}" alt="{g.stem}"><figcaption>{g.stem}'
+        "</figcaption></figure>"
         for g in gifs
-        if g.with_suffix(".mp4").exists()
     )
     body = f"<h2>Suites and reports</h2><ul>{items}</ul>{_KEPT}"
     if anims:
-        body += f'<h2>Animations</h2><div class="anims svgs">{anims}</div>'
+        body += f'<h2>Animations</h2><p>{_MP4}</p><div class="anims svgs">{anims}</div>'
     path = root / PAGE
     _write(path, page("bnerr results", body), root)
     return path

@@ -45,10 +45,11 @@ def test_broken_links_names_missing_files_anchors_and_links_that_leave(tmp_path)
 def test_the_page_writer_refuses_a_page_that_links_a_file_it_did_not_write(tmp_path):
     (tmp_path / "animations").mkdir()
     (tmp_path / "animations" / "direct.gif").write_bytes(b"GIF89a")
-    (tmp_path / "animations" / "direct.mp4").write_bytes(b"")
+    (tmp_path / "speed").mkdir()
+    (tmp_path / "speed" / "speed.md").write_text("# Speed\n")
     write_index(tmp_path)  # every link resolves
     assert not broken_links(tmp_path / "index.html")
-    (tmp_path / "animations" / "direct.mp4").unlink()
-    (tmp_path / "animations" / "direct.mp4").mkdir()  # exists, but is no file to link
-    with pytest.raises(FileFormatError, match="direct.mp4"):
+    (tmp_path / "speed" / "speed.md").unlink()
+    (tmp_path / "speed" / "speed.md").mkdir()  # found by the glob, but no file to link
+    with pytest.raises(FileFormatError, match="speed.md"):
         write_index(tmp_path)
