@@ -172,7 +172,7 @@ def test_write_report_writes_csv_markdown_and_charts(tmp_path):
     assert rows[0]["scene"] == "direct" and float(rows[0]["den_mse"]) == pytest.approx(
         np.mean(_WHITE)
     )
-    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops/c.png", "index.html"):
+    for name in ("error_vs_time_direct.png", "spectra_direct.png", "crops/c.webp", "index.html"):
         assert (tmp_path / name).exists(), name
     assert not (tmp_path / "crops" / "c.npz").exists()  # kept as the strip the page shows
     assert not list(tmp_path.glob(".*.tmp*"))  # atomic writes leave no temporary files
