@@ -3,7 +3,7 @@
 :func:`write_suite_page` writes a suite's page, static and self-contained (style and script
 inlined, :mod:`benchmarks.reports.html`), linking every file of the folder:
 
-- the decision table, then every other report (``table.md``, ``gap.md``, ``denoisers.md``) as
+- the decision table, then ``gap.md`` and ``denoisers.md`` (``table.md``, every cell, is linked) as
   tables sortable by column;
 - per group (scene and condition): the interactive error-against-time charts
   (:mod:`benchmarks.reports.svgchart`), the PNG charts, the image comparison of its crops (the
@@ -33,30 +33,53 @@ from benchmarks.reports.groups import (
     strategy_order,
 )
 from benchmarks.reports.html import markdown_html, page
+from benchmarks.reports.links import broken_links
 from benchmarks.reports.previews import ERROR_GAIN, crop_strip
 from benchmarks.reports.svgchart import legend_html, ratio_svg
 from benchmarks.sweep.records import Record
+from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
 
-__all__ = ["PAGE", "write_index", "write_suite_page"]
+__all__ = ["ON_DEMAND", "PAGE", "write_index", "write_suite_page"]
 
 #: File name of every page.
 PAGE = "index.html"
-_REPORTS = ("table.md", "gap.md", "denoisers.md")
+#: The reports a page names but never links: the per-cell tables, which ``bnerr bench
+#: --report-only`` writes from ``cells.jsonl.gz`` on demand and the committed ``results/`` leaves
+#: out (``results/.gitignore``), so a page reads the same with or without them.
+ON_DEMAND = ("table.csv", "gap.csv")
+_REPORTS = ("gap.md", "denoisers.md")
+#: The per-cell report, linked rather than inlined (a third of a page's bytes, and results/ has a
+#: size limit: the decision table above it holds its verdicts).
+_CELL_REPORT = "table.md"
 _CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_")
 
 
-def _write(path: Path, text: str) -> None:
+def _write(path: Path, text: str, root: Path, coming: tuple[Path, ...] = ()) -> None:
+    """Write a page, refusing one that links a file not there (:mod:`~.links`)."""
+    broken = broken_links(path, text, root=root, coming=coming)
+    if broken:
+        raise FileFormatError(
+            f"{path}: expected every link to name a file of {root}, got {len(broken)} broken: "
+            + "; ".join(broken[:5])
+        )
     with atomic_write(path) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
 
 
 def _files(out: Path) -> str:
     names = sorted(
-        p.name for p in out.iterdir() if p.is_file() and p.name != PAGE and p.name[0] != "."
+        p.name
+        for p in out.iterdir()
+        if p.is_file() and p.name not in (PAGE, *ON_DEMAND) and p.name[0] != "."
     )
     links = " · ".join(f'<a href="{html.escape(n)}">{html.escape(n)}</a>' for n in names)
-    return f"<p>Files: {links}</p>"
+    tables = " and ".join(f"<code>{n}</code>" for n in ON_DEMAND)
+    command = f"bnerr bench --suite {html.escape(out.name)} --report-only"
+    return (
+        f"<p>Files: {links}</p><p>{tables} (every column of every cell) are written from the "
+        f"cells on demand by <code>{command}</code>; the committed results leave them out.</p>"
+    )
 
 
 def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tuple[str, str]]:
@@ -136,8 +159,8 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
     anim = out.parent / "animations" / f"{scene}.gif"
     animation = (
         f'<h4>Animation</h4><p><img src="../animations/{scene}.gif" alt="{scene} animation">'
-        f' <a href="../animations/{scene}.mp4">MP4</a></p>'
-        if anim.exists() and (anim.parent / f"{scene}.mp4").exists()
+        f" {_MP4}</p>"
+        if anim.exists()
         else ""
     )
     return (
@@ -169,13 +192,17 @@ def write_suite_page(
     if (out / "decision.md").exists():
         parts.append(markdown_html((out / "decision.md").read_text(encoding="utf-8")))
     parts += [_group_section(out, s, by_slug[s], recs[s]) for s in order]
+    if (out / _CELL_REPORT).exists():
+        parts.append(
+            f'<p>Every cell, with its intervals: <a href="{_CELL_REPORT}">{_CELL_REPORT}</a>.</p>'
+        )
     for name in _REPORTS:
         if (out / name).exists():
             text = markdown_html((out / name).read_text(encoding="utf-8"))
             parts.append(f"<details><summary>{name}</summary>{text}</details>")
     parts.append(_files(out))
     path = out / PAGE
-    _write(path, page(title, "\n".join(parts)))
+    _write(path, page(title, "\n".join(parts)), out.parent, coming=(out.parent / PAGE,))
     return path
 
 
@@ -188,6 +215,24 @@ def _folder_entry(folder: Path) -> str:
     return f"<li>{name}: {links}</li>" if docs else ""
 
 
+#: Where the full animations are: ``bnerr animate`` writes ``<scene>.mp4`` (every frame at full
+#: size) beside the GIF (a crop), and the committed ``results/`` keeps the GIFs only (a size
+#: limit), so no page links an MP4 and a page reads the same with or without them.
+_MP4 = (
+    "The GIF is a 64-pixel crop of 8 frames; <code>bnerr animate</code> (the command is in "
+    "<code>animations/README.md</code>) also writes <code>&lt;scene&gt;.mp4</code>, every frame "
+    "at full size, which the committed results leave out."
+)
+#: What the index says a suite folder keeps, and what is written on demand.
+_KEPT = (
+    "<p>Each suite folder keeps its cells (<code>cells.jsonl.gz</code>), its reports, charts, "
+    "crops and page. <code>bnerr bench --suite NAME --report-only</code> rewrites all of them "
+    "from the cells (the charts' pixels follow the matplotlib build), and writes the per-cell "
+    "tables " + " and ".join(f"<code>{n}</code>" for n in ON_DEMAND) + ", which the committed "
+    "results leave out.</p>"
+)
+
+
 def write_index(results_dir: str | Path) -> Path:
     """Write ``<results_dir>/index.html``: every suite page, report and animation there."""
     root = Path(results_dir)
@@ -195,14 +240,13 @@ def write_index(results_dir: str | Path) -> Path:
     items = "".join(_folder_entry(f) for f in folders)
     gifs = sorted((root / "animations").glob("*.gif")) if (root / "animations").is_dir() else []
     anims = "".join(
-        f'<figure><img src="animations/{g.name}" alt="{g.stem}"><figcaption>{g.stem} '
-        f'<a href="animations/{g.stem}.mp4">MP4</a></figcaption></figure>'
+        f'<figure><img src="animations/{g.name}" alt="{g.stem}"><figcaption>{g.stem}'
+        "</figcaption></figure>"
         for g in gifs
-        if g.with_suffix(".mp4").exists()
     )
-    body = f"<h2>Suites and reports</h2><ul>{items}</ul>"
+    body = f"<h2>Suites and reports</h2><ul>{items}</ul>{_KEPT}"
     if anims:
-        body += f'<h2>Animations</h2><div class="anims svgs">{anims}</div>'
+        body += f'<h2>Animations</h2><p>{_MP4}</p><div class="anims svgs">{anims}</div>'
     path = root / PAGE
-    _write(path, page("bnerr results", body))
+    _write(path, page("bnerr results", body), root)
     return path

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from benchmarks.reports import write_report
-from benchmarks.reports.page import write_index
+from benchmarks.reports.links import broken_links
+from benchmarks.reports.page import ON_DEMAND, PAGE, write_index
 from tests._paths import RESULTS
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -49,8 +50,12 @@ def site(tmp_path_factory):
 
 def test_the_suite_page_links_every_file_and_shows_each_scene(site):
     text = (site / "quick" / "index.html").read_text()
-    for name in ("table.csv", "decision.md", "gap.md", "cells.jsonl", "error_vs_time_direct.png"):
+    for name in ("table.md", "decision.md", "gap.md", "cells.jsonl", "error_vs_time_direct.png"):
         assert f'href="{name}' in text, name  # cells.jsonl or cells.jsonl.gz
+    for name in ON_DEMAND:  # named with the command that writes them, never linked
+        assert f'href="{name}' not in text and f"<code>{name}</code>" in text
+    assert "bnerr bench --suite quick --report-only" in text
+    assert broken_links(site / "quick" / PAGE, root=site) == []
     assert 'id="direct"' in text and 'id="indirect"' in text
     assert text.count('class="cmp"') == 2 and "<svg" in text and 'class="sortable"' in text
     assert "http://" not in text.replace("http://www.w3.org/2000/svg", "")  # no network

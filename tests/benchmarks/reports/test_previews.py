@@ -1,4 +1,4 @@
-"""Tests of benchmarks.reports.previews: the crops kept as PNG strips."""
+"""Tests of benchmarks.reports.previews: the crops kept as lossless WebP strips."""
 
 import numpy as np
 import pytest
@@ -22,7 +22,7 @@ def _crop(tmp_path):
 def test_the_npz_becomes_a_lossless_strip_that_loads_in_its_place(tmp_path):
     crop, images = _crop(tmp_path)
     rel, names = crop_strip(tmp_path, crop)
-    assert rel == "crops/c.png" and names == ["reference", "raw", "denoised/oidn"]
+    assert rel == "crops/c.webp" and names == ["reference", "raw", "denoised/oidn"]
     assert not (tmp_path / "crops" / "c.npz").exists()
     assert np.asarray(Image.open(tmp_path / rel)).shape == (4, 12, 3)  # at the crop's size
     loaded = load_crop(tmp_path, crop)  # the record still names the .npz
@@ -39,3 +39,19 @@ def test_missing_crops_are_none_and_bad_files_are_typed_errors(tmp_path):
     Image.fromarray(np.zeros((2, 2, 3), np.uint8)).save(tmp_path / "plain.png")
     with pytest.raises(FileFormatError, match="plain.png"):
         load_crop(tmp_path, "plain.npz")  # a PNG without the tile names
+
+
+def test_an_older_png_strip_becomes_a_webp_strip_with_the_same_tiles(tmp_path):
+    from PIL.PngImagePlugin import PngInfo
+
+    crop, images = _crop(tmp_path)
+    (tmp_path / "crops" / "c.npz").unlink()
+    info = PngInfo()
+    info.add_text("tiles", '["reference", "raw", "denoised/oidn"]')
+    strip = np.concatenate(list(images.values()), axis=1)
+    Image.fromarray(strip).save(tmp_path / "crops" / "c.png", pnginfo=info)
+    assert list(load_crop(tmp_path, crop)) == list(images)  # read from the PNG
+    rel, names = crop_strip(tmp_path, crop)
+    assert rel == "crops/c.webp" and not (tmp_path / "crops" / "c.png").exists()
+    loaded = load_crop(tmp_path, crop)
+    assert all(np.array_equal(loaded[n], images[n]) for n in names)
