@@ -14,6 +14,7 @@ import pytest
 
 from benchmarks.sweep.plugins import load_recorded
 from tests._paths import bnerr_cli
+from tests._plugin_sources import SAMPLER, STRATEGY
 from tests._records import small_record
 
 PACKAGE = '''
@@ -28,24 +29,6 @@ def box(frame):
 box.name = "box3"
 box.kind = "filter"
 '''
-
-STRATEGY = """
-from bnerr.strategies import WhiteStrategy
-
-
-class Mine(WhiteStrategy):
-    name = "mine"
-    family = "experimental"
-    stream = 0x51A7E0FF
-"""
-
-SAMPLER = """
-from bnerr.sequences import WhiteSampler
-
-
-class Hashy(WhiteSampler):
-    name = "hashy"
-"""
 
 MODULE = '''
 import dataclasses

@@ -10,24 +10,7 @@ import torch
 from benchmarks.cli import main
 from bnerr.io import read_frame
 from tests._paths import EXAMPLES, bnerr_cli
-
-STRATEGY = """
-from bnerr.strategies import WhiteStrategy
-
-
-class Mine(WhiteStrategy):
-    name = "mine"
-    family = "experimental"
-    stream = 0x51A7E0FF
-"""
-
-SAMPLER = """
-from bnerr.sequences import WhiteSampler
-
-
-class Hashy(WhiteSampler):
-    name = "hashy"
-"""
+from tests._plugin_sources import SAMPLER, STRATEGY
 
 TINY = ("--res", "16x12", "--spp", "1", "--no-progress")
 
