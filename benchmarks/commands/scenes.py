@@ -37,9 +37,10 @@ def table() -> list[SceneRow]:
                 "name": name,
                 "D": scene.dimensions,
                 "depth": scene.max_depth,
-                "lights": len(scene.lights),
-                "objects": len(scene.shapes),
-                "medium": scene.medium is not None,
+                # a scene that renders itself (a Mitsuba XML plug-in) does not list its parts
+                "lights": len(getattr(scene, "lights", ())),
+                "objects": len(getattr(scene, "shapes", ())),
+                "medium": getattr(scene, "medium", None) is not None,
                 "description": scene.description,
             }
         )

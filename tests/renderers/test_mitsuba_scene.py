@@ -105,7 +105,8 @@ def test_an_xml_that_is_no_scene_is_refused(tmp_path, text, words):
         ms.load_mitsuba_scene(tmp_path / "missing.xml")
 
 
-def test_the_catalog_registers_an_xml_scene_once_under_its_stem():
+def test_the_catalog_registers_an_xml_scene_once_under_its_stem(forget):
+    forget.append(("bnerr.scenes", "mitsuba_temporal"))  # the registry is process-wide
     assert load_scene(str(SCENE)) == "mitsuba_temporal"
     assert load_scene(str(SCENE)) == "mitsuba_temporal"  # again: a worker reloads its specs
     scene = get_scene(str(SCENE), animated=False)
