@@ -370,7 +370,5 @@ def scene_version(name: str) -> str:
     plugin = plugins.loaded("bnerr.scenes", name)
     if plugin is None:
         return ""
-    if name not in SCENES:  # recorded but not registered here: its fingerprint alone
-        return plugin.fingerprint
     version = getattr(get_scene(name), "version", None)
     return version if isinstance(version, str) else plugin.fingerprint

@@ -8,6 +8,7 @@ import shutil
 import pytest
 import torch
 
+import renderers
 from benchmarks.suites import Suite, Sweep
 from benchmarks.sweep import version
 from benchmarks.sweep.parts import real_parts
@@ -179,6 +180,14 @@ def test_the_progress_text_names_each_reference_render_and_the_first_compile(tmp
     ]
 
 
+def _ref_plug():
+    """A plug-in scene: ``direct`` under another name."""
+    return dataclasses.replace(renderers.get_scene("direct"), name="ref_plug")
+
+
+_ref_plug.name = "ref_plug"  # type: ignore[attr-defined]  # the name it registers under
+
+
 def test_a_plugin_scene_keys_its_references_by_its_fingerprint(tmp_path, forget):
     run = dataclasses.replace(_run(), scene="ref_plug")
     cache = ReferenceCache(tmp_path, real_parts())
@@ -187,7 +196,7 @@ def test_a_plugin_scene_keys_its_references_by_its_fingerprint(tmp_path, forget)
     for content in (b"one scene", b"the same scene, edited"):
         (tmp_path / "s.toml").write_bytes(content)  # a scene file's fingerprint: its bytes
         files = (str(tmp_path / "s.toml"),)
-        plugins.record("bnerr.scenes", "ref_plug", plugins.Plugin("s.toml", None, None, files))
+        renderers.SCENES.add(plugins.Plugin("s.toml", _ref_plug, None, files))  # type: ignore[attr-defined]
         keys.append(cache.path(run, 0).name)
     assert re.match(r"ref_plug_m1_.*_sha256-[0-9a-f]{16}\.exr$", keys[0]) and keys[0] != keys[1]
     assert cache.path(_run(), 0).name.startswith("direct_m1_")  # a shipped scene: as before
