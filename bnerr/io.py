@@ -40,8 +40,10 @@ import contextlib
 import errno
 import json
 import os
+import struct
 from collections.abc import Iterator, Mapping
 from pathlib import Path
+from typing import BinaryIO
 
 import numpy as np
 import torch
@@ -63,6 +65,7 @@ from bnerr.frame import BUFFERS, Frame
 from bnerr.outputs import OutputPathError, temporary_name
 
 __all__ = [
+    "exr_size",
     "CHANNELS",
     "IMAGE_SUFFIXES",
     "TIMINGS_ATTRIBUTE",
@@ -452,3 +455,41 @@ def write_image(
         write_png(path, frame.color, exposure=exposure, tonemap=tonemap)
     else:
         write_frame(path, frame)
+
+
+_EXR_MAGIC = b"\x76\x2f\x31\x01"
+_HEADER_LIMIT = 1 << 20  # bytes of attributes read before the data window must have come
+
+
+def _attribute_string(handle: BinaryIO, path: Path) -> str:
+    """A null-terminated attribute name or type (at most 255 bytes, as OpenEXR's long names)."""
+    raw = bytearray()
+    while (byte := handle.read(1)) not in (b"", b"\x00"):
+        raw += byte
+        if len(raw) > 255:
+            break
+    if byte != b"\x00":
+        raise FileFormatError(f"{path}: expected an OpenEXR header, got a truncated attribute")
+    return raw.decode("latin-1")
+
+
+def exr_size(path: Path) -> tuple[int, int]:
+    """``(width, height)`` of an EXR's data window, from its header alone: the attributes are
+    parsed here (OpenEXR's own reader would size its tables from a window first), no pixel read.
+
+    Raises:
+        FileFormatError: not an EXR, or a header without a data window.
+    """
+    with open(path, "rb") as handle:
+        if handle.read(4) != _EXR_MAGIC or len(handle.read(4)) != 4:
+            raise FileFormatError(f"{path}: expected an OpenEXR file, got no EXR magic number")
+        while handle.tell() < _HEADER_LIMIT and (name := _attribute_string(handle, path)):
+            kind = _attribute_string(handle, path)
+            (size,) = struct.unpack("<i", handle.read(4).rjust(4, b"\xff"))
+            if size < 0:
+                break
+            value = handle.read(size)
+            if name == "dataWindow" and kind == "box2i" and len(value) == 16:
+                x0, y0, x1, y1 = struct.unpack("<4i", value)
+                return x1 - x0 + 1, y1 - y0 + 1
+    raise FileFormatError(f"{path}: expected an OpenEXR header with a dataWindow, got none")

@@ -13,7 +13,6 @@ from benchmarks.frame_folder import (
     MANIFEST_KEYS,
     FrameFolder,
     check_folder,
-    exr_size,
     frame_name,
     load_manifest,
     parse_manifest,
@@ -180,14 +179,3 @@ def test_a_static_folder_has_one_reference_and_the_reference_variance_is_kept(tm
     assert folder.reference_path(1).name == frame_name(0)
     assert folder.reference(1).variance is not None
     assert folder.frame("white", "0", 1).variance is None  # not in buffers: not read
-
-
-def test_exr_size_reads_the_header_alone(tmp_path):
-    write_exr(tmp_path / "a.exr", {"color": torch.zeros(3, 5, 7)}, {"note": "x" * 300})
-    assert exr_size(tmp_path / "a.exr") == (7, 5)
-    (tmp_path / "b.exr").write_bytes(b"not an exr at all")
-    with pytest.raises(FileFormatError, match="no EXR magic number"):
-        exr_size(tmp_path / "b.exr")
-    (tmp_path / "c.exr").write_bytes((tmp_path / "a.exr").read_bytes()[:30])
-    with pytest.raises(FileFormatError, match="expected an OpenEXR header"):
-        exr_size(tmp_path / "c.exr")

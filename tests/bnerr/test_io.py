@@ -18,6 +18,7 @@ from bnerr.frame import Frame
 from bnerr.io import (
     CHANNELS,
     atomic_write,
+    exr_size,
     read_exr,
     read_frame,
     write_exr,
@@ -333,3 +334,14 @@ def test_atomic_write_temporaries_carry_the_writer_pid(tmp_path):
         assert tmp.suffix == ".pt"
         tmp.write_bytes(b"x")
     assert [p.name for p in tmp_path.iterdir()] == ["w.pt"]
+
+
+def test_exr_size_reads_the_header_alone(tmp_path):
+    write_exr(tmp_path / "a.exr", {"color": torch.zeros(3, 5, 7)}, {"note": "x" * 300})
+    assert exr_size(tmp_path / "a.exr") == (7, 5)
+    (tmp_path / "b.exr").write_bytes(b"not an exr at all")
+    with pytest.raises(FileFormatError, match="no EXR magic number"):
+        exr_size(tmp_path / "b.exr")
+    (tmp_path / "c.exr").write_bytes((tmp_path / "a.exr").read_bytes()[:30])
+    with pytest.raises(FileFormatError, match="expected an OpenEXR header"):
+        exr_size(tmp_path / "c.exr")
