@@ -43,6 +43,7 @@ __all__ = [
     "PairMix",
     "ReusedChoice",
     "Row",
+    "draw",
     "lane_values",
     "measure",
     "random_ldbn_keys",
@@ -231,12 +232,21 @@ VARIANTS: dict[str, Callable[[_Context, int], Draw]] = {
 }
 
 
+def draw(name: str, layout: Layout, s: int, *, size: int, spp: int = 4, t: int = 6) -> Draw:
+    """The seeds and sampler variant ``name`` of :data:`VARIANTS` renders frame ``t`` with in
+    seed set ``s`` (``size x size``, on a scene of ``layout``)."""
+    if name not in VARIANTS:
+        raise ValueRangeError(f"name: expected a variant among {list(VARIANTS)}, got {name!r}")
+    return VARIANTS[name](_Context(size, spp, t, layout), s)
+
+
 @dataclass(frozen=True)
 class Row:
     """One variant on one scene. Ratios are to white's per-pixel variance (across seed sets) or
     raw MSE; ``shares`` the fractions of (seed set, pixel) whose two-light samples are
     stratified in u only, v only and both (NaN with one light); ``mse_u``, ``mse_v`` the raw MSE
-    of the u-only and v-only pixels over white's raw MSE (NaN where none)."""
+    of the u-only and v-only pixels over white's raw MSE (NaN where none); ``mse_sets`` each seed
+    set's raw MSE over white's in that seed set (for an interval)."""
 
     name: str
     variance: float
@@ -244,25 +254,33 @@ class Row:
     shares: tuple[float, float, float]
     mse_u: float
     mse_v: float
+    #: each seed set's raw MSE over white's in the same seed set
+    mse_sets: tuple[float, ...] = ()
 
 
 def _luma(frame: Frame) -> torch.Tensor:
     return luminance(frame.color, dtype=torch.float64)
 
 
-def _moments(lum: torch.Tensor, ref: torch.Tensor) -> tuple[float, float]:
-    """Per-pixel variance across seed sets and raw MSE of ``lum [S, H, W]`` against ``ref``."""
-    return float(lum.var(0).mean()), float((lum - ref).square().mean())
+def _moments(lum: torch.Tensor, ref: torch.Tensor) -> tuple[float, float, torch.Tensor]:
+    """Per-pixel variance across seed sets, raw MSE and each seed set's raw MSE ``[S]`` of
+    ``lum [S, H, W]`` against ``ref``."""
+    per_set = (lum - ref).square().flatten(1).mean(1)
+    return float(lum.var(0).mean()), float(per_set.mean()), per_set
 
 
 def _row(
-    name: str, lum: torch.Tensor, ref: torch.Tensor, strat: list, base: tuple[float, float]
+    name: str,
+    lum: torch.Tensor,
+    ref: torch.Tensor,
+    strat: list,
+    base: tuple[float, float, torch.Tensor],
 ) -> Row:
     """The :class:`Row` of ``lum [S, H, W]`` against ``ref [H, W]``: ``strat`` the per-set
     (u, v) stratification of :func:`stratified_lights` (empty with one light), ``base`` white's
     :func:`_moments`."""
     err = (lum - ref).square().flatten(1)
-    variance, mse = _moments(lum, ref)
+    variance, mse, per_set = _moments(lum, ref)
     nan = float("nan")
     shares, mse_u, mse_v = (nan, nan, nan), nan, nan
     if strat:
@@ -270,7 +288,10 @@ def _row(
         classes = (u & ~v, ~u & v, u & v)
         shares = tuple(float(c.double().mean()) for c in classes)  # type: ignore[assignment]
         mse_u, mse_v = (float(err[c].mean()) if c.any() else nan for c in classes[:2])
-    return Row(name, variance / base[0], mse / base[1], shares, mse_u / base[1], mse_v / base[1])
+    ratios = tuple((per_set / base[2]).tolist())
+    return Row(
+        name, variance / base[0], mse / base[1], shares, mse_u / base[1], mse_v / base[1], ratios
+    )
 
 
 def measure(
@@ -289,7 +310,6 @@ def measure(
     for value, what in ((size, "size"), (spp, "spp"), (sets, "sets"), (ref_spp, "ref_spp")):
         check_positive_int(value, what, minimum=2 if what == "sets" else 1)
     scene = renderers.get_scene(scene_name, animated=True)
-    ctx = _Context(size, spp, t, scene.layout)
     several = scene.layout.lights > 1
     wanted = names if names is not None else [n for n in VARIANTS if several or "by u" not in n]
     unknown = [n for n in wanted if n not in VARIANTS]
@@ -298,11 +318,11 @@ def measure(
     seeds = pixel_seeds(size, size, 0x5EED)
     ref = _luma(renderers.render(scene, t, seeds, make_sampler("owen_sobol"), ref_spp))
     rows: list[Row] = []
-    base: tuple[float, float] | None = None
+    base: tuple[float, float, torch.Tensor] | None = None
     for name in ["white"] + [n for n in wanted if n != "white"]:
         lum, strat = [], []
         for s in range(sets):
-            seeds, sampler = VARIANTS[name](ctx, s)
+            seeds, sampler = draw(name, scene.layout, s, size=size, spp=spp, t=t)
             lum.append(_luma(renderers.render(scene, t, seeds, sampler, spp)))
             if several:
                 values = lane_values(seeds, sampler, spp, scene.layout.dimensions)
