@@ -135,10 +135,11 @@ def _name(value: object, key: str) -> str:
         or "/" in value
         or "\\" in value
         or value != value.strip()
+        or not value.isprintable()
     ):
         raise ValueRangeError(
             f"{MANIFEST}: {key}: expected plain folder names inside the folder (no '/', '..', "
-            f"absolute or hidden names), got {value!r}"
+            f"absolute, hidden names or control characters), got {value!r}"
         )
     return value
 
@@ -296,7 +297,7 @@ def load_manifest(folder: str | Path) -> Manifest:
         raise FileFormatError(f"{path}: expected the frame folder's manifest, got no such file")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+    except (OSError, ValueError, RecursionError) as err:  # bad TOML or UTF-8, 5000 digits, ...
         raise FileFormatError(f"{path}: expected a TOML manifest, got {err}") from None
     return parse_manifest(data)
 
@@ -319,7 +320,8 @@ class FrameFolder:
         """``root / parts``, refused if it leaves the folder (``..``, absolute names, symbolic
         links anywhere below the folder)."""
         for part in parts:
-            if part in ("", ".", "..") or "/" in part or "\\" in part or Path(part).is_absolute():
+            bad = part in ("", ".", "..") or any(c in part for c in "/\\\0")
+            if bad or Path(part).is_absolute():
                 raise ValueRangeError(
                     f"{self.root}: expected a path inside the folder, got {'/'.join(parts)!r}"
                 )

@@ -90,6 +90,8 @@ def read_manifest(path: Path, keys: Mapping[str, object], what: str) -> dict:
         raise ManifestError(
             f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
         ) from None
+    except (ValueError, RecursionError) as err:  # 5000-digit integers, arrays nested 1000 deep
+        raise ManifestError(f"{path}: expected a {what} the parser can read, got {err}") from None
     if not isinstance(raw, dict):
         raise ManifestError(f"{path}: expected a table of keys, got a JSON {type(raw).__name__}")
     unknown = sorted(set(raw) - set(keys))
@@ -119,6 +121,8 @@ def command_placeholders(path: Path, command: Sequence[str], known: set[str]) ->
     """The placeholders ``command`` uses; an unknown one (or a format spec) is refused."""
     used: set[str] = set()
     for arg in command:
+        if "\0" in arg:  # no program can receive it (argv strings end at NUL)
+            raise ManifestError(f"{path}: command: expected arguments without NUL, got {arg!r:.80}")
         try:
             fields = [(f, s, c) for _, f, s, c in string.Formatter().parse(arg) if f is not None]
         except ValueError as err:

@@ -486,7 +486,7 @@ def exr_size(path: Path) -> tuple[int, int]:
         while handle.tell() < _HEADER_LIMIT and (name := _attribute_string(handle, path)):
             kind = _attribute_string(handle, path)
             (size,) = struct.unpack("<i", handle.read(4).rjust(4, b"\xff"))
-            if size < 0:
+            if not 0 <= size <= _HEADER_LIMIT:  # read() would allocate the size first
                 break
             value = handle.read(size)
             if name == "dataWindow" and kind == "box2i" and len(value) == 16:

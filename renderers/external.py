@@ -164,7 +164,9 @@ def write_seed_file(path: str | os.PathLike, seeds: torch.Tensor) -> None:
 
 
 def read_seed_file(path: str | os.PathLike) -> torch.Tensor:
-    """The seeds of a seed file as int64 ``[K, H, W]``.
+    """The seeds of a seed file as int64 ``[K, H, W]``. The header is checked against the file's
+    size before the seeds are read: a header claiming more seeds than the file holds (or
+    fewer) is refused without allocating them.
 
     Raises:
         FileFormatError: missing, no seed-file header, another version or dtype, or a size that
@@ -172,23 +174,30 @@ def read_seed_file(path: str | os.PathLike) -> torch.Tensor:
     """
     path = Path(path)
     try:
-        data = path.read_bytes()
+        file = path.open("rb")
     except OSError as err:
         raise FileFormatError(f"{path}: expected a seed file, got {err.strerror or err}") from None
-    if len(data) < SEED_HEADER.size:
-        raise FileFormatError(f"{path}: expected a {SEED_HEADER.size}-byte header, got {len(data)}")
-    magic, version, width, height, count, dtype = SEED_HEADER.unpack_from(data)
-    if (magic, version, dtype) != (_MAGIC, _VERSION, _UINT32):
-        raise FileFormatError(
-            f"{path}: expected magic {_MAGIC!r}, version {_VERSION}, dtype {_UINT32} (uint32), "
-            f"got {magic!r}, {version}, {dtype}"
-        )
-    want = SEED_HEADER.size + 4 * width * height * count
-    if len(data) != want:
-        raise FileFormatError(
-            f"{path}: expected {want} bytes for {count} x {height} x {width} seeds, got {len(data)}"
-        )
-    words = np.frombuffer(data, dtype="<u4", offset=SEED_HEADER.size)
+    with file:
+        head, size = file.read(SEED_HEADER.size), os.fstat(file.fileno()).st_size
+        if len(head) < SEED_HEADER.size:
+            raise FileFormatError(
+                f"{path}: expected a {SEED_HEADER.size}-byte header, got {len(head)}"
+            )
+        magic, version, width, height, count, dtype = SEED_HEADER.unpack(head)
+        if (magic, version, dtype) != (_MAGIC, _VERSION, _UINT32):
+            raise FileFormatError(
+                f"{path}: expected magic {_MAGIC!r}, version {_VERSION}, dtype {_UINT32} "
+                f"(uint32), got {magic!r}, {version}, {dtype}"
+            )
+        want = SEED_HEADER.size + 4 * width * height * count
+        if size != want:
+            raise FileFormatError(
+                f"{path}: expected {want} bytes for {count} x {height} x {width} seeds, got {size}"
+            )
+        data = file.read(want - SEED_HEADER.size + 1)
+    if len(data) != want - SEED_HEADER.size:  # the file changed while it was read
+        raise FileFormatError(f"{path}: expected {want} bytes, got {SEED_HEADER.size + len(data)}")
+    words = np.frombuffer(data, dtype="<u4")
     return torch.from_numpy(words.astype(np.int64)).view(count, height, width)
 
 

@@ -4,6 +4,7 @@ the same frames and references a bench run of the same settings renders, written
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import torch
@@ -88,17 +89,33 @@ def render_folder(root: Path, **settings) -> Path:
     return root
 
 
+def _toml_string(text: str) -> str:
+    """A TOML basic string: quotes, backslashes and control characters escaped."""
+
+    def escape(c: str) -> str:
+        if c not in '"\\' and c.isprintable() and ord(c) != 0x7F:
+            return c
+        return f"\\u{ord(c):04x}" if ord(c) < 0x10000 else f"\\U{ord(c):08x}"
+
+    return '"' + "".join(escape(c) for c in text) + '"'
+
+
+def _toml_value(v: object) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_string(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, float) and not math.isfinite(v):
+        return "nan" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    return _toml_string(v) if isinstance(v, str) else repr(v)
+
+
 def toml_text(table: dict) -> str:
-    """A flat TOML table of strings, integers, booleans and lists of them."""
-
-    def value(v) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        return f'"{v}"' if isinstance(v, str) else str(v)
-
-    return "".join(f"{k} = {value(v)}\n" for k, v in table.items())
+    """A TOML table of strings, numbers, booleans, lists and inline tables of them (any string:
+    escaped; nan and inf as TOML writes them)."""
+    return "".join(f"{_toml_string(k)} = {_toml_value(v)}\n" for k, v in table.items())
 
 
 #: The manifest of :func:`synthetic_folder` (overridden key by key).

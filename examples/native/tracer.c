@@ -20,15 +20,26 @@
    first-hit buffers albedo.{R,G,B}, normal.{X,Y,Z}, depth.Z and object_id.Y (of sample 0).
    A seed file with K > 1 images renders K frames into the folder `--out` as 0.exr .. K-1.exr.
 
+   Layout mode (`--layout DIR`, docs/EVAL.md): the a-priori methods need no loop, so the tracer
+   also renders a whole frame folder for `bnerr eval` by itself: DIR/manifest.toml, a static
+   reference (DIR/reference/0000.exr, `--reference-spp`, seeds no method uses), white's frames of
+   the held-out seed set DIR/white/tune/ the denoisers are tuned on, and per seed set s and
+   frame t the noisy frames DIR/white/s/tttt.exr (a fresh hashed seed per pixel) and, with
+   `--ldbn FILE.h`, DIR/ldbn/s/tttt.exr (the exported keys' slice for `--spp`, at a toroidal
+   offset hashed from s and t), each frame's render time in its `bnerr_timings` attribute.
+
    Build: cc -O2 -o tracer tracer.c -lm.
    Test hook: `--dump-samples FILE` writes the sampler's values float32 [K, H, W, spp, 8] instead
    of rendering, so a test can compare them with bnerr's own sampler. */
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <time.h>
 
 #define DIMS 8
 #define SHIPPED_SEED0 18u /* bnerr.ldbn.keys.SHIPPED_SEED0: the shared sequence of the keys */
@@ -298,9 +309,10 @@ static void put_attr(FILE *f, const char *name, const char *type, int size, cons
     fwrite(value, 1, (size_t)size, f);
 }
 
-/* planes[c] is channel names[c], [h][w] floats; names sorted as strcmp sorts them. */
+/* planes[c] is channel names[c], [h][w] floats; names sorted as strcmp sorts them; timings
+   (JSON, or NULL for none) goes into the string attribute bnerr_timings. */
 static int write_exr(const char *path, long w, long h, int n, const char *const *names,
-                     float *const *planes) {
+                     float *const *planes, const char *timings) {
     FILE *f = fopen(path, "wb");
     if (!f) { fprintf(stderr, "tracer: cannot write %s\n", path); return 1; }
     const uint8_t magic[8] = {0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0};
@@ -326,6 +338,7 @@ static int write_exr(const char *path, long w, long h, int n, const char *const 
     put_attr(f, "pixelAspectRatio", "float", 4, &one);
     put_attr(f, "screenWindowCenter", "v2f", 8, center);
     put_attr(f, "screenWindowWidth", "float", 4, &one);
+    if (timings) put_attr(f, "bnerr_timings", "string", (int)strlen(timings), timings);
     fputc(0, f);
     uint64_t offset = (uint64_t)ftell(f) + 8 * (uint64_t)h;
     int32_t block = (int32_t)(4 * w * n);
@@ -369,8 +382,17 @@ static const char *const NAMES[11] = {"B", "G", "R", "albedo.B", "albedo.G", "al
 /* where each of radiance()'s aux values goes among NAMES */
 static const int AUX_PLANE[8] = {5, 4, 3, 7, 8, 9, 6, 10};
 
-static int render(const seeds_t *s, long k, long spp, const sampler_t *smp, const char *path) {
+static double now_ms(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return 1e3 * (double)ts.tv_sec + 1e-6 * (double)ts.tv_nsec;
+}
+
+/* Image k of s at spp into path; timed: its render time in the bnerr_timings attribute. */
+static int render(const seeds_t *s, long k, long spp, const sampler_t *smp, const char *path,
+                  int timed) {
     long w = s->width, h = s->height, n = w * h;
+    double start = now_ms();
     float *data = calloc((size_t)(11 * n), sizeof(float)), *planes[11], u[DIMS], aux[8];
     for (int c = 0; c < 11; ++c) planes[c] = data + c * n;
     camera_t cam = camera(w, h);
@@ -388,7 +410,9 @@ static int render(const seeds_t *s, long k, long spp, const sampler_t *smp, cons
             planes[0][at] = (float)(sum.z / spp);
             for (int a = 0; a < 8; ++a) planes[AUX_PLANE[a]][at] = aux[a];
         }
-    int bad = write_exr(path, w, h, 11, NAMES, planes);
+    char timings[64];
+    snprintf(timings, sizeof timings, "{\"render\": %.3f}", now_ms() - start);
+    int bad = write_exr(path, w, h, 11, NAMES, planes, timed ? timings : NULL);
     free(data);
     return bad;
 }
@@ -408,14 +432,118 @@ static int dump_samples(const seeds_t *s, long spp, const sampler_t *smp, const 
     return fclose(f) != 0;
 }
 
+/* ------------------------------------------------------------------------------------------ */
+/* Layout mode: a frame folder for `bnerr eval` (docs/EVAL.md)                                 */
+
+typedef struct {
+    const char *dir;
+    long width, height, spp, seed_sets, frames, reference_spp;
+    const ldbn_t *ldbn; /* NULL: white only */
+} layout_t;
+
+enum { STREAM_REFERENCE = 1, STREAM_WHITE = 2, STREAM_LDBN = 3 };
+
+/* A hash of (stream, seed set, frame, i): independent 32-bit words per argument tuple. */
+static uint32_t hash4(uint32_t stream, uint32_t set, uint32_t frame, uint32_t i) {
+    return lowbias32(i ^ lowbias32(frame ^ lowbias32(set ^ lowbias32(stream * 0x9E3779B9u))));
+}
+
+/* mkdir DIR/a/b (a, b may be NULL), each level; 0 when it exists afterwards. */
+static int make_dirs(const char *dir, const char *a, const char *b) {
+    char path[4096];
+    const char *parts[3] = {dir, a, b};
+    size_t len = 0;
+    for (int i = 0; i < 3 && parts[i]; ++i) {
+        int n = snprintf(path + len, sizeof path - len, "%s%s", i ? "/" : "", parts[i]);
+        if (n < 0 || (size_t)n >= sizeof path - len) return 1;
+        len += (size_t)n;
+        if (mkdir(path, 0777) != 0 && errno != EEXIST) {
+            fprintf(stderr, "tracer: cannot create the folder %s\n", path);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+static int write_layout_manifest(const layout_t *L) {
+    char path[4096];
+    snprintf(path, sizeof path, "%s/manifest.toml", L->dir);
+    FILE *f = fopen(path, "w");
+    if (!f) { fprintf(stderr, "tracer: cannot write %s\n", path); return 1; }
+    fprintf(f, "# written by examples/native/tracer --layout (docs/EVAL.md)\n");
+    fprintf(f, "scene = \"native\"\nspp = %ld\nresolution = [%ld, %ld]\n", L->spp, L->width,
+            L->height);
+    fprintf(f, "methods = [\"white\"%s]\nseed_sets = [", L->ldbn ? ", \"ldbn\"" : "");
+    for (long s = 0; s < L->seed_sets; ++s) fprintf(f, "%s\"%ld\"", s ? ", " : "", s);
+    fprintf(f, "]\nframes = %ld\nstatic = true\nreference_spp = %ld\ndimensions = %d\n", L->frames,
+            L->reference_spp, DIMS);
+    fprintf(f, "buffers = [\"albedo\", \"normal\", \"depth\", \"object_id\"]\n");
+    fprintf(f, "tuning_seed_set = \"tune\"\n");
+    return fclose(f) != 0;
+}
+
+/* Frame t of seed set s of a method (stream) into DIR/method/folder/tttt.exr. */
+static int render_layout_frame(const layout_t *L, const char *method, uint32_t stream, long s,
+                               const char *folder, long t, seeds_t *seeds) {
+    long n = L->width * L->height;
+    for (long i = 0; i < n; ++i) seeds->seeds[i] = hash4(stream, (uint32_t)s, (uint32_t)t, (uint32_t)i);
+    sampler_t smp = {NULL, 0, 0, 0};
+    if (stream == STREAM_LDBN) {
+        long level = 0;
+        while ((1L << level) < L->spp) ++level; /* the smallest tile for spp samples */
+        smp.ldbn = L->ldbn;
+        smp.slice = level;
+        smp.oy = hash4(stream, (uint32_t)s, (uint32_t)t, 0xFFFFFFFFu) % (uint32_t)L->ldbn->size;
+        smp.ox = hash4(stream, (uint32_t)s, (uint32_t)t, 0xFFFFFFFEu) % (uint32_t)L->ldbn->size;
+    }
+    char path[4096];
+    if (make_dirs(L->dir, method, folder)) return 1;
+    snprintf(path, sizeof path, "%s/%s/%s/%04ld.exr", L->dir, method, folder, t);
+    return render(seeds, 0, L->spp, &smp, path, 1);
+}
+
+static int render_layout(const layout_t *L) {
+    long n = L->width * L->height, level = 0;
+    while ((1L << level) < L->spp) ++level;
+    if (L->ldbn && level >= L->ldbn->slices) {
+        fprintf(stderr, "tracer: --spp %ld: the LDBN header has tiles for at most %ld spp\n",
+                L->spp, 1L << (L->ldbn->slices - 1));
+        return 2;
+    }
+    seeds_t seeds = {(uint32_t)L->width, (uint32_t)L->height, 1, malloc(4 * (size_t)n)};
+    int bad = !seeds.seeds || make_dirs(L->dir, "reference", NULL) || write_layout_manifest(L);
+    if (!bad) { /* the reference: its own seeds, reference_spp samples */
+        char path[4096];
+        sampler_t smp = {NULL, 0, 0, 0};
+        for (long i = 0; i < n; ++i) seeds.seeds[i] = hash4(STREAM_REFERENCE, 0, 0, (uint32_t)i);
+        snprintf(path, sizeof path, "%s/reference/0000.exr", L->dir);
+        bad = render(&seeds, 0, L->reference_spp, &smp, path, 1);
+    }
+    char name[32];
+    for (long t = 0; t < L->frames && !bad; ++t) /* white's held-out tuning seed set */
+        bad = render_layout_frame(L, "white", STREAM_WHITE, L->seed_sets, "tune", t, &seeds);
+    for (long s = 0; s < L->seed_sets && !bad; ++s)
+        for (long t = 0; t < L->frames && !bad; ++t) {
+            snprintf(name, sizeof name, "%ld", s);
+            bad = render_layout_frame(L, "white", STREAM_WHITE, s, name, t, &seeds);
+            if (!bad && L->ldbn)
+                bad = render_layout_frame(L, "ldbn", STREAM_LDBN, s, name, t, &seeds);
+        }
+    free(seeds.seeds);
+    return bad;
+}
+
 static const char *USAGE =
     "usage: tracer --seeds FILE --spp N --out PATH [--sampler owen_sobol|ldbn] [--ldbn FILE.h\n"
-    "              --ldbn-slice S --ldbn-offset-y OY --ldbn-offset-x OX] [--dump-samples FILE]\n";
+    "              --ldbn-slice S --ldbn-offset-y OY --ldbn-offset-x OX] [--dump-samples FILE]\n"
+    "       tracer --layout DIR --width W --height H --spp N --seed-sets S --frames F\n"
+    "              --reference-spp R [--ldbn FILE.h]\n";
 
 int main(int argc, char **argv) {
     const char *seeds_path = NULL, *out = NULL, *sampler = "owen_sobol", *header = NULL;
-    const char *dump = NULL;
-    long spp = 0, slice = 0, oy = 0, ox = 0;
+    const char *dump = NULL, *dir = NULL;
+    long spp = 0, slice = 0, oy = 0, ox = 0, width = 0, height = 0, sets = 0, frames = 0;
+    long reference_spp = 0;
     for (int i = 1; i + 1 < argc; i += 2) {
         const char *key = argv[i], *value = argv[i + 1];
         if (!strcmp(key, "--seeds")) seeds_path = value;
@@ -427,16 +555,33 @@ int main(int argc, char **argv) {
         else if (!strcmp(key, "--ldbn-offset-y")) oy = strtol(value, NULL, 10);
         else if (!strcmp(key, "--ldbn-offset-x")) ox = strtol(value, NULL, 10);
         else if (!strcmp(key, "--dump-samples")) dump = value;
+        else if (!strcmp(key, "--layout")) dir = value;
+        else if (!strcmp(key, "--width")) width = strtol(value, NULL, 10);
+        else if (!strcmp(key, "--height")) height = strtol(value, NULL, 10);
+        else if (!strcmp(key, "--seed-sets")) sets = strtol(value, NULL, 10);
+        else if (!strcmp(key, "--frames")) frames = strtol(value, NULL, 10);
+        else if (!strcmp(key, "--reference-spp")) reference_spp = strtol(value, NULL, 10);
         else { fprintf(stderr, "tracer: unknown option %s\n%s", key, USAGE); return 2; }
+    }
+    sobol1_init();
+    ldbn_t keys;
+    if (dir) {
+        if (argc % 2 == 0 || width < 1 || height < 1 || width * height > (1L << 26) || spp < 1 ||
+            sets < 1 || frames < 1 || reference_spp < 1) {
+            fprintf(stderr, "%s", USAGE);
+            return 2;
+        }
+        if (header && ldbn_load(header, &keys)) return 2;
+        layout_t layout = {dir, width, height, spp, sets, frames, reference_spp,
+                           header ? &keys : NULL};
+        return render_layout(&layout);
     }
     if (argc % 2 == 0 || !seeds_path || spp < 1 || (!out && !dump)) {
         fprintf(stderr, "%s", USAGE);
         return 2;
     }
-    sobol1_init();
     seeds_t seeds;
     if (read_seeds(seeds_path, &seeds)) return 1;
-    ldbn_t keys;
     sampler_t smp = {NULL, slice, oy, ox};
     if (!strcmp(sampler, "ldbn")) {
         if (!header || ldbn_load(header, &keys)) {
@@ -453,11 +598,11 @@ int main(int argc, char **argv) {
         return 2;
     }
     if (dump) return dump_samples(&seeds, spp, &smp, dump);
-    if (seeds.count == 1) return render(&seeds, 0, spp, &smp, out);
+    if (seeds.count == 1) return render(&seeds, 0, spp, &smp, out, 0);
     char path[4096];
     for (long k = 0; k < (long)seeds.count; ++k) {
         snprintf(path, sizeof path, "%s/%ld.exr", out, k);
-        if (render(&seeds, k, spp, &smp, path)) return 1;
+        if (render(&seeds, k, spp, &smp, path, 0)) return 1;
     }
     return 0;
 }

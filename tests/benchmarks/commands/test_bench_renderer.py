@@ -11,9 +11,6 @@ post-Gaussian MSE / white's, temporal 0.74 [0.62, 0.89], ldbn 0.31 [0.27, 0.36],
 from __future__ import annotations
 
 import re
-import shlex
-import shutil
-import subprocess
 
 import numpy as np
 import pytest
@@ -21,42 +18,17 @@ import pytest
 from benchmarks.cli import main
 from benchmarks.sweep.records import load_records
 from bnerr.metrics import better, paired_ratio
-from tests._paths import ROOT
-from tests._processes import bnerr_command, child_env
+from tests._native import BUILD_LINES, PROTOCOL_DOC, doc_commands, run_line
 
-DOC = ROOT / "docs" / "RENDERER_PROTOCOL.md"
 _LEVEL = 0.95
 
 
-def doc_commands() -> list[str]:
-    """The command lines of the doc page's first ``bash`` block."""
-    block = DOC.read_text(encoding="utf-8").split("```bash\n")[1].split("```")[0]
-    return [line for line in block.splitlines() if line.strip()]
-
-
-def _argv(line: str) -> list[str]:
-    argv = shlex.split(line)
-    return [*bnerr_command(), *argv[1:]] if argv[0] == "bnerr" else argv
-
-
 @pytest.fixture(scope="module")
-def native(tmp_path_factory):
-    """A folder holding examples/native/ where the doc's commands have run as written."""
-    if shutil.which("cc") is None:
-        pytest.skip("no C compiler 'cc' on the PATH: the native example cannot be built")
-    root = tmp_path_factory.mktemp("native")
-    (root / "examples").mkdir()
-    shutil.copytree(
-        ROOT / "examples" / "native",
-        root / "examples" / "native",
-        ignore=shutil.ignore_patterns("tracer", "keys"),
-    )
-    for line in doc_commands():
-        done = subprocess.run(
-            _argv(line), cwd=root, env=child_env(), capture_output=True, text=True, timeout=600
-        )
-        assert done.returncode == 0, f"{line}\n{done.stdout[-2000:]}\n{done.stderr[-3000:]}"
-    return root
+def native(native_example):
+    """The example's folder where the doc's bench commands have run as written."""
+    for line in doc_commands(PROTOCOL_DOC)[BUILD_LINES:]:
+        run_line(line, native_example)
+    return native_example
 
 
 def _ratio(records, strategy: str, kind: str):
@@ -70,7 +42,7 @@ def _ratio(records, strategy: str, kind: str):
 
 
 def test_the_doc_commands_build_the_tracer_and_export_the_keys_it_reads():
-    lines = doc_commands()
+    lines = doc_commands(PROTOCOL_DOC)
     assert lines[0].startswith("cc ") and "examples/native/tracer.c" in lines[0]
     assert lines[1].startswith("bnerr export --ldbn screen --format h")
     assert "--renderer-cmd" in lines[2] and "--renderer examples/native/renderer.toml" in lines[3]
