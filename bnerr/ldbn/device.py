@@ -40,8 +40,8 @@ __all__ = ["SETS", "convert", "main", "measure"]
 #: The key sets a device run makes: name -> options (the device and iterations set per run).
 #: D = 12: the first two bounces of every shipped scene (docs/METHODS.md, section 10).
 SETS: dict[str, KeyOptions] = {
-    "screen_128": KeyOptions(size=128, levels=7, dims=12, iterations=800),
-    "st_128x4": KeyOptions(size=128, levels=5, dims=12, frames=4, iterations=400),
+    "screen_128": KeyOptions(size=128, levels=7, dims=12, iterations=1000),
+    "st_128x4": KeyOptions(size=128, levels=5, dims=12, frames=4, iterations=500),
 }
 
 

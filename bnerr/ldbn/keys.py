@@ -410,14 +410,25 @@ def load_ldbn_keys(
     kind: str,
     size: int,
     frames: int = 1,
-    levels: int = 5,
-    dims: int = 8,
+    levels: int | None = None,
+    dims: int | None = None,
     seed0: int = SHIPPED_SEED0,
 ) -> list[LDBNKeys]:
-    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``), one :class:`LDBNKeys` per
-    frame slice (one for a screen tile). Raises FileFormatError if absent or malformed."""
-    shape = (levels, frames, size, size, dims + dims // 2)
+    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``) of tile ``size`` and
+    ``frames`` slices, one :class:`LDBNKeys` per frame slice (one for a screen tile).
+
+    The levels L and dimensions D are read from the file's shape ``[L, F, T, T, D + D/2]``;
+    ``levels`` or ``dims``, when given, must match. Raises FileFormatError if the file is absent
+    or malformed."""
+    shape = (levels, frames, size, size, None if dims is None else dims + dims // 2)
     array = torch.from_numpy(load_array(ldbn_file_name(kind, size, frames), np.int32, shape))
+    channels = array.shape[-1]
+    if channels % 3 or channels < 3:
+        raise FileFormatError(
+            f"{ldbn_file_name(kind, size, frames)}: expected D + D/2 channels for an even D, "
+            f"got {channels}"
+        )
+    dims = 2 * channels // 3
     return [
         LDBNKeys(array[:, f, ..., :dims].contiguous(), array[:, f, ..., dims:].contiguous(), seed0)
         for f in range(frames)
