@@ -92,7 +92,9 @@ def _kind(opts: KeyOptions) -> tuple[str, int, int]:
     return ("screen" if opts.frames == 1 else "st", opts.size, opts.frames)
 
 
-def _write_table(out: Path, opts: KeyOptions, arrays: tuple[np.ndarray, np.ndarray], mib: float):
+def _write_table(
+    out: Path, opts: KeyOptions, arrays: tuple[np.ndarray, np.ndarray], mib: float
+) -> Path:
     """The finished table as ``.npy``, or compressed ``.npz`` when larger than ``mib``."""
     scramble, rank = arrays
     if (scramble.nbytes + rank.nbytes) / 2**20 <= mib:

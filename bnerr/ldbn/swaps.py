@@ -175,7 +175,7 @@ def _pairs(
     each ``[B, P / 2]`` on the seeds' device."""
     n, count, device = math.prod(shape), seeds.shape[0], seeds.device
     if not (all(s & (s - 1) == 0 for s in shape) and n > 1):
-        order = uniforms(seeds, counter, n - n % 2).argsort(1, stable=True)
+        order = uniforms(seeds, counter, n - n % 2).argsort(dim=1, stable=True)
         return order[:, : n // 2], order[:, n // 2 :]
     words = (uniforms(seeds, counter, 2 * len(shape)) * _TWO_24).long()
     mask = torch.zeros(count, dtype=torch.int64, device=device)
@@ -183,9 +183,11 @@ def _pairs(
         bits = words[:, 2 * k] % side.bit_length()
         mask = mask * side + (words[:, 2 * k + 1] & ((1 << bits) - 1)) % side
     mask = torch.where(mask == 0, 1, mask)[:, None]
-    high = sum(((mask >> j) > 0).long() for j in range(1, max(1, (n - 1).bit_length())))
-    k = torch.arange(n // 2, device=device)[None, :]
-    a = ((k >> high) << (high + 1)) | (k & ((1 << high) - 1))  # bit `high` of mask cleared
+    high = torch.zeros_like(mask)  # the highest set bit of the mask
+    for j in range(1, (n - 1).bit_length()):
+        high += ((mask >> j) > 0).long()
+    lane = torch.arange(n // 2, device=device)[None, :]
+    a = ((lane >> high) << (high + 1)) | (lane & ((1 << high) - 1))  # bit `high` cleared
     return a, a ^ mask
 
 
