@@ -263,6 +263,7 @@ _ALL_SCENES = tuple(SCENES)
 RIVALS: tuple[str, ...] = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
     *("ldbn", "ldbn_st", "ldbn_fast"),
+    *("openqmc_sobolbn", "openqmc_latticebn"),
 )
 _ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle", *RIVALS)
 _ALL_DENOISERS = (

@@ -32,8 +32,9 @@ def shipped_files(prefix: str, suffix: str = ".npy") -> list[str]:
     )
 
 
-def load_array(name: str, dtype: np.dtype | type, shape: tuple[int, ...]) -> np.ndarray:
-    """Read ``bnerr/data/<name>`` and check that it is ``dtype`` of ``shape``.
+def load_array(name: str, dtype: np.dtype | type, shape: tuple[int | None, ...]) -> np.ndarray:
+    """Read ``bnerr/data/<name>`` and check that it is ``dtype`` of ``shape`` (a ``None`` entry
+    accepts any size on that axis).
 
     Returns:
         A writable numpy array owned by the caller.
@@ -48,9 +49,13 @@ def load_array(name: str, dtype: np.dtype | type, shape: tuple[int, ...]) -> np.
         raise FileFormatError(
             f"{resource}: expected a .npy array, got unreadable data ({err})"
         ) from err
-    if array.shape != tuple(shape) or array.dtype != np.dtype(dtype):
+    fits = array.ndim == len(shape) and all(
+        want is None or want == got for want, got in zip(shape, array.shape)
+    )
+    if not fits or array.dtype != np.dtype(dtype):
         raise FileFormatError(
-            f"{resource}: expected {np.dtype(dtype)} of shape {list(shape)}, "
+            f"{resource}: expected {np.dtype(dtype)} of shape "
+            f"{['*' if n is None else n for n in shape]}, "
             f"got {array.dtype} of shape {list(array.shape)}"
         )
     return array.copy()

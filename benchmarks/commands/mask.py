@@ -70,7 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="Gaussian sigma in frames (--frames only, default 1.9)",
     )
     parser.add_argument(
-        "--device", default="cpu", help="torch device for --frames masks (default cpu)"
+        "--device", default="cpu", help="torch device for --frames masks and --ldbn (default cpu)"
     )
     parser.add_argument(
         "--threads",

@@ -155,9 +155,10 @@ def feature_basis(values: torch.Tensor, components: int = 32) -> FeatureBasis:
     scale = torch.where(std > 1e-12, std, torch.ones_like(std))
     x = x / scale
     c = min(components, x.shape[1], x.shape[0])
-    # the right singular vectors of x are the principal axes
-    _, _, vh = torch.linalg.svd(x, full_matrices=False)
-    axes = vh[:c]
+    # the principal axes: the eigenvectors of the tests' Gram matrix (x's right singular
+    # vectors), largest eigenvalue first; [tests, tests] whatever the number of keys
+    _, vectors = torch.linalg.eigh(x.T @ x)
+    axes = vectors.flip(1)[:, :c].T
     sign = torch.sign(axes.gather(1, axes.abs().argmax(1, keepdim=True)))
     return FeatureBasis(mean, scale, axes * sign)
 

@@ -19,14 +19,25 @@ on 4D test integrands of both pairs, the first pair's keys fixed
 meets another shading point, and the 2D tests do not see that interaction (docs/METHODS.md,
 section 10).
 
-After each job the checkpoint (``.npz``, written atomically) holds every finished job; a rerun
-with the same arguments skips them, so an interrupted run resumes where it stopped. With the same
-arguments on one torch thread the result is the same bit for bit.
+**Rounds.** The (level, pair) jobs are independent (but for the joint ones), so they run in
+rounds, batched (:func:`bnerr.ldbn.swaps.swap_descents`, :func:`~bnerr.ldbn.swaps.flip_descents`):
+round 0 permutes every job's scrambling keys, round r >= 1 chooses ranking bit r of every job of
+a level >= r. Each job draws from its own seeds, so its keys do not depend on which jobs share
+its round. The run follows ``device`` (``cpu`` or ``cuda``): the same options give the same keys
+on one device, different keys on another (docs/METHODS.md, section 10).
+
+After each round the checkpoint (``.npz``, compressed, written atomically) holds every job's
+keys and the number of its stages done; a rerun with the same options skips them, so an
+interrupted run (or one stopped at its ``deadline``) resumes where it stopped. With the same
+arguments on one device the result is the same bit for bit. The key sets before this batching
+(the shipped 64 x 64 ones) were made by the sequential descent, one job after another; the
+batched one does not reproduce them bit for bit.
 """
 
 from __future__ import annotations
 
 import json
+import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -35,6 +46,7 @@ import numpy as np
 import torch
 
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
+from bnerr.hashing import lowbias32_host, signed32
 from bnerr.io import atomic_write
 from bnerr.ldbn.integrands import (
     Integrands,
@@ -46,9 +58,9 @@ from bnerr.ldbn.integrands import (
 from bnerr.ldbn.swaps import (
     Progress,
     energy_kernel,
-    flip_descent,
+    flip_descents,
     joint_swap_descent,
-    swap_descent,
+    swap_descents,
 )
 from bnerr.resources import load_array, shipped_files
 from bnerr.sequences.ldbn import LDBNKeys, shared_words
@@ -58,6 +70,7 @@ __all__ = [
     "KeyOptions",
     "load_ldbn_keys",
     "optimize_keys",
+    "run_keys",
     "shipped_ldbn",
     "ldbn_file_name",
     "write_keys",
@@ -84,6 +97,8 @@ class KeyOptions:
         tests: test integrands; components: principal components kept; iterations: per stage.
         seed: random start and test integrands; seed0: the shared sequence's seed.
         joint: optimize the pairs past the first jointly with it (module docstring).
+        device: the torch device the descents run on (``cpu``, ``cuda``, ``cuda:1``); the
+            keys differ between devices (module docstring).
     """
 
     size: int = 64
@@ -99,8 +114,15 @@ class KeyOptions:
     seed: int = 0
     seed0: int = SHIPPED_SEED0
     joint: bool = False
+    device: str = "cpu"
 
     def __post_init__(self) -> None:
+        try:
+            torch.device(self.device)
+        except (RuntimeError, TypeError) as err:
+            raise ValueRangeError(
+                f"device: expected a torch device such as 'cpu' or 'cuda', got {self.device!r}"
+            ) from err
         check_positive_int(self.size, "size", minimum=2)
         check_positive_int(self.levels, "levels")
         check_positive_int(self.frames, "frames")
@@ -134,9 +156,13 @@ class _Job:
 
     def __init__(self, opts: KeyOptions, level: int, pair: int) -> None:
         self.n = 1 << level
+        self.level = level
         self.texels = opts.frames * opts.size * opts.size
-        self.gen = torch.Generator().manual_seed(opts.seed * 1_000_003 + level * 1009 + pair)
-        self.shared = shared_words(opts.seed0, torch.arange(self.n), 2 * pair, 2).T.long()
+        self.base = opts.seed * 1_000_003 + level * 1009 + pair
+        self.gen = torch.Generator().manual_seed(self.base)
+        self.device = torch.device(opts.device)
+        shared = shared_words(opts.seed0, torch.arange(self.n), 2 * pair, 2).T.long()
+        self.shared = shared.to(self.device)
         self.tests: Integrands = make_integrands(opts.tests, opts.seed * 7919 + pair)
         self.kernel = energy_kernel(
             opts.size, opts.frames, opts.sigma, opts.sigma_t, opts.autocorrelation
@@ -144,29 +170,43 @@ class _Job:
         self.opts = opts
         self.pair = pair
 
+    def seed(self, stage: int) -> int:
+        """The int32 seed of this job's descent in ``stage`` (its draws: bnerr.ldbn.swaps)."""
+        return signed32(lowbias32_host(lowbias32_host(self.base) ^ (stage * 0x9E3779B9)))
+
     def features(self, indices: torch.Tensor, keys: torch.Tensor) -> torch.Tensor:
         """Error features of point sets ``shared[indices [K, m]] XOR keys [K, 2]``: ``[K, C]``."""
         points = (self.shared[indices] ^ keys[:, None, :]).float() / _TWO_24
         return error_features(estimates(points, self.tests), self.opts.components)
 
-    def scramble(self, progress: Progress | None) -> torch.Tensor:
+    def random_keys(self) -> torch.Tensor:
+        """``[P, 2]`` the random scrambling keys the swaps permute (drawn on the CPU)."""
         keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
-        indices = torch.arange(self.n).expand(self.texels, -1)
-        perm = swap_descent(
-            self.features(indices, keys), self.kernel, self.opts.iterations, self.gen, progress
-        )
-        return keys[perm]
+        return keys.to(self.device)
+
+    def scramble_features(self, keys: torch.Tensor) -> torch.Tensor:
+        """``[P, C]`` the features of the keys ``[P, 2]`` on the tile's first N indices."""
+        indices = torch.arange(self.n, device=self.device).expand(self.texels, -1)
+        return self.features(indices, keys)
+
+    def rank_options(self, keys: torch.Tensor, rank: torch.Tensor, m: int) -> torch.Tensor:
+        """``[2, P, C]`` the features of each texel's first ``m`` samples as the lower or the
+        upper half of the 2m-block its larger prefixes (``rank [P]``) chose."""
+        starts = torch.stack([rank, rank + m])  # [2, P]
+        indices = starts[..., None] + torch.arange(m, device=self.device)  # [2, P, m]
+        both = self.features(indices.reshape(-1, m), keys.repeat(2, 1))
+        return both.reshape(2, self.texels, -1)
 
     def joint_scramble(
         self, first: torch.Tensor, rank: torch.Tensor, progress: Progress | None
     ) -> torch.Tensor:
         """This pair's scrambling keys on 4D tests of it and the first pair, whose keys
-        ``first [P, 2]`` and ranks ``rank [P]`` (shared by both pairs) are fixed."""
+        ``first [P, 2]`` and ranks ``rank [P]`` (shared by both pairs) are fixed (on the CPU)."""
         keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
         index = torch.arange(self.n)[None, :] ^ rank[:, None]  # [P, N]
         words0 = shared_words(self.opts.seed0, torch.arange(self.n), 0, 2).T.long()
         jitter = (words0[index] ^ first[:, None, :]).float() / _TWO_24  # [P, N, 2]
-        words = self.shared[index]  # [P, N, 2]
+        words = self.shared.cpu()[index]  # [P, N, 2]
         tests = make_integrands(self.opts.tests, self.opts.seed * 7919 + 104729 + self.pair, 4)
 
         def values(texels: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
@@ -184,31 +224,13 @@ class _Job:
         )
         return keys[perm]
 
-    def rank(self, keys: torch.Tensor, progress: Progress | None) -> torch.Tensor:
-        rank = torch.zeros(self.texels, dtype=torch.int64)
-        m = self.n // 2
-        while m >= 1:
-            starts = torch.stack([rank, rank + m])  # [2, P]: the two halves' first indices
-            indices = starts[..., None] + torch.arange(m)  # [2, P, m]
-            both = self.features(indices.reshape(-1, m), keys.repeat(2, 1))
-            choice = flip_descent(
-                both.reshape(2, self.texels, -1),
-                self.kernel,
-                self.opts.iterations,
-                self.gen,
-                progress,
-            )
-            rank = rank + choice * m
-            m //= 2
-        return rank
-
 
 def _empty(opts: KeyOptions) -> dict[str, np.ndarray]:
     shape = (opts.levels, opts.frames, opts.size, opts.size)
     return {
         "scramble": np.zeros((*shape, opts.dims), np.int32),
         "rank": np.zeros((*shape, opts.dims // 2), np.int32),
-        "done": np.zeros((opts.levels, opts.dims // 2), np.bool_),
+        "stage": np.zeros((opts.levels, opts.dims // 2), np.int32),
     }
 
 
@@ -220,7 +242,7 @@ def _load_checkpoint(path: Path | None, opts: KeyOptions) -> dict[str, np.ndarra
             raise FileFormatError(
                 f"{path}: expected a checkpoint of options {asdict(opts)}, got {data['options']}"
             )
-        return {k: data[k].copy() for k in ("scramble", "rank", "done")}
+        return {k: data[k].copy() for k in ("scramble", "rank", "stage")}
 
 
 def _save_checkpoint(path: Path, opts: KeyOptions, state: dict[str, np.ndarray]) -> None:
@@ -228,23 +250,122 @@ def _save_checkpoint(path: Path, opts: KeyOptions, state: dict[str, np.ndarray])
         arrays: dict[str, np.ndarray] = {
             "options": np.array(json.dumps(asdict(opts), sort_keys=True))
         }
-        np.savez(f, **arrays, **state)  # type: ignore[arg-type]
+        np.savez_compressed(f, **arrays, **state)  # type: ignore[arg-type]
 
 
-def _run_job(
-    job: _Job, state: dict[str, np.ndarray], level: int, progress: Progress | None
-) -> tuple[torch.Tensor, torch.Tensor]:
-    """One (level, pair) job's scrambling keys ``[P, 2]`` and ranking keys ``[P]``."""
-    if not job.opts.is_joint(job.pair):
-        keys = job.scramble(progress)
-        return keys, job.rank(keys, progress)
-    if not state["done"][level, 0]:
-        raise ValueRangeError(
-            f"level {level}: the first pair must be optimized before pair {job.pair}"
+def _store(state: dict[str, np.ndarray], job: _Job, keys: torch.Tensor, rank: torch.Tensor) -> None:
+    """Write one job's scrambling keys ``[P, 2]`` and (partial) ranks ``[P]`` into the state."""
+    shape = state["rank"].shape[1:4]
+    pairs = slice(2 * job.pair, 2 * job.pair + 2)
+    state["scramble"][job.level, ..., pairs] = keys.reshape(*shape, 2).cpu().numpy()
+    state["rank"][job.level, ..., job.pair] = rank.reshape(shape).cpu().numpy()
+
+
+def _job_keys(state: dict[str, np.ndarray], job: _Job) -> tuple[torch.Tensor, torch.Tensor]:
+    """One job's scrambling keys ``[P, 2]`` and ranks so far ``[P]`` from the state."""
+    pairs = slice(2 * job.pair, 2 * job.pair + 2)
+    keys = torch.from_numpy(state["scramble"][job.level, ..., pairs].reshape(-1, 2)).long()
+    rank = torch.from_numpy(state["rank"][job.level, ..., job.pair].reshape(-1)).long()
+    return keys.to(job.device), rank.to(job.device)
+
+
+def _run_round(
+    opts: KeyOptions,
+    state: dict[str, np.ndarray],
+    jobs: list[_Job],
+    stage: int,
+    steps: tuple[Progress | None, float | None],
+) -> bool:
+    """Stage ``stage`` of every job at once (module docstring); False if the deadline passed."""
+    progress, deadline = steps
+    device = jobs[0].device
+    seeds = torch.tensor([job.seed(stage) for job in jobs], dtype=torch.int32, device=device)
+    kernel = jobs[0].kernel
+    if stage == 0:
+        keys = [job.random_keys() for job in jobs]
+        feats = torch.stack([job.scramble_features(k) for job, k in zip(jobs, keys)])
+        perms = swap_descents(feats, kernel, opts.iterations, seeds, progress, deadline)
+        if perms is None:
+            return False
+        for job, k, perm in zip(jobs, keys, perms):
+            _store(state, job, k[perm], torch.zeros_like(perm))
+    else:
+        current = [_job_keys(state, job) for job in jobs]
+        feats = torch.stack(
+            [job.rank_options(k, r, job.n >> stage) for job, (k, r) in zip(jobs, current)]
         )
-    first = torch.from_numpy(state["scramble"][level, ..., 0:2].reshape(-1, 2)).long()
-    rank = torch.from_numpy(state["rank"][level, ..., 0].reshape(-1)).long()
+        choices = flip_descents(feats, kernel, opts.iterations, seeds, progress, deadline)
+        if choices is None:
+            return False
+        for job, (k, r), choice in zip(jobs, current, choices):
+            _store(state, job, k, r + choice * (job.n >> stage))
+    for job in jobs:
+        state["stage"][job.level, job.pair] = stage + 1
+    return True
+
+
+def _run_joint(
+    job: _Job, state: dict[str, np.ndarray], progress: Progress | None
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """One joint job's scrambling keys ``[P, 2]`` and the first pair's ranks ``[P]``."""
+    if state["stage"][job.level, 0] < job.opts.stages(job.level, 0):
+        raise ValueRangeError(
+            f"level {job.level}: the first pair must be optimized before pair {job.pair}"
+        )
+    first = torch.from_numpy(state["scramble"][job.level, ..., 0:2].reshape(-1, 2)).long()
+    rank = torch.from_numpy(state["rank"][job.level, ..., 0].reshape(-1)).long()
     return job.joint_scramble(first, rank, progress), rank
+
+
+def run_keys(
+    opts: KeyOptions,
+    checkpoint: str | Path | None = None,
+    progress: Progress | None = None,
+    deadline: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, bool]:
+    """:func:`optimize_keys` that may stop at a ``deadline`` (``time.monotonic()`` seconds).
+
+    Returns:
+        ``(scramble, rank, finished)``: the keys so far (the checkpoint's, when one is given)
+        and whether every job is done; a rerun with the checkpoint continues.
+    """
+    path = None if checkpoint is None else Path(checkpoint)
+    state = _load_checkpoint(path, opts)
+    pairs = opts.dims // 2
+    plain = [(lv, p) for lv in range(opts.levels) for p in range(pairs) if not opts.is_joint(p)]
+    if progress is not None:
+        progress(
+            opts.iterations
+            * sum(int(state["stage"][lv, p]) for lv in range(opts.levels) for p in range(pairs))
+        )
+    for stage in range(opts.levels):
+        todo = [
+            _Job(opts, lv, p) for lv, p in plain if lv >= stage and state["stage"][lv, p] == stage
+        ]
+        if not todo:
+            continue
+        if not _run_round(opts, state, todo, stage, (progress, deadline)):
+            return state["scramble"], state["rank"], False
+        if path is not None:
+            _save_checkpoint(path, opts, state)
+    for level in range(opts.levels):
+        for pair in range(1, pairs) if opts.joint else ():
+            if state["stage"][level, pair] or (
+                deadline is not None and time.monotonic() > deadline
+            ):
+                continue
+            job = _Job(opts, level, pair)
+            keys, rank = _run_joint(job, state, progress)
+            _store(state, job, keys, rank)
+            state["stage"][level, pair] = 1
+            if path is not None:
+                _save_checkpoint(path, opts, state)
+    done = all(
+        state["stage"][lv, p] == opts.stages(lv, p)
+        for lv in range(opts.levels)
+        for p in range(pairs)
+    )
+    return state["scramble"], state["rank"], done
 
 
 def optimize_keys(
@@ -256,8 +377,8 @@ def optimize_keys(
 
     Args:
         opts: what to optimize for.
-        checkpoint: an ``.npz`` file to resume from and to write after each job (None: none).
-        progress: called with the number of descent iterations just done.
+        checkpoint: an ``.npz`` file to resume from and to write after each round (None: none).
+        progress: called with the number of descent iterations just done (summed over jobs).
 
     Returns:
         ``(scramble [L, F, T, T, D], rank [L, F, T, T, D // 2])`` int32.
@@ -265,23 +386,8 @@ def optimize_keys(
     Raises:
         FileFormatError: the checkpoint was written for other options.
     """
-    path = None if checkpoint is None else Path(checkpoint)
-    state = _load_checkpoint(path, opts)
-    shape = (opts.frames, opts.size, opts.size)
-    for level in range(opts.levels):
-        for pair in range(opts.dims // 2):
-            if state["done"][level, pair]:
-                if progress is not None:
-                    progress(opts.stages(level, pair) * opts.iterations)
-                continue
-            keys, rank = _run_job(_Job(opts, level, pair), state, level, progress)
-            pairs = slice(2 * pair, 2 * pair + 2)
-            state["scramble"][level, ..., pairs] = keys.reshape(*shape, 2).numpy()
-            state["rank"][level, ..., pair] = rank.reshape(shape).numpy()
-            state["done"][level, pair] = True
-            if path is not None:
-                _save_checkpoint(path, opts, state)
-    return state["scramble"], state["rank"]
+    scramble, rank, _ = run_keys(opts, checkpoint, progress)
+    return scramble, rank
 
 
 def ldbn_file_name(kind: str, size: int, frames: int = 1) -> str:
@@ -304,14 +410,25 @@ def load_ldbn_keys(
     kind: str,
     size: int,
     frames: int = 1,
-    levels: int = 5,
-    dims: int = 8,
+    levels: int | None = None,
+    dims: int | None = None,
     seed0: int = SHIPPED_SEED0,
 ) -> list[LDBNKeys]:
-    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``), one :class:`LDBNKeys` per
-    frame slice (one for a screen tile). Raises FileFormatError if absent or malformed."""
-    shape = (levels, frames, size, size, dims + dims // 2)
+    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``) of tile ``size`` and
+    ``frames`` slices, one :class:`LDBNKeys` per frame slice (one for a screen tile).
+
+    The levels L and dimensions D are read from the file's shape ``[L, F, T, T, D + D/2]``;
+    ``levels`` or ``dims``, when given, must match. Raises FileFormatError if the file is absent
+    or malformed."""
+    shape = (levels, frames, size, size, None if dims is None else dims + dims // 2)
     array = torch.from_numpy(load_array(ldbn_file_name(kind, size, frames), np.int32, shape))
+    channels = array.shape[-1]
+    if channels % 3 or channels < 3:
+        raise FileFormatError(
+            f"{ldbn_file_name(kind, size, frames)}: expected D + D/2 channels for an even D, "
+            f"got {channels}"
+        )
+    dims = 2 * channels // 3
     return [
         LDBNKeys(array[:, f, ..., :dims].contiguous(), array[:, f, ..., dims:].contiguous(), seed0)
         for f in range(frames)

@@ -32,16 +32,29 @@ temperature. The lowest-energy arrangement met is returned.
 Matchings: texel ``i`` is paired with ``i XOR m`` for a random mask ``m`` when every side of the
 tile is a power of two (the components of ``m`` have a random number of bits, so partners are
 near as often as far), else with its partner in a random perfect matching.
+
+**Batches and devices.** :func:`swap_descents` and :func:`flip_descents` run B independent
+descents of one tile shape at once (the LDBN optimizer batches every (level, pair) job of a round:
+one FFT over B x C channels per iteration), on the device of their input, with no host
+synchronization inside the loop. Their random numbers (the masks, the acceptance draws, the
+starting choices) are counter-based hashes of a per-descent seed (:func:`uniforms`), not a
+generator's stream: a descent's draws do not depend on which others share its batch, nor on the
+device. The arithmetic does (FFT and reduction orders differ between CPU and CUDA, and a
+different rounding can change a kept move), so CPU and CUDA give different keys, each
+reproducible on its device. With a ``deadline`` (``time.monotonic()`` seconds) a descent returns
+None at the first iteration that starts past it.
 """
 
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 
 import torch
 
 from bnerr.errors import ShapeError, check_positive_int, check_shape
+from bnerr.hashing import lowbias32, lowbias32_host, signed32, srl32
 
 __all__ = [
     "Evaluate",
@@ -49,8 +62,11 @@ __all__ = [
     "energy",
     "energy_kernel",
     "flip_descent",
+    "flip_descents",
     "joint_swap_descent",
     "swap_descent",
+    "swap_descents",
+    "uniforms",
 ]
 
 Progress = Callable[[int], None]
@@ -91,12 +107,11 @@ def energy_kernel(
 
 
 def _field(x: torch.Tensor, kernel_fft: torch.Tensor, shape: tuple[int, ...]) -> torch.Tensor:
-    """``w * x`` for ``x [C, P]`` on the torus of ``shape`` (F, T, T): ``[C, P]``."""
-    grid = x.reshape(x.shape[0], *shape)
-    out = torch.fft.irfftn(
-        torch.fft.rfftn(grid, dim=(1, 2, 3)) * kernel_fft, s=shape, dim=(1, 2, 3)
-    )
-    return out.reshape(x.shape[0], -1)
+    """``w * x`` for ``x [..., P]`` on the torus of ``shape`` (F, T, T): ``[..., P]``."""
+    grid = x.reshape(*x.shape[:-1], *shape)
+    dims = (-3, -2, -1)
+    out = torch.fft.irfftn(torch.fft.rfftn(grid, dim=dims) * kernel_fft, s=shape, dim=dims)
+    return out.reshape(x.shape)
 
 
 def energy(x: torch.Tensor, kernel: torch.Tensor) -> float:
@@ -110,33 +125,82 @@ def energy(x: torch.Tensor, kernel: torch.Tensor) -> float:
     return float((xt * _field(xt, kfft, shape)).sum())
 
 
+_TWO_24 = float(1 << 24)
+
+
+def uniforms(seeds: torch.Tensor, counter: int, count: int) -> torch.Tensor:
+    """``[B, count]`` float64 uniforms in [0, 1) (24 bits), a hash of each descent's int32 seed
+    ``seeds [B]``, the ``counter`` (the draw) and the lane: the same on every device."""
+    key = lowbias32(seeds ^ signed32(lowbias32_host(counter)))
+    lanes = torch.arange(count, dtype=torch.int32, device=seeds.device)
+    return srl32(lowbias32(key[:, None] ^ lanes), 8).double() / _TWO_24
+
+
+def _late(deadline: float | None) -> bool:
+    return deadline is not None and time.monotonic() > deadline
+
+
 class _Acceptance:
-    """The probability ``q`` of keeping a move, adapted to the energy's course."""
+    """Per descent: the probability ``q`` of keeping a move, adapted to the energy's course, and
+    the lowest-energy state met (tensors on the descents' device, never read by the host)."""
 
-    def __init__(self) -> None:
-        self.q, self.last = 0.5, math.inf
+    def __init__(self, count: int, device: torch.device) -> None:
+        self.q = torch.full((count,), 0.5, dtype=torch.float64, device=device)
+        self.last = torch.full((count,), math.inf, dtype=torch.float64, device=device)
+        self.best_e = self.last.clone()
+        self.best: torch.Tensor | None = None
 
-    def update(self, e: float) -> None:
-        self.q = max(0.02, self.q * 0.5) if e > self.last else min(1.0, self.q * 1.05)
-        self.last = e
+    def observe(self, e: torch.Tensor, state: torch.Tensor, adapt: bool = True) -> None:
+        """The energies ``e [B]`` of ``state [B, P]``: keep the best; adapt ``q``."""
+        better = e < self.best_e
+        self.best = (
+            state.clone() if self.best is None else torch.where(better[:, None], state, self.best)
+        )
+        self.best_e = torch.where(better, e, self.best_e)
+        if adapt:
+            up, down = (self.q * 1.05).clamp_max(1.0), (self.q * 0.5).clamp_min(0.02)
+            self.q = torch.where(e > self.last, down, up)
+            self.last = e
+
+    def accept(self, change: torch.Tensor, seeds: torch.Tensor, counter: int) -> torch.Tensor:
+        """``change [B, M]`` -> which moves to make: improving ones, each with probability q."""
+        draw = uniforms(seeds, counter, change.shape[1])
+        return (change < 0) & (draw < self.q[:, None])
+
+
+def _pairs(
+    shape: tuple[int, ...], seeds: torch.Tensor, counter: int
+) -> tuple[torch.Tensor, torch.Tensor]:
+    """One random perfect matching of the texels per descent (module docstring): ``(a, b)``
+    each ``[B, P / 2]`` on the seeds' device."""
+    n, count, device = math.prod(shape), seeds.shape[0], seeds.device
+    if not (all(s & (s - 1) == 0 for s in shape) and n > 1):
+        order = uniforms(seeds, counter, n - n % 2).argsort(dim=1, stable=True)
+        return order[:, : n // 2], order[:, n // 2 :]
+    words = (uniforms(seeds, counter, 2 * len(shape)) * _TWO_24).long()
+    mask = torch.zeros(count, dtype=torch.int64, device=device)
+    for k, side in enumerate(shape):
+        bits = words[:, 2 * k] % side.bit_length()
+        mask = mask * side + (words[:, 2 * k + 1] & ((1 << bits) - 1)) % side
+    mask = torch.where(mask == 0, 1, mask)[:, None]
+    high = torch.zeros_like(mask)  # the highest set bit of the mask
+    for j in range(1, (n - 1).bit_length()):
+        high += ((mask >> j) > 0).long()
+    lane = torch.arange(n // 2, device=device)[None, :]
+    a = ((lane >> high) << (high + 1)) | (lane & ((1 << high) - 1))  # bit `high` cleared
+    return a, a ^ mask
 
 
 def _matching(shape: tuple[int, ...], gen: torch.Generator) -> tuple[torch.Tensor, torch.Tensor]:
-    """A random perfect matching of the texels (module docstring): ``(a, b)`` each ``[P / 2]``."""
-    n = math.prod(shape)
-    if all(s & (s - 1) == 0 for s in shape) and n > 1:
-        mask = 0
-        for side in shape:
-            bits = int(torch.randint(0, side.bit_length(), (1,), generator=gen))
-            mask = mask * side + int(torch.randint(0, 1 << bits, (1,), generator=gen)) % side
-        if mask == 0:
-            mask = 1
-        i = torch.arange(n)
-        j = i ^ mask
-        keep = i < j
-        return i[keep], j[keep]
-    order = torch.randperm(n - n % 2, generator=gen)
-    return order[: n // 2], order[n // 2 :]
+    """One matching of :func:`_pairs` from a generator's seed: ``(a, b)`` each ``[P / 2]``."""
+    a, b = _pairs(shape, _seed_of(gen), 0)
+    return a[0], b[0]
+
+
+def _seed_of(gen: torch.Generator, device: torch.device | str = "cpu") -> torch.Tensor:
+    """A ``[1]`` int32 descent seed drawn from ``gen`` (the single-descent wrappers)."""
+    value = int(torch.randint(-(2**31), 2**31, (1,), generator=gen))
+    return torch.tensor([value], dtype=torch.int32, device=device)
 
 
 def _offsets_weight(
@@ -152,6 +216,107 @@ def _offsets_weight(
     return kernel.reshape(-1)[out]
 
 
+def _take(x: torch.Tensor, index: torch.Tensor) -> torch.Tensor:
+    """``x [B, C, P]`` at the texels ``index [B, M]``: ``[B, C, M]``."""
+    return x.gather(2, index[:, None, :].expand(-1, x.shape[1], -1))
+
+
+def _energies(cur: torch.Tensor, field: torch.Tensor) -> torch.Tensor:
+    return (cur * field).sum((1, 2))
+
+
+def _seeds(seeds: torch.Tensor, count: int, device: torch.device) -> torch.Tensor:
+    if seeds.shape != (count,) or seeds.dtype != torch.int32:
+        raise ShapeError(
+            f"seeds: expected int32 of shape [{count}], got {seeds.dtype} {list(seeds.shape)}"
+        )
+    return seeds.to(device)
+
+
+def swap_descents(
+    x: torch.Tensor,
+    kernel: torch.Tensor,
+    iterations: int,
+    seeds: torch.Tensor,
+    progress: Progress | None = None,
+    deadline: float | None = None,
+) -> torch.Tensor | None:
+    """Permute the rows of each ``x[b] [P, C]`` over the tile to lower :func:`energy`: B
+    descents at once on ``x``'s device, descent b drawing from ``seeds[b]`` (module docstring).
+
+    Returns:
+        ``perm [B, P]`` int64 (texel p of descent b takes row ``perm[b, p]``), or None when the
+        ``deadline`` passed first.
+    """
+    check_shape(x, "B P C", "x")
+    shape, device = tuple(kernel.shape), x.device
+    feats = x.double().transpose(1, 2).contiguous()  # [B, C, P]
+    count, n = feats.shape[0], feats.shape[2]
+    seeds = _seeds(seeds, count, device)
+    kern = kernel.double().to(device)
+    kfft = torch.fft.rfftn(kern, dim=(0, 1, 2))
+    perm = torch.arange(n, device=device).repeat(count, 1)
+    acc = _Acceptance(count, device)
+    for it in range(check_positive_int(iterations, "iterations")):
+        if _late(deadline):
+            return None
+        cur = _take(feats, perm)
+        field = _field(cur, kfft, shape)
+        acc.observe(_energies(cur, field), perm)
+        a, b = _pairs(shape, seeds, 2 * it)
+        d = _take(cur, b) - _take(cur, a)
+        w = _offsets_weight(a, b, kern, shape)
+        change = 2 * (d * (_take(field, a) - _take(field, b))).sum(1) - 2 * w * (d * d).sum(1)
+        keep = acc.accept(change, seeds, 2 * it + 1)
+        pa, pb = perm.gather(1, a), perm.gather(1, b)
+        perm.scatter_(1, a, torch.where(keep, pb, pa))
+        perm.scatter_(1, b, torch.where(keep, pa, pb))
+        if progress is not None:
+            progress(count)
+    cur = _take(feats, perm)
+    acc.observe(_energies(cur, _field(cur, kfft, shape)), perm, adapt=False)
+    return acc.best
+
+
+def flip_descents(
+    options: torch.Tensor,
+    kernel: torch.Tensor,
+    iterations: int,
+    seeds: torch.Tensor,
+    progress: Progress | None = None,
+    deadline: float | None = None,
+) -> torch.Tensor | None:
+    """Choose one of two feature rows per texel, ``options [B, 2, P, C]``, to lower
+    :func:`energy`: B descents at once on the options' device (module docstring).
+
+    Returns:
+        ``choice [B, P]`` int64 in {0, 1}, starting from a random choice, or None when the
+        ``deadline`` passed first.
+    """
+    check_shape(options, "B 2 P C", "options")
+    shape, device = tuple(kernel.shape), options.device
+    opts = options.double().transpose(2, 3).contiguous()  # [B, 2, C, P]
+    count, n = opts.shape[0], opts.shape[3]
+    seeds = _seeds(seeds, count, device)
+    kfft = torch.fft.rfftn(kernel.double().to(device), dim=(0, 1, 2))
+    choice = (uniforms(seeds, -1, n) < 0.5).long()
+    acc = _Acceptance(count, device)
+    for it in range(check_positive_int(iterations, "iterations")):
+        if _late(deadline):
+            return None
+        upper = choice[:, None, :].bool()
+        cur = torch.where(upper, opts[:, 1], opts[:, 0])
+        field = _field(cur, kfft, shape)
+        acc.observe(_energies(cur, field), choice)
+        change = 2 * ((torch.where(upper, opts[:, 0], opts[:, 1]) - cur) * field).sum(1)
+        choice = torch.where(acc.accept(change, seeds, it), 1 - choice, choice)
+        if progress is not None:
+            progress(count)
+    cur = torch.where(choice[:, None, :].bool(), opts[:, 1], opts[:, 0])
+    acc.observe(_energies(cur, _field(cur, kfft, shape)), choice, adapt=False)
+    return acc.best
+
+
 def swap_descent(
     x: torch.Tensor,
     kernel: torch.Tensor,
@@ -159,36 +324,16 @@ def swap_descent(
     gen: torch.Generator,
     progress: Progress | None = None,
 ) -> torch.Tensor:
-    """Permute the rows of ``x [P, C]`` over the tile to lower :func:`energy`.
+    """Permute the rows of ``x [P, C]`` over the tile to lower :func:`energy` (one descent of
+    :func:`swap_descents`, its seed drawn from ``gen``).
 
     Returns:
         ``perm [P]`` int64: texel p takes row ``perm[p]`` of ``x``.
     """
-    shape = tuple(kernel.shape)
-    feats = x.double().T.contiguous()
-    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
-    perm = torch.arange(feats.shape[1])
-    best, best_e, acc = perm.clone(), math.inf, _Acceptance()
-    for _ in range(check_positive_int(iterations, "iterations")):
-        cur = feats[:, perm]
-        field = _field(cur, kfft, shape)
-        e = float((cur * field).sum())
-        if e < best_e:
-            best, best_e = perm.clone(), e
-        acc.update(e)
-        a, b = _matching(shape, gen)
-        d = cur[:, b] - cur[:, a]
-        w = _offsets_weight(a, b, kernel.double(), shape)
-        change = 2 * (d * (field[:, a] - field[:, b])).sum(0) - 2 * w * (d * d).sum(0)
-        keep = (change < 0) & (torch.rand(a.shape, generator=gen, dtype=torch.float64) < acc.q)
-        a, b = a[keep], b[keep]
-        perm[a], perm[b] = perm[b].clone(), perm[a].clone()
-        if progress is not None:
-            progress(1)
-    cur = feats[:, perm]
-    if float((cur * _field(cur, kfft, shape)).sum()) < best_e:
-        best = perm
-    return best
+    check_shape(x, "P C", "x")
+    perm = swap_descents(x[None], kernel, iterations, _seed_of(gen, x.device), progress)
+    assert perm is not None  # no deadline
+    return perm[0]
 
 
 def flip_descent(
@@ -198,36 +343,17 @@ def flip_descent(
     gen: torch.Generator,
     progress: Progress | None = None,
 ) -> torch.Tensor:
-    """Choose one of two feature rows per texel, ``options [2, P, C]``, to lower :func:`energy`.
+    """Choose one of two feature rows per texel, ``options [2, P, C]``, to lower :func:`energy`
+    (one descent of :func:`flip_descents`, its seed drawn from ``gen``).
 
     Returns:
         ``choice [P]`` int64 in {0, 1}, starting from a random choice.
     """
-    shape = tuple(kernel.shape)
     check_shape(options, "2 P C", "options")
-    opts = options.double().transpose(1, 2).contiguous()  # [2, C, P]
-    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
-    n = opts.shape[2]
-    choice = torch.randint(0, 2, (n,), generator=gen)
-    best, best_e, acc = choice.clone(), math.inf, _Acceptance()
-    cols = torch.arange(n)
-    for _ in range(check_positive_int(iterations, "iterations")):
-        cur = opts[choice, :, cols].T
-        field = _field(cur, kfft, shape)
-        e = float((cur * field).sum())
-        if e < best_e:
-            best, best_e = choice.clone(), e
-        acc.update(e)
-        alt = opts[1 - choice, :, cols].T
-        change = 2 * ((alt - cur) * field).sum(0)
-        keep = (change < 0) & (torch.rand(n, generator=gen, dtype=torch.float64) < acc.q)
-        choice = torch.where(keep, 1 - choice, choice)
-        if progress is not None:
-            progress(1)
-    cur = opts[choice, :, cols].T
-    if float((cur * _field(cur, kfft, shape)).sum()) < best_e:
-        best = choice
-    return best
+    seed = _seed_of(gen, options.device)
+    choice = flip_descents(options[None], kernel, iterations, seed, progress)
+    assert choice is not None  # no deadline
+    return choice[0]
 
 
 def joint_swap_descent(
@@ -238,36 +364,37 @@ def joint_swap_descent(
     progress: Progress | None = None,
 ) -> torch.Tensor:
     """Permute P keys over the tile to lower :func:`energy` when a key's features depend on the
-    texel that holds it (module docstring): ``evaluate`` gives them.
+    texel that holds it (module docstring): ``evaluate`` gives them. The moves and draws are
+    :func:`swap_descent`'s (one descent, on the CPU).
 
     Returns:
         ``perm [P]`` int64: texel p takes key ``perm[p]``, starting from the identity.
     """
     shape = tuple(kernel.shape)
     n = math.prod(shape)
-    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
+    seeds = _seed_of(gen)
+    kern = kernel.double()
+    kfft = torch.fft.rfftn(kern, dim=(0, 1, 2))
     perm = torch.arange(n)
-    cur = evaluate(perm, perm).double().T.contiguous()  # [C, P]
-    best, best_e, acc = perm.clone(), math.inf, _Acceptance()
-    for _ in range(check_positive_int(iterations, "iterations")):
+    cur = evaluate(perm, perm).double().T.contiguous()[None]  # [1, C, P]
+    acc = _Acceptance(1, cur.device)
+    for it in range(check_positive_int(iterations, "iterations")):
         field = _field(cur, kfft, shape)
-        e = float((cur * field).sum())
-        if e < best_e:
-            best, best_e = perm.clone(), e
-        acc.update(e)
-        a, b = _matching(shape, gen)
-        da = evaluate(a, perm[b]).double().T - cur[:, a]
-        db = evaluate(b, perm[a]).double().T - cur[:, b]
-        w = _offsets_weight(a, b, kernel.double(), shape)
-        change = 2 * ((da * field[:, a]).sum(0) + (db * field[:, b]).sum(0))
+        acc.observe(_energies(cur, field), perm[None])
+        pa, pb = _pairs(shape, seeds, 2 * it)
+        a, b = pa[0], pb[0]
+        da = evaluate(a, perm[b]).double().T - cur[0][:, a]
+        db = evaluate(b, perm[a]).double().T - cur[0][:, b]
+        w = _offsets_weight(a, b, kern, shape)
+        change = 2 * ((da * field[0][:, a]).sum(0) + (db * field[0][:, b]).sum(0))
         change = change + 2 * w * (da * db).sum(0)
-        keep = (change < 0) & (torch.rand(a.shape, generator=gen, dtype=torch.float64) < acc.q)
+        keep = acc.accept(change[None], seeds, 2 * it + 1)[0]
         a, b, da, db = a[keep], b[keep], da[:, keep], db[:, keep]
-        cur[:, a] += da
-        cur[:, b] += db
+        cur[0][:, a] += da
+        cur[0][:, b] += db
         perm[a], perm[b] = perm[b].clone(), perm[a].clone()
         if progress is not None:
             progress(1)
-    if float((cur * _field(cur, kfft, shape)).sum()) < best_e:
-        best = perm
-    return best
+    acc.observe(_energies(cur, _field(cur, kfft, shape)), perm[None], adapt=False)
+    assert acc.best is not None
+    return acc.best[0]

@@ -10,7 +10,12 @@ scrambling keys optimized offline (:class:`bnerr.sequences.LDBNSampler`, :mod:`b
 - ``ldbn_fast``: the key set optimized against the Gaussian denoiser's kernel (``ldbn_fast_64``,
   sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``.
 
-All three need ``spp`` (the level of the tiles: the smallest tile for at least spp samples) and
+- ``ldbn128``: the 128 x 128 screen set to 64 spp over D = 12, every dimension pair of the first
+  two bounces (``ldbn_screen_128``, made on a GPU by ``benchmarks/ldbn_device.sh``), read like
+  ``ldbn``; registered only when its table is shipped (:data:`LDBN128_SHIPPED`), so dropping the
+  file into ``bnerr/data`` makes it work.
+
+All of them need ``spp`` (the level of the tiles: the smallest tile for at least spp samples) and
 give fresh per-pixel seeds every frame for the dimensions past the optimized ones (the pixel's own
 Owen-Sobol sequence there). They dictate their own sampler (``ldbn``).
 """
@@ -24,13 +29,22 @@ import torch
 from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.frame import Frame
 from bnerr.hashing import lowbias32_host
-from bnerr.ldbn.keys import load_ldbn_keys
+from bnerr.ldbn.keys import ldbn_file_name, load_ldbn_keys, shipped_ldbn
 from bnerr.masks import frame_offset
 from bnerr.sequences import LDBNKeys, LDBNSampler
 from bnerr.strategies.base import BuildOptions, RenderFn, Strategy, pixel_seeds, stream_key
+from bnerr.strategies.registry import REGISTRY
 from bnerr.strategies.variants import TemporalOptions
 
-__all__ = ["LDBN_SETS", "LDBNFastStrategy", "LDBNSTStrategy", "LDBNStrategy"]
+__all__ = [
+    "LDBN128_FILE",
+    "LDBN128_SHIPPED",
+    "LDBN_SETS",
+    "LDBN128Strategy",
+    "LDBNFastStrategy",
+    "LDBNSTStrategy",
+    "LDBNStrategy",
+]
 
 #: Strategy -> the shipped key set it reads: ``(kind, frames, levels)``
 #: (:func:`bnerr.ldbn.load_ldbn_keys`; tiles for 1 .. 2^(levels - 1) spp).
@@ -122,3 +136,40 @@ class LDBNFastStrategy(LDBNStrategy):
     stream = 22
     rank = 80
     color = "#c5b0d5"
+
+
+#: The table ``ldbn128`` reads, and whether it is shipped (the strategy is registered only then).
+LDBN128_FILE = ldbn_file_name("screen", 128)
+LDBN128_SHIPPED = LDBN128_FILE in shipped_ldbn()
+
+#: Why the LDBN keys' raw MSE may differ from white's.
+SHARED_SEQUENCE_NOTE = (
+    "one shared Owen-Sobol sequence digitally shifted per pixel, not a fresh Owen scramble per "
+    "pixel: 1.03-1.23x per-pixel Owen-Sobol's MSE on 2D test integrands at 2-16 samples "
+    "(docs/METHODS.md, section 10)"
+)
+
+
+class LDBN128Strategy(LDBNStrategy):
+    """``ldbn128``: the 128 x 128 screen keys to 64 spp over D = 12, read like ``ldbn`` (module
+    docstring). ``name`` is set, and the class registered, only when its table is shipped."""
+
+    name = ""
+    stream = 26
+    rank = 65
+    color = "#3f007d"
+    raw_mse_note = SHARED_SEQUENCE_NOTE
+    #: the tile side of the key set it reads
+    tile: ClassVar[int] = 128
+
+    @classmethod
+    def create(
+        cls, height: int, width: int, build: BuildOptions, options: TemporalOptions
+    ) -> Strategy:
+        keys = load_ldbn_keys("screen", cls.tile)
+        return cls(height, width, keys=keys, spp=build.spp, **build.common)  # type: ignore[arg-type]
+
+
+if LDBN128_SHIPPED:
+    LDBN128Strategy.name = "ldbn128"
+    REGISTRY.add(LDBN128Strategy)

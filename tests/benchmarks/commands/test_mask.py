@@ -151,7 +151,12 @@ def test_ldbn_joint_writes_the_joint_keys(tmp_path, capsys):
 
 @pytest.mark.parametrize(
     ("argv", "message"),
-    [(["--spp", "3"], "power of two"), (["--dims", "3"], "even"), (["--out-png"], ".npy")],
+    [
+        (["--spp", "3"], "power of two"),
+        (["--dims", "3"], "even"),
+        (["--out-png"], ".npy"),
+        (["--device", "gpu0"], "torch device"),
+    ],
 )
 def test_ldbn_refuses_bad_arguments(tmp_path, capsys, argv, message):
     out = tmp_path / ("k.png" if argv == ["--out-png"] else "k.npy")

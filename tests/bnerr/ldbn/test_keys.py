@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bnerr.errors import FileFormatError, ValueRangeError
-from bnerr.ldbn.keys import KeyOptions, load_ldbn_keys, optimize_keys, write_keys
+from bnerr.ldbn.keys import KeyOptions, load_ldbn_keys, optimize_keys, run_keys, write_keys
 from bnerr.ldbn.quality import blurred_share, white_share
 from bnerr.strategies.ldbn import LDBN_SETS
 
@@ -85,3 +85,25 @@ def test_joint_pairs_share_the_first_ranks_and_keep_its_keys():
     assert np.array_equal(scramble, again[0]) and np.array_equal(rank, again[1])
     # one scrambling stage per joint job, 1 + level per plain one
     assert joint.steps() == 8 * (1 + 2 + 3 + 3)
+
+
+def test_a_run_stopped_at_its_deadline_resumes_to_the_same_keys(tmp_path, monkeypatch):
+    from bnerr.ldbn import swaps
+
+    checks = iter(range(10**6))
+    # the deadline passes at the 13th iteration: round 0 (8) is kept, round 1 is cut
+    monkeypatch.setattr(swaps, "_late", lambda deadline: deadline is not None and next(checks) > 12)
+    path = tmp_path / "k.ckpt.npz"
+    _, _, finished = run_keys(SMALL, path, deadline=0.0)
+    assert not finished
+    with np.load(path) as data:
+        assert data["stage"].tolist() == [[1, 1], [1, 1], [1, 1]]
+    monkeypatch.undo()
+    resumed = optimize_keys(SMALL, path)
+    whole = optimize_keys(SMALL)
+    assert all(np.array_equal(a, b) for a, b in zip(whole, resumed))
+
+
+def test_the_device_option_is_checked():
+    with pytest.raises(ValueRangeError, match="torch device"):
+        KeyOptions(device="gpu0")

@@ -45,12 +45,15 @@ from tests.bnerr.strategies._renders import (
 
 
 def test_names_are_sorted_and_complete():
+    from bnerr.strategies.ldbn import LDBN128_SHIPPED
+
     assert tuple(STRATEGIES) == tuple(sorted(STRATEGIES))
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle", "vertical"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
         *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
         *("openqmc_sobolbn", "openqmc_latticebn"),
+        *(("ldbn128",) if LDBN128_SHIPPED else ()),
         *VARIANTS,
     }
     for name in VARIANTS:
