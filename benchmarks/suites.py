@@ -172,6 +172,9 @@ class Sweep:
         "mse_blur1",
         "mse_blur2",
         "lowfreq",
+        "tmse",
+        "trelmse",
+        "mse_tavg",
     )
 
     def __post_init__(self) -> None:
@@ -317,7 +320,7 @@ _GAP_STRATEGIES = ("white", "temporal", *GAP_SINGLE, *GAP_BEST, "oracle")
 _BEST = GAP_BEST[0]
 _GAP_STILL = tuple(s for s in GAP_BEST if not s.endswith("+reproject"))
 _GAP_SETS = _GapSets(seed_sets=2, frames=2, warmup=4, res=(128, 128), reference_spp=256)
-_GAP_METRICS = ("mse", "mse_blur1", "mse_blur2")
+_GAP_METRICS = ("mse", "mse_blur1", "mse_blur2", "tmse", "trelmse", "mse_tavg")
 
 # Why 4 seed sets x 3 frames and not 1 x 12: a temporal run reuses one set of seeds for all its
 # frames, so its frames are correlated and only independent seed sets make an honest interval

@@ -29,6 +29,7 @@ __all__ = [
     "corrected",
     "decision_excludes",
     "decision_table",
+    "flicker_notes",
     "design_of",
     "headline_table",
     "rival_counts",
@@ -216,8 +217,40 @@ def decision_table(
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",
+        *flicker_notes(rows, exclude),
     ]
     return "\n".join(lines)
+
+
+def flicker_notes(rows: Sequence[dict], exclude: Sequence[str] = ()) -> list[str]:
+    """The decision table's notes on flicker: one line per cell and strategy (``exclude`` left
+    out) whose tMSE after the denoiser (:mod:`bnerr.metrics.temporal`) is above white's beyond
+    its 95 % paired interval (lower bound > 1), so that a strategy chosen for its per-frame
+    error is not adopted blind to the flicker it adds. No lines when no row measured it (results
+    written before it existed keep their decision.md byte for byte)."""
+    measured = [r for r in rows if r.get("den_tmse_ratio") is not None]
+    if not measured:
+        return []
+    order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
+    flagged = sorted(
+        (r for r in measured if r["strategy"] not in exclude and r["den_tmse_ratio_lo"] > 1.0),
+        key=lambda r: (group_order(group_key(r)), r["spp"], r["denoiser"], order[r["strategy"]]),
+    )
+    lines = [
+        "Flicker: tMSE after the denoiser (the error of the frame-to-frame change against the "
+        "reference's own change, docs/METHODS.md) as a fraction of white's, 95 % paired interval.",
+        "",
+    ]
+    if not flagged:
+        return lines + ["No strategy flickers more than white beyond its interval.", ""]
+    for r in flagged:
+        ratio = f"{r['den_tmse_ratio']:.2f} [{r['den_tmse_ratio_lo']:.2f}, "
+        ratio += f"{r['den_tmse_ratio_hi']:.2f}]"
+        lines.append(
+            f"- {group_title(group_key(r))}, {r['spp']} spp, {r['denoiser']}: {r['strategy']} "
+            f"flickers more than white after the denoiser, tMSE {ratio} of white's."
+        )
+    return [*lines, ""]
 
 
 def _headline_cell(row: dict | None, rivals: int, rival: dict | None) -> str:

@@ -118,9 +118,14 @@ COLUMNS: tuple[str, ...] = table_columns()
 
 
 def _stats(record: Record, kind: str, metric: str) -> np.ndarray | None:
-    """``[S][F][2]`` per-frame pairs of ``metric`` (``kind`` ``raw`` or ``den``), or None."""
+    """``[S][F][2]`` per-frame pairs of ``metric`` (``kind`` ``raw`` or ``den``), or None when
+    not measured: absent (a record written before the metric existed) or with no weight in any
+    frame (a temporal metric over a single measured frame)."""
     values = getattr(record, kind).get(metric)
-    return None if values is None else np.asarray(values, dtype=np.float64)
+    if values is None:
+        return None
+    stats = np.asarray(values, dtype=np.float64)
+    return stats if stats.size and stats[..., 1].sum() > 0 else None
 
 
 def _baseline_key(record: Record, white: str) -> tuple:
@@ -135,9 +140,10 @@ def _mean_ms(series: list[list[float]]) -> float:
 def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
     """The pooled value of every metric and the interval of those that have one."""
     for kind in ("raw", "den"):
-        for metric, values in getattr(rec, kind).items():
-            pairs = np.asarray(values, dtype=np.float64)
-            row[f"{kind}_{metric}"] = float(pairs[..., 0].sum() / pairs[..., 1].sum())  # pooled
+        for metric in getattr(rec, kind):
+            pairs = _stats(rec, kind, metric)
+            if pairs is not None:
+                row[f"{kind}_{metric}"] = float(pairs[..., 0].sum() / pairs[..., 1].sum())
     for name in _interval_names():
         kind, metric = name.split("_", 1)
         stats = _stats(rec, kind, metric)
@@ -263,6 +269,45 @@ def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
     return body
 
 
+def _flicker_cell(row: dict | None, white: dict | None) -> str:
+    """White's (or a strategy without a white row's) tMSE and MSE of the temporal average after
+    the denoiser, every other strategy's ratios to white's; "not measured" for a record written
+    before the temporal metrics existed, or measured over a single frame."""
+    if row is None:
+        return "-"
+    if row.get("den_tmse") is None:
+        return "not measured"
+    if white is None or row is white:
+        tavg = row.get("den_mse_tavg")
+        return f"{row['den_tmse']:.4g} / " + ("-" if tavg is None else f"{tavg:.4g}")
+    tavg = row.get("den_mse_tavg_ratio")
+    return _ratio_text(row, "den_tmse") + " / " + ("-" if tavg is None else f"{tavg:.3f}")
+
+
+def _flicker_lines(rows: list[dict], strategies: list[str]) -> list[str]:
+    """The group's flicker after denoising (:mod:`bnerr.metrics.temporal`); no lines when no row
+    measured it (results written before it existed keep their table.md byte for byte)."""
+    if all(r.get("den_tmse") is None for r in rows):
+        return []
+    by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
+    base = baseline()
+    body = []
+    for spp in sorted({r["spp"] for r in rows}):
+        for d in sorted({r["denoiser"] for r in rows}):
+            white = by.get((spp, d, base))
+            cells = [_flicker_cell(by.get((spp, d, s)), white) for s in strategies]
+            body.append([str(spp), d, *cells])
+    return [
+        "Flicker after denoising: the MSE of the frame-to-frame change against the reference's "
+        "own change (tMSE) with its 95% paired interval, then the MSE of the mean of up to 4 "
+        "consecutive frames; white's absolute values, every other strategy's as a fraction of "
+        "white's ((worse): its tMSE above white's beyond the interval).",
+        "",
+        *table_lines(["spp", "denoiser", *strategies], body),
+        "",
+    ]
+
+
 def _raw_cell(row: dict | None) -> str:
     if row is None:
         return "-"
@@ -303,7 +348,8 @@ def _group_markdown(key: tuple, rows: list[dict]) -> list[str]:
     ]
     body = [[str(n)] + [_raw_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
     lines += table_lines(["spp", *strategies], body)
-    lines += ["", "Milliseconds per frame: render + permutation (strategy overhead).", ""]
+    lines += [""] + _flicker_lines(rows, strategies)
+    lines += ["Milliseconds per frame: render + permutation (strategy overhead).", ""]
     body = [[str(n)] + [_time_cell(first_denoiser.get((n, s))) for s in strategies] for n in spps]
     lines += table_lines(["spp", *strategies], body)
     times = {d: np.mean([r["denoise_ms"] for r in rows if r["denoiser"] == d]) for d in denoisers}

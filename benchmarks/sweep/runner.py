@@ -130,6 +130,29 @@ def _load_params(path: Path) -> ParamStore:
         return ParamStore()
 
 
+def _warn_unmeasured(records: dict[str, Record], runs: Sequence[Run]) -> None:
+    """Warn when ``--resume`` keeps cells that lack metrics their runs now measure (cells
+    measured before a metric existed, such as the temporal ones): the reports show those
+    metrics as not measured for them, and only ``--overwrite`` (or another ``--out``)
+    measures them; the kept cells are not rendered again behind the user's back."""
+    lacking: dict[str, int] = {}
+    for run in runs:
+        for cell in run.cells():
+            record = records.get(cell.key())
+            if record is None:
+                continue
+            for name in run.metrics:
+                if name not in record.den or name not in record.raw:
+                    lacking[name] = lacking.get(name, 0) + 1
+    if lacking:
+        counts = ", ".join(f"{name} ({n} cells)" for name, n in lacking.items())
+        warnings.warn(
+            f"--resume: kept cells measured without {counts}; the reports show these metrics "
+            "as not measured for them: measure again with --overwrite to fill them in",
+            stacklevel=3,
+        )
+
+
 def start_sweep(
     suite: Suite,
     out_dir: str | Path,
@@ -164,6 +187,7 @@ def start_sweep(
     clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     runs = plan(suite) if runs is None else list(runs)
+    _warn_unmeasured(records, runs)
     todo = pending(suite, records, runs)
     planned = {c.key(): None for run in runs for c in run.cells()}  # ordered, no repeats
     order = [k for k in records if k not in planned] + list(planned)

@@ -23,8 +23,15 @@ the compute step is ``sum(numerators) / sum(denominators)`` over frames
 the pooled running mean; its interval is a t-interval over the seed sets' pooled means
 (:mod:`bnerr.metrics.stats`).
 
-Not for: metrics that need more than one frame at a time (the error's correlation from frame to
-frame is :func:`bnerr.metrics.image.temporal_correlation`, measured beside the table).
+**Windows** (the temporal metrics, :mod:`bnerr.metrics.temporal`). A metric whose ``window`` is
+above 1 sees the frames before the current one too: :class:`FrameMetrics` keeps, per seed set, the
+last ``window - 1`` frames it was given and calls its update with the consecutive ones that end at
+the current frame (oldest first, at most ``window``); a frame whose region held no pixel
+(:meth:`FrameMetrics.update_empty`) ends a window. Only the frames given count: a sweep gives its
+measured frames, never the warmup, so a pair of frames is measured only when both are.
+
+Not for: the error's correlation from frame to frame along the motion
+(:func:`bnerr.metrics.image.temporal_correlation`, measured beside the table).
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ import inspect
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import torch
 
@@ -47,6 +55,12 @@ from bnerr.errors import (
 )
 from bnerr.metrics.image import ImagePair, PreparedReference, require_flip
 from bnerr.metrics.stats import Estimate, bootstrap_interval, paired_ratio, pooled_mean
+from bnerr.metrics.temporal import (
+    TAVG_FRAMES,
+    frame_difference_mse,
+    frame_difference_relmse,
+    window_average_mse,
+)
 
 __all__ = ["BLUR_SIGMAS", "METRICS", "METRIC_TABLE", "FrameMetrics", "Metric", "load_metric"]
 
@@ -58,7 +72,9 @@ class Metric:
     Attributes:
         update: ``update(pair: ImagePair) -> [2]`` float64, the frame's ``(numerator,
             denominator)`` on ``pair.pred``'s device (:meth:`ImagePair.score` makes the pair of a
-            per-image value).
+            per-image value); with a ``window`` above 1, ``update(pairs: tuple[ImagePair, ...])``,
+            the consecutive frames of the seed set that end at the current one (oldest first,
+            1 to ``window`` of them).
         default: measured by a :class:`FrameMetrics` given no names.
         require: called when a :class:`FrameMetrics` with the metric is made; raises when the
             metric cannot run (an optional package missing), so that a run fails before it starts.
@@ -70,9 +86,10 @@ class Metric:
         tabled: summary tables give the metric columns at all.
         description: what the row measures, in words (a plug-in's; "" for the shipped ones,
             which docs/METHODS.md describes).
+        window: the most frames of a seed set the update sees at once (1: the current frame).
     """
 
-    update: Callable[[ImagePair], torch.Tensor]
+    update: Callable[[Any], torch.Tensor]
     default: bool = True
     require: Callable[[], None] | None = None
     interval: bool = False
@@ -80,6 +97,7 @@ class Metric:
     group: str | None = None
     tabled: bool = True
     description: str = ""
+    window: int = 1
 
 
 #: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
@@ -154,6 +172,12 @@ METRIC_TABLE: dict[str, Metric] = plugins.PluginRegistry(
             for name, sigma in BLUR_SIGMAS.items()
         },
         "lowfreq": Metric(ImagePair.lowfreq),
+        # Flicker (bnerr.metrics.temporal): over consecutive measured frames of a seed set.
+        "tmse": Metric(frame_difference_mse, interval=True, ratio=True, group="flicker", window=2),
+        "trelmse": Metric(frame_difference_relmse, group="flicker", window=2),
+        "mse_tavg": Metric(
+            window_average_mse, interval=True, ratio=True, group="flicker", window=TAVG_FRAMES
+        ),
         # FLIP needs an optional package and about 0.5 s per 256x256 image: measured only when
         # named.
         # No suite names it and table.csv never had its columns, so the tables leave it out.
@@ -210,8 +234,34 @@ class FrameMetrics:
         self.names = chosen
         self.tile = check_positive_int(tile, "tile", minimum=2)
         self._updates = {name: table[name].update for name in chosen}
+        self._windows = {name: check_positive_int(table[name].window, "window") for name in chosen}
+        # per seed set, the last frames a windowed metric needs (None: a frame without pixels)
+        self._keep = max(self._windows.values(), default=1) - 1
+        self._recent: dict[int, list[ImagePair | None]] = {}
         self._stats: dict[str, list[torch.Tensor]] = {name: [] for name in chosen}
         self._groups: list[int] = []
+
+    def _remember(self, group: int, pair: ImagePair | None) -> None:
+        """Keep ``pair`` as the latest frame of seed set ``group`` (the last ``window - 1``)."""
+        if self._keep:
+            recent = self._recent.setdefault(group, [])
+            recent.append(pair)
+            del recent[: -self._keep]
+
+    def _window(self, group: int, pair: ImagePair) -> list[ImagePair]:
+        """The consecutive frames of seed set ``group`` that end at ``pair``, oldest first."""
+        frames = [pair]
+        for before in reversed(self._recent.get(group, [])):
+            if before is None:
+                break
+            frames.insert(0, before)
+        return frames
+
+    def _update_one(self, name: str, pair: ImagePair, frames: list[ImagePair]) -> torch.Tensor:
+        window = self._windows[name]
+        if window == 1:
+            return self._updates[name](pair)
+        return self._updates[name](tuple(frames[-window:]))
 
     def update(
         self,
@@ -227,24 +277,29 @@ class FrameMetrics:
             ref: its reference ``[C, H, W]``, or a :class:`PreparedReference` of it (the same
                 values, computed faster when several images are measured against one reference).
             mask: optional ``[H, W]`` bool restricting every metric except ``lowfreq``.
-            group: index of the independent seed set the frame belongs to (0 when there is one).
+            group: index of the independent seed set the frame belongs to (0 when there is one);
+                a windowed metric's window holds this seed set's frames only.
         """
         pair = ImagePair(pred, ref, mask, tile=self.tile)
         check_positive_int(group, "group", minimum=0)
-        row = {name: update(pair) for name, update in self._updates.items()}
+        frames = self._window(group, pair)
+        row = {name: self._update_one(name, pair, frames) for name in self.names}
         for name, stats in row.items():
             self._stats[name].append(stats.cpu())
         self._groups.append(group)
+        self._remember(group, pair)
         return {name: float(pooled_mean(stats)) for name, stats in row.items()}
 
     def update_empty(self, group: int = 0) -> None:
         """Add a frame in which the region measured holds no pixel (a coherent region that the
         frame lacks): ``(0, 0)`` pairs, which keep the frame count of its seed set and weigh
-        nothing in the pooled means (all-empty frames pool to NaN: nothing was measured)."""
+        nothing in the pooled means (all-empty frames pool to NaN: nothing was measured). It ends
+        the seed set's window: the next frame's temporal metrics start afresh."""
         check_positive_int(group, "group", minimum=0)
         for name in self.names:
             self._stats[name].append(torch.zeros(2, dtype=torch.float64))
         self._groups.append(group)
+        self._remember(group, None)
 
     def __len__(self) -> int:
         return len(self._groups)

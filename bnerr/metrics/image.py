@@ -78,6 +78,7 @@ __all__ = [
     "flip",
     "flip_available",
     "lowfreq",
+    "masked_sum",
     "mse",
     "psnr",
     "relmse",
@@ -138,7 +139,7 @@ def _check_blur_size(size: dict[str, int], sigma: float) -> int:
 # Updates: one frame -> (numerator, denominator), float64 on the input's device
 
 
-def _masked_sum(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
+def masked_sum(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor:
     """``(sum, count)`` of ``values [C, H, W]`` over all or the masked pixels: ``[2]`` float64."""
     values = values.to(torch.float64)
     if mask is not None:
@@ -150,14 +151,14 @@ def _masked_sum(values: torch.Tensor, mask: torch.Tensor | None) -> torch.Tensor
 def _mse_update(
     pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
 ) -> torch.Tensor:
-    return _masked_sum((pred.to(torch.float64) - ref).square(), mask)
+    return masked_sum((pred.to(torch.float64) - ref).square(), mask)
 
 
 def _relmse_update(
     pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
 ) -> torch.Tensor:
     ref64 = ref.to(torch.float64)
-    return _masked_sum(
+    return masked_sum(
         (pred.to(torch.float64) - ref64).square() / (ref64.square() + _RELMSE_EPS), mask
     )
 
@@ -179,7 +180,7 @@ def _blurred_err_sum(
     err: torch.Tensor, sigma: float, kernel: int, mask: torch.Tensor | None
 ) -> torch.Tensor:
     """``(sum, count)`` of the squared blur of the float64 error ``err [C, H, W]``."""
-    return _masked_sum(_gaussian_blur(err, sigma, kernel).square(), mask)
+    return masked_sum(_gaussian_blur(err, sigma, kernel).square(), mask)
 
 
 # kornia blurs an image of at least this many pixels with shifted slices instead of convolutions
@@ -418,7 +419,7 @@ class ImagePair:
 
     @functools.cached_property
     def _mse(self) -> torch.Tensor:
-        return _masked_sum(self.err.square(), self.mask)
+        return masked_sum(self.err.square(), self.mask)
 
     def score(self, value: float) -> torch.Tensor:
         """A per-image score as the pair ``(value, 1)``, so that compute averages it over frames."""
@@ -430,7 +431,7 @@ class ImagePair:
 
     def relmse(self) -> torch.Tensor:
         """``(sum e^2 / (ref^2 + 0.01), pixel count)``."""
-        return _masked_sum(self.err.square() / self.ref.relmse_denominator, self.mask)
+        return masked_sum(self.err.square() / self.ref.relmse_denominator, self.mask)
 
     def blurred(self, sigma: float) -> torch.Tensor:
         """``(sum (G_sigma * e)^2, pixel count)``: the error blurred over the whole image first."""

@@ -238,15 +238,28 @@ def t_interval(
     return centre - half, centre + half
 
 
+def _weighed_frames(*stats: torch.Tensor) -> tuple[torch.Tensor, ...]:
+    """With one seed set, ``stats`` ``[1, F, 2]`` left with the frames that weigh something in
+    every one of them (a ``(0, 0)`` frame measured nothing: the first frame of a temporal metric,
+    a region without pixels), unless none does; with more seed sets, as given."""
+    if stats[0].shape[0] != 1:
+        return stats
+    keep = stats[0][0, :, 1] > 0
+    for other in stats[1:]:
+        keep = keep & (other[0, :, 1] > 0)
+    return tuple(x[:, keep] for x in stats) if bool(keep.any()) else stats
+
+
 def replicates(stats: torch.Tensor) -> torch.Tensor:
     """The independent replicates an interval rests on: ``stats [S, F, 2]`` -> ``[N]``.
 
     Each seed set's pooled mean (N = S) when there are S >= 2 seed sets; with one seed set, each
-    frame's value (N = F): frames of one run are the only replicates left, and they are correlated
-    in a temporal run, so an interval over them is a within-run interval (module docstring).
+    frame's value (N = F, the frames that weigh nothing left out): frames of one run are the only
+    replicates left, and they are correlated in a temporal run, so an interval over them is a
+    within-run interval (module docstring).
     """
     if stats.shape[0] == 1:
-        stats = stats.reshape(-1, 1, 2)
+        stats = _weighed_frames(stats)[0].reshape(-1, 1, 2)
     return set_means(stats)
 
 
@@ -343,7 +356,7 @@ def paired_ratio(
         samples = resampled_values(a, weights) / resampled_values(b, weights)
         lo, hi = percentile_interval(samples, level)
         return Estimate(float(value), lo, hi, n, level)
-    ra, rb = replicates(a), replicates(b)
+    ra, rb = (replicates(x) for x in _weighed_frames(a, b))
     for reps, name in ((ra, "values"), (rb, "baseline")):
         if not bool((reps > 0).all()):
             raise ValueRangeError(

@@ -264,7 +264,7 @@ def test_a_metric_added_to_the_table_reaches_table_csv(tmp_path, monkeypatch):
         "den_maxerr",
     ]
     assert [c for c in header if c not in added] == list(COLUMNS)
-    assert header.index("raw_maxerr") == header.index("den_lowfreq") + 1
+    assert header.index("raw_maxerr") == header.index("den_trelmse") + 1  # the last value
     want = np.asarray(white)[..., 0].sum() / np.asarray(white)[..., 1].sum()
     assert float(rows[0]["raw_maxerr"]) == pytest.approx(want, rel=1e-5)  # written as .6g
     temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == "1")
@@ -434,3 +434,52 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
     rows = _rows_of("quality")
     assert found.group(1) == decision.headline_table(rows, denoisers, scenes)
+
+
+# -- flicker (the temporal metrics) -------------------------------------------------------------
+
+
+def _with_flicker(rec: Record, tmse: list[list[float]]) -> Record:
+    """``rec`` with the temporal metrics measured: ``tmse`` per frame after the first of each
+    seed set, which weighs nothing (no frame before it)."""
+    pairs = [[[0.0, 0.0]] + row for row in metric_pairs([v[1:] for v in tmse], 768.0)]
+    temporal = {"tmse": pairs, "trelmse": pairs, "mse_tavg": pairs}
+    return dataclasses.replace(rec, raw={**rec.raw, **temporal}, den={**rec.den, **temporal})
+
+
+_STEADY = [[0.0, 1.0, 1.1], [0.0, 1.2, 0.9]]
+_FLICKERS = [[0.0, 3.0, 3.3], [0.0, 3.1, 2.8]]
+
+
+def test_flicker_beyond_its_interval_is_noted_in_the_decision_table_and_tabled():
+    records = [
+        _with_flicker(r, _FLICKERS if r.cell.strategy == "temporal" else _STEADY)
+        for r in _records()
+    ]
+    rows = summarize(records)
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == 1)
+    want = np.mean([v[1:] for v in _FLICKERS]) / np.mean([v[1:] for v in _STEADY])
+    assert temporal["den_tmse_ratio"] == pytest.approx(want)
+    assert temporal["den_tmse_ratio_lo"] > 1.0 and temporal["den_mse_tavg_ratio"] is not None
+    notes = decision.decision_table(rows).split("Flicker:")[1]
+    assert "direct, 1 spp, gaussian: temporal flickers more than white" in notes
+    assert "oracle" not in notes  # a bound, left out of the decision
+    text = markdown_table(rows)
+    assert "Flicker after denoising" in text and "(worse)" in text.split("Flicker after")[1]
+    steady = [_with_flicker(r, _STEADY) for r in _records()]
+    assert "No strategy flickers more than white" in decision.decision_table(summarize(steady))
+
+
+def test_records_without_the_temporal_metrics_build_reports_as_before():
+    old = _records()  # written before the temporal metrics existed
+    rows = summarize(old)
+    assert all(r["den_tmse"] is None and r["den_tmse_ratio"] is None for r in rows)
+    assert "Flicker" not in markdown_table(rows) and "Flicker" not in decision.decision_table(rows)
+    # a resumed folder mixes them: the old cells say "not measured", never a crash
+    mixed = summarize([_with_flicker(old[0], _STEADY), *old[1:]])
+    assert "not measured" in markdown_table(mixed)
+    one_frame = _with_flicker(old[0], _STEADY)
+    single = dataclasses.replace(
+        one_frame, den={**one_frame.den, "tmse": [[[0.0, 0.0]]] * 2}
+    )  # a single measured frame: nothing to difference
+    assert summarize([single])[0]["den_tmse"] is None

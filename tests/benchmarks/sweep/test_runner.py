@@ -11,11 +11,18 @@ import json
 import pytest
 import torch
 
+from benchmarks.reports.table import csv_text, summarize
 from benchmarks.suites import Condition
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.plan import Cell
-from benchmarks.sweep.records import RESULTS_FILE, Record, ResultsExistError, load_records
+from benchmarks.sweep.records import (
+    RESULTS_FILE,
+    Record,
+    ResultsExistError,
+    load_records,
+    write_records,
+)
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import FileFormatError
 from tests._suites import tiny_suite
@@ -118,6 +125,41 @@ def test_rerun_with_resume_measures_nothing(tiny):
         progress=False,
     )
     assert counting.calls == 0 and again == records
+
+
+def test_the_tables_of_a_tiny_run_have_the_flicker_columns(tiny, tmp_path):
+    # 16x12, 2 seed sets x 2 measured frames: one pair of frames per seed set after denoising.
+    _, _, records, _ = tiny
+    rows = summarize(records)
+    text = csv_text(rows)
+    header = text.splitlines()[0].split(",")
+    for column in ("den_tmse", "den_tmse_lo", "den_tmse_ratio_hi", "den_mse_tavg_ratio"):
+        assert column in header
+    temporal = [r for r in rows if r["strategy"] == "temporal"]
+    assert all(r["den_tmse"] > 0 and r["den_tmse_ratio"] > 0 for r in temporal)
+    for rec in records:  # the first measured frame of each seed set has no frame before it
+        assert [frame[0][1] for frame in rec.den["tmse"]] == [0.0, 0.0]
+
+
+def test_resume_warns_when_kept_cells_lack_a_metric_and_does_not_measure_them(tiny, tmp_path):
+    _, cache, records, _ = tiny
+    old = [
+        dataclasses.replace(
+            r,
+            raw={k: v for k, v in r.raw.items() if k != "tmse"},
+            den={k: v for k, v in r.den.items() if k != "tmse"},
+        )
+        for r in records
+    ]  # written before the metric existed
+    write_records(tmp_path, old)
+    counting = _Counting(real_parts().render)
+    with pytest.warns(UserWarning, match=r"without tmse \(4 cells\).*--overwrite"):
+        kept = run_suite(
+            tiny_suite(), tmp_path, parts=_parts(render=counting), cache_dir=cache,
+            resume=True, progress=False,
+        )  # fmt: skip
+    assert counting.calls == 0 and kept == old
+    assert all(r["den_tmse"] is None for r in summarize(kept))  # not measured, not a crash
 
 
 def test_an_interrupted_run_resumes_to_the_same_results(tiny, tmp_path):

@@ -29,7 +29,19 @@ from tests._images import noisy_pair as _pair
 
 def test_metrics_is_the_tables_names_in_the_column_order_of_the_results():
     assert METRICS == tuple(METRIC_TABLE)
-    assert METRICS == ("mse", "relmse", "psnr", "ssim", "mse_blur1", "mse_blur2", "lowfreq", "flip")
+    assert METRICS == (
+        "mse",
+        "relmse",
+        "psnr",
+        "ssim",
+        "mse_blur1",
+        "mse_blur2",
+        "lowfreq",
+        "tmse",
+        "trelmse",
+        "mse_tavg",
+        "flip",
+    )
     assert all(isinstance(m, Metric) and callable(m.update) for m in METRIC_TABLE.values())
 
 

@@ -324,3 +324,13 @@ def test_claims_read_the_interval_against_the_margin():
         not_worse(est, -0.1)
     with pytest.raises(TypeError, match="estimate: expected an Estimate, got tuple"):
         better((0.9, 0.8, 1.0))
+
+
+def test_one_seed_set_leaves_out_the_frames_that_weigh_nothing():
+    # A temporal metric's first frame, or a frame whose region held no pixel: (0, 0).
+    a = torch.tensor([[[0.0, 0.0], [2.0, 1.0], [4.0, 1.0], [3.0, 1.0]]], dtype=torch.float64)
+    b = torch.tensor([[[0.0, 0.0], [1.0, 1.0], [2.0, 1.0], [2.0, 1.0]]], dtype=torch.float64)
+    assert replicates(a).tolist() == [2.0, 4.0, 3.0]
+    est = paired_ratio(a, b)
+    assert est.value == pytest.approx(9.0 / 5.0) and 0 < est.lo < est.value < est.hi
+    assert math.isfinite(bootstrap_interval(a).lo)
