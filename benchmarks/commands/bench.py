@@ -302,10 +302,13 @@ def _check_adaptive(args: argparse.Namespace) -> None:
         raise ValueRangeError("--until-resolved: expected a run that measures, got --report-only")
 
 
-def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
-
+def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool) -> str:
+    """Measure the suite's cells into ``out`` (or only report them), compress the cells if
+    ``compress``, then write the report: last, so that the page links the file the folder holds."""
     _check_adaptive(args)
     if args.report_only:
+        if compress:
+            compress_records(out)
         return _report_only(args, suite, out)
 
     renderer = _renderer(args)
@@ -356,6 +359,8 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path) -> str:
         )
     else:
         records = measure(suite, out, **common)
+    if compress:  # before the page is written: it links the file the folder then holds
+        compress_records(out)
     title = f"bnerr bench --suite {suite.name}"
     return write_report(out, records, title=title, charts=not args.no_charts)
 
@@ -379,9 +384,7 @@ def run(args: argparse.Namespace) -> int:
         if suite.scripts:
             text = _run_speed(args, suite, out)
         else:
-            text = _run_cells(args, suite, out)
-            if compress:
-                compress_records(out)
+            text = _run_cells(args, suite, out, compress)
     write_index(Path(out).resolve().parent)  # the results page of every suite beside it
     if not args.quiet:
         print(text)

@@ -9,6 +9,7 @@ import sys
 import pytest
 
 from benchmarks.cli import main
+from benchmarks.reports.links import broken_links
 from benchmarks.sweep.records import RESULTS_ARCHIVE, RESULTS_FILE, load_records
 from bnerr.outputs import output_lock
 from tests._paths import RESULTS
@@ -181,6 +182,17 @@ def test_report_only_rewrites_the_tables_without_measuring(tmp_path, capsys):
     assert main([*args, "--report-only", "--no-charts"]) == 0
     assert (out / RESULTS_ARCHIVE).exists() and (out / "table.md").read_text() == table
     assert (out / "index.html").exists() and (tmp_path / "index.html").exists()  # the pages
+
+
+def test_a_measuring_run_compresses_the_cells_before_the_page_links_them(tmp_path):
+    # --overwrite into a folder holding cells.jsonl.gz measures into a plain cells.jsonl, then
+    # compresses it: the page is written after, so it links the file the folder holds.
+    assert main(_two_strategies(tmp_path, "--no-charts", "--compress")) == 0
+    assert main(_two_strategies(tmp_path, "--no-charts", "--overwrite")) == 0
+    out = tmp_path / "out"
+    assert (out / RESULTS_ARCHIVE).exists() and not (out / RESULTS_FILE).exists()
+    assert RESULTS_ARCHIVE in (out / "index.html").read_text()
+    assert broken_links(out / "index.html", root=tmp_path) == []
 
 
 def test_report_only_refuses_overrides_and_an_empty_folder(tmp_path, capsys):
