@@ -13,10 +13,11 @@ of means, the ratio estimator's (Cochran 1977, *Sampling Techniques*, section 6.
 have the pooled share as their mean (the seed sets weigh alike) and the share's first-order
 variation as their spread; the t-interval over them (S - 1 degrees of freedom,
 :func:`bnerr.metrics.t_interval`) is the share's. It replaced the t-interval of the per-seed-set
-shares ``(w_s - v_s) / (w_s - o_s)``, whose mean is not the pooled share: with skewed seed-set
-effects (15 %) and a gap of 0.8 that interval missed 7.5 % at 16 seed sets and 6.6 % at 8 (nominal
-5); this one 5.7 % and 5.5 % (``python -m bnerr.metrics.coverage --shares``, docs/METHODS.md,
-section 8, which gives the table at 2, 3, 4 and 8 seed sets).
+shares ``(w_s - v_s) / (w_s - o_s)``, whose spread is not the pooled share's: with skewed 15 %
+seed-set effects and a gap of 0.8 that interval missed 6.2-6.6 % at 8 seed sets and 7.5-7.7 % at
+16 (nominal 5 %, 40 000 trials); this one 5.0-5.5 % and 5.2-5.7 %. ``python -m
+bnerr.metrics.coverage --shares`` gives its table at 2, 3, 4 and 8 seed sets (docs/METHODS.md,
+section 8).
 
 A seed set whose bound is not below the baseline (no gap in it) makes the interval unbounded
 (``-inf, inf``: not resolved), as with one seed set; no gap in the pooled means makes the share
