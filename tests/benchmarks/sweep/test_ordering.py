@@ -151,23 +151,34 @@ def test_oracle_beats_temporal_after_denoising(ordering, scene, spp, denoiser):
 
 
 # Equivalence margins of the raw MSE ratio to white. temporal permutes white's seeds, so its raw
-# MSE is white's in expectation; 5 % is the smallest round margin 8 seed sets resolve at 99.375 %:
-# measured half-widths 1.7-4.4 % (largest on direct at 4 spp, whose Owen-Sobol raw MSE varies most
-# between seed sets; 3 % would need about 16 seed sets there). The oracle is no permutation: it
-# shows one of K = 32 candidates per pixel, picked by rank, and its raw MSE is measured off white's
-# (direct 4 spp 0.956 [0.922, 0.991] here; 1.24x on the Cornell box, docs/METHODS.md section 6),
-# so its claim is equivalence within 10 %.
+# MSE is white's in expectation: the claim is equality within 5 %, the smallest round margin 8 seed
+# sets resolve at 99.375 % (measured half-widths 1.7-4.4 %, largest on direct at 4 spp, whose
+# Owen-Sobol raw MSE varies most between seed sets; 3 % would need about 16 seed sets there).
 _RAW_MARGIN = {"temporal": 0.05, "oracle": 0.10}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "spp"), [(s, n) for s in SCENES for n in SPP])
-@pytest.mark.parametrize("strategy", ["temporal", "oracle"])
-def test_raw_mse_is_the_same_for_every_strategy(ordering, scene, spp, strategy):
+def test_temporals_raw_mse_equals_whites(ordering, scene, spp):
     ratio = _ratio(
-        ordering, strategy, "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
+        ordering, "temporal", "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
     )
-    assert equivalent(ratio, _RAW_MARGIN[strategy]), f"raw {strategy} / white = {ratio}"
+    assert equivalent(ratio, _RAW_MARGIN["temporal"]), f"raw temporal / white = {ratio}"
+
+
+# The oracle is no permutation: it shows one of K = 32 candidates per pixel, picked by rank against
+# the mask, so its raw MSE is not white's in expectation and equality is not claimed (measured
+# here on direct at 4 spp 0.956 [0.922, 0.991], which excludes 1; 1.24x on the Cornell box,
+# docs/METHODS.md section 6). What is claimed is a bound on the difference, so that its gains after
+# denoising (test_oracle_beats_temporal_after_denoising) are not raw-MSE differences beyond it:
+# the raw MSE ratio's interval lies inside [0.90, 1.10].
+@pytest.mark.slow
+@pytest.mark.parametrize(("scene", "spp"), [(s, n) for s in SCENES for n in SPP])
+def test_oracles_raw_mse_is_within_10_percent_of_whites(ordering, scene, spp):
+    ratio = _ratio(
+        ordering, "oracle", "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
+    )
+    assert equivalent(ratio, _RAW_MARGIN["oracle"]), f"raw oracle / white = {ratio}"
 
 
 # The failure cases: where the temporal method is expected to degrade to white noise, never worse.
