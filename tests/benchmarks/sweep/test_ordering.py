@@ -346,7 +346,8 @@ def test_best_variant_keeps_whites_raw_mse(gap):
 # equality is not the claim, but a raw excess beyond what 8 seed sets resolve is a finding).
 # LDBN (issue 25) with the keys shipped in bnerr/data, measured here: after the Gaussian 0.901
 # [0.855, 0.950] at 4 spp and 0.953 [0.916, 0.991] at 16; raw 1.006 [0.973, 1.039] and 0.927
-# [0.874, 0.983] (this test's own run: 8 seed sets, 1 - 0.05/12 = 99.58 %), the lowest of the three at both sample counts.
+# [0.874, 0.983] (this test's own run: 8 seed sets, 1 - 0.05/12 = 99.58 %), the lowest of the
+# three at both sample counts.
 RIVAL_CLAIMS = ("zsobol", "cycles_blue", "ldbn")
 
 
@@ -375,8 +376,8 @@ _SHARED_SCRAMBLE = (
     "frame and shows no excess on average on toy integrands, but its MSE varies from frame to "
     "frame 2.4 times as much as white's, so these 24 frames' interval reaches past the 5 % "
     "margin (1.127 [1.024, 1.239] at 4 spp, 1.016 [0.960, 1.075] at 16 here; 1.018 [0.969, "
-    "1.083] and 1.003 [0.965, 1.046] in results/quality, the former bootstrap). The rivals' design, not a defect in our "
-    "samplers."
+    "1.083] and 1.003 [0.965, 1.046] in results/quality, the former bootstrap). The rivals' "
+    "design, not a defect in our samplers."
 )
 
 
