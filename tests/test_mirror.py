@@ -45,7 +45,6 @@ MIRROR_EXEMPT = {
     "benchmarks/sweep/version.py": (
         "tests/benchmarks/sweep/test_references.py", "the version keys the reference cache"
     ),
-    "bnerr/metrics/coverage.py": ("tests/bnerr/metrics/test_stats.py", "interval coverage"),
     "bnerr/native/__init__.py": (
         "tests/bnerr/native/test_build.py", "the loader and the disable switch, with the build"
     ),

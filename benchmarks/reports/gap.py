@@ -11,13 +11,16 @@ the oracle. White is the registered baseline and the oracle the first registered
 *measure*: the raw frames' MSE after the sigma-1 and sigma-2
 blurs (``raw mse_blur1``, ``raw mse_blur2``: where a blue-noise error pays off) and each
 denoiser's output MSE (``den mse``, per denoiser). The interval is a Student t-interval over the
-seed sets (:mod:`bnerr.metrics.stats`, like every other interval of the reports): each seed set
-gives one share from its own pooled means of the three strategies on the same frames, so the
-frame-to-frame variation of the content cancels, and the S shares give the interval (S - 1
-degrees of freedom), centred on the share of the pooled means. A seed set where the oracle is not
-below white has no gap to share: the interval is then unbounded (not resolved). Next to it,
-``gap`` is the distance itself relative to white, ``(W - O) / W``: a share of a gap near 0 means
-little.
+seed sets (:func:`bnerr.metrics.share_interval`, like every other interval of the reports): the
+linearized (delta-method) interval of a ratio of means, from each seed set's pooled means of the
+three strategies on the same frames (so the frame-to-frame variation of the content cancels),
+centred on the share of the pooled means, S - 1 degrees of freedom; its coverage at 2, 3, 4 and 8
+seed sets, with normal and skewed seed-set effects, is simulated by ``python -m
+bnerr.metrics.coverage --shares`` (docs/METHODS.md, section 8). A seed set where the oracle is not
+below white has no gap to share: the interval is then unbounded (not resolved). Each row carries
+its seed sets (``seed_sets``, a verdict on the best of m reads the interval at the corrected level
+from them: :func:`bnerr.metrics.relevel_share`). Next to it, ``gap`` is the distance itself
+relative to white, ``(W - O) / W``: a share of a gap near 0 means little.
 
 - :func:`gap_shares`: one :class:`GapShare` per (scene, spp, condition, measure, strategy).
 - :func:`gap_markdown` / :func:`gap_csv`: the table, one row per (scene, spp, condition,
@@ -44,7 +47,7 @@ import torch
 
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
-from bnerr.metrics import as_stats, check_bootstrap, replicates, t_interval
+from bnerr.metrics import as_stats, check_bootstrap, replicates, share_interval
 from bnerr.strategies import baseline, bounds
 
 __all__ = [
@@ -82,6 +85,7 @@ class GapShare:
         share, lo, hi: ``(W - V) / (W - O)`` and its t-interval over seed sets at ``level``.
         gap: ``(W - O) / W``.
         level: the interval's confidence level.
+        seed_sets: the seed sets the interval rests on (0: not recorded).
     """
 
     scene: str
@@ -94,6 +98,7 @@ class GapShare:
     hi: float
     gap: float
     level: float
+    seed_sets: int = 0
 
 
 def _condition(record: Record) -> str:
@@ -129,21 +134,15 @@ def _measures(records: Iterable[Record]) -> dict[_GroupKey, dict[str, dict[str, 
 def _share(
     w: torch.Tensor, v: torch.Tensor, o: torch.Tensor, level: float
 ) -> tuple[float, float, float, float]:
-    """``(share, lo, hi, gap)`` of stats ``[S, F, 2]`` of white, the strategy and the oracle.
-
-    Where the oracle is no better than white's mean (no distance to close) every figure is NaN.
-    """
-    mean = [float(x[..., 0].sum() / x[..., 1].sum()) for x in (w, v, o)]
-    if not mean[0] > mean[2]:
-        nan = float("nan")
-        return nan, nan, nan, (mean[0] - mean[2]) / mean[0] if mean[0] else nan
-    share = (mean[0] - mean[1]) / (mean[0] - mean[2])
+    """``(share, lo, hi, gap)`` of stats ``[S, F, 2]`` of white, the strategy and the oracle
+    (:func:`bnerr.metrics.share_interval`: NaN where the oracle is no better than white's mean,
+    unbounded where a seed set has no gap)."""
+    pooled = tuple(x[..., 0].sum() / x[..., 1].sum() for x in (w, v, o))
     rw, rv, ro = (replicates(x) for x in (w, v, o))
-    if rw.numel() < 2 or not bool((rw > ro).all()):  # a replicate without a gap: not resolved
-        return share, float("-inf"), float("inf"), (mean[0] - mean[2]) / mean[0]
-    centre = torch.tensor(share, dtype=rw.dtype)
-    lo, hi = t_interval((rw - rv) / (rw - ro), centre, level)
-    return share, float(lo), float(hi), (mean[0] - mean[2]) / mean[0]
+    share, lo, hi = share_interval((rw, rv, ro), (pooled[0], pooled[1], pooled[2]), level)
+    mean_w, mean_o = float(pooled[0]), float(pooled[2])
+    gap = (mean_w - mean_o) / mean_w if mean_w else float("nan")
+    return float(share), float(lo), float(hi), gap
 
 
 def gap_shares(
@@ -172,7 +171,9 @@ def gap_shares(
                 if strategy in ends or v.shape != w.shape or o.shape != w.shape:
                     continue
                 share, lo, hi, gap = _share(w, v, o, level)
-                rows.append(GapShare(*key[:3], measure, strategy, share, lo, hi, gap, level))
+                rows.append(
+                    GapShare(*key[:3], measure, strategy, share, lo, hi, gap, level, key[4])
+                )
     return rows
 
 

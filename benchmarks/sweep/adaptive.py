@@ -2,19 +2,27 @@
 
 Every run of the suite gets a group-sequential design (:mod:`bnerr.metrics.sequential`): looks
 at its seed sets, then doubled (or ``batch`` more) up to ``cap``, fixed before the first seed
-set and recorded with its cells (``Record.looks``). After each round the decision table's
-verdict of every cell (:func:`benchmarks.reports.decision.cell_verdicts`: the lowest strategy
-against white, corrected for the best of m and for the look) is computed from the records of
-that round's look; the runs of a scene, condition and spp with an open cell are planned again
-at the next look, the others keep theirs, and :func:`benchmarks.sweep.runner.run_suite` (or the
-Ray runner) measures what is missing, appending to the same ``cells.jsonl`` as ``--resume``.
+set and recorded with its cells (``Record.looks``). The looks' sizes are
+:func:`bnerr.metrics.sequential.looks`: from the suite's ``n_1`` seed sets, ``n_1, 2 n_1, 4 n_1,
+..., cap`` (4, 8, 16, 32 at 4 seed sets and the default cap; the last look is the cap itself, so
+4 seed sets and a cap of 24 look at 4, 8, 16, 24), or ``n_1, n_1 + batch, ..., cap``; the
+boundary spends ``alpha / K`` at each of these K looks, and each look's records hold exactly its
+``n_k`` seed sets. After each round the decision table's verdict of every cell
+(:func:`benchmarks.reports.decision.cell_verdicts`: the lowest strategy against white, corrected
+for the best of m and for the look) is computed from the records of that round's look; the runs
+of a scene, condition and spp with an open cell are planned again at the next look, the others
+keep theirs, and :func:`benchmarks.sweep.runner.run_suite` (or the Ray runner) measures what is
+missing, appending to the same ``cells.jsonl`` as ``--resume``.
+
+**Seed sets are kept between looks** (:mod:`benchmarks.sweep.reuse`): seed set g is the same
+render at every look, so a run at its next look renders only its new seed sets (``n_{k-1} ..
+n_k - 1``) and joins them to its records of the previous look. A cell that goes from 4 to the cap
+of 32 costs 32 seed sets, not 4 + 8 + 16 + 32 = 60.
 
 Each look's records stay in the file (the key of a cell holds its seed sets), so an interrupted
 run resumes to the same verdicts: the rounds are replayed from the records of each look, and
 only the missing ones are measured. The reports show each cell's last look
-(:func:`benchmarks.sweep.records.final_records`). A run at its next look measures all its seed
-sets again (seed set g is the same render at every look; reusing the earlier ones is left to
-do), so a cell that goes to the cap of 32 from 4 costs 4 + 8 + 16 + 32 seed sets.
+(:func:`benchmarks.sweep.records.final_records`), and regenerate from the file as any run's.
 
 Not for: the statistics (:mod:`bnerr.metrics.sequential`) or measuring a run
 (:mod:`benchmarks.sweep.runner`).

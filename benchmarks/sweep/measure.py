@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, TypeGuard
@@ -43,6 +43,7 @@ import torch
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, Scene, StatefulDenoiser
 from benchmarks.sweep.plan import Run
 from benchmarks.sweep.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
+from benchmarks.sweep.reuse import extend
 from bnerr.color import preview_u8
 from bnerr.errors import ValueRangeError
 from bnerr.frame import Frame
@@ -320,15 +321,16 @@ def merge_seed_sets(
 ) -> list[Record]:
     """One record per cell of ``run.cells()`` from its seed sets' results (any order in, seed
     set order used): ``[S][F]`` arrays stacked by seed set, spectra and floors averaged over
-    every measured frame in seed set then frame order.
+    every measured frame in seed set then frame order. With ``run.reuse``, the records of the
+    new seed sets only (:func:`benchmarks.sweep.reuse.extend` joins the kept ones).
 
     Raises:
-        ValueRangeError: the results are not exactly seed sets ``0 .. run.seed_sets - 1``.
+        ValueRangeError: the results are not exactly seed sets ``run.groups``.
     """
     ordered = sorted(results, key=lambda r: r.group)
-    if [r.group for r in ordered] != list(range(run.seed_sets)):
+    if [r.group for r in ordered] != list(run.groups):
         raise ValueRangeError(
-            f"merge_seed_sets {run.label}: expected seed sets 0..{run.seed_sets - 1}, "
+            f"merge_seed_sets {run.label}: expected seed sets {run.reuse}..{run.seed_sets - 1}, "
             f"got {[r.group for r in ordered]}"
         )
     first, last = ordered[0], ordered[-1]
@@ -443,18 +445,21 @@ def finish_run(
     crops_dir: Path | None,
     *,
     merge_crops: bool = False,
+    kept: Mapping[str, Record] | None = None,
 ) -> list[Record]:
     """Save the crops (if any, and ``crops_dir``) and merge the seed sets into records.
 
     ``merge_crops`` (a resumed sweep): the run may be narrowed to the denoisers whose cells were
     missing, so its crops join those of the crop file an earlier pass left (same names replaced)
     instead of replacing the file, whose other denoisers' crops the kept records still show.
+    ``kept``: the records so far (key -> record), where a run with ``reuse`` finds the previous
+    look's records its new seed sets join (:func:`benchmarks.sweep.reuse.extend`).
     """
     crop = next((r.crop for r in results if r.group == 0 and r.crop), None)
     crop_file = (
         _save_crop(run, crop, crops_dir, merge_crops) if crop and crops_dir is not None else None
     )
-    return merge_seed_sets(run, results, version, crop_file)
+    return extend(run, merge_seed_sets(run, results, version, crop_file), kept or {})
 
 
 def measure_run(
@@ -466,22 +471,26 @@ def measure_run(
     crops_dir: Path | None = None,
     on_frame: Callable[[], None] | None = None,
     merge_crops: bool = False,
+    kept: Mapping[str, Record] | None = None,
 ) -> list[Record]:
-    """Render, denoise and measure every seed set of ``run`` in turn; return one record per cell.
+    """Render, denoise and measure every seed set of ``run`` in turn (``run.groups``: those
+    not kept from the previous look); return one record per cell.
 
     Args:
         run, parts, references, denoisers, on_frame: as :func:`measure_seed_set`.
         crops_dir: where to save the side-by-side crops (if ``run.crops``), or None.
-        merge_crops: as :func:`finish_run`.
+        merge_crops, kept: as :func:`finish_run`.
 
     Returns:
         One :class:`~benchmarks.sweep.records.Record` per cell of ``run.cells()``, in that order.
     """
     results = [
         measure_seed_set(run, parts, references, denoisers, group, on_frame=on_frame)
-        for group in range(run.seed_sets)
+        for group in run.groups
     ]
-    return finish_run(run, results, parts.code_version, crops_dir, merge_crops=merge_crops)
+    return finish_run(
+        run, results, parts.code_version, crops_dir, merge_crops=merge_crops, kept=kept
+    )
 
 
 def _save_crop(run: Run, crop: dict[str, np.ndarray], crops_dir: Path, merge: bool = False) -> str:

@@ -77,6 +77,15 @@ class Run(RunSpec):
     #: (``bnerr bench --until-resolved``, :mod:`benchmarks.sweep.adaptive`); empty for a fixed
     #: number. Recorded with its cells (``Record.looks``), not part of their key.
     looks: tuple[int, ...] = ()
+    #: Seed sets ``0 .. reuse - 1`` come from the cells' records at the previous look (that
+    #: look's seed-set count) and are not measured again (:mod:`benchmarks.sweep.reuse`); 0:
+    #: every seed set is measured. Set by the runner on the runs it measures, not by a plan.
+    reuse: int = 0
+
+    @property
+    def groups(self) -> range:
+        """The seed sets the run measures: ``reuse .. seed_sets - 1``."""
+        return range(self.reuse, self.seed_sets)
 
     def cells(self) -> list[Cell]:
         """Its cells: every denoiser x region, in that order."""

@@ -258,7 +258,7 @@ class _Scheduler:
         params = tuned_params(run, self.sweep.store)
         t_refs = _measure_refs(run)
         frames = self._references(run, t_refs)
-        for group in range(run.seed_sets):
+        for group in run.groups:
             ref = self.measure_fn.remote(
                 run, group, self.parts_ref, self.version, params, t_refs, *frames
             )
@@ -283,11 +283,15 @@ class _Scheduler:
         assert measured is not None  # a measure job carries its run
         done = self.results[measured]
         done.append(value)
-        if len(done) == measured.seed_sets:
+        if len(done) == len(measured.groups):
             del self.results[measured]
             crops = self.sweep.out / "crops"
             version, merge = self.sweep.parts.code_version, self.sweep.resumed
-            self.sweep.add(finish_run(measured, done, version, crops, merge_crops=merge))
+            self.sweep.add(
+                finish_run(
+                    measured, done, version, crops, merge_crops=merge, kept=self.sweep.records
+                )
+            )
 
     def cancel(self) -> None:
         for ref in list(self.inflight):
@@ -307,7 +311,7 @@ def _task_count(sweep: SweepState) -> int:
         refs.update(naming.path(run, t) for t in _measure_refs(run))
         for source in missing_tuning(run, sweep.store):
             tunings.add((tuning_key(run), run.spp, source))
-    return len(refs) + len(tunings) + sum(r.seed_sets for r in sweep.todo)
+    return len(refs) + len(tunings) + sum(len(r.groups) for r in sweep.todo)
 
 
 def _connect(ray: ModuleType, address: str) -> bool:

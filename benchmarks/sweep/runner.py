@@ -45,6 +45,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from benchmarks.sweep.references import ReferenceCache
+from benchmarks.sweep.reuse import with_reuse
 from benchmarks.sweep.tuning import TuningStore, tune_denoisers
 from bnerr.errors import FileFormatError
 from bnerr.outputs import clean_stale_temporaries
@@ -188,7 +189,8 @@ def start_sweep(
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     runs = plan(suite) if runs is None else list(runs)
     _warn_unmeasured(records, runs)
-    todo = pending(suite, records, runs)
+    version = parts.code_version
+    todo = [with_reuse(run, records, version) for run in pending(suite, records, runs)]
     planned = {c.key(): None for run in runs for c in run.cells()}  # ordered, no repeats
     order = [k for k in records if k not in planned] + list(planned)
     return SweepState(
@@ -224,7 +226,7 @@ def run_suite(
     """
     sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite, runs=runs)
     references = ReferenceCache(cache_dir, sweep.parts)
-    total = sum(r.seed_sets * (r.warmup + r.frames) for r in sweep.todo)
+    total = sum(len(r.groups) * (r.warmup + r.frames) for r in sweep.todo)
     with tqdm(total=total, unit="frame", disable=not progress, dynamic_ncols=True) as bar:
         for run in sweep.todo:
             label = run.label  # bound now: the callback below reads it while this run measures
@@ -245,6 +247,7 @@ def run_suite(
                 crops_dir=sweep.out / "crops",
                 on_frame=lambda: bar.update(1),
                 merge_crops=sweep.resumed,
+                kept=sweep.records,
             )
             sweep.add(measured)
     sweep.finish()

@@ -13,10 +13,13 @@ One module per concern (docs/METHODS.md, section 6):
 - :mod:`bnerr.metrics.stats`: :class:`Estimate`, :func:`bootstrap_interval`,
   :func:`paired_ratio` (t-intervals over seed sets), the claims :func:`better`,
   :func:`not_worse` and :func:`equivalent`, and the pieces they are built from;
+- :mod:`bnerr.metrics.share`: the share of a gap a strategy closes (the gap suite's) with its
+  linearized t-interval, and the Bonferroni level of a verdict on the best of m shares;
 - :mod:`bnerr.metrics.sequential`: adaptive seed sets, a group-sequential design (alpha spent
   over the looks) that keeps a verdict's coverage when seed sets are added until it is settled;
 - :mod:`bnerr.metrics.coverage`: the coverage study behind the choice of interval and of the
-  adaptive design (``python -m bnerr.metrics.coverage [--sequential TRIALS]``);
+  adaptive design, and the gap shares' (``python -m bnerr.metrics.coverage [--sequential TRIALS |
+  --shares TRIALS]``);
 - :mod:`bnerr.metrics.spectrum`: radially averaged power spectra and the low-frequency fraction
   (also importable as :mod:`bnerr.spectrum`).
 
@@ -47,6 +50,7 @@ from bnerr.metrics.image import (
 )
 from bnerr.metrics.power import resolve_power, seed_set_spread, seed_sets_needed
 from bnerr.metrics.regions import coherent_mask
+from bnerr.metrics.share import best_level, relevel_share, share_interval
 from bnerr.metrics.stats import (
     METHODS,
     Estimate,
@@ -69,6 +73,9 @@ from bnerr.metrics.stats import (
 )
 
 __all__ = [
+    "best_level",
+    "relevel_share",
+    "share_interval",
     "resolve_power",
     "seed_set_spread",
     "seed_sets_needed",

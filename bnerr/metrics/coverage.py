@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import torch
 
 from bnerr.metrics.sequential import Design, looks, naive_design, run_sequential
+from bnerr.metrics.share import share_interval
 from bnerr.metrics.stats import resample_weights, set_means, t_interval
 
 __all__ = [
@@ -45,11 +46,15 @@ __all__ = [
     "RHO",
     "Coverage",
     "SequentialCoverage",
+    "ShareCoverage",
     "bootstrap_intervals",
     "coverage",
     "main",
     "sequential_coverage",
+    "share_coverage",
+    "share_intervals",
     "simulate",
+    "simulate_levels",
     "studentized_intervals",
     "t_intervals",
 ]
@@ -84,19 +89,26 @@ def simulate(
     def normal(*size: int) -> torch.Tensor:
         return torch.randn(size, generator=generator, dtype=torch.float64)
 
-    def set_effect() -> torch.Tensor:
-        if not skewed:
-            return set_sd * normal(trials, seed_sets, 1)
-        u = torch.rand((trials, seed_sets, 1), generator=generator, dtype=torch.float64)
-        return set_sd * (-torch.log1p(-u) - 1.0)
-
     content = CONTENT_SD * normal(trials, 1, frames)
-    set_a, set_b = set_effect(), set_effect()
+    set_a, set_b = (_set_effect(trials, seed_sets, set_sd, generator, skewed) for _ in range(2))
     z1, z2 = normal(*shape), normal(*shape)
     noise_a = FRAME_CV * z1
     noise_b = FRAME_CV * (RHO * z1 + math.sqrt(1 - RHO * RHO) * z2)
     scale = math.log1p(-effect)
     return torch.exp(content + set_a + noise_a + scale), torch.exp(content + set_b + noise_b)
+
+
+def _set_effect(
+    trials: int, seed_sets: int, set_sd: float, generator: torch.Generator, skewed: bool
+) -> torch.Tensor:
+    """``[trials, seed_sets, 1]`` log seed-set effects: normal with sd ``set_sd``, or (``skewed``)
+    a centred exponential times ``set_sd``."""
+    if not skewed:
+        return set_sd * torch.randn(
+            (trials, seed_sets, 1), generator=generator, dtype=torch.float64
+        )
+    u = torch.rand((trials, seed_sets, 1), generator=generator, dtype=torch.float64)
+    return set_sd * (-torch.log1p(-u) - 1.0)
 
 
 def _pairs(x: torch.Tensor) -> torch.Tensor:
@@ -284,6 +296,158 @@ def sequential_coverage(
     )
 
 
+def simulate_levels(
+    trials: int,
+    seed_sets: int,
+    frames: int,
+    set_sd: float,
+    generator: torch.Generator,
+    levels: Sequence[float],
+    *,
+    skewed: bool = False,
+) -> list[torch.Tensor]:
+    """Per-frame MSE of strategies whose expected MSE is ``levels[i]`` times a common one: each
+    ``[trials, seed_sets, frames]`` float64, the frame content shared (the model of the module
+    docstring), the seed-set effect and frame noise each strategy's own (independent: the
+    correlation :data:`RHO` of the ratio's model is left out)."""
+    content = CONTENT_SD * torch.randn(
+        (trials, 1, frames), generator=generator, dtype=torch.float64
+    )
+    out = []
+    for level in levels:
+        sets = _set_effect(trials, seed_sets, set_sd, generator, skewed)
+        noise = FRAME_CV * torch.randn(
+            (trials, seed_sets, frames), generator=generator, dtype=torch.float64
+        )
+        out.append(level * torch.exp(content + sets + noise))
+    return out
+
+
+def share_intervals(
+    w: torch.Tensor, v: torch.Tensor, o: torch.Tensor, level: float
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The gap share of :mod:`benchmarks.reports.gap` (:func:`bnerr.metrics.share_interval`) for
+    every trial of ``w, v, o [T, S, F]`` (white, the strategy, the oracle; equal pixel counts, so
+    a pooled mean is the mean): ``(share, lo, hi)``, each ``[T]``."""
+    reps = (w.mean(dim=2), v.mean(dim=2), o.mean(dim=2))
+    pooled = (w.mean(dim=(1, 2)), v.mean(dim=(1, 2)), o.mean(dim=(1, 2)))
+    return share_interval(reps, pooled, level)
+
+
+@dataclass(frozen=True)
+class ShareCoverage:
+    """The gap share's record at one setting (:func:`share_coverage`): the share of trials whose
+    interval (at ``level``) misses the true share, its binomial standard error, and the share of
+    unbounded intervals (a seed set without a gap: not resolved, never a miss). ``rivals`` > 1:
+    the best of that many strategies with the same true share, its interval at ``level`` (the
+    family level ``1 - 0.05 / m`` for the corrected verdict)."""
+
+    seed_sets: int
+    gap: float
+    share: float
+    set_sd: float
+    skewed: bool
+    rivals: int
+    level: float
+    trials: int
+    miss: float
+    miss_se: float
+    unbounded: float
+
+    @property
+    def stated(self) -> float:
+        """The miss rate the interval claims: ``1 - level``, and for the best of m the family's
+        0.05 (what an uncorrected verdict claims too, and what the Bonferroni level keeps)."""
+        return 0.05 if self.rivals > 1 else 1.0 - self.level
+
+
+def share_coverage(
+    seed_sets: int,
+    gap: float,
+    share: float,
+    set_sd: float,
+    trials: int,
+    levels: Sequence[float] = (0.95,),
+    *,
+    rivals: int = 1,
+    skewed: bool = False,
+    frames: int = 3,
+    seed: int = 0,
+) -> list[ShareCoverage]:
+    """Simulate ``trials`` cells with white at 1, the oracle at ``1 - gap`` and ``rivals``
+    strategies each at the true share ``share`` (``1 - share * gap``), and measure the interval
+    of the one with the highest estimated share (of the one strategy when ``rivals`` is 1) at
+    each of ``levels``: a miss is an interval that excludes ``share``."""
+    gen = torch.Generator().manual_seed(seed)
+    mse = simulate_levels(
+        trials, seed_sets, frames, set_sd, gen,
+        [1.0, 1.0 - gap, *[1.0 - share * gap] * rivals], skewed=skewed,
+    )  # fmt: skip
+    w, o, rivals_mse = mse[0], mse[1], torch.stack(mse[2:])  # [m, T, S, F]
+    estimates = torch.stack([share_intervals(w, v, o, 0.95)[0] for v in rivals_mse])  # [m, T]
+    best = rivals_mse[
+        torch.nan_to_num(estimates, nan=-math.inf).argmax(dim=0), torch.arange(trials)
+    ]
+    rows = []
+    for level in levels:
+        _, lo, hi = share_intervals(w, best, o, level)
+        missed = (lo > share) | (hi < share)  # NaN (no gap) is never a miss
+        miss = float(missed.double().mean())
+        rows.append(
+            ShareCoverage(
+                seed_sets,
+                gap,
+                share,
+                set_sd,
+                skewed,
+                rivals,
+                level,
+                trials,
+                miss,
+                math.sqrt(miss * (1 - miss) / trials),
+                float((~torch.isfinite(hi - lo)).double().mean()),
+            )  # fmt: skip
+        )
+    return rows
+
+
+def _shares_table(trials: int) -> None:
+    """Print the gap shares' table (``--shares``): 2, 3, 4 and 8 seed sets, gaps of 0.3 and 0.8
+    (the committed gap tables' range: 0.23-0.89), true shares 0 and 0.5, seed-set effects of 0,
+    5 and 15 % (normal) and 15 % skewed, at 95 % and 97.5 % (the seed suite's family level for
+    its m = 2 variants) and, for the best of m = 2, 4 and 8 variants with the same true share,
+    at 95 % (uncorrected) and at the family level 1 - 0.05 / m: the miss rate stated for a best
+    of m is the family's 5 % either way."""
+    print(
+        "| S | gap | share | seed-set sd | skewed | best of m | level | miss % (nominal) | "
+        "unbounded % |"
+    )
+    print("|---|---|---|---|---|---|---|---|---|")
+    settings = ((0.0, False), (0.05, False), (0.15, False), (0.15, True))
+    rows = []
+    for seed_sets in (2, 3, 4, 8):
+        for gap in (0.3, 0.8):
+            for share in (0.0, 0.5):
+                for set_sd, skewed in settings:
+                    rows += share_coverage(
+                        seed_sets, gap, share, set_sd, trials, (0.95, 0.975), skewed=skewed
+                    )
+        for rivals in (2, 4, 8):
+            for set_sd, skewed in settings[1:]:
+                rows += share_coverage(
+                    seed_sets, 0.8, 0.5, set_sd, trials, (0.95, 1 - 0.05 / rivals),
+                    rivals=rivals, skewed=skewed,
+                )  # fmt: skip
+    for r in rows:
+        print(
+            f"| {r.seed_sets} | {r.gap:.1f} | {r.share:.1f} | {r.set_sd:.0%} | "
+            f"{'yes' if r.skewed else 'no'} | {r.rivals} | {r.level:.5f} | "
+            f"{100 * r.miss:.2f} ± {100 * r.miss_se:.2f} ({100 * r.stated:.2f}) | "
+            f"{100 * r.unbounded:.1f} |",
+            flush=True,
+        )
+
+
 def _sequential_table(trials: int) -> None:
     """Print the adaptive procedure's table (``--sequential``): every effect, seed-set effect
     (normal and skewed), first look (2, 3 or 4 seed sets, doubled to 8 times the first) and
@@ -329,6 +493,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--trials", type=int, default=40_000, help="trials per bootstrap setting")
     parser.add_argument("--t-trials", type=int, default=400_000, help="trials per t setting")
     parser.add_argument(
+        "--shares",
+        type=int,
+        metavar="TRIALS",
+        help="instead: the gap shares' and the best variant's table (bnerr.metrics.share)",
+    )
+    parser.add_argument(
         "--sequential",
         type=int,
         metavar="TRIALS",
@@ -338,6 +508,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     torch.set_num_threads(1)  # bit-identical tables, and fair to a shared machine
     if args.sequential:
         _sequential_table(args.sequential)
+        return
+    if args.shares:
+        _shares_table(args.shares)
         return
     names = list(METHODS)
     print("| S | seed-set sd | level | nominal miss % | " + " | ".join(names) + " |")

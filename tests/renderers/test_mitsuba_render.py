@@ -21,7 +21,7 @@ from bnerr.errors import (
     ShapeError,
     UnknownNameError,
 )
-from bnerr.metrics import blurred_mse, equivalent, mse, paired_ratio
+from bnerr.metrics import better, blurred_mse, equivalent, mse, paired_ratio
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds
 from renderers import mitsuba_render as mr
@@ -237,32 +237,33 @@ def test_scene_dict_and_errors(single_threaded):
 @needs_mitsuba
 @pytest.mark.reference
 def test_temporal_lowers_the_blurred_error_of_mitsuba_renders(single_threaded):
-    """``temporal`` vs ``white`` on Mitsuba's renders, 64 x 64 at 1 spp, frames 1..11.
+    """``temporal`` vs ``white`` on Mitsuba's renders, 64 x 64 at 1 spp: 4 seed sets (seeds
+    0-3) x frames 1..3 (the cost of the former 11 frames of one seed set), so that the interval
+    of :func:`bnerr.metrics.paired_ratio` is over independent seed sets (frames of one seed set
+    share its seed image: an interval over them is a within-run one, which the former single
+    seed set's was). Frame 0 is left out: temporal's first frame is unsorted, white noise like
+    white's.
 
-    Measured (LLVM 19, these seeds, 8 s on one thread): raw MSE ratio 1.005 [0.962, 1.050],
-    sigma-1 blurred MSE ratio 0.767 [0.698, 0.842] (95%; one seed set, so paired_ratio's
-    t-interval over the 11 frames' log ratios: a within-run interval, the frames share the seed
-    image). The test asks for the blurred ratio's interval to lie below 0.9 (a margin of 0.06
-    above the measured upper end) and the raw ratio to be equivalent to 1 within 8 % (the
-    permutation moves the error, it does not shrink it; the interval's half-width is 4.4 % here
-    and a within-run interval is the narrow side, so the suites' 5 % would be too tight). Frame
-    0 is left out: temporal's first frame is unsorted, white noise like white's.
+    The claims, as the suites state them: the sigma-1 blurred MSE is lower than white's (the
+    95 % interval below 1), and the raw MSE equals white's within the suites' margin for a
+    permutation of white's seeds, 5 % (tests/benchmarks/sweep/test_ordering.py: temporal moves
+    the error, it does not shrink it). Measured here (LLVM 19, 9 s on one thread): raw 1.009
+    [0.991, 1.027], blurred 0.811 [0.733, 0.898] (95 %, 4 seed sets).
     """
     render = mr.mitsuba_render_fn(SCENE, spp=1)
     reference = mr.mitsuba_reference(SCENE, spp=1024)
-    errors = {}
-    for name in ("white", "temporal"):
-        strategy = make_strategy(name, render.height, render.width, seed=0)
-        frames = [strategy.frame(t, render).color for t in range(12)][1:]
-        errors[name] = (
-            [float(mse(c, reference)) for c in frames],
-            [float(blurred_mse(c, reference, 1.0)) for c in frames],
-        )
+    errors: dict[str, tuple[list, list]] = {"white": ([], []), "temporal": ([], [])}
+    for name, (raw_sets, blurred_sets) in errors.items():
+        for seed in range(4):
+            strategy = make_strategy(name, render.height, render.width, seed=seed)
+            frames = [strategy.frame(t, render).color for t in range(4)][1:]
+            raw_sets.append([float(mse(c, reference)) for c in frames])
+            blurred_sets.append([float(blurred_mse(c, reference, 1.0)) for c in frames])
     raw = paired_ratio(errors["temporal"][0], errors["white"][0])
     blurred = paired_ratio(errors["temporal"][1], errors["white"][1])
     print(f"raw {raw}, blurred {blurred}")
-    assert blurred.hi < 0.9, blurred
-    assert equivalent(raw, 0.08), raw
+    assert better(blurred), f"blurred temporal / white = {blurred}"
+    assert equivalent(raw, 0.05), f"raw temporal / white = {raw}"
 
 
 @needs_mitsuba

@@ -151,23 +151,34 @@ def test_oracle_beats_temporal_after_denoising(ordering, scene, spp, denoiser):
 
 
 # Equivalence margins of the raw MSE ratio to white. temporal permutes white's seeds, so its raw
-# MSE is white's in expectation; 5 % is the smallest round margin 8 seed sets resolve at 99.375 %:
-# measured half-widths 1.7-4.4 % (largest on direct at 4 spp, whose Owen-Sobol raw MSE varies most
-# between seed sets; 3 % would need about 16 seed sets there). The oracle is no permutation: it
-# shows one of K = 32 candidates per pixel, picked by rank, and its raw MSE is measured off white's
-# (direct 4 spp 0.956 [0.922, 0.991] here; 1.24x on the Cornell box, docs/METHODS.md section 6),
-# so its claim is equivalence within 10 %.
+# MSE is white's in expectation: the claim is equality within 5 %, the smallest round margin 8 seed
+# sets resolve at 99.375 % (measured half-widths 1.7-4.4 %, largest on direct at 4 spp, whose
+# Owen-Sobol raw MSE varies most between seed sets; 3 % would need about 16 seed sets there).
 _RAW_MARGIN = {"temporal": 0.05, "oracle": 0.10}
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize(("scene", "spp"), [(s, n) for s in SCENES for n in SPP])
-@pytest.mark.parametrize("strategy", ["temporal", "oracle"])
-def test_raw_mse_is_the_same_for_every_strategy(ordering, scene, spp, strategy):
+def test_temporals_raw_mse_equals_whites(ordering, scene, spp):
     ratio = _ratio(
-        ordering, strategy, "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
+        ordering, "temporal", "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
     )
-    assert equivalent(ratio, _RAW_MARGIN[strategy]), f"raw {strategy} / white = {ratio}"
+    assert equivalent(ratio, _RAW_MARGIN["temporal"]), f"raw temporal / white = {ratio}"
+
+
+# The oracle is no permutation: it shows one of K = 32 candidates per pixel, picked by rank against
+# the mask, so its raw MSE is not white's in expectation and equality is not claimed (measured
+# here on direct at 4 spp 0.956 [0.922, 0.991], which excludes 1; 1.24x on the Cornell box,
+# docs/METHODS.md section 6). What is claimed is a bound on the difference, so that its gains after
+# denoising (test_oracle_beats_temporal_after_denoising) are not raw-MSE differences beyond it:
+# the raw MSE ratio's interval lies inside [0.90, 1.10].
+@pytest.mark.slow
+@pytest.mark.parametrize(("scene", "spp"), [(s, n) for s in SCENES for n in SPP])
+def test_oracles_raw_mse_is_within_10_percent_of_whites(ordering, scene, spp):
+    ratio = _ratio(
+        ordering, "oracle", "white", "raw", _RAW_LEVEL, scene=scene, spp=spp, denoiser="gaussian"
+    )
+    assert equivalent(ratio, _RAW_MARGIN["oracle"]), f"raw oracle / white = {ratio}"
 
 
 # The failure cases: where the temporal method is expected to degrade to white noise, never worse.
@@ -247,8 +258,9 @@ _GAP_LEVEL = 1 - 0.05 / 6  # six comparisons below
 _GAP_SHIFT = (
     "Shifting the block grid by (2, 2) every other frame does not help: the retargeting pass "
     "already moves seeds across block boundaries every frame, and the shifted grid's partial "
-    "border blocks sort fewer seeds; measured temporal+shift / temporal after the Gaussian on "
-    "snooker 1.016 [0.975, 1.060] (99%), after a sigma-2 blur 1.048 [0.934, 1.171]."
+    "border blocks sort fewer seeds; measured with this test's own run (128x128, 8 seed sets, "
+    "t-interval at 1 - 0.05/6) temporal+shift / temporal after the Gaussian on snooker 0.997 "
+    "[0.957, 1.038], after a sigma-2 blur 0.997 [0.803, 1.236]."
 )
 
 
@@ -256,9 +268,11 @@ _GAP_REPROJECT = (
     "Forward reprojection changes nothing measurable at the scenes' own speed: the animation "
     "moves about half a pixel per frame (snooker: median 0.53 px, at most 0.98 px), so rounding "
     "moves half the seeds by one pixel, where the error was nearly as well predicted in place; "
-    "measured temporal+reproject / temporal after the Gaussian on snooker 0.997 [0.968, 1.038] "
-    "(99%). The x8 motion case would need the strategy to see the motion between the frames it "
-    "renders (the runner's frame k*t reports the motion from k*t - 1)."
+    "measured with this test's own run (128x128, 8 seed sets, t-interval at 1 - 0.05/6) "
+    "temporal+reproject / temporal after the Gaussian on snooker 0.995 [0.962, 1.028], after a "
+    "sigma-2 blur 0.958 [0.871, 1.054]. The x8 motion case would need the strategy to see the "
+    "motion between the frames it renders (the runner's frame k*t reports the motion from "
+    "k*t - 1)."
 )
 
 
@@ -294,12 +308,14 @@ def _gap_ratio(records, a, b, kind, metric, scene):
         # quick ablation's 0.969 [0.929, 1.014] was not).
         (BEST, "direct"),
         pytest.param(
-            "temporal+shift", "snooker", marks=pytest.mark.xfail(strict=True, reason=_GAP_SHIFT)
+            "temporal+shift",
+            "snooker",
+            marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=_GAP_SHIFT),
         ),
         pytest.param(
             "temporal+reproject",
             "snooker",
-            marks=pytest.mark.xfail(strict=True, reason=_GAP_REPROJECT),
+            marks=pytest.mark.xfail(strict=True, raises=AssertionError, reason=_GAP_REPROJECT),
         ),
     ],
 )
@@ -330,7 +346,8 @@ def test_best_variant_keeps_whites_raw_mse(gap):
 # equality is not the claim, but a raw excess beyond what 8 seed sets resolve is a finding).
 # LDBN (issue 25) with the keys shipped in bnerr/data, measured here: after the Gaussian 0.901
 # [0.855, 0.950] at 4 spp and 0.953 [0.916, 0.991] at 16; raw 1.006 [0.973, 1.039] and 0.927
-# [0.874, 0.983] (99.17 %, 8 seed sets), the lowest of the three at both sample counts.
+# [0.874, 0.983] (this test's own run: 8 seed sets, 1 - 0.05/12 = 99.58 %), the lowest of the
+# three at both sample counts.
 RIVAL_CLAIMS = ("zsobol", "cycles_blue", "ldbn")
 
 
@@ -343,9 +360,9 @@ _RIVAL_LEVEL = 1 - 0.05 / (2 * len(RIVAL_CLAIMS) * len(_RIVAL_SPP))  # den and r
 _RIVAL_16SPP = (
     "Not established at 16 spp: after the Gaussian tuned on white (sigma 0.5 px at 16 spp, so "
     "narrow that little low-frequency error is removed either way) zsobol / white measured "
-    "0.978 [0.956, 1.001] here (8 seed sets, 99.375 %) and 0.974 [0.950, 1.004] in "
-    "results/quality (1024-spp references, former bootstrap); at 4 spp the gain is clear "
-    "(0.962 [0.939, 0.986] here)."
+    "0.978 [0.954, 1.003] in this test's own run (8 seed sets, t-interval at 1 - 0.05/12) and "
+    "0.974 [0.950, 1.004] in results/quality (1024-spp references, the former bootstrap); at 4 "
+    "spp the gain is clear (0.962 [0.937, 0.988] here)."
 )
 
 
@@ -353,13 +370,14 @@ _SHARED_SCRAMBLE = (
     "cycles_blue and zsobol take each pixel's samples as an aligned block of one sequence under "
     "one scramble shared by all pixels, so the image's raw MSE is one draw per scramble instead "
     "of an average over per-pixel scrambles (docs/METHODS.md, section 7; tests/test_sequences.py). "
-    "Cycles fixes its sequence seed, so its draw on direct at 4 spp (1.072 [1.033, 1.112] here, "
+    "Cycles fixes its sequence seed, so its draw on direct at 4 spp (1.072 [1.030, 1.115] in "
+    "this test's own run at 1 - 0.05/12, "
     "1.067 [1.035, 1.099] in results/quality) never changes; ZSobol draws a fresh scramble per "
     "frame and shows no excess on average on toy integrands, but its MSE varies from frame to "
     "frame 2.4 times as much as white's, so these 24 frames' interval reaches past the 5 % "
-    "margin (1.127 [1.032, 1.230] at 4 spp, 1.016 [0.964, 1.070] at 16; 1.018 [0.969, 1.083] "
-    "and 1.003 [0.965, 1.046] in results/quality). The rivals' design, not a defect in our "
-    "samplers."
+    "margin (1.127 [1.024, 1.239] at 4 spp, 1.016 [0.960, 1.075] at 16 here; 1.018 [0.969, "
+    "1.083] and 1.003 [0.965, 1.046] in results/quality, the former bootstrap). The rivals' "
+    "design, not a defect in our samplers."
 )
 
 
@@ -373,7 +391,13 @@ _RIVAL_FAILURES = {
 
 def _rival_cells(kind):
     return [
-        pytest.param(s, n, marks=pytest.mark.xfail(strict=True, reason=_RIVAL_FAILURES[kind, s, n]))
+        pytest.param(
+            s,
+            n,
+            marks=pytest.mark.xfail(
+                strict=True, raises=AssertionError, reason=_RIVAL_FAILURES[kind, s, n]
+            ),
+        )
         if (kind, s, n) in _RIVAL_FAILURES
         else (s, n)
         for s in RIVAL_CLAIMS

@@ -135,12 +135,15 @@ def pixels(h: int, w: int) -> torch.Tensor:
 REAL = dict(size=48, spp=4, frames=8, tile=4)
 
 
-#: Non-inferiority margin of raw MSE ratios on that render. Its 144 tiles x 8 frames give a
-#: relative standard error of 6-9 % per comparison, so the Bonferroni interval spans about -+20 %
-#: (measured upper ends up to 1.30): it can only catch a gross loss, such as the doubled raw MSE of
-#: repeated seeds (bnds here: 2.29x), and that is all it is asked. Equivalence within the strict
-#: RAW_MARGIN is tested on the analytic integrand, which resolves it.
-REAL_MARGIN = 0.35
+#: Non-inferiority margin of raw MSE ratios on that render, fixed by what the test is for and not
+#: by the data: catching a gross loss, the doubled raw MSE that repeated or shared seeds cause
+#: (bnds_st here: 2.29x). The claim is "less than half a doubling on the log scale worse than the
+#: sampler compared with": raw MSE ratio's Bonferroni interval below sqrt(2) = 1.414. Its 144
+#: tiles x 8 frames give a relative standard error of 6-9 % per comparison (interval -+20 %), so
+#: a 2x loss fails it by far and no smaller claim is resolved here; equivalence within the strict
+#: RAW_MARGIN is tested on the analytic integrand, which resolves it. (It was 0.35, set just
+#: above the measured upper ends, 1.30.)
+REAL_MARGIN = math.sqrt(2.0) - 1.0
 
 
 def small_render_errors(names) -> dict[str, torch.Tensor]:

@@ -286,10 +286,11 @@ def variant_raw_errors(one_thread):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", VARIANTS)
-def test_variants_raw_mse_equals_whites_on_a_small_render(variant_raw_errors, name):
-    # On real buffers (object ids, motion, albedo) no variant may lose more than REAL_MARGIN of
-    # raw MSE against the sampler it permutes (white's, or zsobol's for temporal_zsobol); the
-    # equivalence itself is tested on the analytic integrand.
+def test_variants_raw_mse_is_not_grossly_above_whites_on_a_small_render(variant_raw_errors, name):
+    # What this claims is no gross loss, not equality: on real buffers (object ids, motion,
+    # albedo) no variant's raw MSE is half a doubling or more (REAL_MARGIN, sqrt(2)) above that of
+    # the sampler it permutes (white's, or zsobol's for temporal_zsobol); the render resolves no
+    # less. The equality itself is tested on the analytic integrand, within RAW_MARGIN.
     base = "zsobol" if name.startswith("temporal_zsobol") else "white"
     level = 1 - 0.05 / len(VARIANTS)
     ratio = paired_ratio(variant_raw_errors[name], variant_raw_errors[base], level)
