@@ -147,8 +147,10 @@ def as_stats(values: object, name: str) -> torch.Tensor:
         ShapeError: another shape, or no frame (the message names ``name``).
         NonFiniteError: a NaN or infinite value.
     """
-    x = torch.as_tensor(check_tensor(values, name) if isinstance(values, torch.Tensor) else values)
-    x = x.detach().to("cpu", torch.float64)
+    if isinstance(values, torch.Tensor):
+        x = check_tensor(values, name).detach().to("cpu", torch.float64)
+    else:  # lists and arrays straight to float64: through torch's default float32 they lose digits
+        x = torch.as_tensor(values, dtype=torch.float64)
     if x.ndim == 1:
         x = x[None]
     if x.ndim == 2:

@@ -127,6 +127,8 @@ def test_as_stats_turns_values_into_pairs_of_seed_sets_and_frames():
     assert two.shape == (2, 3, 2) and two.dtype == torch.float64
     pairs = np.arange(12, dtype=np.float64).reshape(2, 3, 2)
     assert as_stats(pairs, "v").numpy().tolist() == pairs.tolist()
+    # lists (as records hold them) keep every digit: not rounded through float32 on the way
+    assert as_stats([[0.1 + 1e-9, 1 / 3]], "v")[0, :, 0].tolist() == [0.1 + 1e-9, 1 / 3]
     with pytest.raises(
         ShapeError, match=r"den mse: expected per-frame values .* got shape \[1, 0, 2\]"
     ):
