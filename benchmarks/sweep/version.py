@@ -77,5 +77,5 @@ def device_info(device: str) -> dict[str, str] | None:
     if where.type == "cuda" and where.index is None:
         where = torch.device("cuda", torch.cuda.current_device())
     name = torch.cuda.get_device_name(where) if where.type == "cuda" else where.type
-    cuda = torch.version.cuda or ""  # type: ignore[attr-defined]  # torch.version is untyped
+    cuda = torch.version.cuda or ""
     return {"device": str(where), "name": name, "torch": torch.__version__, "cuda": cuda}
