@@ -38,6 +38,8 @@ __all__ = [
     "INT_DTYPES",
     "ValueRangeError",
     "available_memory",
+    "available_devices",
+    "check_device",
     "check_dtype",
     "check_finite",
     "check_memory",
@@ -299,6 +301,42 @@ def check_memory(
             f"{name}: expected a size that fits in memory (at most {_gib(fraction * have)} of "
             f"the {_gib(have)} available), got an estimate of {_gib(nbytes)}"
         )
+
+
+def available_devices() -> list[str]:
+    """The torch devices this process can compute on: ``cpu``, then ``cuda:0`` .. ``cuda:N-1``
+    where CUDA is available."""
+    cuda = torch.cuda.device_count() if torch.cuda.is_available() else 0
+    return ["cpu"] + [f"cuda:{i}" for i in range(cuda)]
+
+
+def check_device(device: object, name: str = "device") -> torch.device:
+    """``device`` (a ``torch.device`` or a string: ``cpu``, ``cuda``, ``cuda:N``) as a
+    ``torch.device``, if this process can compute on it.
+
+    Raises:
+        DtypeError: neither a string nor a ``torch.device``.
+        ValueRangeError: not a torch device, or one that is not available here; the message
+            names the devices that are (:func:`available_devices`).
+    """
+    if not isinstance(device, (str, torch.device)):
+        raise DtypeError(
+            f"{name}: expected a torch.device or str, got {type(device).__name__} {device!r}"
+        )
+    have = available_devices()
+    try:
+        parsed = torch.device(device)
+    except RuntimeError:
+        raise ValueRangeError(
+            f"{name}: expected a torch device ({', '.join(have)}), got {device!r}"
+        ) from None
+    index = 0 if parsed.index is None else parsed.index
+    usable = parsed.type == "cpu" or (parsed.type == "cuda" and f"cuda:{index}" in have)
+    if not usable:
+        raise ValueRangeError(
+            f"{name}: expected an available device ({', '.join(have)}), got {device!s}"
+        )
+    return parsed
 
 
 def check_positive_int(value: object, name: str, *, minimum: int = 1) -> int:

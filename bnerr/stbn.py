@@ -49,10 +49,10 @@ import torch
 
 from bnerr.errors import (
     FLOAT_DTYPES,
-    DtypeError,
     ShapeError,
     UnknownNameError,
     ValueRangeError,
+    check_device,
     check_dtype,
     check_finite,
     check_name,
@@ -104,17 +104,7 @@ def _check_common(size: object, frames: object, seed: object, minimum: int = 2) 
 
 
 def _check_device(device: object) -> torch.device:
-    if device is None:
-        return torch.device("cpu")
-    if not isinstance(device, (str, torch.device)):
-        raise DtypeError(f"device: expected a torch.device or str, got {type(device).__name__}")
-    try:
-        device = torch.device(device)
-    except RuntimeError as err:
-        raise ValueRangeError(f"device: expected a valid torch device, got {device!r}") from err
-    if device.type == "cuda" and not torch.cuda.is_available():
-        raise ValueRangeError(f"device: expected an available device, got {device} (no CUDA)")
-    return device
+    return torch.device("cpu") if device is None else check_device(device)
 
 
 def _words(seed: int, stream: int, count: int) -> torch.Tensor:

@@ -73,6 +73,7 @@ CROSS_CUTTING = {
     ),
     "tests/benchmarks/sweep/test_ordering.py": "oracle < temporal < white end to end",
     "tests/benchmarks/sweep/test_ordering_coherent.py": "the same in coherent regions",
+    "tests/test_cuda.py": "strategies, tracer, denoisers, metrics and a sweep on CUDA vs the CPU",
 }
 
 

@@ -78,7 +78,7 @@ from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import RESULTS_ARCHIVE, Record, compress_records, load_records
-from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
+from bnerr.errors import DtypeError, ValueRangeError, check_device, check_positive_int
 from bnerr.outputs import output_lock
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
 
@@ -183,6 +183,22 @@ def _add_adaptive_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _add_machine_options(parser: argparse.ArgumentParser) -> None:
+    """Where the cells compute: --threads and --device."""
+    parser.add_argument(
+        "--threads",
+        type=positive_int,
+        help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
+        "machine, where OpenMP barriers stall whenever a thread is descheduled",
+    )
+    parser.add_argument(
+        "--device",
+        default="cpu",
+        help="torch device the cells render, denoise and measure on: cpu (default), cuda, "
+        "cuda:N; the records say which (not with --ray or an external renderer)",
+    )
+
+
 def register(subparsers: argparse._SubParsersAction) -> None:
 
     parser = subparsers.add_parser(
@@ -216,12 +232,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--out", type=Path, help="output folder (default results/<suite>)")
     add("--cache", type=Path, default=Path("cache/references"), help="reference cache folder")
     _add_resume_options(parser)
-    add(
-        "--threads",
-        type=positive_int,
-        help="torch intra-op threads (default: torch's own, one per core); 1 on a shared, loaded "
-        "machine, where OpenMP barriers stall whenever a thread is descheduled",
-    )
+    _add_machine_options(parser)
     add(
         "--ray",
         nargs="?",
@@ -249,6 +260,7 @@ def _run_speed(args: argparse.Namespace, suite: Suite, out: Path) -> str:
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
     given += ["--ray"] if args.ray is not None else []
+    given += ["--device"] if args.device != "cpu" else []
     if given:
         raise ValueRangeError(
             f"--suite {suite.name}: expected no cell overrides (it runs timing scripts), got "
@@ -263,6 +275,7 @@ def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += ["--ray"] if args.ray is not None else []
+    given += ["--device"] if args.device != "cpu" else []
     if given:
         raise ValueRangeError(
             f"--report-only: expected no cell overrides (it measures nothing), got "
@@ -332,7 +345,7 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     if added:
         print("bnerr bench: added the white baseline (every ratio is to white)", file=sys.stderr)
     specs = list(dict.fromkeys(specs))
-    parts = real_parts(tuple(specs))
+    parts = real_parts(tuple(specs), device=args.device)
     if renderer is not None:
         suite, dropped = renderer_suite(suite, renderer, named=args.strategies is not None)
         if dropped:
@@ -361,8 +374,25 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
         records = measure(suite, out, **common)
     if compress:  # before the page is written: it links the file the folder then holds
         compress_records(out)
-    title = f"bnerr bench --suite {suite.name}"
+    device = "" if args.device == "cpu" else f" --device {args.device}"
+    title = f"bnerr bench --suite {suite.name}{device}"
     return write_report(out, records, title=title, charts=not args.no_charts)
+
+
+def _check_device(args: argparse.Namespace) -> None:
+    """--device: available here (:func:`bnerr.errors.check_device`), and off the CPU neither with
+    --ray (its tasks ask Ray for CPUs only) nor with an external renderer (it renders where it
+    renders); ``args.device`` becomes the canonical name (``cuda`` -> ``cuda``, ``cuda:1``)."""
+    args.device = str(check_device(args.device, "--device"))
+    if args.device == "cpu":
+        return
+    given = [f for f, v in (("--ray", args.ray), ("--renderer", args.renderer)) if v is not None]
+    given += ["--renderer-cmd"] if args.renderer_cmd is not None else []
+    if given:
+        raise ValueRangeError(
+            f"--device {args.device}: expected it without {', '.join(given)} (Ray tasks and "
+            "external renderers run on the CPU), got both; drop one"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -370,6 +400,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.threads is not None:
         torch.set_num_threads(check_positive_int(args.threads, "--threads"))
+    _check_device(args)
     if args.ray is not None:  # before any work: say how to install it
         require_ray()
         check_positive_int(args.ray_cpus, "--ray-cpus")

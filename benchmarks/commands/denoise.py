@@ -24,10 +24,11 @@ import time
 from pathlib import Path
 
 from benchmarks.commands._args import EXPOSURE, positive_int
-from bnerr.errors import DtypeError
+from bnerr.errors import DtypeError, check_device
 from bnerr.frame import Frame
 from bnerr.io import image_format, read_frame, write_image
 from bnerr.outputs import check_output
+from bnerr.timing import sync
 from denoisers import get_denoiser, load_denoiser
 from denoisers.tuning import ParamStore
 
@@ -74,12 +75,16 @@ def run(args: argparse.Namespace) -> int:
     output = check_output(args.output, "file", need_bytes=need)
     if output.resolve() == source.resolve():
         raise DtypeError(f"--out {output}: expected a file other than --in, got the same file")
+    device = check_device(args.device, "--device")
     args.denoiser = load_denoiser(args.denoiser)  # a plug-in: its registered name (for --tuned)
     denoiser = get_denoiser(args.denoiser, **_params(args))
     frame = read_frame(source)
+    given = frame if device.type == "cpu" else frame.to(device)
     start = time.perf_counter()
-    color = denoiser(frame)  # checks every buffer it reads, and its output, for NaN
+    color = denoiser(given)  # checks every buffer it reads, and its output, for NaN
+    sync(color)  # a GPU's queued work counts
     elapsed_ms = 1000.0 * (time.perf_counter() - start)
+    color = color.cpu()
     buffers = {**frame.buffers(), "color": color}
     timings = {**frame.timings, "denoise": elapsed_ms}
     write_image(output, Frame(**buffers, timings=timings), exposure=args.exposure)
@@ -118,6 +123,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--tuned", metavar="PARAMS.json", help="take parameters from a tuned-parameters file"
+    )
+    p.add_argument(
+        "--device", default="cpu", help="torch device to denoise on: cpu (default), cuda, cuda:N"
     )
     p.add_argument(
         "--scene",

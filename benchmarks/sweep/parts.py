@@ -14,6 +14,7 @@ expose ``params()``.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
@@ -25,6 +26,7 @@ import renderers
 from benchmarks.sweep.plugins import load_specs
 from benchmarks.sweep.version import code_version
 from bnerr import metrics, sequences, strategies
+from bnerr.errors import check_device
 from bnerr.frame import Frame
 from denoisers import tuning
 
@@ -141,6 +143,10 @@ class Parts:
         scene_version: ``(name) -> str``, what identifies a scene's content beyond
             ``code_version`` ("" for the shipped scenes; a plug-in scene's file hash, a Mitsuba
             scene's files and Mitsuba's version): enters the references' cache key.
+        device: the torch device the sweep renders, denoises and measures on (``bnerr bench
+            --device``): :func:`real_parts` makes the strategies' seeds there and moves every
+            seed image its render gets there, so the frames, the denoised images and the metrics
+            follow; the references are moved there (:mod:`benchmarks.sweep.references`).
 
     Whether a strategy's frame depends on the earlier frames is its own ``stateful``
     (:class:`Strategy`): only those render the warmup frames; a stateless strategy's frame t is
@@ -159,6 +165,7 @@ class Parts:
     render_batch: BatchRenderer | None = None
     plugins: tuple[tuple[str, str], ...] = ()
     scene_version: Callable[[str], str] = lambda name: ""
+    device: str = "cpu"
 
 
 class BoundRender:
@@ -191,30 +198,47 @@ def render_any(
     spp: int,
     *,
     compile: bool | None = None,
+    device: torch.device | str | None = None,
 ) -> Frame:
     """The :class:`Renderer` of :func:`real_parts`: bnerr's tracer (:func:`renderers.render`),
     or the scene's own ``render(t, seeds, sampler, spp)`` for a scene that renders itself (a
     Mitsuba XML scene, :class:`renderers.mitsuba_scene.MitsubaScene`; ``compile`` is the
-    tracer's and does not apply)."""
+    tracer's and does not apply). ``device``: where the tracer renders (the seeds are moved
+    there; None: where they are); a scene that renders itself renders where it renders."""
     if renderers.renders_itself(scene):
         return scene.render(t, seeds, sampler, spp)  # type: ignore[attr-defined]
+    if device is not None:
+        seeds = seeds.to(device)
     return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
 
 
 def render_batch_any(
-    scene: Scene, t: int, seeds: torch.Tensor, sampler: Sampler, spp: int
+    scene: Scene,
+    t: int,
+    seeds: torch.Tensor,
+    sampler: Sampler,
+    spp: int,
+    *,
+    device: torch.device | str | None = None,
 ) -> list[Frame]:
     """:func:`renderers.render_batch` (K seed images ``[K, H, W]`` at once), or one by one for a
-    scene that renders itself (:func:`render_any`)."""
+    scene that renders itself (:func:`render_any`); ``device`` as :func:`render_any`'s."""
     if renderers.renders_itself(scene):
         return [render_any(scene, t, s, sampler, spp) for s in seeds]
+    if device is not None:
+        seeds = seeds.to(device)
     return renderers.render_batch(_own(scene), t, seeds, sampler, spp)
 
 
-def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
+def real_parts(specs: tuple[tuple[str, str], ...] = (), device: str = "cpu") -> Parts:
     """The project's own parts: ``renderers`` (and a scene's own renderer, :func:`render_any`),
     :mod:`bnerr.strategies` and ``denoisers``, with the plug-ins of ``specs`` (``(group, spec)``
-    pairs) loaded again by each call."""
+    pairs) loaded again by each call, rendering on ``device`` (:attr:`Parts.device`).
+
+    Raises:
+        ValueRangeError: ``device`` is not available here (:func:`bnerr.errors.check_device`).
+    """
+    where = str(check_device(device, "device"))
 
     def get_scene(name: str, animated: bool) -> Scene:
         load_specs(specs)  # first in every unit of work: a fresh worker registers the plug-ins
@@ -234,7 +258,14 @@ def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
     ) -> Strategy:
         load_specs(specs)
         return strategies.make_strategy(
-            name, height, width, seed=seed, sampler=sampler, spp=spp, dimensions=scene.dimensions
+            name,
+            height,
+            width,
+            seed=seed,
+            sampler=sampler,
+            spp=spp,
+            dimensions=scene.dimensions,
+            device=where,
         )
 
     def scene_version(name: str) -> str:
@@ -248,16 +279,17 @@ def real_parts(specs: tuple[tuple[str, str], ...] = ()) -> Parts:
 
     return Parts(
         get_scene=get_scene,
-        render=render_any,
+        render=functools.partial(render_any, device=where),
         make_strategy=make_strategy,
         make_denoiser=make_denoiser,
         tune_denoiser=tune_denoiser,
         reference_sampler=reference_sampler,
         with_depth=lambda scene, depth: dataclasses.replace(_own(scene), max_depth=depth),
         code_version=code_version(),
-        render_batch=render_batch_any,
+        render_batch=functools.partial(render_batch_any, device=where),
         plugins=tuple(specs),
         scene_version=scene_version,
+        device=where,
     )
 
 

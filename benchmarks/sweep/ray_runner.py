@@ -67,7 +67,7 @@ from benchmarks.sweep.tuning import (
     tuning_key,
 )
 from benchmarks.sweep.version import code_version
-from bnerr.errors import BnerrError, MissingExtraError, check_positive_int
+from bnerr.errors import BnerrError, MissingExtraError, ValueRangeError, check_positive_int
 from bnerr.frame import Frame
 
 __all__ = [
@@ -372,12 +372,19 @@ def run_suite_ray(
 
     Raises:
         MissingExtraError: ray is not installed.
+        ValueRangeError: ``parts.device`` is not the CPU (the tasks ask Ray for CPUs only; a
+            CUDA sweep runs serially, ``bnerr bench --device cuda`` without ``--ray``).
         ResultsExistError, FileFormatError: as ``run_suite``.
         WorkerLostError: a worker died under a task (killed, out of memory, a lost node); the
             finished runs' cells are kept for ``--resume``.
         Any error of a task, on the driver, after the others are cancelled.
     """
 
+    if parts is not None and parts.device != "cpu":
+        raise ValueRangeError(
+            f"run_suite_ray: expected parts on the CPU (its tasks ask Ray for CPUs only), got "
+            f"device {parts.device}; run a CUDA sweep serially (run_suite)"
+        )
     ray = require_ray()
     cpus = check_positive_int(cpus_per_task, "cpus_per_task")
     sweep = start_sweep(suite, out_dir, parts, resume=resume, overwrite=overwrite, runs=runs)

@@ -35,7 +35,10 @@ seed set x measured frame:
   uses, :mod:`benchmarks.sweep.plugins`; None, and absent on disk, when it uses none) and
   ``looks`` (the seed-set counts of the group-sequential design its seed sets were added under,
   ``bnerr bench --until-resolved``, :mod:`bnerr.metrics.sequential`; None, and absent on disk,
-  for a fixed number of seed sets).
+  for a fixed number of seed sets) and ``device`` (where a cell off the CPU was measured,
+  ``bnerr bench --device cuda``: ``{"device", "name", "torch", "cuda"}``,
+  :func:`benchmarks.sweep.version.device_info`; None, and absent on disk, on the CPU, so CPU
+  records, old ones among them, stay byte-identical).
   On disk the record also holds
   ``key`` (:meth:`Cell.key`), which is derived from ``cell``.
 - :class:`Timings`: ``render_ms``, ``perm_ms``, ``denoise_ms``, each ``[S][F]`` milliseconds.
@@ -136,6 +139,7 @@ class Record:
     coverage: list[list[float]] | None = None
     plugins: dict[str, dict[str, str]] | None = None
     looks: list[int] | None = None
+    device: dict[str, str] | None = None
 
     @property
     def key(self) -> str:
@@ -160,6 +164,7 @@ class Record:
             "coverage",
             "plugins",
             "looks",
+            "device",
         ):  # files from before they were recorded stay
             if out[late] is None:  # byte-identical
                 del out[late]
@@ -192,6 +197,7 @@ class Record:
                 coverage=data.get("coverage"),
                 plugins=data.get("plugins"),
                 looks=data.get("looks"),
+                device=data.get("device"),
             )
         except (KeyError, TypeError, ValueError) as err:
             what = f"missing field {err}" if isinstance(err, KeyError) else str(err)

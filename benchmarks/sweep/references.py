@@ -19,7 +19,14 @@ file name, :meth:`ReferenceCache.path`) holds every input of the render:
   never reuses a stale reference;
 - for a plug-in scene, its content (``Parts.scene_version``): a scene file's hash, or for a
   Mitsuba XML scene Mitsuba's version and the hash of the XML and its camera path, whose
-  references Mitsuba renders (the scene renders itself, :func:`benchmarks.sweep.parts.render_any`).
+  references Mitsuba renders (the scene renders itself, :func:`benchmarks.sweep.parts.render_any`);
+- the device type, for a sweep off the CPU (``Parts.device``, ``bnerr bench --device cuda``: a
+  ``_cuda`` before ``.exr``): the tracer's float rounding differs between devices, so a CUDA
+  reference is not the CPU one bit for bit, and a CPU sweep never reads it (the CPU's names are
+  unchanged, so its cached references stay valid).
+
+**Device.** A reference is rendered on ``Parts.device`` (the parts' render moves its seeds there)
+and one read from the cache is moved there, so the frames it judges and it sit on one device.
 
 **Compiled references.** A reference is rendered with ``compile=True`` exactly when it traces at
 least ``2^22`` paths (``H * W * spp >= REFERENCE_COMPILE_PATHS``; :func:`reference_compile`), and
@@ -105,6 +112,14 @@ def _errno(err: OSError) -> int | None:
     return err.errno if err.errno is not None else getattr(cause, "errno", None)
 
 
+def _device_suffix(device: str) -> str:
+    """What the cache key adds for a sweep on ``device``: nothing on the CPU, ``_cuda`` on any
+    CUDA device (the index is where it ran, not what it computed; two GPU models may still round
+    apart in the last bits, as two CPUs' vector units may: the cache trusts the folder's owner)."""
+    kind = torch.device(device).type
+    return "" if kind == "cpu" else f"_{kind}"
+
+
 class ReferenceCache:
     """High-spp references, rendered on first use and kept as EXR files (and the last few in
     memory).
@@ -165,7 +180,7 @@ class ReferenceCache:
         name = (
             f"{run.scene}_m{run.motion}_{depth}_t{t_render}_{run.width}x{run.height}"
             f"_spp{run.reference_spp}_{sampler_name}_s{_REFERENCE_SALT:08x}"
-            f"_{REFERENCE_FORMAT}_{version}.exr"
+            f"_{REFERENCE_FORMAT}_{version}{_device_suffix(self.parts.device)}.exr"
         )
         return (self.root if self.root is not None else Path()) / run.scene / name
 
@@ -192,6 +207,8 @@ class ReferenceCache:
                 frame = read_frame(path)
             except FileFormatError:
                 frame = None
+            if frame is not None and _device_suffix(self.parts.device):
+                frame = frame.to(self.parts.device)
         if frame is None:
             seeds = reference_seeds(run.height, run.width, t_render)
             sampler = self.parts.reference_sampler()

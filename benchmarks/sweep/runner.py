@@ -24,11 +24,13 @@ Not for: the speed suite (:mod:`benchmarks.speed`) or the tables and charts
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import torch
 from tqdm import tqdm
 
 from benchmarks.suites import Suite
@@ -47,7 +49,8 @@ from benchmarks.sweep.records import (
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.reuse import with_reuse
 from benchmarks.sweep.tuning import TuningStore, tune_denoisers
-from bnerr.errors import FileFormatError
+from benchmarks.sweep.version import device_info
+from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.outputs import clean_stale_temporaries
 from denoisers.tuning import ParamStore
 
@@ -78,6 +81,7 @@ class SweepState:
     order: list[str] = field(default_factory=list)
     written: list[str] | None = None  # the keys in the file, in file order; None: not written yet
     resumed: bool = False  # a resumed run's crops join the crop file it left (measure.finish_run)
+    device: dict[str, str] | None = None  # what the records say of a device off the CPU
 
     @property
     def params_path(self) -> Path:
@@ -90,6 +94,8 @@ class SweepState:
         """Keep a finished run's records and write them: appended to the file this sweep wrote,
         or the whole file the first time (and when a record replaces one already written)."""
         measured = [with_plugins(r) for r in measured]  # what identifies each plug-in used
+        if self.device is not None:  # off the CPU: where they were measured, torch's version
+            measured = [dataclasses.replace(r, device=self.device) for r in measured]
         fresh = [r for r in measured if r.key not in self.records]
         self.records.update((r.key, r) for r in measured)
         if self.written is None or len(fresh) != len(measured):
@@ -154,6 +160,24 @@ def _warn_unmeasured(records: dict[str, Record], runs: Sequence[Run]) -> None:
         )
 
 
+def _where(device: dict[str, str] | None) -> str:
+    return "cpu" if device is None else f"{device['device']} ({device['name']})"
+
+
+def _check_same_device(kept: Iterable[Record], device: dict[str, str] | None, out: Path) -> None:
+    """Refuse to resume into cells measured on another kind of device (a CPU sweep's records
+    beside a CUDA sweep's would mix last-bit differences and timings in one table)."""
+    kind = "cpu" if device is None else torch.device(device["device"]).type
+    for record in kept:
+        theirs = "cpu" if record.device is None else torch.device(record.device["device"]).type
+        if theirs != kind:
+            raise ValueRangeError(
+                f"{out}: expected kept cells measured on {kind} to resume on {_where(device)}, "
+                f"got {record.key} measured on {_where(record.device)}; resume with that "
+                f"--device, or measure into another --out"
+            )
+
+
 def start_sweep(
     suite: Suite,
     out_dir: str | Path,
@@ -176,6 +200,8 @@ def start_sweep(
         FileFormatError: with ``resume``, a results file that is not valid (a tuned-parameters
             file that is not valid is a warning: the denoisers are tuned again).
         PluginError: with ``resume``, kept cells measured with a plug-in that changed since.
+        ValueRangeError: with ``resume``, kept cells measured on another kind of device than
+            ``parts.device`` (cpu, cuda).
     """
     out = Path(out_dir)
     if not resume and not overwrite:
@@ -184,6 +210,8 @@ def start_sweep(
     parts = real_parts() if parts is None else parts
     load_specs(parts.plugins)
     check_resume(records.values())  # no cells of a plug-in that changed since
+    device = device_info(parts.device)
+    _check_same_device(records.values(), device, out)
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
     store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
@@ -194,7 +222,14 @@ def start_sweep(
     planned = {c.key(): None for run in runs for c in run.cells()}  # ordered, no repeats
     order = [k for k in records if k not in planned] + list(planned)
     return SweepState(
-        out=out, parts=parts, records=records, store=store, todo=todo, order=order, resumed=resume
+        out=out,
+        parts=parts,
+        records=records,
+        store=store,
+        todo=todo,
+        order=order,
+        resumed=resume,
+        device=device,
     )
 
 

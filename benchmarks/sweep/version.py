@@ -6,6 +6,10 @@ file, or every ``.py`` under its package directory) and ``bnerr/hashing.py``. It
 reference's cache key (:class:`benchmarks.sweep.references.ReferenceCache`), every record
 (``Record.reference.version``) and the Ray tasks' check that a node runs the driver's code.
 
+:func:`device_info` says what a record measured off the CPU was measured on (the device, its
+name, torch's and CUDA's versions): GPU numbers differ from CPU ones in the last bits and in
+every timing, so the records say so and a resumed sweep does not mix them.
+
 A leaf: :class:`benchmarks.sweep.parts.Parts` carries the version and the reference cache reads
 it, so both import this module and neither imports the other for it.
 """
@@ -17,7 +21,9 @@ import importlib
 import inspect
 from pathlib import Path
 
-__all__ = ["code_version", "reference_sources", "source_hash"]
+import torch
+
+__all__ = ["code_version", "device_info", "reference_sources", "source_hash"]
 
 # The modules whose source a reference's pixels depend on (besides its own seeds).
 _SOURCE_MODULES = ("renderers", "bnerr.sequences", "bnerr.hashing")
@@ -59,3 +65,17 @@ def code_version(sources: dict[str, Path] | None = None) -> str:
     """
     files = reference_sources() if sources is None else sources
     return f"0-{source_hash(files)}"
+
+
+def device_info(device: str) -> dict[str, str] | None:
+    """What a record measured on ``device`` says of it: None on the CPU (the records' default:
+    CPU records stay as they were), else ``{"device": "cuda:0", "name": <the GPU's name>,
+    "torch": torch.__version__, "cuda": torch.version.cuda}``."""
+    where = torch.device(device)
+    if where.type == "cpu":
+        return None
+    if where.type == "cuda" and where.index is None:
+        where = torch.device("cuda", torch.cuda.current_device())
+    name = torch.cuda.get_device_name(where) if where.type == "cuda" else where.type
+    cuda = torch.version.cuda or ""
+    return {"device": str(where), "name": name, "torch": torch.__version__, "cuda": cuda}

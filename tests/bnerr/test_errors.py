@@ -50,3 +50,37 @@ def test_check_memory_refuses_with_the_estimate_and_what_is_available(monkeypatc
     ):
         check_memory(256 * 2**30, "--res 40000x40000")
     assert issubclass(MemoryLimitError, MemoryError)
+
+
+def _no_cuda(monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+
+
+def test_check_device_accepts_the_cpu_in_either_spelling(monkeypatch):
+    _no_cuda(monkeypatch)
+    assert errors.available_devices() == ["cpu"]
+    assert errors.check_device("cpu") == torch.device("cpu")
+    assert errors.check_device(torch.device("cpu")) == torch.device("cpu")
+
+
+def test_check_device_names_what_came_and_what_is_available(monkeypatch):
+    _no_cuda(monkeypatch)
+    with pytest.raises(errors.ValueRangeError, match=r"--device: expected an available device "
+                       r"\(cpu\), got cuda:1"):  # fmt: skip
+        errors.check_device("cuda:1", "--device")
+    with pytest.raises(errors.ValueRangeError, match=r"expected a torch device \(cpu\), got 'gpu'"):
+        errors.check_device("gpu")
+    with pytest.raises(errors.ValueRangeError, match="got meta"):
+        errors.check_device("meta")  # a torch device, but not one that computes
+    with pytest.raises(errors.DtypeError, match="expected a torch.device or str, got int 0"):
+        errors.check_device(0)
+
+
+def test_check_device_takes_a_cuda_index_that_exists(monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: True)
+    monkeypatch.setattr(torch.cuda, "device_count", lambda: 2)
+    assert errors.available_devices() == ["cpu", "cuda:0", "cuda:1"]
+    assert errors.check_device("cuda") == torch.device("cuda")
+    assert errors.check_device("cuda:1") == torch.device("cuda", 1)
+    with pytest.raises(errors.ValueRangeError, match=r"\(cpu, cuda:0, cuda:1\), got cuda:2"):
+        errors.check_device("cuda:2")

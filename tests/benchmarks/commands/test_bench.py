@@ -263,3 +263,17 @@ def test_the_adaptive_options_need_until_resolved_and_a_run_that_measures(tmp_pa
     out = ["--out", str(tmp_path / "o"), "--quiet"]
     assert main(["bench", "--suite", "quick", *out, "--report-only", "--until-resolved"]) == 2
     assert "--until-resolved: expected a run that measures" in capsys.readouterr().err
+
+
+def test_bench_device_must_be_available_and_goes_without_ray(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr("torch.cuda.is_available", lambda: False)
+    assert main(["bench", "--out", str(tmp_path), "--device", "cuda"]) == 2
+    assert "--device: expected an available device (cpu), got cuda" in capsys.readouterr().err
+    monkeypatch.setattr("torch.cuda.is_available", lambda: True)
+    monkeypatch.setattr("torch.cuda.device_count", lambda: 1)
+    assert main(["bench", "--out", str(tmp_path), "--device", "cuda", "--ray"]) == 2
+    assert "--device cuda: expected it without --ray" in capsys.readouterr().err
+    assert main(["bench", "--suite", "speed", "--out", str(tmp_path), "--device", "cuda"]) == 2
+    assert "expected no cell overrides (it runs timing scripts), got --device" in (
+        capsys.readouterr().err
+    )

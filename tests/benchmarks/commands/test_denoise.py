@@ -148,3 +148,24 @@ def test_bad_output_files_fail_before_denoising_in_one_line(tmp_path, capsys, ou
     assert main(args) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and message in err
+
+
+def test_denoise_on_a_device_it_cannot_use_refuses_before_writing(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    path, _ = _frame_file(tmp_path)
+    out = tmp_path / "out.exr"
+    args = ["denoise", "--denoiser", "gaussian", "--in", str(path), "--out", str(out)]
+    assert main([*args, "--device", "cuda"]) == 2
+    assert "--device: expected an available device (cpu), got cuda" in capsys.readouterr().err
+    assert not out.exists()
+    assert main([*args, "--device", "cpu"]) == 0 and out.exists()
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs CUDA")
+def test_denoise_on_cuda_writes_what_the_cpu_does_to_rounding(tmp_path):
+    path, frame = _frame_file(tmp_path)
+    args = ["denoise", "--denoiser", "atrous", "--in", str(path)]
+    assert main([*args, "--out", str(tmp_path / "cpu.exr")]) == 0
+    assert main([*args, "--out", str(tmp_path / "cuda.exr"), "--device", "cuda"]) == 0
+    cpu, cuda = read_frame(tmp_path / "cpu.exr").color, read_frame(tmp_path / "cuda.exr").color
+    assert torch.allclose(cuda, cpu, rtol=0, atol=3e-2 * float(cpu.abs().max()))  # cuDNN's TF32

@@ -3,8 +3,10 @@
 import pytest
 import torch
 
-from benchmarks.sweep.parts import known_names, real_parts
+import renderers
+from benchmarks.sweep.parts import known_names, real_parts, render_any, render_batch_any
 from benchmarks.sweep.version import code_version
+from bnerr.errors import ValueRangeError
 from bnerr.strategies import STRATEGIES
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -33,3 +35,23 @@ def test_real_parts_render_through_a_strategy():
     assert parts.tune_denoiser("gaussian_does_not_exist", [], []) is None
     out = parts.make_denoiser("gaussian", None)(frame)
     assert out.shape == (3, 6, 8) and out.dtype == torch.float32
+
+
+def test_real_parts_render_on_their_device_and_refuse_one_not_here(monkeypatch):
+    monkeypatch.setattr(torch.cuda, "is_available", lambda: False)
+    parts = real_parts()
+    assert parts.device == "cpu"
+    with pytest.raises(ValueRangeError, match=r"device: expected an available device \(cpu\)"):
+        real_parts(device="cuda")
+
+
+def test_the_parts_render_moves_the_seeds_to_their_device(monkeypatch):
+    seen = []
+    monkeypatch.setattr(renderers, "render", lambda scene, t, seeds, *a, **k: seen.append(seeds))
+    monkeypatch.setattr(renderers, "render_batch", lambda scene, t, seeds, *a: seen.append(seeds))
+    scene = renderers.get_scene("direct")
+    seeds = torch.zeros(4, 4, dtype=torch.int64)
+    render_any(scene, 0, seeds, None, 1, device="meta")  # meta: a device every machine has
+    render_batch_any(scene, 0, seeds[None], None, 1, device="meta")
+    render_any(scene, 0, seeds, None, 1)  # no device: where the seeds are
+    assert [s.device.type for s in seen] == ["meta", "meta", "cpu"]

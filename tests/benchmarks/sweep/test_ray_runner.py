@@ -252,3 +252,10 @@ def test_a_node_with_other_code_is_refused(local_ray):
     with pytest.raises(ray_runner.CodeVersionError, match="install the same bnerr commit"):
         local_ray.get(task.remote("0-000000000000"))
     assert local_ray.get(task.remote(ray_runner._node_code_version()))
+
+
+def test_ray_refuses_parts_off_the_cpu_before_it_starts(tmp_path):
+    parts = dataclasses.replace(real_parts(), device="cuda")
+    with pytest.raises(ValueRangeError, match="expected parts on the CPU .* got device cuda"):
+        ray_runner.run_suite_ray(_suite(), tmp_path, parts=parts, address="local")
+    assert not (tmp_path / RESULTS_FILE).exists()

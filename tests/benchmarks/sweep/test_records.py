@@ -208,3 +208,11 @@ def test_final_records_keep_an_adaptive_cells_last_look_and_every_fixed_record()
     assert final_records([first, *fixed, last]) == [*fixed, last]
     assert Record.from_json(json.loads(json.dumps(last.to_json()))).looks == [2, 4]
     assert "looks" not in fixed[0].to_json()  # files without a design stay byte-identical
+
+
+def test_the_device_round_trips_and_is_absent_on_the_cpu():
+    assert "device" not in _record().to_json()  # CPU records stay byte-identical
+    where = {"device": "cuda:0", "name": "NVIDIA H200", "torch": "2.11.0", "cuda": "12.8"}
+    rec = dataclasses.replace(_record(), device=where)
+    data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
+    assert data["device"] == where and Record.from_json(data) == rec

@@ -22,7 +22,7 @@ from benchmarks.sweep.references import (
 from benchmarks.sweep.version import code_version, reference_sources, source_hash
 from bnerr import plugins
 from bnerr.frame import Frame
-from bnerr.io import read_frame
+from bnerr.io import read_frame, write_frame
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -200,3 +200,37 @@ def test_a_plugin_scene_keys_its_references_by_its_fingerprint(tmp_path, forget)
         keys.append(cache.path(run, 0).name)
     assert re.match(r"ref_plug_m1_.*_sha256-[0-9a-f]{16}\.exr$", keys[0]) and keys[0] != keys[1]
     assert cache.path(_run(), 0).name.startswith("direct_m1_")  # a shipped scene: as before
+
+
+def test_a_sweep_off_the_cpu_keys_its_references_apart_and_the_cpu_keys_stay(tmp_path):
+    cpu = ReferenceCache(tmp_path, real_parts())
+    cuda = ReferenceCache(tmp_path, dataclasses.replace(real_parts(), device="cuda:1"))
+    on_cpu, on_cuda = cpu.path(_run(), 0), cuda.path(_run(), 0)
+    assert on_cuda.name == on_cpu.name.removesuffix(".exr") + "_cuda.exr"
+    assert on_cpu.name.endswith(f"_{code_version()}.exr")  # the CPU's names as they were
+
+
+def test_a_cached_reference_is_moved_to_the_sweeps_device(tmp_path, monkeypatch):
+    parts = dataclasses.replace(real_parts(), device="cuda")
+    cache = ReferenceCache(tmp_path, parts)
+    cache.path(_run(), 0).parent.mkdir(parents=True)
+    frame = real_parts().render(renderers.get_scene("direct"), 0, torch.zeros(12, 16).long(),
+                                real_parts().reference_sampler(), 1)  # fmt: skip
+    write_frame(cache.path(_run(), 0), frame)
+    moved = []
+    monkeypatch.setattr(Frame, "to", lambda self, device: moved.append(device) or self)
+    assert torch.equal(cache.get(_run(), None, 0).color, frame.color)
+    assert moved == ["cuda"]
+
+
+def test_device_info_is_none_on_the_cpu_and_names_a_gpu_and_torch(monkeypatch):
+    assert version.device_info("cpu") is None
+    monkeypatch.setattr(torch.cuda, "current_device", lambda: 0)
+    monkeypatch.setattr(torch.cuda, "get_device_name", lambda where: f"GPU {where}")
+    info = version.device_info("cuda")
+    assert info == {
+        "device": "cuda:0",
+        "name": "GPU cuda:0",
+        "torch": torch.__version__,
+        "cuda": torch.version.cuda or "",
+    }

@@ -24,7 +24,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from benchmarks.sweep.runner import run_suite
-from bnerr.errors import FileFormatError
+from bnerr.errors import FileFormatError, ValueRangeError
 from tests._suites import tiny_suite
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -315,3 +315,21 @@ def test_own_tuning_column_beside_the_fair_one(tmp_path):
     own = stored["gaussian:own"]["direct/m1/owen_sobol/16x12/temporal"]["1"]["params"]
     assert by["temporal", "gaussian:own"].denoiser_params == own
     assert set(stored["gaussian"]) == {"direct/m1/owen_sobol/16x12"}
+
+
+def test_resume_refuses_cells_measured_on_another_device(tiny, tmp_path):
+    out, cache, records, _ = tiny
+    where = {"device": "cuda:0", "name": "GPU", "torch": torch.__version__, "cuda": ""}
+    write_records(tmp_path, [dataclasses.replace(r, device=where) for r in records])
+    with pytest.raises(ValueRangeError, match=r"expected kept cells measured on cpu to resume on "
+                       r"cpu, got .* measured on cuda:0 \(GPU\)"):  # fmt: skip
+        run_suite(tiny_suite(), tmp_path, cache_dir=cache, resume=True, progress=False)
+
+
+def test_records_measured_off_the_cpu_say_where(tiny, tmp_path, monkeypatch):
+    out, cache, records, _ = tiny
+    where = {"device": "cuda:0", "name": "GPU", "torch": torch.__version__, "cuda": ""}
+    monkeypatch.setattr(runner, "device_info", lambda device: where)
+    kept = run_suite(tiny_suite(), tmp_path, cache_dir=cache, progress=False)
+    assert [r.device for r in kept] == [where] * len(records)
+    assert [(r.key, r.raw, r.den) for r in kept] == [(r.key, r.raw, r.den) for r in records]
