@@ -15,7 +15,8 @@ A manifest is a TOML (``*.toml``, read with :mod:`tomllib`) or JSON (``*.json``)
   is taken as written; a bare name (``oidnDenoise``) is looked up on ``PATH``;
 - :func:`run_program` runs one argv in a session of its own (``start_new_session``) with stdin
   closed and stdout/stderr in files, kills its whole process group past the time limit, checks
-  its exit status and returns its wall time; every failure is an
+  its exit status and returns its wall time (what the program left running in its group is killed
+  when it exits); every failure is an
   :class:`~bnerr.errors.ExternalProcessError` whose first line names the program, its command and
   what was expected, followed by the last lines of its stderr (:func:`log_tail`).
 """
@@ -192,9 +193,16 @@ def log_tail(work: Path) -> str:
 def _kill_group(proc: subprocess.Popen) -> None:
     """Kill the program's process group (its session: it and everything it started), then reap
     it. Called before the program is reaped, so its id cannot name another group yet."""
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(proc.pid, signal.SIGKILL)
+    _end_group(proc.pid)
     proc.wait()
+
+
+def _end_group(pgid: int) -> None:
+    """Kill what the program left running in its process group once it exited (a background
+    child, a daemon it forked): nothing it started outlives the call. Its group id cannot name
+    another group while a member lives (the kernel keeps the id until the group is empty)."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pgid, signal.SIGKILL)
 
 
 def _status(code: int) -> str:
@@ -242,6 +250,7 @@ def run_program(what: str, argv: list[str], *, cwd: Path, timeout_s: float, work
             _kill_group(proc)
             raise
         elapsed = (time.perf_counter() - start) * 1000.0
+        _end_group(proc.pid)
     if code != 0:
         raise program_error(what, argv, "exit status 0", _status(code), log_tail(work))
     return elapsed
