@@ -12,7 +12,10 @@ CLI: exit code 2, one line ``bnerr <command>: error: ...``, no traceback.
 
 from __future__ import annotations
 
+import os
 import re
+import signal
+import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,3 +68,23 @@ def refused_on_the_command_line(
     assert lines, f"expected a line 'bnerr {argv[0]}: error: ...', got {err!r}"
     assert re.search(words, lines[0]), f"expected {words!r} in {lines[0]!r}"
     return lines[0]
+
+
+def _gone(pid: int) -> bool:
+    """Whether process ``pid`` has ended (a zombie not yet reaped by init counts as ended)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    stat = Path(f"/proc/{pid}/stat")
+    return stat.is_file() and stat.read_text().split(")")[-1].split()[0] == "Z"
+
+
+def assert_ended(pid: int, what: str, seconds: float = 5.0) -> None:
+    """Fail unless process ``pid`` ends within ``seconds`` (it is then killed: nothing stays)."""
+    deadline = time.monotonic() + seconds
+    while not _gone(pid) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if not _gone(pid):
+        os.kill(pid, signal.SIGKILL)
+        pytest.fail(f"{what} {pid} was left running")

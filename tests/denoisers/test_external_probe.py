@@ -7,21 +7,18 @@ the EXR files they hand back are written by the test."""
 from __future__ import annotations
 
 import json
-import os
-import signal
 import tempfile
-import time
 from pathlib import Path
 
 import pytest
 import torch
 
-from bnerr.errors import ExternalProcessError, FileFormatError
+from bnerr.errors import ExternalProcessError
 from bnerr.external import ManifestError
 from bnerr.frame import Frame
 from bnerr.io import write_exr
 from denoisers.external import denoiser_class
-from tests._probes import Bad, check, ids
+from tests._probes import Bad, assert_ended, check, ids
 
 H, W = 8, 8
 GOOD = {"name": "probe_ext", "command": ["./prog.sh", "{color}", "{output}"], "timeout_s": 20}
@@ -40,7 +37,7 @@ def _folder(tmp_path: Path, script: str, manifest: dict | str, suffix: str = ".j
     return path
 
 
-def _load(manifest: dict | str, suffix: str = ".json", script: str = "cp ready.exr \"$2\"\n"):
+def _load(manifest: dict | str, suffix: str = ".json", script: str = 'cp ready.exr "$2"\n'):
     return lambda tmp_path: denoiser_class(_folder(tmp_path, script, manifest, suffix))
 
 
@@ -133,18 +130,10 @@ def test_a_bad_manifest_or_program_is_refused_naming_it(case, tmp_path, private_
 
 def test_the_message_keeps_the_last_lines_of_stderr(tmp_path, private_tmp):
     script = "i=0\nwhile [ $i -lt 40 ]; do echo line $i >&2; i=$((i+1)); done\nexit 1\n"
-    message = str(check(Bad("stderr", _run(script), ExternalProcessError, "exit status 1"), tmp_path))
+    message = str(
+        check(Bad("stderr", _run(script), ExternalProcessError, "exit status 1"), tmp_path)
+    )
     assert "line 39" in message and "line 20" in message and "line 19" not in message
-
-
-def _gone(pid: int) -> bool:
-    """Whether process ``pid`` has ended (a zombie not yet reaped by init counts as ended)."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return True
-    stat = Path(f"/proc/{pid}/stat")
-    return stat.is_file() and stat.read_text().split(")")[-1].split()[0] == "Z"
 
 
 @pytest.mark.parametrize("ending", ["sleep 30\n", "exit 0\n", "exit 4\n"])
@@ -152,16 +141,10 @@ def test_no_process_the_program_started_is_left_running(tmp_path, private_tmp, e
     """Past its time limit, or exiting (well or not) with a child still running in the
     background: its whole process group is killed."""
     pids = tmp_path / "pids"
-    script = f"sleep 60 &\necho $! > {pids}\ncp ready.exr \"$2\"\n{ending}"
+    script = f'sleep 60 &\necho $! > {pids}\ncp ready.exr "$2"\n{ending}'
     run = _run(script, _color(), timeout_s=1.0)
     try:
         run(tmp_path)
     except ExternalProcessError:
         pass
-    child = int(pids.read_text())
-    deadline = time.monotonic() + 5
-    while not _gone(child) and time.monotonic() < deadline:
-        time.sleep(0.05)
-    if not _gone(child):
-        os.kill(child, signal.SIGKILL)
-        pytest.fail(f"the program's background child {child} was left running")
+    assert_ended(int(pids.read_text()), "the program's background child")
