@@ -43,6 +43,7 @@ from bnerr.errors import (
     UnknownNameError,
     ValueRangeError,
     check_finite,
+    toml_reason,
 )
 from bnerr.frame import BUFFERS, Frame
 from bnerr.io import exr_size, read_exr, read_frame
@@ -295,9 +296,13 @@ def load_manifest(folder: str | Path) -> Manifest:
     if not path.is_file():
         raise FileFormatError(f"{path}: expected the frame folder's manifest, got no such file")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
-        raise FileFormatError(f"{path}: expected a TOML manifest, got {err}") from None
+        text = path.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
+    except UnicodeDecodeError as err:
+        raise FileFormatError(f"{path}: expected a TOML manifest in UTF-8, got {err}") from None
+    except tomllib.TOMLDecodeError as err:
+        reason = toml_reason(err, text)
+        raise FileFormatError(f"{path}: expected a TOML manifest, got {reason}") from None
     return parse_manifest(data)
 
 

@@ -37,7 +37,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from bnerr.errors import ExternalProcessError, FileFormatError
+from bnerr.errors import ExternalProcessError, FileFormatError, toml_reason
 
 __all__ = [
     "ManifestError",
@@ -83,10 +83,8 @@ def read_manifest(path: Path, keys: Mapping[str, object], what: str) -> dict:
         raise ManifestError(f"{path}: expected a readable UTF-8 {what}, got {reason}") from None
     try:
         raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
-        where = f"(at the end of the document, after line {len(text.splitlines())})"
-        reason = str(err).replace("(at end of document)", where)
-        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ManifestError(f"{path}: expected valid TOML, got {toml_reason(err, text)}") from None
     except json.JSONDecodeError as err:
         raise ManifestError(
             f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
