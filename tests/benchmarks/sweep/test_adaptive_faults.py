@@ -82,9 +82,7 @@ class _Stop(BaseException):
     """What a kill between two batches leaves: the process ends, nothing else runs."""
 
 
-def test_a_run_stopped_between_batches_resumes_to_the_same_verdicts(
-    whole, tmp_path, monkeypatch
-):
+def test_a_run_stopped_between_batches_resumes_to_the_same_verdicts(whole, tmp_path, monkeypatch):
     grow, rounds = adaptive.grow, []
 
     def stop_after_first(runs, records):
@@ -177,9 +175,8 @@ def test_a_plugin_changed_between_batches_is_refused_in_one_line_naming_it(
     monkeypatch.undo()
     kept = (tmp_path / "out" / RESULTS_FILE).read_text().splitlines()
     assert kept and {json.loads(line)["cell"]["seed_sets"] for line in kept} == {2}
-    refused_on_the_command_line(
-        _bench(tmp_path, "--resume"), capsys, r"--resume: expected plug-in 'probe_box' \(.*box\.py:box\) unchanged"
-    )
+    changed = r"--resume: expected plug-in 'probe_box' \(.*box\.py:box\) unchanged"
+    refused_on_the_command_line(_bench(tmp_path, "--resume"), capsys, changed)
     plugin.write_text(DENOISER)
     from benchmarks.cli import main
 
