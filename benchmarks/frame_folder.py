@@ -297,9 +297,10 @@ def load_manifest(folder: str | Path) -> Manifest:
         raise FileFormatError(f"{path}: expected the frame folder's manifest, got no such file")
     try:
         text = path.read_text(encoding="utf-8")
-        data = tomllib.loads(text)
     except UnicodeDecodeError as err:
         raise FileFormatError(f"{path}: expected a TOML manifest in UTF-8, got {err}") from None
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         reason = toml_reason(err, text)
         raise FileFormatError(f"{path}: expected a TOML manifest, got {reason}") from None
