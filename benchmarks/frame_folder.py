@@ -43,6 +43,7 @@ from bnerr.errors import (
     UnknownNameError,
     ValueRangeError,
     check_finite,
+    toml_reason,
 )
 from bnerr.frame import BUFFERS, Frame
 from bnerr.io import exr_size, read_exr, read_frame
@@ -296,8 +297,15 @@ def load_manifest(folder: str | Path) -> Manifest:
     if not path.is_file():
         raise FileFormatError(f"{path}: expected the frame folder's manifest, got no such file")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError, RecursionError) as err:  # bad TOML or UTF-8, 5000 digits, ...
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise FileFormatError(f"{path}: expected a TOML manifest in UTF-8, got {err}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        reason = toml_reason(err, text)
+        raise FileFormatError(f"{path}: expected a TOML manifest, got {reason}") from None
+    except (ValueError, RecursionError) as err:  # 5000-digit integers, deep nesting
         raise FileFormatError(f"{path}: expected a TOML manifest, got {err}") from None
     return parse_manifest(data)
 

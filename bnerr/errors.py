@@ -49,6 +49,7 @@ __all__ = [
     "check_range",
     "check_shape",
     "check_tensor",
+    "toml_reason",
 ]
 
 
@@ -380,3 +381,11 @@ def check_offset(offset: object, name: str = "offset") -> tuple[int, int]:
 class SceneFileError(FileFormatError):
     """A scene file (:mod:`renderers.scene_file`) is unreadable, malformed or describes an invalid
     scene; the message names the file, then the line (syntax) or the key (meaning)."""
+
+
+def toml_reason(err: ValueError, text: str) -> str:
+    """The reason of ``tomllib``'s error ``err`` on ``text`` for a message, always naming its
+    line: ``tomllib`` ends most with "(at line L, column C)", but an unclosed table or array
+    with "(at end of document)", which this turns into the last line's number."""
+    where = f"(at the end of the document, after line {len(text.splitlines())})"
+    return str(err).replace("(at end of document)", where)

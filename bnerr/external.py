@@ -15,7 +15,8 @@ A manifest is a TOML (``*.toml``, read with :mod:`tomllib`) or JSON (``*.json``)
   is taken as written; a bare name (``oidnDenoise``) is looked up on ``PATH``;
 - :func:`run_program` runs one argv in a session of its own (``start_new_session``) with stdin
   closed and stdout/stderr in files, kills its whole process group past the time limit, checks
-  its exit status and returns its wall time; every failure is an
+  its exit status and returns its wall time (what the program left running in its group is killed
+  when it exits); every failure is an
   :class:`~bnerr.errors.ExternalProcessError` whose first line names the program, its command and
   what was expected, followed by the last lines of its stderr (:func:`log_tail`).
 """
@@ -36,7 +37,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from bnerr.errors import ExternalProcessError, FileFormatError
+from bnerr.errors import ExternalProcessError, FileFormatError, toml_reason
 
 __all__ = [
     "ManifestError",
@@ -82,10 +83,8 @@ def read_manifest(path: Path, keys: Mapping[str, object], what: str) -> dict:
         raise ManifestError(f"{path}: expected a readable UTF-8 {what}, got {reason}") from None
     try:
         raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)" or ...
-        where = f"(at the end of the document, after line {len(text.splitlines())})"
-        reason = str(err).replace("(at end of document)", where)
-        raise ManifestError(f"{path}: expected valid TOML, got {reason}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ManifestError(f"{path}: expected valid TOML, got {toml_reason(err, text)}") from None
     except json.JSONDecodeError as err:
         raise ManifestError(
             f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
@@ -196,9 +195,16 @@ def log_tail(work: Path) -> str:
 def _kill_group(proc: subprocess.Popen) -> None:
     """Kill the program's process group (its session: it and everything it started), then reap
     it. Called before the program is reaped, so its id cannot name another group yet."""
-    with contextlib.suppress(ProcessLookupError, PermissionError):
-        os.killpg(proc.pid, signal.SIGKILL)
+    _end_group(proc.pid)
     proc.wait()
+
+
+def _end_group(pgid: int) -> None:
+    """Kill what the program left running in its process group once it exited (a background
+    child, a daemon it forked): nothing it started outlives the call. Its group id cannot name
+    another group while a member lives (the kernel keeps the id until the group is empty)."""
+    with contextlib.suppress(ProcessLookupError, PermissionError):
+        os.killpg(pgid, signal.SIGKILL)
 
 
 def _status(code: int) -> str:
@@ -246,6 +252,7 @@ def run_program(what: str, argv: list[str], *, cwd: Path, timeout_s: float, work
             _kill_group(proc)
             raise
         elapsed = (time.perf_counter() - start) * 1000.0
+        _end_group(proc.pid)
     if code != 0:
         raise program_error(what, argv, "exit status 0", _status(code), log_tail(work))
     return elapsed

@@ -53,6 +53,7 @@ __all__ = [
     "installed",
     "is_spec",
     "loaded",
+    "plugin_failure",
     "plugin_fingerprint",
     "plugin_name",
     "record",
@@ -153,7 +154,7 @@ def _import(where: str, spec: str) -> ModuleType:
         return importlib.import_module(where)
     except PluginError:
         raise
-    except Exception as err:
+    except (Exception, SystemExit) as err:  # a plug-in's sys.exit() must not end bnerr
         raise PluginError(
             f"plug-in {spec!r} ({_distribution_of(where) or 'no distribution'}): expected an "
             f"importable module {where!r}, got {type(err).__name__}: {_first_line(err)}"
@@ -260,11 +261,16 @@ def call_plugin(
         return build(*args, **kwargs)
     except BnerrError:
         raise
-    except Exception as err:
-        raise PluginError(
-            f"{plugin.who}: expected its {what} to build, got {type(err).__name__}: "
-            f"{_first_line(err)}"
-        ) from err
+    except (Exception, SystemExit) as err:
+        raise plugin_failure(plugin, f"its {what} to build", err) from err
+
+
+def plugin_failure(plugin: Plugin, expected: str, err: BaseException) -> PluginError:
+    """The one-line :class:`PluginError` of a plug-in's code that raised ``err`` where
+    ``expected`` was to happen (``"its scene to build"``, ``"to denoise frame 3"``)."""
+    return PluginError(
+        f"{plugin.who}: expected {expected}, got {type(err).__name__}: {_first_line(err)}"
+    )
 
 
 def plugin_fingerprint(obj: object) -> str:

@@ -21,16 +21,42 @@ from typing import ClassVar
 
 import torch
 
-from bnerr.errors import BnerrError, DtypeError, check_finite, check_shape
+from bnerr import plugins
+from bnerr.errors import (
+    BnerrError,
+    DtypeError,
+    check_dtype,
+    check_finite,
+    check_shape,
+    check_tensor,
+)
 from bnerr.frame import BUFFERS, Frame
 
-__all__ = ["Denoiser", "MissingBufferError", "check_frame", "required"]
+__all__ = ["Denoiser", "MissingBufferError", "check_frame", "check_output", "required"]
 
 _CHANNELS = dict(BUFFERS, variance=3)
 
 
 class MissingBufferError(BnerrError, ValueError):
     """A frame lacks an auxiliary buffer (albedo, normal, depth, ...) that a denoiser needs."""
+
+
+def check_output(out: object, frame: Frame, name: str) -> torch.Tensor:
+    """Raise unless ``out`` is a float32 ``[3, H, W]`` tensor of ``frame``'s size on its device.
+
+    Raises:
+        DtypeError: not a tensor, not float32, or on another device.
+        ShapeError: not ``[3, H, W]``.
+    """
+    out = check_tensor(out, name)
+    check_shape(out, f"3 {frame.height} {frame.width}", name)
+    check_dtype(out, torch.float32, name)
+    if out.device != frame.color.device:
+        raise DtypeError(
+            f"{name}: expected a tensor on the frame's device {frame.color.device}, "
+            f"got one on {out.device}"
+        )
+    return out
 
 
 def check_frame(
@@ -137,11 +163,25 @@ class Denoiser:
         if t is not None and (isinstance(t, bool) or not isinstance(t, int)):
             raise DtypeError(f"{who}: t: expected an int frame index, got {t!r}")
         self._check_sequence(frame, t)
-        out = self.denoise(frame)
+        out = self._denoise_named(frame, t)
         # Catch a subclass that breaks the contract here rather than in the caller's metric.
-        check_shape(out, f"3 {frame.height} {frame.width}", f"{who} output")
+        check_output(out, frame, f"{who} output")
         check_finite(out, f"{who} output (finite input)")
         return out
+
+    def _denoise_named(self, frame: Frame, t: int | None) -> torch.Tensor:
+        """:meth:`denoise`; a plug-in's own error (not bnerr's typed ones, not out of memory)
+        becomes a one-line :class:`~bnerr.errors.PluginError` naming the plug-in."""
+        try:
+            return self.denoise(frame)
+        except (BnerrError, MemoryError):
+            raise
+        except Exception as err:
+            plugin = plugins.loaded("bnerr.denoisers", self.name)
+            if plugin is None or "out of memory" in str(err):
+                raise
+            where = "" if t is None else f" {t}"
+            raise plugins.plugin_failure(plugin, f"to denoise frame{where}", err) from err
 
     def reset(self) -> None:
         """Forget every frame seen so far: the next frame starts a new sequence (no-op here)."""

@@ -61,7 +61,8 @@ naming the file); a program that fails (will not start, exits non-zero, runs pas
 writes no output or a wrong one) raises :class:`~bnerr.errors.ExternalProcessError`, whose first
 line names the denoiser, its command and what was expected, followed by the last 20 lines of the
 program's stderr (of its stdout when stderr is empty). A run past ``timeout_s`` kills the
-program's whole process group (it runs in a session of its own).
+program's whole process group (it runs in a session of its own); so does its exit, for what it
+left running in the background.
 
 **Cost.** The sweep times ``denoiser(frame)`` (:mod:`benchmarks.sweep.measure`), so the cost
 recorded for an external denoiser is the whole call: writing its inputs, starting the program

@@ -87,7 +87,12 @@ def as_denoiser(
             out = fn(frame, **self._params)
         if not isinstance(out, torch.Tensor):
             raise DtypeError(f"denoiser {label!r}: expected a tensor, got {type(out).__name__}")
-        return out.to(device=frame.color.device, dtype=torch.float32)
+        if not out.is_floating_point() or out.device != frame.color.device:
+            raise DtypeError(
+                f"denoiser {label!r}: expected a floating tensor on the frame's device "
+                f"{frame.color.device}, got {out.dtype} on {out.device}"
+            )
+        return out.to(dtype=torch.float32)  # float16/64 out: float32, as the interface says
 
     def params(self: Any) -> dict[str, Any]:
         return dict(self._params)

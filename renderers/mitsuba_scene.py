@@ -26,7 +26,8 @@ scene's objects do not move (only the camera does), so the first hit needs no ob
 The film's size is the run's (``--res``), the integrator's ``max_depth`` the depth condition's
 when one is set; :attr:`MitsubaScene.dimensions` (D) is measured: the sampler dimensions one
 1-spp render draws. :attr:`MitsubaScene.version` (Mitsuba's version and a hash of the XML and the
-sidecar) keys the cached references. Files the XML names (meshes, textures) do not enter it.
+sidecar) keys the cached references. Files the XML names (meshes, textures) do not enter it;
+each must lie inside the XML's folder (an absolute path, ``..`` or a symlink out is refused).
 
 Not for: moving objects (a Mitsuba scene has no motion over frames here), Mitsuba's scalar or
 spectral variants (see :mod:`renderers.mitsuba_render`).
@@ -159,7 +160,8 @@ def load_mitsuba_scene(xml: str | os.PathLike) -> Callable[[], MitsubaScene]:
     the paths whose bytes identify the scene (the XML, and the sidecar when there is one).
 
     Raises:
-        FileFormatError: the XML is missing, unreadable, not XML or has no ``<sensor>``.
+        FileFormatError: the XML is missing, unreadable, not XML or has no ``<sensor>``, or
+            names a file (``<include>``, a ``filename`` string) outside its folder.
         SceneFileError: the sidecar is not a valid camera path.
     """
     path = Path(xml).resolve()
@@ -175,6 +177,7 @@ def load_mitsuba_scene(xml: str | os.PathLike) -> Callable[[], MitsubaScene]:
         raise FileFormatError(f"{xml}: expected a Mitsuba XML scene, got {err}") from None
     if root.tag != "scene" or root.find("sensor") is None:
         raise FileFormatError(f"{xml}: expected a <scene> with a <sensor>, got <{root.tag}>")
+    _check_files(root, path.parent, xml)
     sidecar = camera_path_file(path)
     files = [path]
     camera = None
@@ -201,6 +204,33 @@ def load_mitsuba_scene(xml: str | os.PathLike) -> Callable[[], MitsubaScene]:
     build.__name__ = build.__qualname__ = scene.name
     build.files = tuple(str(f) for f in files)  # type: ignore[attr-defined]
     return build
+
+
+def _named_files(root: ET.Element) -> list[tuple[str, str]]:
+    """``(element, path)`` of every file the XML names: ``<include filename=...>`` and
+    ``<string name="filename" value=...>`` (meshes, textures, environment maps)."""
+    found = []
+    for element in root.iter():
+        if element.tag == "include" and element.get("filename") is not None:
+            found.append(("<include> filename", element.get("filename", "")))
+        elif element.tag == "string" and element.get("name") == "filename":
+            found.append(('<string name="filename">', element.get("value", "")))
+    return found
+
+
+def _check_files(root: ET.Element, folder: Path, xml: str | os.PathLike) -> None:
+    """Refuse a file named in the XML that lies outside its folder (an absolute path, or one
+    that escapes through ``..`` or a symlink): a scene is data, and reads only its own folder.
+    A value holding a ``$`` parameter is Mitsuba's to resolve (it has no path yet)."""
+    for what, value in _named_files(root):
+        if "$" in value:
+            continue
+        resolved = (folder / value).resolve()
+        if Path(value).is_absolute() or not resolved.is_relative_to(folder):
+            raise FileFormatError(
+                f"{xml}: {what}: expected a path inside the scene's folder {folder}, got "
+                f"{value!r}, which resolves to {resolved}"
+            )
 
 
 def _mitsuba_version() -> str:

@@ -39,7 +39,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from bnerr.errors import BnerrError, DtypeError, SceneFileError
+from bnerr.errors import BnerrError, DtypeError, SceneFileError, toml_reason
 from bnerr.io import atomic_write
 from renderers.scene import (
     FOV_AXES,
@@ -582,8 +582,8 @@ def _parse(data: bytes | str, fmt: str, source: str) -> object:
         raise SceneFileError(
             f"{source}: line {err.lineno}, column {err.colno}: expected JSON, got {err.msg}"
         ) from None
-    except tomllib.TOMLDecodeError as err:  # its message ends "(at line L, column C)"
-        raise SceneFileError(f"{source}: expected TOML, got {err}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise SceneFileError(f"{source}: expected TOML, got {toml_reason(err, text)}") from None
     except (ValueError, RecursionError) as err:  # a duplicate JSON key, 5000-digit integers, ...
         raise SceneFileError(f"{source}: expected a {fmt.upper()} document, got {err}") from None
 

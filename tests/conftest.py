@@ -1,6 +1,8 @@
-"""Shared pytest configuration: deterministic hypothesis, bounded torch threads."""
+"""Shared pytest configuration: deterministic hypothesis, bounded torch threads, and a check that
+no test or fixture writes into the checkout (outside its temporary folders)."""
 
 import os
+from pathlib import Path
 
 import pytest
 import torch
@@ -62,3 +64,69 @@ def forget():
         else:
             dict.pop(registry, name, None)
         plugins._LOADED.pop((group, name), None)
+
+
+# -- No test writes into the checkout ------------------------------------------------------------
+
+_ROOT = Path(__file__).resolve().parents[1]
+#: Folders of tools, not tests: git, caches of Python, pytest, hypothesis, mypy and ruff.
+_NOT_CHECKED = {
+    ".git",
+    ".venv",
+    "__pycache__",
+    ".pytest_cache",
+    ".hypothesis",
+    ".mypy_cache",
+    ".ruff_cache",
+}
+
+
+_BEFORE = pytest.StashKey[dict]()
+
+
+def checkout_files(root: Path = _ROOT) -> dict[str, int]:
+    """Every file of the checkout (tools' folders aside) -> its modification time in ns: about a
+    thousand ``stat`` calls, milliseconds."""
+    found = {}
+    for folder, dirs, files in os.walk(root):
+        dirs[:] = [d for d in dirs if d not in _NOT_CHECKED and not d.endswith(".egg-info")]
+        for name in files:
+            path = os.path.join(folder, name)
+            try:
+                found[os.path.relpath(path, root)] = os.stat(path).st_mtime_ns
+            except OSError:  # removed while walking
+                continue
+    return found
+
+
+def checkout_changes(before: dict[str, int], after: dict[str, int]) -> list[str]:
+    """The files written, created or removed between two :func:`checkout_files`."""
+    written = [f"{p} (written)" for p in after if p in before and after[p] != before[p]]
+    created = [f"{p} (created)" for p in after if p not in before]
+    removed = [f"{p} (removed)" for p in before if p not in after]
+    return sorted(written + created + removed)
+
+
+def pytest_sessionstart(session):
+    session.config.stash[_BEFORE] = checkout_files()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Fail the session if the checkout changed while it ran: a test or fixture wrote outside its
+    temporary folder (``tmp_path``), e.g. a command run from the repository root without
+    ``--out``. ``BNERR_ALLOW_CHECKOUT_WRITES=1`` skips the check (editing files while tests run)."""
+    before = session.config.stash.get(_BEFORE, None)
+    if before is None or os.environ.get("BNERR_ALLOW_CHECKOUT_WRITES") == "1":
+        return
+    changes = checkout_changes(before, checkout_files())
+    if changes:
+        shown = ", ".join(changes[:10]) + (f" and {len(changes) - 10} more" if changes[10:] else "")
+        reporter = session.config.pluginmanager.get_plugin("terminalreporter")
+        line = (
+            "tests wrote into the checkout, outside their temporary folders: "
+            f"{shown} (set BNERR_ALLOW_CHECKOUT_WRITES=1 if you edited files meanwhile)"
+        )
+        if reporter is not None:
+            reporter.ensure_newline()
+            reporter.write_line(line, red=True)
+        session.exitstatus = pytest.ExitCode.TESTS_FAILED

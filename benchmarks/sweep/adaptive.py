@@ -58,7 +58,8 @@ def adaptive_runs(suite: Suite, cap: int, batch: int | None = None) -> list[Run]
     """The suite's runs at their first look, each with its design's looks.
 
     Raises:
-        ValueRangeError: a run with fewer than 2 seed sets, or more than ``cap``.
+        ValueRangeError: a run with fewer than 2 seed sets, or more than ``cap``; a design of
+            more than :data:`bnerr.metrics.sequential.MAX_LOOKS` looks.
     """
     runs = plan(suite)
     for run in runs:
@@ -67,7 +68,12 @@ def adaptive_runs(suite: Suite, cap: int, batch: int | None = None) -> list[Run]
                 f"--until-resolved: expected 2 <= seed sets <= the cap {cap} in every run, got "
                 f"{run.seed_sets} ({run.label})"
             )
-    return [dataclasses.replace(r, looks=looks(r.seed_sets, cap, batch)) for r in runs]
+    try:
+        designs = {n: looks(n, cap, batch) for n in {r.seed_sets for r in runs}}
+    except ValueRangeError as err:  # too many looks: name the options that asked for them
+        given = f"--seed-set-cap {cap}" + (f" --batch {batch}" if batch else "")
+        raise ValueRangeError(f"{given}: {err}") from None
+    return [dataclasses.replace(r, looks=designs[r.seed_sets]) for r in runs]
 
 
 def _open_groups(runs: Sequence[Run], records: Sequence[Record]) -> set[tuple]:

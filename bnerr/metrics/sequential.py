@@ -48,6 +48,7 @@ from bnerr.metrics.stats import Estimate, relevel_ratio, t_quantile
 
 __all__ = [
     "ALPHA",
+    "MAX_LOOKS",
     "VERDICTS",
     "Design",
     "looks",
@@ -58,6 +59,9 @@ __all__ = [
 
 #: The family error rate every verdict keeps (95 % coverage).
 ALPHA = 0.05
+#: Most looks in one design: each spends alpha / K, so a design of thousands of looks (a cap of
+#: 10^6 seed sets in batches of 1) could never resolve, and its list alone would fill memory.
+MAX_LOOKS = 64
 #: What a look can say: superiority, inferiority, equivalence within the margin, or none.
 VERDICTS = ("better", "worse", "equal", "open")
 
@@ -67,7 +71,8 @@ def looks(first: int, cap: int, batch: int | None = None) -> tuple[int, ...]:
     no ``batch``, doubled each time), ending at ``cap`` (the last look is the cap itself).
 
     Raises:
-        ValueRangeError: ``first`` < 2 (an interval needs two seed sets) or ``cap`` < ``first``.
+        ValueRangeError: ``first`` < 2 (an interval needs two seed sets), ``cap`` < ``first``,
+            or more than :data:`MAX_LOOKS` looks, refused before they are listed.
     """
     check_positive_int(first, "first", minimum=2)
     check_positive_int(cap, "cap", minimum=2)
@@ -75,6 +80,17 @@ def looks(first: int, cap: int, batch: int | None = None) -> tuple[int, ...]:
         check_positive_int(batch, "batch")
     if cap < first:
         raise ValueRangeError(f"cap: expected at least the first look's {first}, got {cap}")
+    if batch:
+        count = 1 + -(-(cap - first) // batch)
+    else:  # doubling: about log2(cap / first) looks, counted (cheap) rather than estimated
+        count, n = 1, first
+        while n < cap:
+            count, n = count + 1, 2 * n
+    if count > MAX_LOOKS:
+        raise ValueRangeError(
+            f"looks: expected at most {MAX_LOOKS} looks from {first} to the cap {cap}"
+            f"{f' in batches of {batch}' if batch else ''}, got {count}"
+        )
     counts = [first]
     while counts[-1] < cap:
         counts.append(min(cap, counts[-1] + batch if batch else 2 * counts[-1]))

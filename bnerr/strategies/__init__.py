@@ -54,6 +54,7 @@ from collections.abc import Mapping
 
 import torch
 
+from bnerr import plugins
 from bnerr.errors import check_positive_int
 from bnerr.strategies.base import (
     BuildOptions,
@@ -228,4 +229,8 @@ def make_strategy(
     check_fits(name, height, width, per_pixel, torch.device(device))
     base, options = parse_variant(name)
     build = BuildOptions(seed, sampler, spp, mask_size, block, K, dimensions, mask_dims, device)
+    plugin = plugins.loaded("bnerr.strategies", base)
+    if plugin is not None:  # a plug-in's constructor that raises is named, not a traceback
+        create = STRATEGIES[base].create
+        return plugins.call_plugin(plugin, "strategy", create, height, width, build, options)
     return STRATEGIES[base].create(height, width, build, options)
