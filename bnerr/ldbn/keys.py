@@ -48,6 +48,7 @@ from bnerr.ldbn.swaps import (
     energy_kernel,
     flip_descent,
     joint_swap_descent,
+    measured_kernel,
     swap_descent,
 )
 from bnerr.resources import load_array, shipped_files
@@ -84,6 +85,9 @@ class KeyOptions:
         tests: test integrands; components: principal components kept; iterations: per stage.
         seed: random start and test integrands; seed0: the shared sequence's seed.
         joint: optimize the pairs past the first jointly with it (module docstring).
+        kernel: None, or a measured filter's autocorrelation ``[K, K]`` (K odd, centred) as
+            nested tuples: the energy's spatial kernel instead of ``sigma``'s Gaussian
+            (:func:`bnerr.ldbn.swaps.measured_kernel`; ``python -m bnerr.ldbn.matched``).
     """
 
     size: int = 64
@@ -99,6 +103,7 @@ class KeyOptions:
     seed: int = 0
     seed0: int = SHIPPED_SEED0
     joint: bool = False
+    kernel: tuple[tuple[float, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         check_positive_int(self.size, "size", minimum=2)
@@ -110,6 +115,25 @@ class KeyOptions:
             raise ValueRangeError(f"dims: expected an even number (pairs), got {self.dims}")
         if self.levels > 12:
             raise ValueRangeError(f"levels: expected at most 12 (4096 spp), got {self.levels}")
+        if self.kernel is not None:
+            self.energy_kernel()  # checks its shape and values
+
+    def energy_kernel(self) -> torch.Tensor:
+        """The energy's kernel ``w [F, T, T]``: the measured one, else ``sigma``'s Gaussian."""
+        if self.kernel is None:
+            return energy_kernel(
+                self.size, self.frames, self.sigma, self.sigma_t, self.autocorrelation
+            )
+        auto = torch.tensor(self.kernel, dtype=torch.float64)
+        return measured_kernel(auto, self.size, self.frames, self.sigma_t)
+
+    def to_json(self) -> str:
+        """The options as the checkpoint records them (``kernel`` only when set, so that a
+        checkpoint written before the field existed still resumes)."""
+        fields = asdict(self)
+        if fields["kernel"] is None:
+            del fields["kernel"]
+        return json.dumps(fields, sort_keys=True)
 
     def is_joint(self, pair: int) -> bool:
         """Whether ``pair`` is optimized jointly with the first (module docstring)."""
@@ -132,22 +156,24 @@ class KeyOptions:
 class _Job:
     """One (level, pair) job's inputs: the shared words, the tests, the kernel and the RNG."""
 
-    def __init__(self, opts: KeyOptions, level: int, pair: int) -> None:
+    def __init__(
+        self, opts: KeyOptions, level: int, pair: int, device: torch.device | str = "cpu"
+    ) -> None:
         self.n = 1 << level
         self.texels = opts.frames * opts.size * opts.size
         self.gen = torch.Generator().manual_seed(opts.seed * 1_000_003 + level * 1009 + pair)
         self.shared = shared_words(opts.seed0, torch.arange(self.n), 2 * pair, 2).T.long()
         self.tests: Integrands = make_integrands(opts.tests, opts.seed * 7919 + pair)
-        self.kernel = energy_kernel(
-            opts.size, opts.frames, opts.sigma, opts.sigma_t, opts.autocorrelation
-        )
+        self.kernel = opts.energy_kernel()
+        self.device = torch.device(device)
         self.opts = opts
         self.pair = pair
 
     def features(self, indices: torch.Tensor, keys: torch.Tensor) -> torch.Tensor:
         """Error features of point sets ``shared[indices [K, m]] XOR keys [K, 2]``: ``[K, C]``."""
         points = (self.shared[indices] ^ keys[:, None, :]).float() / _TWO_24
-        return error_features(estimates(points, self.tests), self.opts.components)
+        feats = error_features(estimates(points, self.tests), self.opts.components)
+        return feats.to(self.device)
 
     def scramble(self, progress: Progress | None) -> torch.Tensor:
         keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
@@ -155,7 +181,7 @@ class _Job:
         perm = swap_descent(
             self.features(indices, keys), self.kernel, self.opts.iterations, self.gen, progress
         )
-        return keys[perm]
+        return keys[perm.cpu()]
 
     def joint_scramble(
         self, first: torch.Tensor, rank: torch.Tensor, progress: Progress | None
@@ -198,7 +224,7 @@ class _Job:
                 self.gen,
                 progress,
             )
-            rank = rank + choice * m
+            rank = rank + choice.cpu() * m
             m //= 2
         return rank
 
@@ -216,7 +242,7 @@ def _load_checkpoint(path: Path | None, opts: KeyOptions) -> dict[str, np.ndarra
     if path is None or not path.exists():
         return _empty(opts)
     with np.load(path, allow_pickle=False) as data:
-        if str(data["options"]) != json.dumps(asdict(opts), sort_keys=True):
+        if str(data["options"]) != opts.to_json():
             raise FileFormatError(
                 f"{path}: expected a checkpoint of options {asdict(opts)}, got {data['options']}"
             )
@@ -225,9 +251,7 @@ def _load_checkpoint(path: Path | None, opts: KeyOptions) -> dict[str, np.ndarra
 
 def _save_checkpoint(path: Path, opts: KeyOptions, state: dict[str, np.ndarray]) -> None:
     with atomic_write(path) as tmp, open(tmp, "wb") as f:
-        arrays: dict[str, np.ndarray] = {
-            "options": np.array(json.dumps(asdict(opts), sort_keys=True))
-        }
+        arrays: dict[str, np.ndarray] = {"options": np.array(opts.to_json())}
         np.savez(f, **arrays, **state)  # type: ignore[arg-type]
 
 
@@ -251,6 +275,7 @@ def optimize_keys(
     opts: KeyOptions,
     checkpoint: str | Path | None = None,
     progress: Callable[[int], None] | None = None,
+    device: torch.device | str = "cpu",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Optimize every level's scrambling and ranking keys (module docstring).
 
@@ -258,6 +283,8 @@ def optimize_keys(
         opts: what to optimize for.
         checkpoint: an ``.npz`` file to resume from and to write after each job (None: none).
         progress: called with the number of descent iterations just done.
+        device: where the descents run (the features and random draws are made on the CPU, so
+            a GPU run differs from a CPU one only by the FFT's rounding).
 
     Returns:
         ``(scramble [L, F, T, T, D], rank [L, F, T, T, D // 2])`` int32.
@@ -274,7 +301,8 @@ def optimize_keys(
                 if progress is not None:
                     progress(opts.stages(level, pair) * opts.iterations)
                 continue
-            keys, rank = _run_job(_Job(opts, level, pair), state, level, progress)
+            job = _Job(opts, level, pair, device)
+            keys, rank = _run_job(job, state, level, progress)
             pairs = slice(2 * pair, 2 * pair + 2)
             state["scramble"][level, ..., pairs] = keys.reshape(*shape, 2).numpy()
             state["rank"][level, ..., pair] = rank.reshape(shape).numpy()

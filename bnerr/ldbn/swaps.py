@@ -41,7 +41,7 @@ from collections.abc import Callable
 
 import torch
 
-from bnerr.errors import ShapeError, check_positive_int, check_shape
+from bnerr.errors import ShapeError, ValueRangeError, check_positive_int, check_shape
 
 __all__ = [
     "Evaluate",
@@ -50,6 +50,7 @@ __all__ = [
     "energy_kernel",
     "flip_descent",
     "joint_swap_descent",
+    "measured_kernel",
     "swap_descent",
 ]
 
@@ -82,12 +83,52 @@ def energy_kernel(
     r2 = d[:, None] ** 2 + d[None, :] ** 2
     kernel = torch.zeros(frames, size, size, dtype=torch.float64)
     kernel[0] = torch.exp(-r2 / scale)
+    return _finish(kernel, sigma_t)
+
+
+def _finish(kernel: torch.Tensor, sigma_t: float) -> torch.Tensor:
+    """``kernel [F, T, T]`` (float64, its spatial part in slice 0) with the temporal part between
+    frames at one pixel and ``w(0) = 0``, as float32."""
+    frames = kernel.shape[0]
     if frames > 1:
         t = torch.arange(frames, dtype=torch.float64)
         t = torch.minimum(t, frames - t)
         kernel[:, 0, 0] = torch.exp(-(t**2) / (sigma_t * sigma_t))
     kernel[0, 0, 0] = 0.0
     return kernel.float()
+
+
+def measured_kernel(
+    autocorrelation: torch.Tensor, size: int, frames: int = 1, sigma_t: float = 1.9
+) -> torch.Tensor:
+    """The toroidal kernel ``w [F, T, T]`` of a measured filter's autocorrelation.
+
+    Args:
+        autocorrelation: ``[K, K]``, K odd, centred (entry ``[K // 2 + dy, K // 2 + dx]`` the
+            weight at offset ``(dy, dx)``), e.g. ``benchmarks.kernels``' ``*_autocorr.npy``; it
+            is symmetrized (``w(d) = w(-d)``, as the energy needs), scaled to 1 at its centre and
+            wrapped onto the T x T torus (offsets that meet there add up).
+        size, frames, sigma_t: as :func:`energy_kernel` (the temporal part is the same).
+
+    Raises:
+        ShapeError: not a square array of odd side. ValueRangeError: not finite, or a centre
+        that is not positive.
+    """
+    size = check_positive_int(size, "size", minimum=2)
+    frames = check_positive_int(frames, "frames")
+    a = autocorrelation.detach().to("cpu", torch.float64)
+    if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] % 2 == 0:
+        raise ShapeError(f"autocorrelation: expected [K, K] with K odd, got {list(a.shape)}")
+    half = a.shape[0] // 2
+    if not bool(torch.isfinite(a).all()) or float(a[half, half]) <= 0:
+        raise ValueRangeError("autocorrelation: expected finite values and a positive centre")
+    a = (a + a.flip(0, 1)) / (2 * a[half, half])
+    d = torch.arange(-half, half + 1) % size
+    spatial = torch.zeros(size * size, dtype=torch.float64)
+    spatial.index_add_(0, (d[:, None] * size + d[None, :]).reshape(-1), a.reshape(-1))
+    kernel = torch.zeros(frames, size, size, dtype=torch.float64)
+    kernel[0] = spatial.reshape(size, size)
+    return _finish(kernel, sigma_t)
 
 
 def _field(x: torch.Tensor, kernel_fft: torch.Tensor, shape: tuple[int, ...]) -> torch.Tensor:
@@ -139,6 +180,12 @@ def _matching(shape: tuple[int, ...], gen: torch.Generator) -> tuple[torch.Tenso
     return order[: n // 2], order[n // 2 :]
 
 
+def _uniform(n: int, gen: torch.Generator, device: torch.device) -> torch.Tensor:
+    """``n`` uniform float64 draws from the CPU generator ``gen``, on ``device`` (the same draws
+    on every device)."""
+    return torch.rand(n, generator=gen, dtype=torch.float64).to(device)
+
+
 def _offsets_weight(
     a: torch.Tensor, b: torch.Tensor, kernel: torch.Tensor, shape: tuple[int, ...]
 ) -> torch.Tensor:
@@ -164,10 +211,10 @@ def swap_descent(
     Returns:
         ``perm [P]`` int64: texel p takes row ``perm[p]`` of ``x``.
     """
-    shape = tuple(kernel.shape)
+    shape, dev = tuple(kernel.shape), x.device
     feats = x.double().T.contiguous()
-    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
-    perm = torch.arange(feats.shape[1])
+    kfft = torch.fft.rfftn(kernel.to(dev, torch.float64), dim=(0, 1, 2))
+    perm = torch.arange(feats.shape[1], device=dev)
     best, best_e, acc = perm.clone(), math.inf, _Acceptance()
     for _ in range(check_positive_int(iterations, "iterations")):
         cur = feats[:, perm]
@@ -176,11 +223,11 @@ def swap_descent(
         if e < best_e:
             best, best_e = perm.clone(), e
         acc.update(e)
-        a, b = _matching(shape, gen)
+        a, b = (i.to(dev) for i in _matching(shape, gen))
         d = cur[:, b] - cur[:, a]
-        w = _offsets_weight(a, b, kernel.double(), shape)
+        w = _offsets_weight(a, b, kernel.to(dev, torch.float64), shape)
         change = 2 * (d * (field[:, a] - field[:, b])).sum(0) - 2 * w * (d * d).sum(0)
-        keep = (change < 0) & (torch.rand(a.shape, generator=gen, dtype=torch.float64) < acc.q)
+        keep = (change < 0) & (_uniform(a.shape[0], gen, dev) < acc.q)
         a, b = a[keep], b[keep]
         perm[a], perm[b] = perm[b].clone(), perm[a].clone()
         if progress is not None:
@@ -203,14 +250,14 @@ def flip_descent(
     Returns:
         ``choice [P]`` int64 in {0, 1}, starting from a random choice.
     """
-    shape = tuple(kernel.shape)
+    shape, dev = tuple(kernel.shape), options.device
     check_shape(options, "2 P C", "options")
     opts = options.double().transpose(1, 2).contiguous()  # [2, C, P]
-    kfft = torch.fft.rfftn(kernel.double(), dim=(0, 1, 2))
+    kfft = torch.fft.rfftn(kernel.to(dev, torch.float64), dim=(0, 1, 2))
     n = opts.shape[2]
-    choice = torch.randint(0, 2, (n,), generator=gen)
+    choice = torch.randint(0, 2, (n,), generator=gen).to(dev)
     best, best_e, acc = choice.clone(), math.inf, _Acceptance()
-    cols = torch.arange(n)
+    cols = torch.arange(n, device=dev)
     for _ in range(check_positive_int(iterations, "iterations")):
         cur = opts[choice, :, cols].T
         field = _field(cur, kfft, shape)
@@ -220,7 +267,7 @@ def flip_descent(
         acc.update(e)
         alt = opts[1 - choice, :, cols].T
         change = 2 * ((alt - cur) * field).sum(0)
-        keep = (change < 0) & (torch.rand(n, generator=gen, dtype=torch.float64) < acc.q)
+        keep = (change < 0) & (_uniform(n, gen, dev) < acc.q)
         choice = torch.where(keep, 1 - choice, choice)
         if progress is not None:
             progress(1)
