@@ -37,12 +37,14 @@ from bnerr.io import atomic_write
 
 __all__ = [
     "autocorrelation",
+    "available_denoisers",
     "impulse_kernel",
     "kernel_width",
     "main",
     "measure",
     "noise_width",
     "radial_profile",
+    "tuned_denoise",
 ]
 
 Denoise = Callable[[Frame], torch.Tensor]
@@ -144,7 +146,9 @@ def radial_profile(kernel: np.ndarray) -> list[float]:
     return [float(kernel[ring == r].mean()) for r in range(kernel.shape[0] // 2 + 1)]
 
 
-def _denoiser(name: str, scene: str, spp: int) -> Denoise:
+def tuned_denoise(name: str, scene: str, spp: int) -> Denoise:
+    """``name``'s denoise function with its tuned parameters for ``scene`` at ``spp`` (defaults
+    where none are stored)."""
     from denoisers.tuning import ParamStore, tuned_denoiser
 
     store = ParamStore.load(_PARAMS) if _PARAMS.exists() else ParamStore()
@@ -162,7 +166,7 @@ def measure(
     from bnerr.sequences import make_sampler
 
     scene_obj = renderers.get_scene(scene, animated=False)
-    denoise = _denoiser(denoiser, scene, spp)
+    denoise = tuned_denoise(denoiser, scene, spp)
     sampler = make_sampler("owen_sobol")
     kernels = [
         impulse_kernel(
@@ -244,7 +248,8 @@ def run(args: argparse.Namespace) -> list[dict]:
     return rows
 
 
-def _available(names: Sequence[str]) -> list[str]:
+def available_denoisers(names: Sequence[str]) -> list[str]:
+    """``names`` without ``oidn`` when ``pyoidn`` is not installed."""
     import importlib.util
 
     return [n for n in names if n != "oidn" or importlib.util.find_spec("pyoidn") is not None]
@@ -262,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
-    args.denoisers = _available(args.denoisers)
+    args.denoisers = available_denoisers(args.denoisers)
     run(args)
     return 0
 

@@ -8,9 +8,12 @@ scrambling keys optimized offline (:class:`bnerr.sequences.LDBNSampler`, :mod:`b
   whose keys are blue in space and make each pixel's errors differ from frame to frame, at one
   offset per seed set, for temporal accumulation;
 - ``ldbn_fast``: the key set optimized against the Gaussian denoiser's kernel (``ldbn_fast_64``,
-  sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``.
+  sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``;
+- ``ldbn_atrous``: the key set optimized against the a-trous filter's kernel as measured on the
+  scenes' own buffers at 4 spp (``ldbn_atrous_64``; ``benchmarks.kernels``,
+  ``python -m bnerr.ldbn.matched``), read like ``ldbn``.
 
-All three need ``spp`` (the level of the tiles: the smallest tile for at least spp samples) and
+All four need ``spp`` (the level of the tiles: the smallest tile for at least spp samples) and
 give fresh per-pixel seeds every frame for the dimensions past the optimized ones (the pixel's own
 Owen-Sobol sequence there). They dictate their own sampler (``ldbn``).
 """
@@ -30,13 +33,14 @@ from bnerr.sequences import LDBNKeys, LDBNSampler
 from bnerr.strategies.base import BuildOptions, RenderFn, Strategy, pixel_seeds, stream_key
 from bnerr.strategies.variants import TemporalOptions
 
-__all__ = ["LDBN_SETS", "LDBNFastStrategy", "LDBNSTStrategy", "LDBNStrategy"]
+__all__ = ["LDBN_SETS", "LDBNATrousStrategy", "LDBNFastStrategy", "LDBNSTStrategy", "LDBNStrategy"]
 
 #: Strategy -> the shipped key set it reads: ``(kind, frames, levels)``
 #: (:func:`bnerr.ldbn.load_ldbn_keys`; tiles for 1 .. 2^(levels - 1) spp).
 LDBN_SETS: dict[str, tuple[str, int, int]] = {
     "ldbn": ("screen", 1, 5),
     "ldbn_fast": ("fast", 1, 5),
+    "ldbn_atrous": ("atrous", 1, 5),
     "ldbn_st": ("st", 4, 3),
 }
 
@@ -122,3 +126,13 @@ class LDBNFastStrategy(LDBNStrategy):
     stream = 22
     rank = 80
     color = "#c5b0d5"
+
+
+class LDBNATrousStrategy(LDBNStrategy):
+    """``ldbn_atrous``: the keys optimized for the a-trous filter's measured kernel (module
+    docstring)."""
+
+    name = "ldbn_atrous"
+    stream = 28
+    rank = 82
+    color = "#8c6bb1"
