@@ -20,13 +20,14 @@ import numpy as np
 import torch
 
 from bnerr.io import atomic_write
+from bnerr.strategies.base import Strategy
 
 __all__ = ["compare", "main", "ratio_table"]
 
 _STRATEGIES = ("white", "ldbn", "ldbn_fast", "ldbn_atrous")
 
 
-def _strategy(name: str, size: int, seed: int, spp: int, keys: dict[str, Path]):
+def _strategy(name: str, size: int, seed: int, spp: int, keys: dict[str, Path]) -> Strategy:
     from bnerr.ldbn.keys import SHIPPED_SEED0
     from bnerr.sequences import LDBNKeys
     from bnerr.strategies import make_strategy
@@ -85,7 +86,7 @@ def ratio_table(results: dict[str, dict[str, dict[str, list[list[float]]]]]) -> 
     for scene, by_denoiser in results.items():
         for denoiser, by_strategy in by_denoiser.items():
             for name, values in by_strategy.items():
-                row = {"scene": scene, "denoiser": denoiser, "strategy": name}
+                row: dict = {"scene": scene, "denoiser": denoiser, "strategy": name}
                 for base in ("white", "ldbn"):
                     if base in by_strategy and base != name:
                         e = paired_ratio(np.array(values), np.array(by_strategy[base]))
