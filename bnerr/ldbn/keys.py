@@ -60,6 +60,7 @@ from bnerr.ldbn.swaps import (
     energy_kernel,
     flip_descents,
     joint_swap_descent,
+    measured_kernel,
     swap_descents,
 )
 from bnerr.resources import load_array, shipped_files
@@ -99,6 +100,9 @@ class KeyOptions:
         joint: optimize the pairs past the first jointly with it (module docstring).
         device: the torch device the descents run on (``cpu``, ``cuda``, ``cuda:1``); the
             keys differ between devices (module docstring).
+        kernel: None, or a measured filter's autocorrelation ``[K, K]`` (K odd, centred) as
+            nested tuples: the energy's spatial kernel instead of ``sigma``'s Gaussian
+            (:func:`bnerr.ldbn.swaps.measured_kernel`; ``python -m bnerr.ldbn.matched``).
     """
 
     size: int = 64
@@ -115,6 +119,7 @@ class KeyOptions:
     seed0: int = SHIPPED_SEED0
     joint: bool = False
     device: str = "cpu"
+    kernel: tuple[tuple[float, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         try:
@@ -132,6 +137,25 @@ class KeyOptions:
             raise ValueRangeError(f"dims: expected an even number (pairs), got {self.dims}")
         if self.levels > 12:
             raise ValueRangeError(f"levels: expected at most 12 (4096 spp), got {self.levels}")
+        if self.kernel is not None:
+            self.energy_kernel()  # checks its shape and values
+
+    def energy_kernel(self) -> torch.Tensor:
+        """The energy's kernel ``w [F, T, T]``: the measured one, else ``sigma``'s Gaussian."""
+        if self.kernel is None:
+            return energy_kernel(
+                self.size, self.frames, self.sigma, self.sigma_t, self.autocorrelation
+            )
+        auto = torch.tensor(self.kernel, dtype=torch.float64)
+        return measured_kernel(auto, self.size, self.frames, self.sigma_t)
+
+    def to_json(self) -> str:
+        """The options as the checkpoint records them (``kernel`` only when set, so that a
+        checkpoint written before the field existed still resumes)."""
+        fields = asdict(self)
+        if fields["kernel"] is None:
+            del fields["kernel"]
+        return json.dumps(fields, sort_keys=True)
 
     def is_joint(self, pair: int) -> bool:
         """Whether ``pair`` is optimized jointly with the first (module docstring)."""
@@ -164,9 +188,7 @@ class _Job:
         shared = shared_words(opts.seed0, torch.arange(self.n), 2 * pair, 2).T.long()
         self.shared = shared.to(self.device)
         self.tests: Integrands = make_integrands(opts.tests, opts.seed * 7919 + pair)
-        self.kernel = energy_kernel(
-            opts.size, opts.frames, opts.sigma, opts.sigma_t, opts.autocorrelation
-        )
+        self.kernel = opts.energy_kernel()
         self.opts = opts
         self.pair = pair
 
@@ -238,7 +260,7 @@ def _load_checkpoint(path: Path | None, opts: KeyOptions) -> dict[str, np.ndarra
     if path is None or not path.exists():
         return _empty(opts)
     with np.load(path, allow_pickle=False) as data:
-        if str(data["options"]) != json.dumps(asdict(opts), sort_keys=True):
+        if str(data["options"]) != opts.to_json():
             raise FileFormatError(
                 f"{path}: expected a checkpoint of options {asdict(opts)}, got {data['options']}"
             )
@@ -247,9 +269,7 @@ def _load_checkpoint(path: Path | None, opts: KeyOptions) -> dict[str, np.ndarra
 
 def _save_checkpoint(path: Path, opts: KeyOptions, state: dict[str, np.ndarray]) -> None:
     with atomic_write(path) as tmp, open(tmp, "wb") as f:
-        arrays: dict[str, np.ndarray] = {
-            "options": np.array(json.dumps(asdict(opts), sort_keys=True))
-        }
+        arrays: dict[str, np.ndarray] = {"options": np.array(opts.to_json())}
         np.savez_compressed(f, **arrays, **state)  # type: ignore[arg-type]
 
 

@@ -53,7 +53,7 @@ from collections.abc import Callable
 
 import torch
 
-from bnerr.errors import ShapeError, check_positive_int, check_shape
+from bnerr.errors import ShapeError, ValueRangeError, check_positive_int, check_shape
 from bnerr.hashing import lowbias32, lowbias32_host, signed32, srl32
 
 __all__ = [
@@ -64,6 +64,7 @@ __all__ = [
     "flip_descent",
     "flip_descents",
     "joint_swap_descent",
+    "measured_kernel",
     "swap_descent",
     "swap_descents",
     "uniforms",
@@ -98,12 +99,52 @@ def energy_kernel(
     r2 = d[:, None] ** 2 + d[None, :] ** 2
     kernel = torch.zeros(frames, size, size, dtype=torch.float64)
     kernel[0] = torch.exp(-r2 / scale)
+    return _finish(kernel, sigma_t)
+
+
+def _finish(kernel: torch.Tensor, sigma_t: float) -> torch.Tensor:
+    """``kernel [F, T, T]`` (float64, its spatial part in slice 0) with the temporal part between
+    frames at one pixel and ``w(0) = 0``, as float32."""
+    frames = kernel.shape[0]
     if frames > 1:
         t = torch.arange(frames, dtype=torch.float64)
         t = torch.minimum(t, frames - t)
         kernel[:, 0, 0] = torch.exp(-(t**2) / (sigma_t * sigma_t))
     kernel[0, 0, 0] = 0.0
     return kernel.float()
+
+
+def measured_kernel(
+    autocorrelation: torch.Tensor, size: int, frames: int = 1, sigma_t: float = 1.9
+) -> torch.Tensor:
+    """The toroidal kernel ``w [F, T, T]`` of a measured filter's autocorrelation.
+
+    Args:
+        autocorrelation: ``[K, K]``, K odd, centred (entry ``[K // 2 + dy, K // 2 + dx]`` the
+            weight at offset ``(dy, dx)``), e.g. ``benchmarks.kernels``' ``*_autocorr.npy``; it
+            is symmetrized (``w(d) = w(-d)``, as the energy needs), scaled to 1 at its centre and
+            wrapped onto the T x T torus (offsets that meet there add up).
+        size, frames, sigma_t: as :func:`energy_kernel` (the temporal part is the same).
+
+    Raises:
+        ShapeError: not a square array of odd side. ValueRangeError: not finite, or a centre
+        that is not positive.
+    """
+    size = check_positive_int(size, "size", minimum=2)
+    frames = check_positive_int(frames, "frames")
+    a = autocorrelation.detach().to("cpu", torch.float64)
+    if a.ndim != 2 or a.shape[0] != a.shape[1] or a.shape[0] % 2 == 0:
+        raise ShapeError(f"autocorrelation: expected [K, K] with K odd, got {list(a.shape)}")
+    half = a.shape[0] // 2
+    if not bool(torch.isfinite(a).all()) or float(a[half, half]) <= 0:
+        raise ValueRangeError("autocorrelation: expected finite values and a positive centre")
+    a = (a + a.flip(0, 1)) / (2 * a[half, half])
+    d = torch.arange(-half, half + 1) % size
+    spatial = torch.zeros(size * size, dtype=torch.float64)
+    spatial.index_add_(0, (d[:, None] * size + d[None, :]).reshape(-1), a.reshape(-1))
+    kernel = torch.zeros(frames, size, size, dtype=torch.float64)
+    kernel[0] = spatial.reshape(size, size)
+    return _finish(kernel, sigma_t)
 
 
 def _field(x: torch.Tensor, kernel_fft: torch.Tensor, shape: tuple[int, ...]) -> torch.Tensor:

@@ -13,9 +13,9 @@ sections 3, 4, 5, 7 and 8):
   pattern, temporal Z-order;
 - ``openqmc``: ``openqmc_sobolbn``, ``openqmc_latticebn``: OpenQMC's blue-noise samplers, per-pixel
   ranks and keys from its 256x256 tables over Sobol or a rank-1 lattice;
-- ``ldbn``: ``ldbn``, ``ldbn_st``, ``ldbn_fast``: per-pixel ranking and scrambling keys over one
-  shared sequence (Heitz et al. 2019), optimized here for the screen, for time and for the
-  denoiser;
+- ``ldbn``: ``ldbn``, ``ldbn_st``, ``ldbn_fast``, ``ldbn_atrous``: per-pixel ranking and
+  scrambling keys over one shared sequence (Heitz et al. 2019), optimized here for the screen,
+  for time and for the denoisers (a Gaussian; the a-trous filter's measured kernel);
 - ``temporal``: ``temporal``, ``temporal_sort``, ``temporal_zsobol``, ``temporal_ldbn``: Heitz &
   Belcour 2019's sort and retarget passes (over hashed seeds, ZSobol's keys, LDBN's keys), and
   their variants ``temporal+option...`` (``variants``);
@@ -69,7 +69,12 @@ from bnerr.strategies.base import (
 )
 from bnerr.strategies.dithered import STBN_MASK, BNDSStrategy, BNDSSTStrategy
 from bnerr.strategies.identity import StrategyIdentity, baseline, bounds, strategy_identity
-from bnerr.strategies.ldbn import LDBNFastStrategy, LDBNStrategy, LDBNSTStrategy
+from bnerr.strategies.ldbn import (
+    LDBNATrousStrategy,
+    LDBNFastStrategy,
+    LDBNStrategy,
+    LDBNSTStrategy,
+)
 from bnerr.strategies.openqmc import OpenQMCLatticeBNStrategy, OpenQMCSobolBNStrategy
 from bnerr.strategies.oracle import OracleStrategy
 from bnerr.strategies.registry import REGISTRY
@@ -102,6 +107,7 @@ __all__ = [
     "BNDSStrategy",
     "BuildOptions",
     "CyclesBlueStrategy",
+    "LDBNATrousStrategy",
     "LDBNFastStrategy",
     "LDBNSTStrategy",
     "LDBNStrategy",

@@ -8,7 +8,10 @@ scrambling keys optimized offline (:class:`bnerr.sequences.LDBNSampler`, :mod:`b
   whose keys are blue in space and make each pixel's errors differ from frame to frame, at one
   offset per seed set, for temporal accumulation;
 - ``ldbn_fast``: the key set optimized against the Gaussian denoiser's kernel (``ldbn_fast_64``,
-  sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``.
+  sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``;
+- ``ldbn_atrous``: the key set optimized against the a-trous filter's kernel as measured on the
+  scenes' own buffers at 4 spp (``ldbn_atrous_64``; ``benchmarks.kernels``,
+  ``python -m bnerr.ldbn.matched``), read like ``ldbn``.
 
 - ``ldbn128``: the 128 x 128 screen set to 64 spp over D = 12, every dimension pair of the first
   two bounces (``ldbn_screen_128``, made on a GPU by ``benchmarks/ldbn_device.sh``), read like
@@ -41,6 +44,7 @@ __all__ = [
     "LDBN128_SHIPPED",
     "LDBN_SETS",
     "LDBN128Strategy",
+    "LDBNATrousStrategy",
     "LDBNFastStrategy",
     "LDBNSTStrategy",
     "LDBNStrategy",
@@ -51,6 +55,7 @@ __all__ = [
 LDBN_SETS: dict[str, tuple[str, int, int]] = {
     "ldbn": ("screen", 1, 5),
     "ldbn_fast": ("fast", 1, 5),
+    "ldbn_atrous": ("atrous", 1, 5),
     "ldbn_st": ("st", 4, 3),
 }
 
@@ -136,6 +141,16 @@ class LDBNFastStrategy(LDBNStrategy):
     stream = 22
     rank = 80
     color = "#c5b0d5"
+
+
+class LDBNATrousStrategy(LDBNStrategy):
+    """``ldbn_atrous``: the keys optimized for the a-trous filter's measured kernel (module
+    docstring)."""
+
+    name = "ldbn_atrous"
+    stream = 28
+    rank = 82
+    color = "#8c6bb1"
 
 
 #: The table ``ldbn128`` reads, and whether it is shipped (the strategy is registered only then).

@@ -24,6 +24,7 @@ from bnerr.errors import (
 from bnerr.metrics import better, blurred_mse, equivalent, mse, paired_ratio
 from bnerr.sequences import Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds
+from bnerr.strategies.ldbn import LDBN128_SHIPPED
 from renderers import mitsuba_render as mr
 from tests._paths import ROOT
 
@@ -284,7 +285,11 @@ def test_the_active_variant_is_left_as_it_was(single_threaded):
 
 
 @needs_mitsuba
-@pytest.mark.parametrize("name", ["ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"])
+@pytest.mark.parametrize(
+    "name",
+    ["ldbn", "ldbn_st", "ldbn_fast", "ldbn_atrous", "temporal_ldbn"]
+    + (["ldbn128"] if LDBN128_SHIPPED else []),
+)
 def test_the_ldbn_strategies_drive_mitsuba_through_the_strategy_interface(name):
     # Issue 25: the LDBN samplers take the lane's pixel, which the Mitsuba plugin passes; each
     # strategy renders Mitsuba's frames unchanged, finite and the same twice.

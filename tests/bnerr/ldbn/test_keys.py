@@ -107,3 +107,31 @@ def test_a_run_stopped_at_its_deadline_resumes_to_the_same_keys(tmp_path, monkey
 def test_the_device_option_is_checked():
     with pytest.raises(ValueRangeError, match="torch device"):
         KeyOptions(device="gpu0")
+
+
+def test_a_measured_kernel_is_recorded_and_a_gaussian_one_matches_the_named_kernel(tmp_path):
+    d = np.arange(-4, 5)
+    gauss = np.exp(-(d[:, None] ** 2 + d[None, :] ** 2) / (4 * 0.75**2))
+    rows = tuple(tuple(float(v) for v in row) for row in gauss)
+    measured = KeyOptions(
+        size=8, levels=2, dims=2, tests=16, components=8, iterations=4, kernel=rows
+    )
+    named = KeyOptions(
+        size=8,
+        levels=2,
+        dims=2,
+        tests=16,
+        components=8,
+        iterations=4,
+        sigma=0.75,
+        autocorrelation=True,
+    )
+    # the 9 x 9 window wraps onto the 8 x 8 tile: the offsets +-4 meet, the rest is the same
+    diff = (measured.energy_kernel() - named.energy_kernel()).abs()[0]
+    near = [0, 1, 2, 3, 5, 6, 7]
+    assert float(diff[near][:, near].max()) < 1e-6
+    assert '"kernel"' in measured.to_json() and '"kernel"' not in named.to_json()
+    scramble, rank = optimize_keys(measured, tmp_path / "m.ckpt.npz")
+    assert scramble.shape == (2, 1, 8, 8, 2) and rank.shape == (2, 1, 8, 8, 1)
+    with pytest.raises(FileFormatError, match="checkpoint of options"):
+        optimize_keys(named, tmp_path / "m.ckpt.npz")

@@ -135,3 +135,24 @@ def test_joint_swap_descent_is_swap_descent_when_features_ignore_the_texel():
     plain = swap_descent(x, k, 20, torch.Generator().manual_seed(9))
     joint = joint_swap_descent(lambda t, r: x[r], k, 20, torch.Generator().manual_seed(9))
     assert torch.equal(plain, joint)
+
+
+def test_a_measured_kernel_is_wrapped_symmetrized_and_checked():
+    from bnerr.errors import ValueRangeError
+    from bnerr.ldbn.swaps import measured_kernel
+
+    d = torch.arange(-3, 4, dtype=torch.float64)
+    auto = torch.exp(-(d[:, None] ** 2 + d[None, :] ** 2) / (4 * 1.2**2))
+    w = measured_kernel(2 * auto, 16)  # scaled to 1 at the centre
+    assert torch.allclose(w, energy_kernel(16, sigma=1.2, autocorrelation=True) * (w > 0))
+    assert float(w[0, 0, 0]) == 0.0 and float(w[0, 0, 4]) == 0.0  # beyond the window: none
+    skew = auto.clone()
+    skew[3, 4] += 0.5
+    ws = measured_kernel(skew, 16)
+    assert torch.equal(ws[0, 0, 1], ws[0, 0, 15])  # w(d) = w(-d)
+    frames = measured_kernel(auto, 8, frames=4)
+    assert frames.shape == (4, 8, 8) and float(frames[1, 0, 0]) > 0
+    with pytest.raises(ShapeError, match="K odd"):
+        measured_kernel(torch.ones(4, 4), 8)
+    with pytest.raises(ValueRangeError, match="positive centre"):
+        measured_kernel(-auto, 8)

@@ -51,7 +51,7 @@ def test_names_are_sorted_and_complete():
     assert set(STRATEGIES) == {
         *("white", "bnds", "temporal", "temporal_sort", "oracle", "vertical"),
         *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
-        *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
+        *("ldbn", "ldbn_st", "ldbn_fast", "ldbn_atrous", "temporal_ldbn"),
         *("openqmc_sobolbn", "openqmc_latticebn"),
         *(("ldbn128",) if LDBN128_SHIPPED else ()),
         *VARIANTS,
@@ -202,7 +202,7 @@ def test_state_follows_the_render_device():
 
 RIVALS = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
-    *("ldbn", "ldbn_st", "ldbn_fast", "temporal_ldbn"),
+    *("ldbn", "ldbn_st", "ldbn_fast", "ldbn_atrous", "temporal_ldbn"),
     *("openqmc_sobolbn", "openqmc_latticebn"),
 )
 

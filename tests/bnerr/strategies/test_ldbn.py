@@ -11,7 +11,7 @@ from tests.bnerr.strategies._renders import hash_render
 def test_ldbn_strategies_read_their_key_sets_at_the_frames_offset_or_slice():
     from bnerr.strategies.ldbn import LDBN_SETS
 
-    for name in ("ldbn", "ldbn_fast", "ldbn_st"):
+    for name in ("ldbn", "ldbn_fast", "ldbn_atrous", "ldbn_st"):
         record: list = []
         strategy = make_strategy(name, 6, 9, seed=2, spp=3)
         for t in range(5):
