@@ -265,7 +265,7 @@ _ALL_SCENES = tuple(SCENES)
 #: The a-priori patterns and the temporal method over ZSobol (issue 13), measured against the rest.
 RIVALS: tuple[str, ...] = (
     *("zsobol", "cycles_blue", "zsobol_t", "bnds_st", "temporal_zsobol"),
-    *("ldbn", "ldbn_st", "ldbn_fast", "ldbn_atrous"),
+    *("ldbn", "ldbn128", "ldbn_st", "ldbn_fast", "ldbn_atrous"),
     *("openqmc_sobolbn", "openqmc_latticebn"),
 )
 _ALL_STRATEGIES = ("white", "bnds", "temporal", "temporal_sort", "oracle", *RIVALS)
@@ -313,7 +313,7 @@ GAP_BEST: tuple[str, ...] = (
 #: temporal variants' (stateless and cheap: one render per frame).
 #: Not ldbn_st, made for temporal accumulation, which the gap's denoisers are not; nor in the
 #: sequence and motion sweeps: an LDBN strategy dictates its own sampler and does not move seeds.
-_GAP_LDBN = ("ldbn", "ldbn_fast", "ldbn_atrous")
+_GAP_LDBN = ("ldbn", "ldbn128", "ldbn_fast", "ldbn_atrous")
 _GAP_STRATEGIES = ("white", "temporal", *GAP_SINGLE, *GAP_BEST, "oracle")
 #: The stability suite's temporal variant: the best combination on hashed seeds (issue 14's goal:
 #: never worse than white beyond the interval on any of its failure cases).
