@@ -47,6 +47,6 @@ def test_strategies_follow_the_table_order_and_unlisted_names_come_last():
     # the registered classes by rank: temporal_ldbn among LDBN's, vertical with the bounds
     assert strategy_order(STRATEGIES.classes()) == [
         "white", "bnds", "bnds_st", "zsobol", "openqmc_sobolbn", "openqmc_latticebn",
-        "cycles_blue", "zsobol_t", "ldbn", "ldbn128", "ldbn_st", "ldbn_fast", "ldbn_atrous", "temporal_ldbn",
-        "temporal_sort", "temporal", "temporal_zsobol", "oracle", "vertical",
+        "cycles_blue", "zsobol_t", "ldbn", "ldbn128", "ldbn_st", "ldbn_fast", "ldbn_atrous",
+        "temporal_ldbn", "temporal_sort", "temporal", "temporal_zsobol", "oracle", "vertical",
     ]  # fmt: skip
