@@ -37,6 +37,7 @@ __all__ = [
     "LOCK_NAME",
     "OutputBusyError",
     "OutputPathError",
+    "check_folder_path",
     "check_output",
     "clean_stale_temporaries",
     "output_lock",
@@ -145,6 +146,21 @@ def _probe(folder: Path, name: str) -> None:
     finally:
         with contextlib.suppress(OSError):
             probe.unlink()
+
+
+def check_folder_path(path: str | os.PathLike, name: str) -> Path:
+    """Check, creating nothing, that ``path`` can be a folder: it is one, or the nearest part of it
+    that exists is a folder (the caller creates it when it writes there).
+
+    Raises:
+        OutputPathError: ``path``, or a part of it, is an existing file.
+    """
+    folder = Path(path)
+    existing = _nearest_existing(folder)
+    if existing.exists() and not existing.is_dir():
+        where = "an existing file" if existing == folder else f"{existing}, an existing file"
+        raise OutputPathError(f"{name} {folder}: expected a folder, got {where}")
+    return folder
 
 
 def check_output(

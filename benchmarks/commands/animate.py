@@ -46,7 +46,7 @@ from benchmarks.sweep.parts import known_names
 from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.runner import TUNED_PARAMS_FILE
 from bnerr.errors import FileFormatError, check_positive_int
-from bnerr.outputs import check_output
+from bnerr.outputs import check_folder_path
 from bnerr.strategies import strategy_identity
 from renderers import get_scene
 from renderers.budget import SHOW_ESTIMATE_S, TIME_LIMIT_S, check_render_time, format_seconds
@@ -213,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
     args.params = params_file(args.params)
     if not args.force:
         _check_time(specs)
-    check_output(args.cache, "dir", name="--cache")  # a file there: refused before any render
+    check_folder_path(args.cache, "--cache")  # a file there: refused before any render
     start = time.perf_counter()
 
     def report(spec: Animation, result: AnimationResult) -> None:

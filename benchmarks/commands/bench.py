@@ -79,7 +79,7 @@ from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import RESULTS_ARCHIVE, Record, compress_records, load_records
 from bnerr.errors import DtypeError, ValueRangeError, check_device, check_positive_int
-from bnerr.outputs import check_output, output_lock
+from bnerr.outputs import check_folder_path, output_lock
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
 
 __all__ = ["register"]
@@ -411,7 +411,7 @@ def run(args: argparse.Namespace) -> int:
         )
     out = args.out or Path("results") / suite.name
     if args.cache is not None and not suite.scripts:  # a file there: refused before any render
-        check_output(args.cache, "dir", name="--cache")
+        check_folder_path(args.cache, "--cache")
     with output_lock(out, "bnerr bench"):
         compress = args.compress or (Path(out) / RESULTS_ARCHIVE).exists()
         if suite.scripts:

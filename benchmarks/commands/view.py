@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import functools
 import http.server
+import signal
 from pathlib import Path
 
 from benchmarks.commands._args import port_int
@@ -46,7 +47,16 @@ def make_server(
     return http.server.ThreadingHTTPServer((host, port), handler)
 
 
+def _stop(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 def run(args: argparse.Namespace) -> int:
+    # Ctrl-C and SIGTERM stop the server even where the parent started bnerr with SIGINT ignored
+    # (a background job of a non-interactive shell, some test runners): Python then leaves it
+    # ignored, and serve_forever would never return.
+    signal.signal(signal.SIGINT, _stop)
+    signal.signal(signal.SIGTERM, _stop)
     server = make_server(args.dir, args.host, args.port)
     host, port = str(server.server_address[0]), server.server_address[1]
     print(f"serving {args.dir} at http://{host}:{port}/ (Ctrl-C stops)", flush=True)

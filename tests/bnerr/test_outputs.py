@@ -11,6 +11,7 @@ from bnerr.errors import DtypeError
 from bnerr.outputs import (
     OutputBusyError,
     OutputPathError,
+    check_folder_path,
     check_output,
     clean_stale_temporaries,
     output_lock,
@@ -35,6 +36,16 @@ def test_a_path_below_a_file_is_refused(tmp_path):
     (tmp_path / "f").write_text("x")
     with pytest.raises(OutputPathError, match="got .*f, an existing file"):
         check_output(tmp_path / "f" / "sub" / "w.pt", "file")
+
+
+def test_a_folder_path_is_checked_without_creating_anything(tmp_path):
+    (tmp_path / "f").write_text("x")
+    with pytest.raises(OutputPathError, match=r"--cache .*f: expected a folder, got an existing"):
+        check_folder_path(tmp_path / "f", "--cache")
+    with pytest.raises(OutputPathError, match=r"got .*f, an existing file"):
+        check_folder_path(tmp_path / "f" / "sub", "--cache")
+    assert check_folder_path(tmp_path / "new" / "sub", "--cache") == tmp_path / "new" / "sub"
+    assert not (tmp_path / "new").exists()  # nothing made: the caller creates it when it writes
 
 
 @pytest.mark.parametrize("path", ["/proc/bnerr-test/out", "/proc/self/bnerr.exr"])
