@@ -73,6 +73,9 @@ CROSS_CUTTING = {
     ),
     "tests/benchmarks/sweep/test_ordering.py": "oracle < temporal < white end to end",
     "tests/benchmarks/sweep/test_ordering_coherent.py": "the same in coherent regions",
+    "tests/benchmarks/sweep/test_ordering_failures.py": "temporal on its failure cases, end to end",
+    "tests/benchmarks/sweep/test_ordering_rivals.py": "the a-priori rivals against white",
+    "tests/benchmarks/sweep/test_ordering_variants.py": "the temporal variants, end to end",
     "tests/test_cuda.py": "strategies, tracer, denoisers, metrics and a sweep on CUDA vs the CPU",
 }
 
