@@ -78,7 +78,9 @@ def test_the_suite_keeps_the_strategies_whose_sampler_the_program_lists(renderer
 @pytest.mark.slow
 def test_the_runner_measures_the_programs_frames_against_its_own_reference(renderer, tmp_path):
     suite, _ = renderer_suite(tiny_suite(res=(8, 8), denoisers=("gaussian",)), renderer, False)
-    records = run_suite(suite, tmp_path / "out", parts=external_parts(renderer), progress=False)
+    parts = external_parts(renderer)
+    cache = tmp_path / "cache"  # not the default cache/references of the checkout
+    records = run_suite(suite, tmp_path / "out", parts=parts, cache_dir=cache, progress=False)
     assert {r.cell.scene for r in records} == {"flat"}
     white = next(r for r in records if r.cell.strategy == "white" and r.cell.region == "all")
     assert all(ms > 0 for frames in white.timings.render_ms for ms in frames)
