@@ -35,9 +35,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from bnerr.errors import ValueRangeError, check_positive_int
+import renderers
+from benchmarks.training_data import pixel_seeds
+from bnerr.errors import MissingExtraError, ValueRangeError, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
+from bnerr.sequences import make_sampler
+from denoisers.oidn import load_pyoidn
+from denoisers.tuning import ParamStore, tuned_denoiser
 
 __all__ = [
     "autocorrelation",
@@ -155,8 +160,6 @@ def radial_profile(kernel: np.ndarray) -> list[float]:
 def tuned_denoise(name: str, scene: str, spp: int) -> Denoise:
     """``name``'s denoise function with its tuned parameters for ``scene`` at ``spp`` (defaults
     where none are stored)."""
-    from denoisers.tuning import ParamStore, tuned_denoiser
-
     store = ParamStore.load(_PARAMS) if _PARAMS.exists() else ParamStore()
     key, spp = store.resolve(name, scene, spp)
     return tuned_denoiser(name, key, spp, store).denoise
@@ -167,10 +170,6 @@ def measure(
 ) -> np.ndarray:
     """The kernel of ``denoiser`` (tuned for ``scene`` at ``spp``) on ``frames`` renders of the
     static ``scene`` (white noise, independent per frame), averaged over them."""
-    import renderers
-    from benchmarks.training_data import pixel_seeds
-    from bnerr.sequences import make_sampler
-
     scene_obj = renderers.get_scene(scene, animated=False)
     denoise = tuned_denoise(denoiser, scene, spp)
     sampler = make_sampler("owen_sobol")
@@ -255,10 +254,12 @@ def run(args: argparse.Namespace) -> list[dict]:
 
 
 def available_denoisers(names: Sequence[str]) -> list[str]:
-    """``names`` without ``oidn`` when ``pyoidn`` is not installed."""
-    import importlib.util
-
-    return [n for n in names if n != "oidn" or importlib.util.find_spec("pyoidn") is not None]
+    """``names`` without ``oidn`` when its optional extra is missing (:func:`load_pyoidn`)."""
+    try:
+        load_pyoidn()
+    except MissingExtraError:
+        return [n for n in names if n != "oidn"]
+    return list(names)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

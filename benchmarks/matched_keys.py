@@ -19,8 +19,16 @@ from pathlib import Path
 import numpy as np
 import torch
 
+import renderers
+from benchmarks.kernels import available_denoisers, tuned_denoise
+from benchmarks.training_data import pixel_seeds
 from bnerr.io import atomic_write
+from bnerr.ldbn.keys import keys_from_array
+from bnerr.metrics import paired_ratio
+from bnerr.sequences import make_sampler
+from bnerr.strategies import make_strategy
 from bnerr.strategies.base import Strategy
+from bnerr.strategies.ldbn import LDBNStrategy
 
 __all__ = ["compare", "main", "ratio_table"]
 
@@ -28,15 +36,9 @@ _STRATEGIES = ("white", "ldbn", "ldbn_fast", "ldbn_atrous")
 
 
 def _strategy(name: str, size: int, seed: int, spp: int, keys: dict[str, Path]) -> Strategy:
-    from bnerr.ldbn.keys import SHIPPED_SEED0
-    from bnerr.sequences import LDBNKeys
-    from bnerr.strategies import make_strategy
-    from bnerr.strategies.ldbn import LDBNStrategy
-
     if name not in keys:
         return make_strategy(name, size, size, seed=seed, spp=spp)
-    array = torch.from_numpy(np.load(keys[name]))[:, 0]
-    loaded = LDBNKeys(array[..., :8].contiguous(), array[..., 8:].contiguous(), SHIPPED_SEED0)
+    loaded = keys_from_array(np.load(keys[name]), str(keys[name]))[0]  # D from the table
     return LDBNStrategy(size, size, seed=seed, keys=[loaded], spp=spp)
 
 
@@ -52,11 +54,6 @@ def compare(
     ref_spp: int = 2048,
 ) -> dict[str, dict[str, list[list[float]]]]:
     """``{denoiser or "raw": {strategy: mse [seeds][frames]}}`` on the static ``scene``."""
-    import renderers
-    from benchmarks.kernels import tuned_denoise
-    from benchmarks.training_data import pixel_seeds
-    from bnerr.sequences import make_sampler
-
     scene_obj = renderers.get_scene(scene, animated=False)
     ref = renderers.render(
         scene_obj, 0, pixel_seeds(size, size, 99), make_sampler("owen_sobol"), ref_spp
@@ -80,8 +77,6 @@ def compare(
 
 def ratio_table(results: dict[str, dict[str, dict[str, list[list[float]]]]]) -> list[dict]:
     """One row per (scene, denoiser, strategy): its paired ratio to white's and to ldbn's."""
-    from bnerr.metrics import paired_ratio
-
     rows = []
     for scene, by_denoiser in results.items():
         for denoiser, by_strategy in by_denoiser.items():
@@ -124,7 +119,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args(argv)
     torch.set_num_threads(args.threads)
-    from benchmarks.kernels import available_denoisers
 
     keys = {k: Path(v) for k, v in (item.split("=", 1) for item in args.keys)}
     names = [*_STRATEGIES, *keys]

@@ -69,6 +69,7 @@ from bnerr.sequences.ldbn import LDBNKeys, shared_words
 __all__ = [
     "SHIPPED_SEED0",
     "KeyOptions",
+    "keys_from_array",
     "load_ldbn_keys",
     "optimize_keys",
     "run_keys",
@@ -441,15 +442,23 @@ def load_ldbn_keys(
     ``levels`` or ``dims``, when given, must match. Raises FileFormatError if the file is absent
     or malformed."""
     shape = (levels, frames, size, size, None if dims is None else dims + dims // 2)
-    array = torch.from_numpy(load_array(ldbn_file_name(kind, size, frames), np.int32, shape))
+    array = load_array(ldbn_file_name(kind, size, frames), np.int32, shape)
+    return keys_from_array(array, ldbn_file_name(kind, size, frames), seed0)
+
+
+def keys_from_array(array: np.ndarray, name: str, seed0: int = SHIPPED_SEED0) -> list[LDBNKeys]:
+    """One :class:`LDBNKeys` per frame slice of a key table ``[L, F, T, T, D + D/2]`` (as
+    :func:`write_keys` writes it; D read from the channels), ``name`` naming it in errors."""
+    if array.ndim != 5:
+        raise FileFormatError(
+            f"{name}: expected keys [L, F, T, T, D + D/2], got {list(array.shape)}"
+        )
     channels = array.shape[-1]
     if channels % 3 or channels < 3:
-        raise FileFormatError(
-            f"{ldbn_file_name(kind, size, frames)}: expected D + D/2 channels for an even D, "
-            f"got {channels}"
-        )
+        raise FileFormatError(f"{name}: expected D + D/2 channels for an even D, got {channels}")
+    keys = torch.from_numpy(np.ascontiguousarray(array, dtype=np.int32))
     dims = 2 * channels // 3
     return [
-        LDBNKeys(array[:, f, ..., :dims].contiguous(), array[:, f, ..., dims:].contiguous(), seed0)
-        for f in range(frames)
+        LDBNKeys(keys[:, f, ..., :dims].contiguous(), keys[:, f, ..., dims:].contiguous(), seed0)
+        for f in range(keys.shape[1])
     ]

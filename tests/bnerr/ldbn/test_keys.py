@@ -7,7 +7,14 @@ import numpy as np
 import pytest
 
 from bnerr.errors import FileFormatError, ValueRangeError
-from bnerr.ldbn.keys import KeyOptions, load_ldbn_keys, optimize_keys, run_keys, write_keys
+from bnerr.ldbn.keys import (
+    KeyOptions,
+    keys_from_array,
+    load_ldbn_keys,
+    optimize_keys,
+    run_keys,
+    write_keys,
+)
 from bnerr.ldbn.quality import blurred_share, white_share
 from bnerr.strategies.ldbn import LDBN_SETS
 
@@ -135,3 +142,17 @@ def test_a_measured_kernel_is_recorded_and_a_gaussian_one_matches_the_named_kern
     assert scramble.shape == (2, 1, 8, 8, 2) and rank.shape == (2, 1, 8, 8, 1)
     with pytest.raises(FileFormatError, match="checkpoint of options"):
         optimize_keys(named, tmp_path / "m.ckpt.npz")
+
+
+def test_a_key_table_of_any_dimension_count_splits_by_its_channels():
+    # D = 12 (the 128 x 128 set's): 12 scrambling keys then 6 ranking keys per texel, per slice
+    table = np.zeros((2, 3, 4, 4, 18), dtype=np.int32)
+    table[..., :12] = 5
+    keys = keys_from_array(table, "t.npy")
+    assert len(keys) == 3
+    assert keys[0].scramble.shape == (2, 4, 4, 12) and keys[0].rank.shape == (2, 4, 4, 6)
+    assert int(keys[2].scramble.min()) == 5 and int(keys[2].rank.abs().sum()) == 0
+    with pytest.raises(FileFormatError, match=r"t.npy: expected D \+ D/2 channels"):
+        keys_from_array(table[..., :17], "t.npy")
+    with pytest.raises(FileFormatError, match=r"t.npy: expected keys \[L, F, T, T, D \+ D/2\]"):
+        keys_from_array(table[0], "t.npy")
