@@ -23,7 +23,7 @@ import dataclasses
 import io
 import math
 from collections import defaultdict
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -250,23 +250,31 @@ def _ratio_text(row: dict | None, name: str) -> str:
     return text + (" (worse)" if row[f"{name}_ratio_lo"] > 1.0 else "")
 
 
-def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
-    """Post-denoise MSE per spp and denoiser: white's value, the others' ratios to it."""
+def _spp_denoiser_grid(
+    rows: list[dict], strategies: list[str], cell: Callable[[dict | None, dict | None], str]
+) -> list[list[str]]:
+    """One table row per spp and denoiser: the two, then ``cell(row, white_row)`` per strategy
+    (None where the strategy, or the white baseline, has no row there)."""
     by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
     base = baseline()
     body = []
     for spp in sorted({r["spp"] for r in rows}):
         for d in sorted({r["denoiser"] for r in rows}):
             white = by.get((spp, d, base))
-            cells = [str(spp), d]
-            for s in strategies:
-                row = by.get((spp, d, s))
-                if s == base or white is None:
-                    cells.append("-" if row is None else f"{row['den_mse']:.4g}")
-                else:
-                    cells.append(_ratio_text(row, "den_mse"))
-            body.append(cells)
+            body.append([str(spp), d, *(cell(by.get((spp, d, s)), white) for s in strategies)])
     return body
+
+
+def _den_cell(row: dict | None, white: dict | None) -> str:
+    """White's (or a strategy without a white row's) post-denoise MSE, the others' ratios."""
+    if row is white or white is None:
+        return "-" if row is None else f"{row['den_mse']:.4g}"
+    return _ratio_text(row, "den_mse")
+
+
+def _den_body(rows: list[dict], strategies: list[str]) -> list[list[str]]:
+    """Post-denoise MSE per spp and denoiser: white's value, the others' ratios to it."""
+    return _spp_denoiser_grid(rows, strategies, _den_cell)
 
 
 def _flicker_cell(row: dict | None, white: dict | None) -> str:
@@ -289,14 +297,7 @@ def _flicker_lines(rows: list[dict], strategies: list[str]) -> list[str]:
     measured it (results written before it existed keep their table.md byte for byte)."""
     if all(r.get("den_tmse") is None for r in rows):
         return []
-    by = {(r["spp"], r["denoiser"], r["strategy"]): r for r in rows}
-    base = baseline()
-    body = []
-    for spp in sorted({r["spp"] for r in rows}):
-        for d in sorted({r["denoiser"] for r in rows}):
-            white = by.get((spp, d, base))
-            cells = [_flicker_cell(by.get((spp, d, s)), white) for s in strategies]
-            body.append([str(spp), d, *cells])
+    body = _spp_denoiser_grid(rows, strategies, _flicker_cell)
     return [
         "Flicker after denoising: the MSE of the frame-to-frame change against the reference's "
         "own change (tMSE) with its 95% paired interval, then the MSE of the mean of up to 4 "
