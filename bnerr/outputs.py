@@ -121,11 +121,7 @@ def _nearest_existing(path: Path) -> Path:
 
 
 def _make_folder(folder: Path, name: str) -> None:
-    existing = _nearest_existing(folder)
-    if existing.exists() and not existing.is_dir():
-        raise OutputPathError(
-            f"{name} {folder}: expected a path inside a folder, got {existing}, an existing file"
-        )
+    check_folder_path(folder, name)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except (OSError, ValueError) as err:
