@@ -45,26 +45,35 @@ def test_quick_brackets_the_method_with_white_and_oracle():
     assert all(s.warmup > 0 for s in get_suite("quick").sweeps)
 
 
-def test_quality_covers_every_scene_strategy_and_denoiser_at_1_4_16_spp():
+def test_quality_covers_every_scene_adoptable_strategy_and_denoiser_at_1_4_16_spp():
     import denoisers
     import renderers
+    from bnerr.strategies import strategy_identity
 
     cells = list(_cells(get_suite("quality")))
     assert {c[0] for c in cells} == set(renderers.SCENES)
-    bounds = {"oracle", "vertical"}
-    assert {c[1] for c in cells} == {"white", "bnds", "temporal", "temporal_sort"} | bounds | set(
-        RIVALS
-    )
-    # the vertical bound sits in cells the oracle and white measure too (its gap share needs both)
-    vertical = {(c[0], c[2], c[3], c[4]) for c in cells if c[1] == "vertical"}
-    for strategy in ("white", "oracle"):
-        assert vertical <= {(c[0], c[2], c[3], c[4]) for c in cells if c[1] == strategy}
+    strategies = {c[1] for c in cells}
+    # no bound (the gap suite measures them), every family a renderer could adopt
+    assert "white" in strategies and not {"oracle", "vertical"} & strategies
+    assert strategies <= {"white", "bnds", "temporal", "temporal_sort"} | set(RIVALS)
+    families = {strategy_identity(s).family for s in strategies}
+    assert families >= {"baseline", "rival", "temporal", "ldbn"}
+    assert {"ldbn128", "openqmc_sobolbn", "openqmc_latticebn", "zsobol"} <= strategies
     assert {c[2] for c in cells} == {1, 4, 16}
     assert {c[3] for c in cells} == set(denoisers.DENOISERS) | {
         "gaussian:own",
         "atrous:own",
         "guided:own",
     }
+
+
+def test_the_bounds_are_measured_where_shares_are_computed():
+    cells = list(_cells(get_suite("gap")))
+    for bound in ("oracle", "vertical"):
+        assert any(c[1] == bound for c in cells)
+    vertical = {(c[0], c[2], c[3], c[4]) for c in cells if c[1] == "vertical"}
+    for strategy in ("white", "oracle"):  # the vertical bound's share needs both
+        assert vertical <= {(c[0], c[2], c[3], c[4]) for c in cells if c[1] == strategy}
 
 
 def test_stability_varies_each_failure_axis():
