@@ -31,6 +31,7 @@ __all__ = [
     "decision_table",
     "flicker_notes",
     "design_of",
+    "headline_summary",
     "headline_table",
     "rival_counts",
     "verdict",
@@ -253,21 +254,68 @@ def flicker_notes(rows: Sequence[dict], exclude: Sequence[str] = ()) -> list[str
     return [*lines, ""]
 
 
-def _headline_cell(row: dict | None, rivals: int, rival: dict | None) -> str:
-    """``**name ratio**`` below white beyond the corrected interval, ``name ratio ≈`` equal to
-    white within the margin, ``name ratio open`` open at the cap; ``white`` when no strategy was
-    lower, marked by its lowest ``rival``'s verdict unless that is worse (``white ≈``, ``white
-    open``); ``-`` when not measured."""
+def _judged(row: dict, rival: dict | None) -> dict:
+    """The row a headline cell's verdict is on: its best strategy's, or, where white is lowest,
+    its lowest rival's (white's own when no rival was measured)."""
+    if row["strategy"] != baseline() and row.get("den_mse_ratio") is not None:
+        return row
+    return rival if rival is not None and rival.get("den_mse_ratio") is not None else row
+
+
+def _headline_said(row: dict | None, rivals: int, rival: dict | None) -> str | None:
+    """The verdict a headline cell states (on :func:`_judged`'s row; ``"worse"`` where white is
+    lowest and no rival was measured); None when not measured."""
     if row is None:
+        return None
+    judged = _judged(row, rival)
+    if judged.get("den_mse_ratio") is None or judged["strategy"] == baseline():
+        return "worse"
+    return verdict(corrected(judged, rivals))
+
+
+def _headline_cell(row: dict | None, rivals: int, rival: dict | None) -> str:
+    """``**name ratio** (n)`` below white beyond the corrected interval, ``name ratio ≈ (n)``
+    equal to white within the margin, ``name ratio open (n)`` open at the n seed sets it reached
+    (the cap, or a fixed design's); ``white (n)`` when no strategy was lower, marked by its lowest
+    ``rival``'s verdict unless that is worse (``white ≈ (n)``, ``white open (n)``); ``-`` when
+    not measured. n: the seed sets the verdict rests on."""
+    said = _headline_said(row, rivals, rival)
+    if row is None or said is None:
         return "-"
     if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
-        if rival is None or rival.get("den_mse_ratio") is None:
-            return row["strategy"]
-        said = verdict(corrected(rival, rivals))
-        return row["strategy"] + ("" if said == "worse" else _MARKS[said])
-    said = verdict(corrected(row, rivals))
+        mark = "" if said == "worse" else _MARKS[said]
+        return f"{row['strategy']}{mark} ({_judged(row, rival)['seed_sets']})"
     text = f"{row['strategy']} {row['den_mse_ratio']:.2f}"
-    return f"**{text}**" if said == "better" else text + _MARKS[said]
+    sets = f" ({row['seed_sets']})"
+    return f"**{text}**{sets}" if said == "better" else text + _MARKS[said] + sets
+
+
+def _headline_cells(
+    rows: Sequence[dict], denoisers: Sequence[str], scenes: Sequence[str], exclude: Sequence[str]
+) -> list[tuple[str, int, list[tuple[dict | None, int, dict | None]]]]:
+    """The headline's rows: (scene, spp, per denoiser the best row, its m and the lowest rival),
+    for the scenes without a condition, in ``scenes``' order."""
+    best = best_rows(rows, exclude)
+    lowest = best_rows(rows, [*exclude, baseline()])
+    rivals = rival_counts(rows, exclude)
+    plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}
+    return [
+        (
+            scene,
+            spp,
+            [
+                (
+                    best.get((group, spp, d)),
+                    rivals.get((group, spp, d), 1),
+                    lowest.get((group, spp, d)),
+                )
+                for d in denoisers
+            ],
+        )
+        for scene in scenes
+        for group in sorted((g for g in plain if g[0] == scene), key=group_order)
+        for spp in sorted({k[1] for k in best if k[0] == group})
+    ]
 
 
 def headline_table(
@@ -278,25 +326,37 @@ def headline_table(
 ) -> str:
     """The README's headline: the decision table of ``scenes`` in that order, each without a
     condition (the scene's own motion, depth, every pixel, the default sampler), one column per
-    denoiser of ``denoisers``, each cell the best strategy and its ratio to white (bold: below
-    white beyond the interval). Markdown lines, no title."""
-    exclude = _excludes(rows, exclude)
-    best = best_rows(rows, exclude)
-    lowest = best_rows(rows, [*exclude, baseline()])
-    rivals = rival_counts(rows, exclude)
-    plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}
-    body = [
-        [scene, str(spp)]
-        + [
-            _headline_cell(
-                best.get((group, spp, d)),
-                rivals.get((group, spp, d), 1),
-                lowest.get((group, spp, d)),
-            )
-            for d in denoisers
-        ]
-        for scene in scenes
-        for group in sorted((g for g in plain if g[0] == scene), key=group_order)
-        for spp in sorted({k[1] for k in best if k[0] == group})
-    ]
+    denoiser of ``denoisers``, each cell the best strategy, its ratio to white and the seed sets
+    its verdict rests on (bold: below white beyond the interval). Markdown lines, no title."""
+    cells = _headline_cells(rows, denoisers, scenes, _excludes(rows, exclude))
+    body = [[scene, str(spp)] + [_headline_cell(*c) for c in row] for scene, spp, row in cells]
     return "\n".join(table_lines(["scene", "spp", *denoisers], body)) + "\n"
+
+
+def headline_summary(
+    rows: Sequence[dict],
+    denoisers: Sequence[str],
+    scenes: Sequence[str],
+    exclude: Sequence[str] | None = None,
+) -> str:
+    """The README's count of the headline's verdicts, one sentence: how many of its cells are
+    bold (a strategy below white), equal to white within the margin, worse (white lowest and its
+    rival above it) and open at the seed sets they reached, and the seed sets the cells took
+    (median and largest)."""
+    cells = [
+        c
+        for _, _, row in _headline_cells(rows, denoisers, scenes, _excludes(rows, exclude))
+        for c in row
+    ]
+    said = [_headline_said(*c) for c in cells]
+    count = {v: said.count(v) for v in ("better", "equal", "worse", "open")}
+    sets = sorted(_judged(c[0], c[2])["seed_sets"] for c in cells if c[0] is not None)
+    measured = len(sets)
+    settled = measured - count["open"]
+    median = sets[len(sets) // 2] if sets else 0
+    return (
+        f"Of the {measured} cells {settled} carry a verdict: {count['better']} bold, "
+        f'{count["equal"]} "≈" and {count["worse"]} where white is lowest and its rival worse; '
+        f"{count['open']} are open at the seed sets they reached (median {median}, "
+        f"at most {sets[-1] if sets else 0} seed sets a cell)."
+    )

@@ -434,6 +434,26 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
     rows = _rows_of("quality")
     assert found.group(1) == decision.headline_table(rows, denoisers, scenes)
+    # and its count of the verdicts is the one the table's cells give
+    summary = decision.headline_summary(rows, denoisers, scenes)
+    assert summary in " ".join(readme.split()), summary
+
+
+def test_the_headline_counts_each_verdict_once_with_the_seed_sets_it_took():
+    rows = [
+        dict(r, seed_sets=8, looks=[4, 8]) if r["spp"] == 4 else r
+        for r in _rows_of("quality")
+        if r["strategy"] in ("white", "ldbn", "zsobol")
+    ]
+    table = decision.headline_table(rows, ["gaussian", "taa"], ["direct", "indirect"])
+    body = [line.split(" | ")[2:] for line in table.splitlines()[2:]]
+    cells = [c.strip(" |") for row in body for c in row]
+    assert len(cells) == 12 and all(c.endswith(("(4)", "(8)")) for c in cells)
+    summary = decision.headline_summary(rows, ["gaussian", "taa"], ["direct", "indirect"])
+    bold = sum(c.startswith("**") for c in cells)
+    opened = sum(" open " in c for c in cells)
+    assert f"Of the 12 cells {12 - opened} carry a verdict: {bold} bold," in summary
+    assert f"{opened} are open" in summary and "at most 8 seed sets" in summary
 
 
 # -- flicker (the temporal metrics) -------------------------------------------------------------

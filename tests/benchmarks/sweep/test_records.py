@@ -2,6 +2,7 @@
 files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
 
 import dataclasses
+import gzip
 import json
 
 import pytest
@@ -92,11 +93,15 @@ def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
     assert all(isinstance(r, Record) for r in records)
     write_records(tmp_path, records)
     plain = folder / RESULTS_FILE
-    if plain.exists():
-        assert (tmp_path / RESULTS_FILE).read_bytes() == plain.read_bytes()
-    else:
-        compress_records(tmp_path)
-        assert (tmp_path / RESULTS_ARCHIVE).read_bytes() == (folder / RESULTS_ARCHIVE).read_bytes()
+    # The archive's content, not its compression: compress_records is reproducible bit for bit
+    # (test_compressed_results_read_back_and_restore_before_an_append), and compressing the
+    # quality suite's records again at level 9 cost more than the rest of this test.
+    committed = (
+        plain.read_bytes()
+        if plain.exists()
+        else gzip.decompress((folder / RESULTS_ARCHIVE).read_bytes())
+    )
+    assert (tmp_path / RESULTS_FILE).read_bytes() == committed
 
 
 @pytest.mark.parametrize(
