@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import math
 
-import kornia.filters as KF
 import torch
 
 from bnerr.errors import check_range
@@ -82,6 +81,8 @@ def bilateral_torch(
     """The torch path of the bilateral filters, the native kernel's twin (kornia's own functions):
     ``image [C, H, W]``, ``guide [G, H, W]`` or None (the image guides itself), a square window
     of ``kernel_size`` -> ``[C, H, W]``. No scaling and no float64 switch (the callers')."""
+    import kornia.filters as KF  # 0.8 s (all of kornia): only where one runs
+
     size, space = (kernel_size, kernel_size), (sigma_space, sigma_space)
     if guide is None:
         return KF.bilateral_blur(

@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import ClassVar
 
-import kornia.filters as KF
 import torch
 
 from bnerr.frame import Frame
@@ -25,6 +24,8 @@ def gaussian_filter(color: torch.Tensor, sigma: float) -> torch.Tensor:
     The linear low-pass the project's claim is about: it removes the high frequencies where a
     blue-noise error lives. Blurs across edges, so it also biases the image.
     """
+    import kornia.filters as KF  # 0.8 s (all of kornia): only where one runs
+
     k = _odd(3.0 * sigma)
     return KF.gaussian_blur2d(color[None], (k, k), (sigma, sigma), border_type=_BORDER)[0]
 

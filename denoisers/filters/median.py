@@ -9,7 +9,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import ClassVar
 
-import kornia.filters as KF
 import torch
 
 from bnerr.errors import ValueRangeError, check_memory, check_positive_int
@@ -26,6 +25,8 @@ def median_filter(color: torch.Tensor, kernel_size: int) -> torch.Tensor:
     Removes isolated fireflies well; on skewed Monte Carlo noise the median of a window is below
     its mean, so it darkens (biases) the image. That trade-off is what the tuning measures.
     """
+    import kornia.filters as KF  # 0.8 s (all of kornia): only where one runs
+
     return KF.median_blur(color[None], (kernel_size, kernel_size), border_type=_BORDER)[0]
 
 

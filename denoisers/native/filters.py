@@ -24,7 +24,6 @@ import ctypes
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-import kornia.filters as KF
 import torch
 
 from bnerr import native
@@ -164,6 +163,8 @@ def native_bilateral(
     Returns:
         ``[C, H, W]``, or None when the kernel refuses the sizes.
     """
+    import kornia.filters as KF  # 0.8 s (all of kornia): only where one runs
+
     image = image.contiguous()
     guide = image if guide is None else guide.contiguous()
     k = (kernel_size, kernel_size)

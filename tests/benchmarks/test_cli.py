@@ -58,18 +58,26 @@ def test_a_bug_still_shows_its_traceback(monkeypatch):
         _run_raising(monkeypatch, RuntimeError("a bug"))
 
 
-def test_a_command_imports_only_its_own_module():
-    # bnerr render must not pay for importing every other command's dependencies at start-up.
+def test_a_command_imports_only_its_own_module_and_help_neither_kornia_nor_scipy():
+    # bnerr render must not pay for importing every other command's dependencies at start-up,
+    # nor any command for kornia (0.8 s: its __init__ loads all of it) and scipy.special (0.4 s)
+    # before it filters or computes an interval: bnerr --help imports every command's module.
     import subprocess
     import sys
 
     code = (
         "import sys; from benchmarks.cli import main\n"
-        "try:\n    main(['scenes', '--help'])\nexcept SystemExit:\n    pass\n"
-        "print(sorted(m for m in sys.modules if m.startswith('benchmarks.commands.')))"
+        "def run(*argv):\n    try:\n        main(list(argv))\n    except SystemExit:\n"
+        "        pass\n"
+        "run('scenes', '--help')\n"
+        "found = sorted(m for m in sys.modules if m.startswith('benchmarks.commands.'))\n"
+        "run('--help')\n"
+        "print(found, sorted({m.split('.')[0] for m in sys.modules} & {'kornia', 'scipy'}),"
+        " sep='\\n', file=sys.stderr)"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
-    assert out.stdout.strip().splitlines()[-1] == "['benchmarks.commands.scenes']"
+    *_, commands, heavy = out.stderr.strip().splitlines()
+    assert commands == "['benchmarks.commands.scenes']" and heavy == "[]"
 
 
 def _entry_process(args, tmp_path):
