@@ -368,7 +368,8 @@ SUITES: dict[str, Suite] = {
         name="quality",
         coherent=True,
         description=(
-            "every scene, strategy and denoiser at 1, 4 and 16 spp, 128x128 (2.5-3.5 core-hours)"
+            "every scene, adoptable strategy and denoiser at 1, 4 and 16 spp, 128x128; "
+            "--until-resolved --seed-set-cap 8: 81 min with --ray local"
         ),
         sweeps=(
             Sweep(

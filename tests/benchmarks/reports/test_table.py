@@ -23,6 +23,7 @@ from benchmarks.sweep.records import (
     ReferenceInfo,
     Spectrum,
     Timings,
+    final_records,
     load_records,
     write_records,
 )
@@ -291,9 +292,10 @@ _TABLES = ("table.md", "table.csv", "decision.md", "gap.md", "gap.csv", "denoise
 
 @functools.cache
 def _committed_records(suite: str) -> tuple[Record, ...]:
-    """The committed records of ``results/<suite>``, read once per test process (the quality
-    suite's take seconds to parse)."""
-    return tuple(load_records(RESULTS / suite))
+    """The committed records of ``results/<suite>`` that its reports show (each cell's last look
+    of an adaptive run, :func:`final_records`), read once per test process (the quality suite's
+    take seconds to parse)."""
+    return tuple(r for r in final_records(load_records(RESULTS / suite)) if r.has_pixels)
 
 
 @functools.cache
