@@ -247,6 +247,6 @@ def evaluate(
             on_run(run)
         chosen = _denoisers(run, parts, references, store, m.tuning_seed_set is not None)
         measured = measure_run(run, parts, references, chosen, crops_dir=out / "crops")
-        records.extend(with_plugins(r) for r in measured)
+        records.extend(with_plugins(r).rounded() for r in measured)  # as bnerr bench keeps them
     write_records(out, records)
     return records, notes

@@ -8,9 +8,11 @@ Examples::
     bnerr bench --suite quality --ray HEAD:6379      # every seed set a task on a Ray cluster
 
 Results go to ``results/<suite>/`` unless ``--out`` says otherwise: ``cells.jsonl`` (the raw
-records; ``cells.jsonl.gz`` with ``--compress`` or where the folder held it already, as the
-committed ``results/`` do), ``table.csv``, ``table.md``, the charts and the page ``index.html``
-(:mod:`benchmarks.reports`); the folder above gets ``index.html``, linking every suite's page.
+records; ``cells.jsonl.xz`` with ``--compress`` or where the folder held an archive already,
+as the committed ``results/`` do; ``--report-only --compact`` also rounds an older folder's
+records to the precision runs keep, :meth:`benchmarks.sweep.records.Record.rounded`),
+``table.csv``, ``table.md``, the charts and the page ``index.html`` (:mod:`benchmarks.reports`);
+the folder above gets ``index.html``, linking every suite's page.
 References are cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the
 results already in the output folder and measures only the missing cells; without it, a folder that
 already holds finished cells is refused unless ``--overwrite`` says to discard them. The command
@@ -77,7 +79,14 @@ from benchmarks.sweep.external_renderer import external_parts, renderer_suite
 from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
-from benchmarks.sweep.records import RESULTS_ARCHIVE, Record, compress_records, load_records
+from benchmarks.sweep.records import (
+    LEGACY_ARCHIVE,
+    RESULTS_ARCHIVE,
+    Record,
+    compact_records,
+    compress_records,
+    load_records,
+)
 from bnerr.errors import DtypeError, ValueRangeError, check_device, check_positive_int
 from bnerr.outputs import check_folder_path, output_lock
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
@@ -244,8 +253,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add("--ray-cpus", type=positive_int, default=1, help="CPUs (and torch threads) per Ray task")
     _add_adaptive_options(parser)
     add("--no-charts", action="store_true", help="write the tables only")
-    compress = "keep the cells as cells.jsonl.gz (a folder holding it keeps it so anyway)"
+    compress = "keep the cells as cells.jsonl.xz (a folder holding an archive keeps it so anyway)"
     add("--compress", action="store_true", help=compress)
+    compact = (
+        "with --report-only: round the folder's records to the precision runs record now (6 "
+        "significant digits, timings 3) and compress them, before the reports"
+    )
+    add("--compact", action="store_true", help=compact)
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")
     scripts = (
         "speed suite: measure only these scripts (e.g. speed.permute; with their anchors) and "
@@ -271,8 +285,9 @@ def _run_speed(args: argparse.Namespace, suite: Suite, out: Path) -> str:
     return run_speed(suite, out, progress=not args.quiet, only=args.scripts)
 
 
-def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
-
+def _report_only(args: argparse.Namespace, suite: Suite, out: Path, compress: bool) -> str:
+    """The report of the cells in ``out`` (rounded first with ``--compact``, compressed first
+    with ``compress``), measuring nothing."""
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
     given += ["--ray"] if args.ray is not None else []
     given += ["--device"] if args.device != "cpu" else []
@@ -281,6 +296,10 @@ def _report_only(args: argparse.Namespace, suite: Suite, out: Path) -> str:
             f"--report-only: expected no cell overrides (it measures nothing), got "
             f"{', '.join(given)}"
         )
+    if args.compact:
+        compact_records(out)
+    elif compress:
+        compress_records(out)
     records = load_records(out)
     if not records:
         raise ValueRangeError(f"--report-only: expected finished cells in {out}, got none")
@@ -319,10 +338,10 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     """Measure the suite's cells into ``out`` (or only report them), compress the cells if
     ``compress``, then write the report: last, so that the page links the file the folder holds."""
     _check_adaptive(args)
+    if args.compact and not args.report_only:
+        raise ValueRangeError("--compact: expected with --report-only, got a run that measures")
     if args.report_only:
-        if compress:
-            compress_records(out)
-        return _report_only(args, suite, out)
+        return _report_only(args, suite, out, compress)
 
     renderer = _renderer(args)
     specs: list[tuple[str, str]] = []
@@ -413,7 +432,9 @@ def run(args: argparse.Namespace) -> int:
     if args.cache is not None and not suite.scripts:  # a file there: refused before any render
         check_folder_path(args.cache, "--cache")
     with output_lock(out, "bnerr bench"):
-        compress = args.compress or (Path(out) / RESULTS_ARCHIVE).exists()
+        compress = args.compress or any(
+            (Path(out) / name).exists() for name in (RESULTS_ARCHIVE, LEGACY_ARCHIVE)
+        )
         if suite.scripts:
             text = _run_speed(args, suite, out)
         else:

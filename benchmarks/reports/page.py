@@ -45,7 +45,7 @@ __all__ = ["ON_DEMAND", "PAGE", "write_index", "write_suite_page"]
 #: File name of every page.
 PAGE = "index.html"
 #: The reports a page names but never links: the per-cell tables, which ``bnerr bench
-#: --report-only`` writes from ``cells.jsonl.gz`` on demand and the committed ``results/`` leaves
+#: --report-only`` writes from ``cells.jsonl.xz`` on demand and the committed ``results/`` leaves
 #: out (``results/.gitignore``), so a page reads the same with or without them.
 ON_DEMAND = ("table.csv", "gap.csv")
 _REPORTS = ("gap.md", "denoisers.md")
@@ -225,7 +225,7 @@ _MP4 = (
 )
 #: What the index says a suite folder keeps, and what is written on demand.
 _KEPT = (
-    "<p>Each suite folder keeps its cells (<code>cells.jsonl.gz</code>), its reports, charts, "
+    "<p>Each suite folder keeps its cells (<code>cells.jsonl.xz</code>), its reports, charts, "
     "crops and page. <code>bnerr bench --suite NAME --report-only</code> rewrites all of them "
     "from the cells (the charts' pixels follow the matplotlib build), and writes the per-cell "
     "tables " + " and ".join(f"<code>{n}</code>" for n in ON_DEMAND) + ", which the committed "

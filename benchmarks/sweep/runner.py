@@ -93,7 +93,9 @@ class SweepState:
     def add(self, measured: list[Record]) -> None:
         """Keep a finished run's records and write them: appended to the file this sweep wrote,
         or the whole file the first time (and when a record replaces one already written)."""
-        measured = [with_plugins(r) for r in measured]  # what identifies each plug-in used
+        # at the precision a record keeps (Record.rounded), so the records in memory, and the
+        # report a run writes from them, are the file's; with what identifies each plug-in used
+        measured = [with_plugins(r).rounded() for r in measured]
         if self.device is not None:  # off the CPU: where they were measured, torch's version
             measured = [dataclasses.replace(r, device=self.device) for r in measured]
         fresh = [r for r in measured if r.key not in self.records]

@@ -3,6 +3,7 @@ tables and charts are written, bad overrides are one-line errors, and the output
 writer per folder (the lock), no silent discarding of finished cells (--overwrite), typed one-line
 errors for a garbled results file."""
 
+import dataclasses
 import json
 import sys
 
@@ -10,7 +11,7 @@ import pytest
 
 from benchmarks.cli import main
 from benchmarks.reports.links import broken_links
-from benchmarks.sweep.records import RESULTS_ARCHIVE, RESULTS_FILE, load_records
+from benchmarks.sweep.records import RESULTS_ARCHIVE, RESULTS_FILE, load_records, write_records
 from bnerr.outputs import output_lock
 from tests._paths import RESULTS
 
@@ -176,7 +177,7 @@ def test_report_only_rewrites_the_tables_without_measuring(tmp_path, capsys):
     assert sorted(p.name for p in cache.rglob("*")) == before
     assert (out / "table.md").read_text() == table  # the same title and figures
     assert (out / "decision.md").exists()
-    # --compress keeps the cells gzipped, and a folder holding them so keeps them so
+    # --compress keeps the cells compressed, and a folder holding them so keeps them so
     assert main([*args, "--report-only", "--no-charts", "--compress"]) == 0
     assert not (out / RESULTS_FILE).exists() and (out / RESULTS_ARCHIVE).exists()
     assert main([*args, "--report-only", "--no-charts"]) == 0
@@ -184,8 +185,28 @@ def test_report_only_rewrites_the_tables_without_measuring(tmp_path, capsys):
     assert (out / "index.html").exists() and (tmp_path / "index.html").exists()  # the pages
 
 
+def test_report_only_compact_rounds_an_older_folders_records_and_compresses_them(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(_two_strategies(tmp_path, "--no-charts")) == 0
+    measured = load_records(out)
+    assert measured == [r.rounded() for r in measured]  # a run keeps its records rounded
+    # A folder written before records were rounded: the same cells at full precision.
+    third = 1.0 / 3.0
+    older = [dataclasses.replace(r, reference=dataclasses.replace(r.reference, floor=third))
+             for r in measured]  # fmt: skip
+    write_records(out, older)
+    args = ["bench", "--suite", "quick", "--out", str(out), "--quiet", "--no-charts"]
+    assert main([*args, "--compact"]) == 2
+    assert "--compact: expected with --report-only" in capsys.readouterr().err
+    assert load_records(out) == older  # refused before anything was touched
+    assert main([*args, "--report-only", "--compact"]) == 0
+    assert (out / RESULTS_ARCHIVE).exists() and not (out / RESULTS_FILE).exists()
+    assert load_records(out) == [r.rounded() for r in older]
+    assert {r.reference.floor for r in load_records(out)} == {0.333333}
+
+
 def test_a_measuring_run_compresses_the_cells_before_the_page_links_them(tmp_path):
-    # --overwrite into a folder holding cells.jsonl.gz measures into a plain cells.jsonl, then
+    # --overwrite into a folder holding cells.jsonl.xz measures into a plain cells.jsonl, then
     # compresses it: the page is written after, so it links the file the folder holds.
     assert main(_two_strategies(tmp_path, "--no-charts", "--compress")) == 0
     assert main(_two_strategies(tmp_path, "--no-charts", "--overwrite")) == 0

@@ -51,7 +51,7 @@ def site(tmp_path_factory):
 def test_the_suite_page_links_every_file_and_shows_each_scene(site):
     text = (site / "quick" / "index.html").read_text()
     for name in ("table.md", "decision.md", "gap.md", "cells.jsonl", "error_vs_time_direct.png"):
-        assert f'href="{name}' in text, name  # cells.jsonl or cells.jsonl.gz
+        assert f'href="{name}' in text, name  # cells.jsonl or its archive
     for name in ON_DEMAND:  # named with the command that writes them, never linked
         assert f'href="{name}' not in text and f"<code>{name}</code>" in text
     assert "bnerr bench --suite quick --report-only" in text

@@ -4,11 +4,14 @@ files, and typed errors (naming file and line) for garbled, truncated or foreign
 import dataclasses
 import gzip
 import json
+import lzma
 
 import pytest
 
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import (
+    DIGITS,
+    LEGACY_ARCHIVE,
     RESULTS_ARCHIVE,
     RESULTS_FILE,
     Record,
@@ -18,6 +21,7 @@ from benchmarks.sweep.records import (
     Timings,
     append_records,
     check_no_results,
+    compact_records,
     compress_records,
     final_records,
     load_records,
@@ -93,18 +97,20 @@ _FULL_REWRITE_UP_TO, _STRIDE = 4000, 7
 @pytest.mark.parametrize("suite", ["quick", "quality", "stability", "gap"])
 def test_the_committed_results_load_and_rewrite_byte_identical(tmp_path, suite):
     folder = RESULTS / suite
-    records = load_records(folder)  # cells.jsonl, or the committed cells.jsonl.gz
+    records = load_records(folder)  # cells.jsonl, or the committed archive
     if not records:
         pytest.skip(f"no committed {suite} results")
     assert all(isinstance(r, Record) for r in records)
     plain = folder / RESULTS_FILE
     # The archive's content, not its compression: compress_records is reproducible bit for bit
     # (test_compressed_results_read_back_and_restore_before_an_append).
-    committed = (
-        plain.read_bytes()
-        if plain.exists()
-        else gzip.decompress((folder / RESULTS_ARCHIVE).read_bytes())
-    )
+    archive, legacy = folder / RESULTS_ARCHIVE, folder / LEGACY_ARCHIVE
+    if plain.exists():
+        committed = plain.read_bytes()
+    elif archive.exists():
+        committed = lzma.decompress(archive.read_bytes())
+    else:
+        committed = gzip.decompress(legacy.read_bytes())
     if len(records) <= _FULL_REWRITE_UP_TO:
         write_records(tmp_path, records)
         assert (tmp_path / RESULTS_FILE).read_bytes() == committed
@@ -208,9 +214,60 @@ def test_compressed_results_read_back_and_restore_before_an_append(tmp_path):
     assert not archive.exists()  # a rewritten plain file supersedes the compressed one
 
 
+def test_an_older_gzip_archive_reads_and_turns_into_the_xz_one(tmp_path):
+    records = [_record("white"), _record("temporal")]
+    write_records(tmp_path, records)
+    plain = (tmp_path / RESULTS_FILE).read_bytes()
+    (tmp_path / LEGACY_ARCHIVE).write_bytes(gzip.compress(plain, mtime=0))
+    (tmp_path / RESULTS_FILE).unlink()
+    assert load_records(tmp_path) == records
+    with pytest.raises(ResultsExistError):
+        check_no_results(tmp_path)
+    archive = compress_records(tmp_path)  # the next compression turns it into the xz archive
+    assert archive == tmp_path / RESULTS_ARCHIVE and not (tmp_path / LEGACY_ARCHIVE).exists()
+    assert lzma.decompress(archive.read_bytes()) == plain
+
+
+def _noisy_record() -> Record:
+    """A record whose values carry all 17 digits of a float, as an unrounded run leaves them."""
+    rec = _record()
+    third = 1.0 / 3.0
+    return dataclasses.replace(
+        rec,
+        raw={"mse": [[[third, 576.0], [2 * third, 576.0]]]},
+        den={"mse": [[[third / 7, 576.0], [123456.789, 576.0]]]},
+        timings=Timings(render_ms=[[12.3456, 2.0]], perm_ms=[[0.1, 0.2]], denoise_ms=[[0.3, 0.4]]),
+        reference=ReferenceInfo(spp=16, floor=third, version="0-abc"),
+        spectrum={"raw": Spectrum([0.0, third], [1.0, 2 * third]), "den": Spectrum([], [])},
+        tcorr=[[third]],
+        coverage=[[third, 1.0]],
+    )
+
+
+def test_a_rounded_record_keeps_its_digits_reads_back_equal_and_rounds_to_itself():
+    rec = _noisy_record().rounded()
+    assert rec.raw["mse"][0][0] == [0.333333, 576.0] and rec.den["mse"][0][1][0] == 123457.0
+    assert rec.timings.render_ms == [[12.3, 2.0]]  # timings keep 3 digits
+    assert rec.reference.floor == 0.333333 and rec.tcorr == [[0.333333]]
+    assert rec.spectrum["raw"].freq == [0.0, 0.333333] and rec.coverage == [[0.333333, 1.0]]
+    assert rec.rounded() == rec
+    assert Record.from_json(json.loads(json.dumps(rec.to_json()))) == rec
+    # within half a unit of the DIGITS-th significant digit: a relative 5e-6 at most
+    assert abs(rec.den["mse"][0][0][0] - 1 / 21) <= 0.5 * 10 ** (1 - DIGITS) * (1 / 21)
+
+
+def test_compacting_a_folder_rounds_its_records_in_their_order_and_compresses_them(tmp_path):
+    assert compact_records(tmp_path) is None  # no records: nothing written
+    records = [_noisy_record(), _record("temporal")]
+    write_records(tmp_path, records)
+    assert compact_records(tmp_path) == tmp_path / RESULTS_ARCHIVE
+    assert load_records(tmp_path) == [r.rounded() for r in records]
+    assert load_records(tmp_path)[1] == records[1]  # a record already at its digits is unchanged
+
+
 def test_a_broken_compressed_file_is_a_typed_error(tmp_path):
-    (tmp_path / RESULTS_ARCHIVE).write_bytes(b"not gzip")
-    with pytest.raises(FileFormatError, match="cells.jsonl.gz"):
+    (tmp_path / RESULTS_ARCHIVE).write_bytes(b"not xz")
+    with pytest.raises(FileFormatError, match="cells.jsonl.xz"):
         load_records(tmp_path)
 
 
