@@ -22,7 +22,12 @@ of 32 costs 32 seed sets, not 4 + 8 + 16 + 32 = 60.
 Each look's records stay in the file (the key of a cell holds its seed sets), so an interrupted
 run resumes to the same verdicts: the rounds are replayed from the records of each look, and
 only the missing ones are measured. The reports show each cell's last look
-(:func:`benchmarks.sweep.records.final_records`), and regenerate from the file as any run's.
+(:func:`benchmarks.sweep.records.final_records`), and regenerate from the file as any run's. A
+folder compacted for keeping (``bnerr bench --report-only --compact``, as the committed
+``results/`` are) holds each cell's last look only; a resumed run replays the earlier rounds
+from it (:func:`benchmarks.sweep.records.earlier_look`: a look's seed sets are the first rows of
+every later look's), so resuming it measures nothing that was measured, and a larger cap
+measures only the new looks (the file then lists the replayed runs' records before the others).
 
 Not for: the statistics (:mod:`bnerr.metrics.sequential`) or measuring a run
 (:mod:`benchmarks.sweep.runner`).
@@ -31,6 +36,7 @@ Not for: the statistics (:mod:`bnerr.metrics.sequential`) or measuring a run
 from __future__ import annotations
 
 import dataclasses
+import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -40,7 +46,7 @@ from benchmarks.reports.groups import group_key
 from benchmarks.reports.table import summarize
 from benchmarks.suites import Suite
 from benchmarks.sweep.plan import Run, plan
-from benchmarks.sweep.records import Record
+from benchmarks.sweep.records import Record, bare_key, earlier_look, load_records
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import ValueRangeError
 from bnerr.metrics.sequential import looks
@@ -100,6 +106,46 @@ def grow(runs: Sequence[Run], records: Sequence[Record]) -> list[Run]:
     return out
 
 
+def _replayed(runs: Sequence[Run], kept: Sequence[Record]) -> tuple[list[Run], list[Record]]:
+    """``runs`` split into those to measure and the records of those a compacted file holds at a
+    later look only (:func:`benchmarks.sweep.records.earlier_look` of each of their cells)."""
+    have = {r.key for r in kept}
+    latest: dict[str, Record] = {}
+    for r in kept:
+        key = bare_key(r.cell)
+        if r.looks and (key not in latest or r.cell.seed_sets > latest[key].cell.seed_sets):
+            latest[key] = r
+    todo: list[Run] = []
+    replayed: list[Record] = []
+    for run in runs:
+        cells = run.cells()
+        later = [latest.get(bare_key(c)) for c in cells]
+        if any(c.key() in have for c in cells) or not all(
+            r is not None and run.seed_sets in (r.looks or ()) and r.cell.seed_sets > run.seed_sets
+            for r in later
+        ):
+            todo.append(run)
+            continue
+        replayed += [earlier_look(r, run.seed_sets) for r in later if r is not None]
+    return todo, replayed
+
+
+def _measure_round(
+    measure: Measure, suite: Suite, out_dir: str | Path, runs: Sequence[Run], **options: Any
+) -> list[Record]:
+    """``measure`` of the runs at their current look, but for the runs a resumed compacted file
+    holds at a later look only, whose records are replayed from it."""
+    kept: list[Record] = []
+    if options.get("resume"):
+        with warnings.catch_warnings():  # a torn tail: the runner warns as it drops it
+            warnings.simplefilter("ignore")
+            kept = load_records(out_dir, torn_tail=True)
+    todo, replayed = _replayed(runs, kept)
+    if not replayed:
+        return measure(suite, out_dir, runs=runs, **options)
+    return (measure(suite, out_dir, runs=todo, **options) if todo else kept) + replayed
+
+
 def run_until_resolved(
     suite: Suite,
     out_dir: str | Path,
@@ -121,10 +167,12 @@ def run_until_resolved(
         options: passed to ``measure`` (parts, cache_dir, progress, ...).
     """
     runs = adaptive_runs(suite, cap, batch)
-    records = measure(suite, out_dir, runs=runs, resume=resume, overwrite=overwrite, **options)
+    first = {"resume": resume, "overwrite": overwrite}
+    records = _measure_round(measure, suite, out_dir, runs, **first, **options)
     while True:
         grown = grow(runs, records)
         if grown == runs:
             return records
         runs = grown
-        records = measure(suite, out_dir, runs=runs, resume=True, overwrite=False, **options)
+        later = {"resume": True, "overwrite": False}
+        records = _measure_round(measure, suite, out_dir, runs, **later, **options)

@@ -77,7 +77,7 @@ from pathlib import Path
 from typing import Any
 
 from benchmarks.sweep.plan import Cell
-from bnerr.errors import BnerrError, FileFormatError
+from bnerr.errors import BnerrError, FileFormatError, ValueRangeError
 from bnerr.io import atomic_write
 from bnerr.outputs import OutputPathError
 
@@ -93,9 +93,11 @@ __all__ = [
     "Spectrum",
     "Timings",
     "append_records",
+    "bare_key",
     "check_no_results",
     "compact_records",
     "compress_records",
+    "earlier_look",
     "final_records",
     "load_records",
     "write_records",
@@ -250,21 +252,56 @@ class Record:
             raise FileFormatError(f"expected a benchmark record, got {what}") from None
 
 
+def bare_key(cell: Cell) -> str:
+    """The key of ``cell`` whatever its seed sets: the same at every look of an adaptive run."""
+    return dataclasses.replace(cell, seed_sets=0).key()
+
+
 def final_records(records: Iterable[Record]) -> list[Record]:
     """``records`` without those an adaptive run superseded: a record with ``looks`` is dropped
     when another record of the same cell (its key but for ``seed_sets``) with ``looks`` has more
     seed sets (``bnerr bench --until-resolved`` keeps every look's records, so that a resumed
     run replays the same verdicts; the reports show the last look). Order kept."""
     records = list(records)
-
-    def bare(record: Record) -> str:
-        return dataclasses.replace(record.cell, seed_sets=0).key()
-
     most: dict[str, int] = {}
     for r in records:
         if r.looks:
-            most[bare(r)] = max(most.get(bare(r), 0), r.cell.seed_sets)
-    return [r for r in records if not r.looks or r.cell.seed_sets == most[bare(r)]]
+            key = bare_key(r.cell)
+            most[key] = max(most.get(key, 0), r.cell.seed_sets)
+    return [r for r in records if not r.looks or r.cell.seed_sets == most[bare_key(r.cell)]]
+
+
+def earlier_look(record: Record, seed_sets: int) -> Record:
+    """The record of ``record``'s cell at an earlier look of ``seed_sets``: its first
+    ``seed_sets`` rows of every per-seed-set field. The runners keep seed set g the same render
+    at every look and join a look's new seed sets after the previous look's rows
+    (:mod:`benchmarks.sweep.reuse`), so these rows are that look's record's, and its verdict
+    the same; the spectra, means over the seed sets, stay the later look's (no verdict reads
+    them), so the record is for replaying verdicts, never for writing.
+
+    Raises:
+        ValueRangeError: ``seed_sets`` not below the record's, or not one of its looks.
+    """
+    if not record.looks or seed_sets not in record.looks or seed_sets >= record.cell.seed_sets:
+        raise ValueRangeError(
+            f"earlier_look {record.key}: expected one of its earlier looks {record.looks}, got "
+            f"{seed_sets}"
+        )
+
+    def head(rows: list | None) -> list | None:
+        return None if rows is None else rows[:seed_sets]
+
+    return dataclasses.replace(
+        record,
+        cell=dataclasses.replace(record.cell, seed_sets=seed_sets),
+        raw={m: rows[:seed_sets] for m, rows in record.raw.items()},
+        den={m: rows[:seed_sets] for m, rows in record.den.items()},
+        timings=Timings(
+            **{k: v[:seed_sets] for k, v in dataclasses.asdict(record.timings).items()}
+        ),
+        tcorr=head(record.tcorr),
+        coverage=head(record.coverage),
+    )
 
 
 def _round(value: Any, digits: int) -> Any:
@@ -345,8 +382,10 @@ def compress_records(out_dir: str | Path) -> Path | None:
 
 
 def compact_records(out_dir: str | Path) -> Path | None:
-    """Round the folder's records (:meth:`Record.rounded`), keep them in their order, and
-    compress them (:func:`compress_records`); return the archive, or None without records.
+    """Round the folder's records (:meth:`Record.rounded`), keep each adaptive cell's last look
+    only (:func:`final_records`; ``--until-resolved --resume`` replays the earlier looks from it,
+    :func:`earlier_look`), in their order, and compress them (:func:`compress_records`); return
+    the archive, or None without records.
 
     Raises:
         FileFormatError: the folder's results file is not valid.
@@ -354,7 +393,7 @@ def compact_records(out_dir: str | Path) -> Path | None:
     records = load_records(out_dir)
     if not records:
         return None
-    write_records(out_dir, [r.rounded() for r in records])
+    write_records(out_dir, [r.rounded() for r in final_records(records)])
     return compress_records(out_dir)
 
 

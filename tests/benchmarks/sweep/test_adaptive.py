@@ -14,7 +14,7 @@ import torch
 from benchmarks.sweep import adaptive
 from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.plan import Run
-from benchmarks.sweep.records import Record, final_records, load_records
+from benchmarks.sweep.records import Record, compact_records, final_records, load_records
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import ValueRangeError
 from tests._records import metric_pairs, small_record
@@ -133,3 +133,19 @@ def test_end_to_end_on_real_renders_records_every_look_and_resumes(tmp_path):
         suite, out, cap=4, cache_dir=cache, progress=False, resume=True, parts=counting
     )
     assert again == records and not calls
+    # Compacted for keeping (each cell's last look only): resumed, it replays the first look
+    # from the last one's first rows, to the same verdicts, and measures nothing.
+    compact_records(out)
+    assert load_records(out) == final
+    replayed = adaptive.run_until_resolved(
+        suite, out, cap=4, cache_dir=cache, progress=False, resume=True, parts=counting
+    )
+    assert not calls and final_records(replayed) == final
+    first_look = {r.key: r for r in records if r.cell.seed_sets == 2}
+    for r in replayed:
+        if r.key in first_look:  # the replayed look: the measured one's rows and verdict inputs
+            assert (r.raw, r.den, r.tcorr, r.timings) == (
+                first_look[r.key].raw, first_look[r.key].den, first_look[r.key].tcorr,
+                first_look[r.key].timings,
+            )  # fmt: skip
+    assert load_records(out) == final  # nothing written back

@@ -23,11 +23,12 @@ from benchmarks.sweep.records import (
     check_no_results,
     compact_records,
     compress_records,
+    earlier_look,
     final_records,
     load_records,
     write_records,
 )
-from bnerr.errors import BnerrError, FileFormatError
+from bnerr.errors import BnerrError, FileFormatError, ValueRangeError
 from tests._paths import RESULTS
 from tests._records import metric_pairs, small_record
 
@@ -263,6 +264,36 @@ def test_compacting_a_folder_rounds_its_records_in_their_order_and_compresses_th
     assert compact_records(tmp_path) == tmp_path / RESULTS_ARCHIVE
     assert load_records(tmp_path) == [r.rounded() for r in records]
     assert load_records(tmp_path)[1] == records[1]  # a record already at its digits is unchanged
+
+
+def test_an_earlier_look_is_the_first_rows_of_a_later_one():
+    rows = [[i, 1.0] for i in range(4)]
+    rec = dataclasses.replace(
+        small_record("ldbn", "gaussian", raw={"mse": metric_pairs(rows)}, den={}, frames=2,
+                     seed_sets=4),
+        looks=[2, 4],
+        tcorr=[[0.1], [0.2], [0.3], [0.4]],
+    )  # fmt: skip
+    two = earlier_look(rec, 2)
+    assert two.cell.seed_sets == 2 and two.key != rec.key and two.looks == [2, 4]
+    assert two.raw["mse"] == rec.raw["mse"][:2] and two.tcorr == [[0.1], [0.2]]
+    assert all(len(v) == 2 for v in dataclasses.asdict(two.timings).values())
+    for bad in (4, 3, 8):  # itself, not one of its looks, a later one
+        with pytest.raises(ValueRangeError, match=r"expected one of its earlier looks \[2, 4\]"):
+            earlier_look(rec, bad)
+
+
+def test_compacting_keeps_each_adaptive_cells_last_look_only(tmp_path):
+    def rec(seed_sets, looks):
+        pairs = metric_pairs([[1.0, 1.0]] * seed_sets)
+        r = small_record("ldbn", "gaussian", raw={}, den={"mse": pairs}, frames=2,
+                         seed_sets=seed_sets)  # fmt: skip
+        return dataclasses.replace(r, looks=looks)
+
+    records = [rec(2, [2, 4]), _record("white"), rec(4, [2, 4])]
+    write_records(tmp_path, records)
+    compact_records(tmp_path)
+    assert load_records(tmp_path) == [records[1], records[2]]
 
 
 def test_a_broken_compressed_file_is_a_typed_error(tmp_path):
