@@ -416,3 +416,12 @@ def test_no_file_keeps_a_merge_conflict_marker():
 @pytest.mark.parametrize("name", ["METHODS", "ARCHITECTURE", "INTERFACES"])
 def test_the_project_docs_exist(name):
     assert (ROOT / "docs" / f"{name}.md").is_file()
+
+
+def test_the_longest_test_files_named_first_exist():
+    # tests/conftest.py runs them first (make test's scheduling); a renamed file would silently
+    # fall back to its collection place.
+    from tests.conftest import LONGEST_FIRST
+
+    assert LONGEST_FIRST and all((ROOT / path).is_file() for path in LONGEST_FIRST)
+    assert len(set(LONGEST_FIRST)) == len(LONGEST_FIRST)
