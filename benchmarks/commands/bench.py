@@ -80,8 +80,7 @@ from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import (
-    LEGACY_ARCHIVE,
-    RESULTS_ARCHIVE,
+    ARCHIVES,
     Record,
     compact_records,
     compress_records,
@@ -432,9 +431,7 @@ def run(args: argparse.Namespace) -> int:
     if args.cache is not None and not suite.scripts:  # a file there: refused before any render
         check_folder_path(args.cache, "--cache")
     with output_lock(out, "bnerr bench"):
-        compress = args.compress or any(
-            (Path(out) / name).exists() for name in (RESULTS_ARCHIVE, LEGACY_ARCHIVE)
-        )
+        compress = args.compress or any((Path(out) / name).exists() for name in ARCHIVES)
         if suite.scripts:
             text = _run_speed(args, suite, out)
         else:

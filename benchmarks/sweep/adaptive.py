@@ -46,7 +46,13 @@ from benchmarks.reports.groups import group_key
 from benchmarks.reports.table import summarize
 from benchmarks.suites import Suite
 from benchmarks.sweep.plan import Run, plan
-from benchmarks.sweep.records import Record, bare_key, earlier_look, load_records
+from benchmarks.sweep.records import (
+    Record,
+    bare_key,
+    earlier_look,
+    final_records,
+    load_records,
+)
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import ValueRangeError
 from bnerr.metrics.sequential import looks
@@ -110,11 +116,7 @@ def _replayed(runs: Sequence[Run], kept: Sequence[Record]) -> tuple[list[Run], l
     """``runs`` split into those to measure and the records of those a compacted file holds at a
     later look only (:func:`benchmarks.sweep.records.earlier_look` of each of their cells)."""
     have = {r.key for r in kept}
-    latest: dict[str, Record] = {}
-    for r in kept:
-        key = bare_key(r.cell)
-        if r.looks and (key not in latest or r.cell.seed_sets > latest[key].cell.seed_sets):
-            latest[key] = r
+    latest = {bare_key(r.cell): r for r in final_records(kept) if r.looks}
     todo: list[Run] = []
     replayed: list[Record] = []
     for run in runs:
@@ -130,20 +132,29 @@ def _replayed(runs: Sequence[Run], kept: Sequence[Record]) -> tuple[list[Run], l
     return todo, replayed
 
 
+def _kept(out_dir: str | Path) -> list[Record]:
+    """The records a resumed run starts from (a torn tail dropped quietly: the runner warns as it
+    drops it again)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return load_records(out_dir, torn_tail=True)
+
+
 def _measure_round(
-    measure: Measure, suite: Suite, out_dir: str | Path, runs: Sequence[Run], **options: Any
-) -> list[Record]:
-    """``measure`` of the runs at their current look, but for the runs a resumed compacted file
-    holds at a later look only, whose records are replayed from it."""
-    kept: list[Record] = []
-    if options.get("resume"):
-        with warnings.catch_warnings():  # a torn tail: the runner warns as it drops it
-            warnings.simplefilter("ignore")
-            kept = load_records(out_dir, torn_tail=True)
+    measure: Measure,
+    suite: Suite,
+    out_dir: str | Path,
+    runs: Sequence[Run],
+    kept: list[Record],
+    **options: Any,
+) -> tuple[list[Record], list[Record]]:
+    """The records the folder holds after ``measure`` of the runs at their current look, and
+    the records replayed, never measured, for the runs that ``kept`` (what the folder held
+    before) has at a later look only, as a compacted file does."""
     todo, replayed = _replayed(runs, kept)
     if not replayed:
-        return measure(suite, out_dir, runs=runs, **options)
-    return (measure(suite, out_dir, runs=todo, **options) if todo else kept) + replayed
+        return measure(suite, out_dir, runs=runs, **options), []
+    return (measure(suite, out_dir, runs=todo, **options) if todo else kept), replayed
 
 
 def run_until_resolved(
@@ -168,11 +179,13 @@ def run_until_resolved(
     """
     runs = adaptive_runs(suite, cap, batch)
     first = {"resume": resume, "overwrite": overwrite}
-    records = _measure_round(measure, suite, out_dir, runs, **first, **options)
+    held = _kept(out_dir) if resume else []
+    held, replayed = _measure_round(measure, suite, out_dir, runs, held, **first, **options)
     while True:
-        grown = grow(runs, records)
+        grown = grow(runs, held + replayed)
         if grown == runs:
-            return records
+            return held + replayed
         runs = grown
+        # what the folder holds is what the last round returned: the file is not read again
         later = {"resume": True, "overwrite": False}
-        records = _measure_round(measure, suite, out_dir, runs, **later, **options)
+        held, replayed = _measure_round(measure, suite, out_dir, runs, held, **later, **options)

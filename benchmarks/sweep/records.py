@@ -82,6 +82,7 @@ from bnerr.io import atomic_write
 from bnerr.outputs import OutputPathError
 
 __all__ = [
+    "ARCHIVES",
     "DIGITS",
     "LEGACY_ARCHIVE",
     "RESULTS_ARCHIVE",
@@ -109,6 +110,8 @@ RESULTS_FILE = "cells.jsonl"
 RESULTS_ARCHIVE = RESULTS_FILE + ".xz"
 #: Name of the gzip-compressed form that folders written before the xz one keep (read only).
 LEGACY_ARCHIVE = RESULTS_FILE + ".gz"
+#: Both compressed forms, the current one first.
+ARCHIVES = (RESULTS_ARCHIVE, LEGACY_ARCHIVE)
 #: Significant digits of a record's measured values (:meth:`Record.rounded`).
 DIGITS = 6
 #: Significant digits of its timings.
@@ -358,7 +361,7 @@ def _unpack(path: Path) -> bytes:
 def _read_results(out_dir: str | Path) -> tuple[Path, bytes] | None:
     """The path and bytes of the folder's results (the plain file, else the xz archive, else the
     gzip one, decompressed), or None when it has none."""
-    for name in (RESULTS_FILE, RESULTS_ARCHIVE, LEGACY_ARCHIVE):
+    for name in (RESULTS_FILE, *ARCHIVES):
         path = Path(out_dir) / name
         if path.exists():
             return path, _unpack(path)
@@ -401,7 +404,7 @@ def _restore_plain(out_dir: str | Path, *names: str) -> None:
     """Turn a compressed results file (any of ``names``; default both) back into
     ``cells.jsonl`` (before appending to it)."""
     plain = Path(out_dir) / RESULTS_FILE
-    for name in names or (RESULTS_ARCHIVE, LEGACY_ARCHIVE):
+    for name in names or ARCHIVES:
         archive = Path(out_dir) / name
         if archive.exists() and not plain.exists():
             data = _unpack(archive)
@@ -456,7 +459,7 @@ def write_records(out_dir: str | Path, records: Iterable[Record]) -> None:
     data = _lines(records)
     with atomic_write(Path(out_dir) / RESULTS_FILE) as tmp:
         Path(tmp).write_bytes(data)
-    for name in (RESULTS_ARCHIVE, LEGACY_ARCHIVE):  # superseded
+    for name in ARCHIVES:  # superseded
         (Path(out_dir) / name).unlink(missing_ok=True)
 
 
