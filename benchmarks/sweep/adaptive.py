@@ -26,8 +26,19 @@ only the missing ones are measured. The reports show each cell's last look
 folder compacted for keeping (``bnerr bench --report-only --compact``, as the committed
 ``results/`` are) holds each cell's last look only; a resumed run replays the earlier rounds
 from it (:func:`benchmarks.sweep.records.earlier_look`: a look's seed sets are the first rows of
-every later look's), so resuming it measures nothing that was measured, and a larger cap
-measures only the new looks (the file then lists the replayed runs' records before the others).
+every later look's), so resuming it measures nothing that was measured.
+
+**A larger cap, resumed** (``--resume`` with a ``--seed-set-cap`` above the finished run's): the
+folder's records were judged under the old design (``Record.looks``, 4 and 8 at a cap of 8),
+whose boundaries spend ``alpha / 2`` at each look; keeping them while the new looks spend
+``alpha / 3`` would spend more than alpha in all. :func:`redesign` therefore puts every kept
+record under the new design (4, 8, 16) before the first round, and writes the file so, and the
+rounds judge every look again at the new boundaries: the verdicts are those a run planned at the
+larger cap from its first seed set would give, since its seed sets are the same renders, and
+only the new seed sets are measured. Raising the cap after seeing a run's verdicts is still a
+decision taken on the data, at the level of the whole suite; the records say which design they
+were judged under. A design whose looks up to a record's seed sets differ from the record's (a
+new ``--batch``) is refused: its looks are other counts than those measured.
 
 Not for: the statistics (:mod:`bnerr.metrics.sequential`) or measuring a run
 (:mod:`benchmarks.sweep.runner`).
@@ -52,12 +63,13 @@ from benchmarks.sweep.records import (
     earlier_look,
     final_records,
     load_records,
+    write_records,
 )
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import ValueRangeError
 from bnerr.metrics.sequential import looks
 
-__all__ = ["DEFAULT_CAP", "adaptive_runs", "grow", "run_until_resolved"]
+__all__ = ["DEFAULT_CAP", "adaptive_runs", "grow", "redesign", "run_until_resolved"]
 
 #: The default cap on seed sets: what a 2 % difference needs at the median spread
 #: (``bnerr.metrics.power``: about 30).
@@ -132,6 +144,43 @@ def _replayed(runs: Sequence[Run], kept: Sequence[Record]) -> tuple[list[Run], l
     return todo, replayed
 
 
+def _under(record: Record, design: tuple[int, ...]) -> Record:
+    """``record`` judged under ``design``: its looks replaced, when the looks it was measured
+    at (those up to its seed sets) are ``design``'s.
+
+    Raises:
+        ValueRangeError: ``design`` does not look at the record's seed sets, or looks at other
+            counts before them.
+    """
+    old = list(record.looks or ())
+    n = record.cell.seed_sets
+    if old == list(design):
+        return record
+    if n not in design or [k for k in old if k <= n] != [k for k in design if k <= n]:
+        raise ValueRangeError(
+            f"--until-resolved --resume: expected a design that looks at the measured seed sets "
+            f"{[k for k in old if k <= n]} of {record.cell.strategy}/{record.cell.denoiser} "
+            f"({record.cell.scene}, {record.cell.spp} spp) first, got the looks {list(design)}; "
+            "keep the run's --batch, or start a new --out"
+        )
+    return dataclasses.replace(record, looks=list(design))
+
+
+def redesign(runs: Sequence[Run], kept: Sequence[Record]) -> list[Record]:
+    """``kept`` with every adaptive record of a cell of ``runs`` judged under its run's design
+    (``Run.looks``): a finished run resumed at a larger cap is judged again, at every look, at
+    the new design's boundaries (see the module's notes); the others as they are.
+
+    Raises:
+        ValueRangeError: a record measured at looks the new design does not take.
+    """
+    design = {bare_key(c): run.looks for run in runs for c in run.cells()}
+    return [
+        _under(r, design[bare_key(r.cell)]) if r.looks and bare_key(r.cell) in design else r
+        for r in kept
+    ]
+
+
 def _kept(out_dir: str | Path) -> list[Record]:
     """The records a resumed run starts from (a torn tail dropped quietly: the runner warns as it
     drops it again)."""
@@ -180,6 +229,10 @@ def run_until_resolved(
     runs = adaptive_runs(suite, cap, batch)
     first = {"resume": resume, "overwrite": overwrite}
     held = _kept(out_dir) if resume else []
+    judged = redesign(runs, held)
+    if judged != held:  # a larger cap: the file says which design its verdicts are under
+        write_records(out_dir, judged)
+        held = judged
     held, replayed = _measure_round(measure, suite, out_dir, runs, held, **first, **options)
     while True:
         grown = grow(runs, held + replayed)

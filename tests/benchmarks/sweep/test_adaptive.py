@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import zlib
+from pathlib import Path
 
 import pytest
 import torch
@@ -14,7 +15,13 @@ import torch
 from benchmarks.sweep import adaptive
 from benchmarks.sweep.parts import real_parts
 from benchmarks.sweep.plan import Run
-from benchmarks.sweep.records import Record, compact_records, final_records, load_records
+from benchmarks.sweep.records import (
+    Record,
+    compact_records,
+    final_records,
+    load_records,
+    write_records,
+)
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import ValueRangeError
 from tests._records import metric_pairs, small_record
@@ -48,6 +55,8 @@ class _StandIn:
     def __call__(self, suite, out, *, runs, resume, overwrite, **options) -> list[Record]:
         if not resume:
             self.records.clear()
+        elif Path(out).is_dir():  # a real folder: resumed from its file, as run_suite is
+            self.records = {r.key: r for r in load_records(out)}
         measured = []
         for run in runs:
             for cell in run.cells():
@@ -65,6 +74,8 @@ class _StandIn:
                 )
                 measured.append((run.strategy, run.spp, run.seed_sets))
         self.calls.append(measured)
+        if Path(out).is_dir():
+            write_records(out, self.records.values())
         return list(self.records.values())
 
 
@@ -97,6 +108,31 @@ def test_an_interrupted_run_resumes_to_the_same_verdicts():
     cut.fail_after = None
     adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=cut, resume=True)
     assert cut.records == whole.records
+
+
+def test_a_larger_cap_resumed_judges_every_look_again_under_the_new_design(tmp_path):
+    measure = _StandIn()
+    adaptive.run_until_resolved(_suite(), tmp_path, cap=4, measure=measure)
+    assert {r.cell.seed_sets for r in load_records(tmp_path)} == {2, 4}
+    compact_records(tmp_path)  # as results/ keep it: the last looks only
+    adaptive.run_until_resolved(_suite(), tmp_path, cap=16, measure=measure, resume=True)
+    # only the new looks are measured, and every record is now under the cap-16 design
+    assert [sorted({c[2] for c in call}) for call in measure.calls[2:]] == [[], [], [8], [16]]
+    assert all(r.looks == [2, 4, 8, 16] for r in load_records(tmp_path))
+    # the verdicts and records are those of a run planned at 16 from its first seed set (up
+    # to the compaction's rounding)
+    planned = _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=planned)
+    resumed = {r.key: r.rounded() for r in final_records(load_records(tmp_path))}
+    assert resumed == {r.key: r.rounded() for r in final_records(planned.records.values())}
+
+
+def test_a_resumed_design_must_look_at_the_measured_seed_sets(tmp_path):
+    adaptive.run_until_resolved(_suite(), tmp_path, cap=4, measure=_StandIn())
+    with pytest.raises(ValueRangeError, match=r"measured seed sets \[2, 4\].*looks \[2, 5"):
+        adaptive.run_until_resolved(
+            _suite(), tmp_path, cap=8, batch=3, measure=_StandIn(), resume=True
+        )
 
 
 def test_a_batch_adds_that_many_seed_sets_per_look():
