@@ -37,7 +37,6 @@ LONGEST_FIRST = (
     "tests/benchmarks/reports/test_table.py",  # 76
     "tests/benchmarks/speed/test_process.py",  # 72
     "tests/benchmarks/sweep/test_ray_runner.py",  # 57 (mostly waiting for Ray)
-    "tests/bnerr/native/test_build.py",  # 54
     "tests/benchmarks/sweep/test_ordering_variants.py",  # 50
     "tests/benchmarks/commands/test_bench_external.py",  # 39
     "tests/benchmarks/sweep/test_ordering_coherent.py",  # 35

@@ -29,10 +29,11 @@ import numpy as np
 
 from benchmarks.highlights import HEADLINE_METHOD
 from benchmarks.reports.groups import group_key, group_title, strategy_order
+from benchmarks.reports.intervals import Intervals
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record
-from bnerr.metrics import METRIC_TABLE, Metric, bootstrap_interval, paired_ratio
+from bnerr.metrics import METRIC_TABLE, Metric, check_bootstrap
 from bnerr.strategies import OWN_SAMPLERS, baseline, bounds, strategy_identity
 
 __all__ = [
@@ -137,8 +138,9 @@ def _mean_ms(series: list[list[float]]) -> float:
     return float(np.mean(flat)) if flat else math.nan
 
 
-def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
-    """The pooled value of every metric and the interval of those that have one."""
+def _metric_columns(row: dict, rec: Record, intervals: Intervals) -> None:
+    """The pooled value of every metric, and the interval of those that have one asked of
+    ``intervals``."""
     for kind in ("raw", "den"):
         for metric in getattr(rec, kind):
             pairs = _stats(rec, kind, metric)
@@ -148,47 +150,46 @@ def _metric_columns(row: dict, rec: Record, resamples: int, seed: int) -> None:
         kind, metric = name.split("_", 1)
         stats = _stats(rec, kind, metric)
         if stats is not None:
-            est = bootstrap_interval(stats, resamples=resamples, seed=seed)
-            row[name], row[f"{name}_lo"], row[f"{name}_hi"] = est.value, est.lo, est.hi
+            intervals.interval(row, name, stats)
 
 
-def _ratio_columns(row: dict, rec: Record, white: Record | None, resamples: int, seed: int) -> None:
-    """The paired ratios to the white record of the same cell, of the metrics that have one."""
+def _ratio_columns(row: dict, rec: Record, white: Record | None, intervals: Intervals) -> None:
+    """The paired ratios to the white record of the same cell, of the metrics that have one,
+    asked of ``intervals``."""
     for name in _ratio_names():
         kind, metric = name.split("_", 1)
         mine = _stats(rec, kind, metric)
         base = None if white is None else _stats(white, kind, metric)
         if mine is None or base is None or mine.shape != base.shape:
             continue
-        est = paired_ratio(mine, base, resamples=resamples, seed=seed)
-        row[f"{name}_ratio"], row[f"{name}_ratio_lo"], row[f"{name}_ratio_hi"] = (
-            est.value,
-            est.lo,
-            est.hi,
-        )
+        intervals.ratio(row, f"{name}_ratio", mine, base)
 
 
-def _row(
-    rec: Record, white: Record | None, resamples: int, seed: int, columns: Sequence[str]
-) -> dict:
+def _row(rec: Record, white: Record | None, intervals: Intervals) -> dict:
+    """A record's columns but those that need its intervals (asked of ``intervals``) and the
+    flags read from them (:func:`_flags`)."""
     row: dict = {k: getattr(rec.cell, k) for k in _CELL}
     row["dimensions"] = rec.dimensions
-    _metric_columns(row, rec, resamples, seed)
-    _ratio_columns(row, rec, white, resamples, seed)
+    _metric_columns(row, rec, intervals)
+    _ratio_columns(row, rec, white, intervals)
     row["render_ms"] = _mean_ms(rec.timings.render_ms)
     row["perm_ms"] = _mean_ms(rec.timings.perm_ms)
     row["denoise_ms"] = _mean_ms(rec.timings.denoise_ms)
     row["total_ms"] = row["render_ms"] + row["perm_ms"] + row["denoise_ms"]
     row["reference_spp"] = rec.reference.spp
     row["reference_floor"] = rec.reference.floor
+    row["render_sampler"] = render_sampler(rec)
+    return row
+
+
+def _flags(row: dict) -> None:
+    """Worse than white, and raw MSE different from white's, from the row's ratio intervals."""
     lo = row.get("den_mse_ratio_lo")
     row["worse_than_white"] = None if lo is None else bool(lo > 1.0)
     raw_lo, raw_hi = row.get("raw_mse_ratio_lo"), row.get("raw_mse_ratio_hi")
     row["raw_differs_from_white"] = (
         None if raw_lo is None or raw_hi is None else bool(raw_lo > 1.0 or raw_hi < 1.0)
     )
-    row["render_sampler"] = render_sampler(rec)
-    return {c: row.get(c) for c in columns}
 
 
 def render_sampler(record: Record) -> str:
@@ -207,16 +208,21 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     denoiser, condition, frames and seed sets); None when the suite has no such white record.
     """
     records = list(records)
+    check_bootstrap(0.95, resamples)
     white = baseline()
     whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
     columns = table_columns()
-    rows = []
-    for rec in records:
-        row = _row(rec, whites.get(_baseline_key(rec, white)), resamples, seed, columns)
+    intervals = Intervals(resamples, seed)
+    rows = [_row(rec, whites.get(_baseline_key(rec, white)), intervals) for rec in records]
+    intervals.fill()  # every interval of every row, batched by shape
+    out = []
+    for rec, row in zip(records, rows, strict=True):
+        _flags(row)
+        done = {c: row.get(c) for c in columns}
         if rec.looks:  # the design of an adaptive run, for its verdicts (not a table.csv column)
-            row["looks"] = tuple(rec.looks)
-        rows.append(row)
-    return rows
+            done["looks"] = tuple(rec.looks)
+        out.append(done)
+    return out
 
 
 def csv_text(rows: Sequence[dict]) -> str:

@@ -74,7 +74,9 @@ __all__ = [
     "equivalent",
     "not_worse",
     "paired_ratio",
+    "paired_ratios",
     "percentile_interval",
+    "pooled_intervals",
     "pooled_mean",
     "relevel_ratio",
     "replicates",
@@ -373,6 +375,85 @@ def paired_ratio(
         return Estimate(float(value), 0.0, math.inf, n, level)
     log_lo, log_hi = t_interval(torch.log(ra / rb), torch.log(value), level)
     return Estimate(float(value), math.exp(float(log_lo)), math.exp(float(log_hi)), n, level)
+
+
+def _batch(values: torch.Tensor | np.ndarray, name: str) -> torch.Tensor:
+    """A batch of pairs ``[B, S, F, 2]`` with S >= 2 seed sets, float64 on the CPU.
+
+    Raises:
+        ShapeError: another shape; NonFiniteError: a NaN or infinite value.
+    """
+    x = torch.as_tensor(values, dtype=torch.float64, device="cpu")
+    if x.ndim != 4 or x.shape[-1] != 2 or x.shape[1] < 2 or x.shape[2] < 1:
+        raise ShapeError(
+            f"{name}: expected a batch of pairs [B, S, F, 2] with S >= 2 seed sets, "
+            f"got shape {list(x.shape)}"
+        )
+    check_finite(x, name)
+    return x
+
+
+def _pooled(stats: torch.Tensor) -> torch.Tensor:
+    """:func:`pooled_mean` of each of a batch ``[B, S, F, 2]`` -> ``[B]`` (the same tree of
+    additions along the frames, element by element across the batch: the same bits)."""
+    total = fixed_sum(stats.reshape(stats.shape[0], -1, 2), dim=1)
+    return total[:, 0] / total[:, 1]
+
+
+def pooled_intervals(values: torch.Tensor | np.ndarray, level: float = 0.95) -> list[Estimate]:
+    """:func:`bootstrap_interval` (``method="t"``) of each of a batch of cells, in one pass:
+    ``values [B, S, F, 2]`` with S >= 2 seed sets; bit for bit the Estimates that B calls give
+    (every sum is :func:`bnerr.reduce.fixed_sum` along one axis, element by element across the
+    batch). A report summarizes thousands of cells: one call instead of B saves torch's
+    per-call cost, 25 s of the quality suite's table.
+
+    Raises:
+        ShapeError, NonFiniteError: see :func:`_batch`; ValueRangeError: ``level``.
+    """
+    check_bootstrap(level, 100)
+    stats = _batch(values, "values")
+    value = _pooled(stats)
+    lo, hi = t_interval(set_means(stats), value, level)
+    n = stats.shape[1] * stats.shape[2]
+    return [
+        Estimate(v, a, b, n, level)
+        for v, a, b in zip(value.tolist(), lo.tolist(), hi.tolist(), strict=True)
+    ]
+
+
+def paired_ratios(
+    values: torch.Tensor | np.ndarray, baseline: torch.Tensor | np.ndarray, level: float = 0.95
+) -> list[Estimate]:
+    """:func:`paired_ratio` (``method="t"``) of each of a batch of cells against its baseline,
+    in one pass: ``values`` and ``baseline [B, S, F, 2]`` with S >= 2 seed sets; bit for bit the
+    Estimates that B calls give (see :func:`pooled_intervals`).
+
+    Raises:
+        ShapeError: the shapes differ, or not a batch (:func:`_batch`); NonFiniteError;
+        ValueRangeError: a seed set's mean that is not positive (the interval is built on log
+            ratios), or ``level``.
+    """
+    check_bootstrap(level, 100)
+    a, b = _batch(values, "values"), _batch(baseline, "baseline")
+    if a.shape != b.shape:
+        raise ShapeError(
+            f"values: expected the shape of baseline {list(b.shape)} (the same frames), "
+            f"got {list(a.shape)}"
+        )
+    value = _pooled(a) / _pooled(b)
+    ra, rb = set_means(a), set_means(b)
+    for reps, name in ((ra, "values"), (rb, "baseline")):
+        if not bool((reps > 0).all()):
+            raise ValueRangeError(
+                f"{name}: expected positive means per seed set in every cell (the interval is "
+                f"built on log ratios), got {int((reps <= 0).sum())} that are not"
+            )
+    log_lo, log_hi = t_interval(torch.log(ra / rb), torch.log(value), level)
+    n = a.shape[1] * a.shape[2]
+    return [
+        Estimate(v, math.exp(lo), math.exp(hi), n, level)
+        for v, lo, hi in zip(value.tolist(), log_lo.tolist(), log_hi.tolist(), strict=True)
+    ]
 
 
 def relevel_ratio(estimate: Estimate, level: float, df: int) -> Estimate:
