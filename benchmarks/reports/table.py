@@ -32,7 +32,7 @@ from benchmarks.reports.groups import group_key, group_title, strategy_order
 from benchmarks.reports.intervals import Intervals
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.plan import Cell
-from benchmarks.sweep.records import Record
+from benchmarks.sweep.records import Record, collector_paused
 from bnerr.metrics import METRIC_TABLE, Metric, check_bootstrap
 from bnerr.strategies import OWN_SAMPLERS, baseline, bounds, strategy_identity
 
@@ -213,15 +213,16 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
     columns = table_columns()
     intervals = Intervals(resamples, seed)
-    rows = [_row(rec, whites.get(_baseline_key(rec, white)), intervals) for rec in records]
-    intervals.fill()  # every interval of every row, batched by shape
     out = []
-    for rec, row in zip(records, rows, strict=True):
-        _flags(row)
-        done = {c: row.get(c) for c in columns}
-        if rec.looks:  # the design of an adaptive run, for its verdicts (not a table.csv column)
-            done["looks"] = tuple(rec.looks)
-        out.append(done)
+    with collector_paused():
+        rows = [_row(rec, whites.get(_baseline_key(rec, white)), intervals) for rec in records]
+        intervals.fill()  # every interval of every row, batched by shape
+        for rec, row in zip(records, rows, strict=True):
+            _flags(row)
+            done = {c: row.get(c) for c in columns}
+            if rec.looks:  # an adaptive run's design, for its verdicts (not a table.csv column)
+                done["looks"] = tuple(rec.looks)
+            out.append(done)
     return out
 
 

@@ -2,6 +2,7 @@
 files, and typed errors (naming file and line) for garbled, truncated or foreign lines."""
 
 import dataclasses
+import gc
 import gzip
 import json
 import lzma
@@ -21,6 +22,7 @@ from benchmarks.sweep.records import (
     Timings,
     append_records,
     check_no_results,
+    collector_paused,
     compact_records,
     compress_records,
     earlier_look,
@@ -260,3 +262,20 @@ def test_the_device_round_trips_and_is_absent_on_the_cpu():
     rec = dataclasses.replace(_record(), device=where)
     data = json.loads(json.dumps(rec.to_json(), sort_keys=True))
     assert data["device"] == where and Record.from_json(data) == rec
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_the_collector_is_paused_only_while_records_are_read(tmp_path, enabled):
+    write_records(tmp_path, [_record()])
+    (tmp_path / RESULTS_FILE).write_bytes((tmp_path / RESULTS_FILE).read_bytes() + b"{")
+    was = gc.isenabled()
+    (gc.enable if enabled else gc.disable)()
+    try:
+        with collector_paused():
+            assert not gc.isenabled()
+        assert gc.isenabled() == enabled
+        with pytest.raises(FileFormatError):  # a bad line: raised, and the collector restored
+            load_records(tmp_path)
+        assert gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()

@@ -22,9 +22,9 @@ import pytest
 import torch
 
 from bnerr import native
-from bnerr.native import build as native_build
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import ValueRangeError
+from bnerr.native import build as native_build
 from bnerr.permute import luminance, plan_sort, sort_pass, sort_pass_reference
 from bnerr.retarget import inverse_field, optimize_retarget, retarget_sources
 
