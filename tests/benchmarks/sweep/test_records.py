@@ -176,7 +176,7 @@ def _noisy_record() -> Record:
     return dataclasses.replace(
         rec,
         raw={"mse": [[[third, 576.0], [2 * third, 576.0]]]},
-        den={"mse": [[[third / 7, 576.0], [123456.789, 576.0]]]},
+        den={"mse": [[[third / 7, 196608.0], [123456.789, 196608.0]]]},
         timings=Timings(render_ms=[[12.3456, 2.0]], perm_ms=[[0.1, 0.2]], denoise_ms=[[0.3, 0.4]]),
         reference=ReferenceInfo(spp=16, floor=third, version="0-abc"),
         spectrum={"raw": Spectrum([0.0, third], [1.0, 2 * third]), "den": Spectrum([], [])},
@@ -187,13 +187,14 @@ def _noisy_record() -> Record:
 
 def test_a_rounded_record_keeps_its_digits_reads_back_equal_and_rounds_to_itself():
     rec = _noisy_record().rounded()
-    assert rec.raw["mse"][0][0] == [0.333333, 576.0] and rec.den["mse"][0][1][0] == 123457.0
+    assert rec.raw["mse"][0][0] == [0.33333, 576.0] and rec.den["mse"][0][1][0] == 123460.0
+    assert rec.den["mse"][0][1][1] == 196608.0  # a pixel count (256 x 256 x 3) stays exact
     assert rec.timings.render_ms == [[12.3, 2.0]]  # timings keep 3 digits
-    assert rec.reference.floor == 0.333333 and rec.tcorr == [[0.333333]]
-    assert rec.spectrum["raw"].freq == [0.0, 0.333333] and rec.coverage == [[0.333333, 1.0]]
+    assert rec.reference.floor == 0.33333 and rec.tcorr == [[0.33333]]
+    assert rec.spectrum["raw"].freq == [0.0, 0.33333] and rec.coverage == [[0.33333, 1.0]]
     assert rec.rounded() == rec
     assert Record.from_json(json.loads(json.dumps(rec.to_json()))) == rec
-    # within half a unit of the DIGITS-th significant digit: a relative 5e-6 at most
+    # within half a unit of the DIGITS-th significant digit: a relative 5e-5 at most
     assert abs(rec.den["mse"][0][0][0] - 1 / 21) <= 0.5 * 10 ** (1 - DIGITS) * (1 / 21)
 
 
