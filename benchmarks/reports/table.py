@@ -138,40 +138,45 @@ def _mean_ms(series: list[list[float]]) -> float:
     return float(np.mean(flat)) if flat else math.nan
 
 
-def _metric_columns(row: dict, rec: Record, intervals: Intervals) -> None:
+Arrays = dict[str, np.ndarray | None]
+
+
+def _arrays(record: Record) -> Arrays:
+    """Every measured metric's pairs (:func:`_stats`) by column name (``raw_mse``), read once
+    per record: a white record is every strategy's baseline."""
+    return {f"{k}_{m}": _stats(record, k, m) for k in _KINDS for m in getattr(record, k)}
+
+
+def _metric_columns(row: dict, arrays: Arrays, intervals: Intervals) -> None:
     """The pooled value of every metric, and the interval of those that have one asked of
     ``intervals``."""
-    for kind in ("raw", "den"):
-        for metric in getattr(rec, kind):
-            pairs = _stats(rec, kind, metric)
-            if pairs is not None:
-                row[f"{kind}_{metric}"] = float(pairs[..., 0].sum() / pairs[..., 1].sum())
+    for name, pairs in arrays.items():
+        if pairs is not None:
+            row[name] = float(pairs[..., 0].sum() / pairs[..., 1].sum())
     for name in _interval_names():
-        kind, metric = name.split("_", 1)
-        stats = _stats(rec, kind, metric)
+        stats = arrays.get(name)
         if stats is not None:
             intervals.interval(row, name, stats)
 
 
-def _ratio_columns(row: dict, rec: Record, white: Record | None, intervals: Intervals) -> None:
+def _ratio_columns(row: dict, arrays: Arrays, white: Arrays | None, intervals: Intervals) -> None:
     """The paired ratios to the white record of the same cell, of the metrics that have one,
     asked of ``intervals``."""
     for name in _ratio_names():
-        kind, metric = name.split("_", 1)
-        mine = _stats(rec, kind, metric)
-        base = None if white is None else _stats(white, kind, metric)
+        mine = arrays.get(name)
+        base = None if white is None else white.get(name)
         if mine is None or base is None or mine.shape != base.shape:
             continue
         intervals.ratio(row, f"{name}_ratio", mine, base)
 
 
-def _row(rec: Record, white: Record | None, intervals: Intervals) -> dict:
-    """A record's columns but those that need its intervals (asked of ``intervals``) and the
-    flags read from them (:func:`_flags`)."""
+def _row(rec: Record, arrays: Arrays, white: Arrays | None, intervals: Intervals) -> dict:
+    """A record's columns (its metrics' ``arrays``, and its white record's) but those that need
+    its intervals (asked of ``intervals``) and the flags read from them (:func:`_flags`)."""
     row: dict = {k: getattr(rec.cell, k) for k in _CELL}
     row["dimensions"] = rec.dimensions
-    _metric_columns(row, rec, intervals)
-    _ratio_columns(row, rec, white, intervals)
+    _metric_columns(row, arrays, intervals)
+    _ratio_columns(row, arrays, white, intervals)
     row["render_ms"] = _mean_ms(rec.timings.render_ms)
     row["perm_ms"] = _mean_ms(rec.timings.perm_ms)
     row["denoise_ms"] = _mean_ms(rec.timings.denoise_ms)
@@ -215,7 +220,12 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     intervals = Intervals(resamples, seed)
     out = []
     with collector_paused():
-        rows = [_row(rec, whites.get(_baseline_key(rec, white)), intervals) for rec in records]
+        baselines = {key: _arrays(r) for key, r in whites.items()}
+        rows = []
+        for rec in records:
+            key = _baseline_key(rec, white)
+            mine = baselines[key] if whites.get(key) is rec else _arrays(rec)
+            rows.append(_row(rec, mine, baselines.get(key), intervals))
         intervals.fill()  # every interval of every row, batched by shape
         for rec, row in zip(records, rows, strict=True):
             _flags(row)
