@@ -34,7 +34,7 @@ torch.set_num_threads(max(1, min(2, (os.cpu_count() or 1) // _WORKERS)))
 LONGEST_FIRST = (
     "tests/benchmarks/sweep/test_ordering.py",  # 104 s
     "tests/benchmarks/test_cli_installed.py",  # 76
-    "tests/benchmarks/reports/test_table.py",  # 76
+    "tests/benchmarks/reports/test_table_committed.py",  # 76
     "tests/benchmarks/speed/test_process.py",  # 72
     "tests/benchmarks/sweep/test_ray_runner.py",  # 57 (mostly waiting for Ray)
     "tests/benchmarks/sweep/test_ordering_variants.py",  # 50

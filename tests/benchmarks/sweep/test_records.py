@@ -95,7 +95,7 @@ def test_write_and_load_keep_order_and_values(tmp_path):
 #: parsed from its own line (each line is one record's ``json.dumps``, so the file is the
 #: concatenation of its lines): the quality suite's 6,048 records take 9 CPU-s to parse and 2 to
 #: serialize again. Every record of every committed file is parsed by the byte-for-byte
-#: regeneration of its tables (tests/benchmarks/reports/test_table.py).
+#: regeneration of its tables (tests/benchmarks/reports/test_table_committed.py).
 _FULL_REWRITE_UP_TO, _STRIDE = 2000, 7
 
 
