@@ -81,21 +81,22 @@ class Intervals:
     def fill(self) -> None:
         """Compute every interval asked for, by groups of one shape, into its row; then forget
         them."""
-        singles: dict[tuple, list] = defaultdict(list)
-        for row, column, stats in self.singles:
-            singles[stats.shape].append((row, column, stats))
-        for group in singles.values():
-            found = _batched([(s,) for _, _, s in group], pooled_intervals, self._one)
-            _write(group, found)
-        pairs: dict[tuple, list] = defaultdict(list)
-        for row, column, mine, base in self.pairs:
-            pairs[mine.shape].append((row, column, mine, base))
-        for group in pairs.values():
-            found = _batched([(m, b) for _, _, m, b in group], paired_ratios, self._one_ratio)
-            _write(group, found)
+        _fill(self.singles, pooled_intervals, self._one)
+        _fill(self.pairs, paired_ratios, self._one_ratio)
         self.singles, self.pairs = [], []
 
 
-def _write(group: list[tuple], found: list[Estimate]) -> None:
-    for (row, column, *_), est in zip(group, found, strict=True):
-        row[column], row[f"{column}_lo"], row[f"{column}_hi"] = est.value, est.lo, est.hi
+def _fill(
+    entries: Sequence[tuple],
+    many: Callable[..., list[Estimate]],
+    one: Callable[..., Estimate],
+) -> None:
+    """Each ``(row, column, *arrays)`` entry's interval into its row, computed by groups of one
+    shape (:func:`_batched`)."""
+    groups: dict[tuple, list[tuple]] = defaultdict(list)
+    for entry in entries:
+        groups[entry[2].shape].append(entry)
+    for group in groups.values():
+        found = _batched([tuple(arrays) for _, _, *arrays in group], many, one)
+        for (row, column, *_), est in zip(group, found, strict=True):
+            row[column], row[f"{column}_lo"], row[f"{column}_hi"] = est.value, est.lo, est.hi
