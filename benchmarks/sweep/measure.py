@@ -50,6 +50,7 @@ from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.metrics import (
     FrameMetrics,
+    ImagePair,
     PreparedReference,
     coherent_mask,
     edge_mask,
@@ -185,14 +186,20 @@ def _denoise(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
     return denoiser(frame, t=t) if _stateful(denoiser) else denoiser(frame)
 
 
-def _update(
-    acc: FrameMetrics, pred: torch.Tensor, target: PreparedReference, mask: torch.Tensor | None
+def _update_regions(
+    accs: Mapping[str, FrameMetrics],
+    pred: torch.Tensor,
+    target: PreparedReference,
+    masks: Mapping[str, torch.Tensor | None],
 ) -> None:
-    """One frame's metrics over the region; a region without pixels adds a weightless frame."""
-    if mask is not None and not bool(mask.any()):
-        acc.update_empty()
-    else:
-        acc.update(pred, target, mask)
+    """One image's metrics in every region (its whole-image maps computed once for all of
+    them); a region without pixels adds a weightless frame."""
+    whole = ImagePair(pred, target, tile=_SPECTRUM_TILE)
+    for region, mask in masks.items():
+        if mask is not None and not bool(mask.any()):
+            accs[region].update_empty()
+        else:
+            accs[region].update_pair(whole.in_region(mask))
 
 
 class _SeedSetMeasurement:
@@ -203,7 +210,7 @@ class _SeedSetMeasurement:
         metrics, regions = run.metrics, run.regions
         self.raw = {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions}
         self.den = {
-            (d, r): FrameMetrics(metrics, tile=_SPECTRUM_TILE) for d in denoisers for r in regions
+            d: {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions} for d in denoisers
         }
         self.freq: list[float] = []
         self.power: dict[str, list[torch.Tensor]] = {"raw": [], **{d: [] for d in denoisers}}
@@ -258,8 +265,7 @@ class _SeedSetMeasurement:
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         target = PreparedReference(ref.color)  # the reference's share of the metrics, once
-        for region, mask in masks.items():
-            _update(self.raw[region], frame.color, target, mask)
+        _update_regions(self.raw, frame.color, target, masks)
         err = frame.color - ref.color
         self._spectrum("raw", err)
         coherent = masks.get("coherent")
@@ -275,8 +281,7 @@ class _SeedSetMeasurement:
             self.timings[f"denoise_ms/{name}"].append(watch.ms(out))
             outputs[name] = out
             self._spectrum(name, out - ref.color)
-            for region, mask in masks.items():
-                _update(self.den[name, region], out, target, mask)
+            _update_regions(self.den[name], out, target, masks)
         if self.run.crops and self.group == 0 and not self.crop:
             images = {"reference": ref.color, "raw": frame.color}
             images.update({f"denoised/{n}": o for n, o in outputs.items()})
@@ -294,7 +299,7 @@ class _SeedSetMeasurement:
             render_sampler=render_sampler,
             measured_t=list(self.measured_t),
             raw={r: pairs(acc) for r, acc in self.raw.items()},
-            den={key: pairs(acc) for key, acc in self.den.items()},
+            den={(d, r): pairs(acc) for d, accs in self.den.items() for r, acc in accs.items()},
             freq=self.freq,
             power=self.power,
             timings=self.timings,

@@ -280,14 +280,28 @@ class FrameMetrics:
             group: index of the independent seed set the frame belongs to (0 when there is one);
                 a windowed metric's window holds this seed set's frames only.
         """
-        pair = ImagePair(pred, ref, mask, tile=self.tile)
+        return self.update_pair(ImagePair(pred, ref, mask, tile=self.tile), group)
+
+    def update_pair(self, pair: ImagePair, group: int = 0) -> dict[str, float]:
+        """Add one frame given as its :class:`ImagePair` (an image measured in several pixel
+        regions passes the pairs :meth:`ImagePair.in_region` makes of it, which compute its
+        whole-image maps once); as :meth:`update` otherwise.
+
+        Raises:
+            ValueRangeError: the pair's ``tile`` is not this accumulator's (``lowfreq`` would
+                read another spectrum).
+        """
+        if pair.tile != self.tile:
+            raise ValueRangeError(
+                f"pair: expected the accumulator's lowfreq tile {self.tile}, got {pair.tile}"
+            )
         check_positive_int(group, "group", minimum=0)
         frames = self._window(group, pair)
         row = {name: self._update_one(name, pair, frames) for name in self.names}
         for name, stats in row.items():
             self._stats[name].append(stats.cpu())
         self._groups.append(group)
-        self._remember(group, pair)
+        self._remember(group, pair.error_only())
         return {name: float(pooled_mean(stats)) for name, stats in row.items()}
 
     def update_empty(self, group: int = 0) -> None:

@@ -50,6 +50,8 @@ from __future__ import annotations
 import functools
 import importlib.util
 import math
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 import torch
@@ -114,13 +116,18 @@ def _check_pair(
     check_finite(pred, "pred")
     if prepared is None:
         check_finite(ref, "ref")
+    _check_mask(mask, size)
+    return size
+
+
+def _check_mask(mask: object, size: dict[str, int]) -> None:
+    """Check an optional ``mask``: ``[H, W]`` of the image's size, bool, one pixel selected."""
     if mask is not None:
         mask = check_tensor(mask, "mask")
         check_shape(mask, f"{size['H']} {size['W']}", "mask")
         check_dtype(mask, torch.bool, "mask")
         if not bool(mask.any()):
             raise ValueRangeError("mask: expected at least one selected pixel, got none")
-    return size
 
 
 def _check_blur_size(size: dict[str, int], sigma: float) -> int:
@@ -297,9 +304,13 @@ class _SSIMReference:
         return (a1 * a2) / (b1 * b2)
 
     def value(self, pred: torch.Tensor, mask: torch.Tensor | None) -> float:
-        """Mean SSIM: per channel over the map less a 3-pixel border, then over channels (as
-        scikit-image); with a mask, over the masked pixels away from that border."""
-        smap = self.map(pred)
+        """Mean SSIM of ``pred`` (:meth:`mean` of its :meth:`map`)."""
+        return self.mean(self.map(pred), mask)
+
+    @staticmethod
+    def mean(smap: np.ndarray, mask: torch.Tensor | None) -> float:
+        """Mean of an SSIM map: per channel over the map less a 3-pixel border, then over
+        channels (as scikit-image); with a mask, over the masked pixels away from that border."""
         pad = (_SSIM_WIN - 1) // 2
         if mask is None:
             per_channel = [c[pad:-pad, pad:-pad].mean(dtype=np.float64) for c in smap]
@@ -384,6 +395,12 @@ class ImagePair:
     :class:`bnerr.metrics.FrameMetrics` keeps the pairs of many frames, and its table
     (:data:`bnerr.metrics.METRIC_TABLE`) names the update of each metric.
 
+    The maps a metric computes over the whole image before it reduces them over the region (the
+    error, its square and relative square, its blurs, the SSIM map, the low-frequency fraction,
+    which reads no mask) are kept for the pairs :meth:`in_region` makes of the same image, so
+    that an image measured in several pixel regions computes them once: the same operations on
+    the same values, so the same pairs bit for bit as separate pairs would give.
+
     Args:
         pred: ``[C, H, W]`` floating, finite, as in :func:`mse`.
         ref: its reference ``[C, H, W]``, or a :class:`PreparedReference` of it (the same values,
@@ -411,15 +428,49 @@ class ImagePair:
             assert isinstance(ref, torch.Tensor)  # _check_pair checked it
             prepared = PreparedReference(ref)
         self.pred, self.ref, self.mask = pred, prepared, mask
+        self._maps: dict[object, Any] = {}
 
-    @functools.cached_property
+    def in_region(self, mask: torch.Tensor | None) -> ImagePair:
+        """This image against the same reference over the pixels of ``mask`` (``[H, W]`` bool;
+        None: every pixel), sharing this pair's whole-image maps (computed at most once for
+        every region's pair).
+
+        Raises:
+            ShapeError, DtypeError, ValueRangeError: as the constructor's mask checks.
+        """
+        _check_mask(mask, self.size)
+        pair = object.__new__(ImagePair)
+        pair.size, pair.tile, pair.pred, pair.ref, pair.mask = (
+            self.size,
+            self.tile,
+            self.pred,
+            self.ref,
+            mask,
+        )
+        pair._maps = self._maps
+        return pair
+
+    def error_only(self) -> ImagePair:
+        """This pair keeping only its error among the maps (what a later frame's temporal
+        metrics read from it), so that a window of past frames holds no other map."""
+        pair = self.in_region(self.mask)
+        pair._maps = {"err": self.err}
+        return pair
+
+    def _map(self, key: object, compute: Callable[[], Any]) -> Any:
+        """The whole-image map ``key``, computed by ``compute`` the first time it is asked for."""
+        if key not in self._maps:
+            self._maps[key] = compute()
+        return self._maps[key]
+
+    @property
     def err(self) -> torch.Tensor:
         """``pred - ref`` in float64, ``[C, H, W]``."""
-        return self.pred.to(torch.float64) - self.ref.ref64
+        return self._map("err", lambda: self.pred.to(torch.float64) - self.ref.ref64)
 
     @functools.cached_property
     def _mse(self) -> torch.Tensor:
-        return masked_sum(self.err.square(), self.mask)
+        return masked_sum(self._map("err^2", self.err.square), self.mask)
 
     def score(self, value: float) -> torch.Tensor:
         """A per-image score as the pair ``(value, 1)``, so that compute averages it over frames."""
@@ -431,12 +482,19 @@ class ImagePair:
 
     def relmse(self) -> torch.Tensor:
         """``(sum e^2 / (ref^2 + 0.01), pixel count)``."""
-        return masked_sum(self.err.square() / self.ref.relmse_denominator, self.mask)
+        relative = self._map(
+            "err^2/den",
+            lambda: self._map("err^2", self.err.square) / self.ref.relmse_denominator,
+        )
+        return masked_sum(relative, self.mask)
 
     def blurred(self, sigma: float) -> torch.Tensor:
         """``(sum (G_sigma * e)^2, pixel count)``: the error blurred over the whole image first."""
         kernel = _check_blur_size(self.size, sigma)
-        return _blurred_err_sum(self.err, sigma, kernel, self.mask)
+        blurred = self._map(
+            ("blur^2", sigma), lambda: _gaussian_blur(self.err, sigma, kernel).square()
+        )
+        return masked_sum(blurred, self.mask)
 
     def psnr(self) -> torch.Tensor:
         """The PSNR (peak: the reference's range) as a score."""
@@ -444,7 +502,8 @@ class ImagePair:
 
     def ssim(self) -> torch.Tensor:
         """The mean SSIM (the reference's half prepared once) as a score."""
-        return self.score(self.ref.ssim.value(self.pred, self.mask))
+        smap = self._map("ssim", lambda: self.ref.ssim.map(self.pred))
+        return self.score(_SSIMReference.mean(smap, self.mask))
 
     def flip(self) -> torch.Tensor:
         """The mean HDR-FLIP error as a score (needs ``flip-evaluator``)."""
@@ -452,7 +511,8 @@ class ImagePair:
 
     def lowfreq(self) -> torch.Tensor:
         """The error's low-frequency fraction on ``tile x tile`` tiles as a score (no mask)."""
-        return self.score(low_frequency_fraction(self.err, tile=self.tile))
+        fraction = self._map("lowfreq", lambda: low_frequency_fraction(self.err, tile=self.tile))
+        return self.score(fraction)
 
 
 # --------------------------------------------------------------------------------------------------

@@ -13,6 +13,7 @@ from bnerr.metrics import (
     FrameMetrics,
     ImagePair,
     Metric,
+    PreparedReference,
     blurred_mse,
     flip,
     flip_available,
@@ -186,6 +187,21 @@ def test_metrics_are_bit_identical_on_one_and_two_threads():
 
 def struct_bits(x: float) -> bytes:
     return struct.pack("<d", x)
+
+
+def test_a_frame_given_as_its_pair_is_the_frame_given_as_tensors():
+    gen = torch.Generator().manual_seed(8)
+    ref = torch.rand(3, 32, 32, generator=gen) + 0.1
+    mask = torch.rand(32, 32, generator=gen) > 0.5
+    tensors, pairs = FrameMetrics(tile=16), FrameMetrics(tile=16)
+    for _ in range(3):
+        pred = ref + 0.1 * torch.randn(3, 32, 32, generator=gen)
+        tensors.update(pred, ref, mask)
+        pairs.update_pair(ImagePair(pred, PreparedReference(ref), tile=16).in_region(mask))
+    for name in tensors.names:
+        assert torch.equal(tensors.stats(name), pairs.stats(name)), name
+    with pytest.raises(ValueRangeError, match="expected the accumulator's lowfreq tile 16, got 8"):
+        pairs.update_pair(ImagePair(ref, ref, tile=8))
 
 
 def test_an_empty_region_adds_a_weightless_frame():

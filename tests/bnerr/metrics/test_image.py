@@ -214,6 +214,35 @@ def test_an_image_pairs_updates_are_the_per_image_metrics_bit_for_bit(prepared):
         assert pair.score(0.25).dtype == torch.float64 and pair.size == {"C": 3, "H": 32, "W": 40}
 
 
+def test_the_pairs_of_an_image_in_several_regions_are_separate_pairs_bit_for_bit():
+    pred, ref = _pair(shape=(3, 32, 40), noise=0.2)
+    target = PreparedReference(ref)
+    gen = torch.Generator().manual_seed(6)
+    regions = [
+        None,
+        torch.rand(32, 40, generator=gen) > 0.3,
+        torch.rand(32, 40, generator=gen) > 0.8,
+    ]
+    whole = ImagePair(pred, target, tile=16)
+    for mask in regions:
+        shared, alone = whole.in_region(mask), ImagePair(pred, target, mask, tile=16)
+        for update in ("mse", "relmse", "psnr", "ssim", "lowfreq"):
+            assert torch.equal(getattr(shared, update)(), getattr(alone, update)()), update
+        for sigma in (1.0, 2.0):
+            assert torch.equal(shared.blurred(sigma), alone.blurred(sigma))
+        assert shared.mask is mask and shared.tile == 16
+    # the whole-image maps were computed once, by whichever region asked first
+    assert sorted(map(str, whole._maps)) == sorted(
+        ["err", "err^2", "err^2/den", "('blur^2', 1.0)", "('blur^2', 2.0)", "ssim", "lowfreq"]
+    )
+    kept = whole.in_region(regions[1]).error_only()
+    assert list(kept._maps) == ["err"] and kept.err is whole.err
+    with pytest.raises(ValueRangeError, match="mask: expected at least one selected pixel"):
+        whole.in_region(torch.zeros(32, 40, dtype=torch.bool))
+    with pytest.raises(ShapeError, match="mask"):
+        whole.in_region(torch.ones(32, 41, dtype=torch.bool))
+
+
 def test_an_image_pair_checks_its_inputs_as_the_per_image_functions_do():
     pred, ref = _pair()
     with pytest.raises(ShapeError, match=r"pred: expected the shape of ref \[3, 24, 20\]"):
