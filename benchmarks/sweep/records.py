@@ -22,12 +22,14 @@ removes a compressed copy it supersedes.
 **Precision.** A measured record is stored at the precision its measurement carries
 (:meth:`Record.rounded`, which the runners apply before they keep a record, so the record in
 memory is the record on disk): :data:`DIGITS` significant digits for every metric, correlation,
-coverage, spectrum and floor (a relative step of at most 5e-5, far below the spread of any
-ratio over seed sets, about 4e-2; whole numbers, the pixel counts, stay exact), and
-:data:`TIMING_DIGITS` for the milliseconds, whose run-to-run spread is several per cent. Full
-``repr`` precision had a metric's float32 sums printed with 17 digits, of which the last ten
-are noise: 28 MB for the quality suite's last looks (at 6 digits 4.6 MB of xz for its last looks
-at 8 seed sets, 8.0 MB at up to 16; at 5, 6.9). Records written before keep their digits
+coverage, spectrum and floor (a relative step of at most 5e-4: a PSNR to 0.01 dB, an SSIM near 1
+to 1e-4; far below one frame's Monte Carlo noise and the spread of any ratio over seed sets,
+about 4e-2; whole numbers, the pixel counts, stay exact), and :data:`TIMING_DIGITS` for the
+milliseconds, whose run-to-run spread is several per cent. Full ``repr`` precision had a
+metric's float32 sums printed with 17 digits, of which the last ten are noise: 28 MB for the
+quality suite's last looks (at 6 digits 4.6 MB of xz for its last looks at 8 seed sets, 8.0 MB
+at up to 16; at 5, 6.9; at up to 32 seed sets 11.8 MB at 5 digits, 9.7 at 4, what lets them
+into the 30 MB the committed results keep to). Records written before keep their digits
 (nothing rounds them on reading, so older files rewrite byte for byte); ``bnerr bench
 --report-only --compact`` rounds a finished folder's records in place.
 
@@ -116,7 +118,7 @@ LEGACY_ARCHIVE = RESULTS_FILE + ".gz"
 #: Both compressed forms, the current one first.
 ARCHIVES = (RESULTS_ARCHIVE, LEGACY_ARCHIVE)
 #: Significant digits of a record's measured values (:meth:`Record.rounded`).
-DIGITS = 5
+DIGITS = 4
 #: Significant digits of its timings.
 TIMING_DIGITS = 3
 
