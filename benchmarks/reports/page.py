@@ -89,7 +89,8 @@ def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tup
     options: list[tuple[str, str]] = []
     order = strategy_order(r.cell.strategy for r in records)
     for rec in sorted(records, key=lambda r: order.index(r.cell.strategy)):
-        found = crop_strip(out, rec.crop)
+        shown = ["reference", "raw", *(f"denoised/{d}" for d in denoisers)]
+        found = crop_strip(out, rec.crop, keep=shown)
         if found is None or "reference" not in found[1]:
             continue
         rel, names = found

@@ -55,3 +55,29 @@ def test_an_older_png_strip_becomes_a_webp_strip_with_the_same_tiles(tmp_path):
     assert rel == "crops/c.webp" and not (tmp_path / "crops" / "c.png").exists()
     loaded = load_crop(tmp_path, crop)
     assert all(np.array_equal(loaded[n], images[n]) for n in names)
+
+
+def test_a_strip_keeps_the_tiles_a_page_shows(tmp_path):
+    crop, images = _crop(tmp_path)
+    shown = ["raw", "reference"]  # the strip keeps the crops' order
+    assert crop_strip(tmp_path, crop, keep=shown) == ("crops/c.webp", ["reference", "raw"])
+    assert np.asarray(Image.open(tmp_path / "crops" / "c.webp")).shape == (4, 8, 3)
+    loaded = load_crop(tmp_path, crop)
+    assert list(loaded) == ["reference", "raw"]
+    assert all(np.array_equal(loaded[n], images[n]) for n in loaded)
+    # a strip already holding only kept tiles is read, not written again
+    written = (tmp_path / "crops" / "c.webp").stat().st_mtime_ns
+    assert crop_strip(tmp_path, crop, keep=[*shown, "denoised/oidn"])[1] == ["reference", "raw"]
+    assert (tmp_path / "crops" / "c.webp").stat().st_mtime_ns == written
+    assert crop_strip(tmp_path, crop, keep=["denoised/taa"]) is None  # nothing to keep
+
+
+def test_an_existing_strip_with_more_tiles_is_written_again_without_them(tmp_path):
+    crop, images = _crop(tmp_path)
+    crop_strip(tmp_path, crop)  # every tile
+    assert crop_strip(tmp_path, crop, keep=["reference", "denoised/oidn"])[1] == [
+        "reference",
+        "denoised/oidn",
+    ]
+    loaded = load_crop(tmp_path, crop)
+    assert all(np.array_equal(loaded[n], images[n]) for n in ["reference", "denoised/oidn"])
