@@ -13,7 +13,8 @@ overrides to every sweep of a suite.
 
 The four suites (issue 6):
 
-- ``quick``: two scenes, the three strategies that bracket the method (white, temporal, oracle) and
+- ``quick``: two scenes, the strategies that bracket the method (white, temporal, oracle), with
+  OpenQMC's two blue-noise samplers beside it (a production renderer's a-priori blue noise), and
   two cheap denoisers at 128x128; at most 5 minutes on the 2-core development machine (on one
   thread when the machine is shared: ``--threads 1``); ``make run``.
 - ``quality``: every scene, the strategies a renderer could adopt (:data:`_QUALITY_STRATEGIES`:
@@ -354,12 +355,14 @@ SUITES: dict[str, Suite] = {
         name="quick",
         coherent=True,
         description=(
-            "direct and indirect, white/temporal/oracle, 1 and 4 spp, gaussian and atrous, 128x128"
+            "direct and indirect, white/temporal/OpenQMC's blue-noise samplers/oracle, 1 and 4 "
+            "spp, gaussian and atrous, 128x128"
         ),
         sweeps=(
             Sweep(
                 scenes=("direct", "indirect"),
-                strategies=("white", "temporal", "oracle"),
+                # the method, a production renderer's blue-noise samplers, and the bound
+                strategies=("white", "temporal", "openqmc_sobolbn", "openqmc_latticebn", "oracle"),
                 spp=(1, 4),
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
