@@ -439,22 +439,18 @@ class ImagePair:
             ShapeError, DtypeError, ValueRangeError: as the constructor's mask checks.
         """
         _check_mask(mask, self.size)
-        pair = object.__new__(ImagePair)
-        pair.size, pair.tile, pair.pred, pair.ref, pair.mask = (
-            self.size,
-            self.tile,
-            self.pred,
-            self.ref,
-            mask,
-        )
-        pair._maps = self._maps
-        return pair
+        return self._sharing(mask, self._maps)
 
     def error_only(self) -> ImagePair:
         """This pair keeping only its error among the maps (what a later frame's temporal
         metrics read from it), so that a window of past frames holds no other map."""
-        pair = self.in_region(self.mask)
-        pair._maps = {"err": self.err}
+        return self._sharing(self.mask, {"err": self.err})
+
+    def _sharing(self, mask: torch.Tensor | None, maps: dict[object, Any]) -> ImagePair:
+        """A pair of this image and reference over ``mask`` (checked) holding ``maps``."""
+        pair = object.__new__(ImagePair)
+        pair.size, pair.tile, pair.pred, pair.ref = self.size, self.tile, self.pred, self.ref
+        pair.mask, pair._maps = mask, maps
         return pair
 
     def _map(self, key: object, compute: Callable[[], Any]) -> Any:
