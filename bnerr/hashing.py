@@ -11,6 +11,8 @@ checks both against a plain-Python twin.
 - :func:`mix32_45d9f3b`: the ``0x45d9f3b`` multiply-xorshift mix on int64 tensors holding 32-bit
   values. Only the benchmark's reference seeds use it; it is kept (rather than replaced by
   lowbias32) because the committed references and every result measured against them depend on it.
+- :func:`reverse32`: not a hash but the bit reversal of 32-bit words on int64 tensors, which
+  OpenQMC's samplers and the LDBN lattice base index by (the radical inverse in base 2).
 
 Not for: cryptography.
 """
@@ -25,6 +27,7 @@ __all__ = [
     "lowbias32_",
     "lowbias32_host",
     "mix32_45d9f3b",
+    "reverse32",
     "signed32",
     "srl32",
 ]
@@ -86,3 +89,10 @@ def mix32_45d9f3b(x: torch.Tensor) -> torch.Tensor:
     x = (((x >> 16) ^ x) * 0x45D9F3B) & MASK32
     x = (((x >> 16) ^ x) * 0x45D9F3B) & MASK32
     return (x >> 16) ^ x
+
+
+def reverse32(value: torch.Tensor) -> torch.Tensor:
+    """The 32 bits of each word (int64 tensor, values in [0, 2^32)) in reverse order."""
+    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF)):
+        value = ((value >> shift) & mask) | ((value & mask) << shift)
+    return ((value >> 16) | (value << 16)) & MASK32

@@ -10,7 +10,8 @@ A progress bar counts descent iterations; ``--checkpoint`` (default:
 the output's name with ``.ckpt.npz``) is written after each (level, pair) job, and a rerun with
 the same options resumes from it (it is removed once the output is written). The command prints
 the time taken and, per level, the share of the error variance a sigma-2 blur keeps on held-out
-test integrands (independent pixels keep about 0.020 on a 64 tile). ``--device`` (shared with the
+test integrands (independent pixels keep about 0.020 on a 64 tile). ``--base lattice|zorder``
+makes keys over another base point set (bnerr.sequences.ldbn_bases). ``--device`` (shared with the
 masks, default cpu) runs the descents there, every (level, pair) job of a round batched: CPU and
 CUDA give different keys, each reproducible (bnerr.ldbn.keys).
 """
@@ -52,6 +53,13 @@ def add_ldbn_arguments(parser: argparse.ArgumentParser) -> None:
         help="--ldbn: optimize the pairs past the pixel jitter jointly with it (4D tests)",
     )
     parser.add_argument(
+        "--base",
+        choices=("sobol", "lattice", "zorder"),
+        default="sobol",
+        help="--ldbn: the base point set the keys act on (bnerr.sequences.ldbn_bases; "
+        "default sobol, the shipped sets)",
+    )
+    parser.add_argument(
         "--checkpoint",
         type=Path,
         default=None,
@@ -75,6 +83,7 @@ def _options(args: argparse.Namespace) -> KeyOptions:
         seed=args.seed,
         joint=args.joint,
         device=args.device,
+        base=args.base,
     )
 
 
@@ -93,12 +102,15 @@ def run_ldbn(args: argparse.Namespace) -> int:
     Path(checkpoint).unlink(missing_ok=True)
     print(
         f"LDBN keys {opts.size}x{opts.size}x{opts.frames}, spp 1..{1 << (opts.levels - 1)}, "
-        f"D={opts.dims}{', joint' if opts.joint else ''}: {seconds:.1f} s -> {args.out}"
+        f"D={opts.dims}{', joint' if opts.joint else ''}, base {opts.base}: {seconds:.1f} s "
+        f"-> {args.out}"
     )
     print(f"sigma-2 blur keeps (held-out tests, pair 0; white {white_share(opts.size):.4f}):")
     for level in range(opts.levels):
         shares = [
-            blurred_share(scramble[level], rank[level], m, seed0=opts.seed0)
+            blurred_share(
+                scramble[level], rank[level], m, seed0=opts.seed0, base=opts.base, level=level
+            )
             for m in (1 << k for k in range(level + 1))
         ]
         text = " ".join(f"{m}:{s:.4f}" for m, s in zip((1 << k for k in range(level + 1)), shares))

@@ -64,9 +64,17 @@ from bnerr.ldbn.swaps import (
     swap_descents,
 )
 from bnerr.resources import load_array, shipped_files
-from bnerr.sequences.ldbn import LDBNKeys, shared_words
+from bnerr.sequences.ldbn import LDBNKeys
+from bnerr.sequences.ldbn_bases import (
+    base_table,
+    check_base,
+    keyed_words,
+    morton_chunks,
+    shared_words,
+)
 
 __all__ = [
+    "KIND_BASES",
     "SHIPPED_SEED0",
     "KeyOptions",
     "keys_from_array",
@@ -104,6 +112,10 @@ class KeyOptions:
         kernel: None, or a measured filter's autocorrelation ``[K, K]`` (K odd, centred) as
             nested tuples: the energy's spatial kernel instead of ``sigma``'s Gaussian
             (:func:`bnerr.ldbn.swaps.measured_kernel`; ``python -m bnerr.ldbn.matched``).
+        base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`):
+            ``sobol`` (the shipped sets), ``lattice`` (random rotations permuted over the tile)
+            or ``zorder`` (chunks permuted, from the Morton order); the last two are screen
+            tiles (``frames`` 1), not ``joint``, ``zorder`` on a power-of-two side.
     """
 
     size: int = 64
@@ -121,6 +133,7 @@ class KeyOptions:
     joint: bool = False
     device: str = "cpu"
     kernel: tuple[tuple[float, ...], ...] | None = None
+    base: str = "sobol"
 
     def __post_init__(self) -> None:
         try:
@@ -140,6 +153,13 @@ class KeyOptions:
             raise ValueRangeError(f"levels: expected at most 12 (4096 spp), got {self.levels}")
         if self.kernel is not None:
             self.energy_kernel()  # checks its shape and values
+        if check_base(self.base) != "sobol" and (self.frames > 1 or self.joint):
+            raise ValueRangeError(
+                f"base {self.base!r}: expected a screen tile (frames 1, not joint), got "
+                f"frames {self.frames}, joint {self.joint}"
+            )
+        if self.base == "zorder":
+            morton_chunks(self.size)  # checks the side
 
     def energy_kernel(self) -> torch.Tensor:
         """The energy's kernel ``w [F, T, T]``: the measured one, else ``sigma``'s Gaussian."""
@@ -151,11 +171,14 @@ class KeyOptions:
         return measured_kernel(auto, self.size, self.frames, self.sigma_t)
 
     def to_json(self) -> str:
-        """The options as the checkpoint records them (``kernel`` only when set, so that a
-        checkpoint written before the field existed still resumes)."""
+        """The options as the checkpoint records them (``kernel`` only when set and ``base``
+        only when not ``sobol``, so that a checkpoint written before the fields existed still
+        resumes)."""
         fields = asdict(self)
         if fields["kernel"] is None:
             del fields["kernel"]
+        if fields["base"] == "sobol":
+            del fields["base"]
         return json.dumps(fields, sort_keys=True)
 
     def is_joint(self, pair: int) -> bool:
@@ -186,8 +209,8 @@ class _Job:
         self.base = opts.seed * 1_000_003 + level * 1009 + pair
         self.gen = torch.Generator().manual_seed(self.base)
         self.device = torch.device(opts.device)
-        shared = shared_words(opts.seed0, torch.arange(self.n), 2 * pair, 2).T.long()
-        self.shared = shared.to(self.device)
+        table = base_table(opts.base, opts.seed0, pair, level, self.texels)
+        self.table = table.to(self.device)
         self.tests: Integrands = make_integrands(opts.tests, opts.seed * 7919 + pair)
         self.kernel = opts.energy_kernel()
         self.opts = opts
@@ -198,13 +221,18 @@ class _Job:
         return signed32(lowbias32_host(lowbias32_host(self.base) ^ (stage * 0x9E3779B9)))
 
     def features(self, indices: torch.Tensor, keys: torch.Tensor) -> torch.Tensor:
-        """Error features of point sets ``shared[indices [K, m]] XOR keys [K, 2]``: ``[K, C]``."""
-        points = (self.shared[indices] ^ keys[:, None, :]).float() / _TWO_24
+        """Error features of the base's point sets ``indices [K, m]`` read through ``keys
+        [K, 2]`` (:func:`bnerr.sequences.ldbn_bases.keyed_words`): ``[K, C]``."""
+        words = keyed_words(self.opts.base, self.table, indices, keys, self.n)
+        points = words.float() / _TWO_24
         return error_features(estimates(points, self.tests), self.opts.components)
 
     def random_keys(self) -> torch.Tensor:
-        """``[P, 2]`` the random scrambling keys the swaps permute (drawn on the CPU)."""
+        """``[P, 2]`` the scrambling keys the swaps permute: random words drawn on the CPU, or
+        for ``zorder`` the texels' Morton chunks (second channel 0)."""
         keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
+        if self.opts.base == "zorder":
+            keys = torch.stack([morton_chunks(self.opts.size), torch.zeros_like(keys[:, 0])], 1)
         return keys.to(self.device)
 
     def scramble_features(self, keys: torch.Tensor) -> torch.Tensor:
@@ -229,7 +257,7 @@ class _Job:
         index = torch.arange(self.n)[None, :] ^ rank[:, None]  # [P, N]
         words0 = shared_words(self.opts.seed0, torch.arange(self.n), 0, 2).T.long()
         jitter = (words0[index] ^ first[:, None, :]).float() / _TWO_24  # [P, N, 2]
-        words = self.shared.cpu()[index]  # [P, N, 2]
+        words = self.table.cpu()[index]  # [P, N, 2]
         tests = make_integrands(self.opts.tests, self.opts.seed * 7919 + 104729 + self.pair, 4)
 
         def values(texels: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
@@ -427,6 +455,10 @@ def shipped_ldbn() -> list[str]:
     return shipped_files("ldbn_")
 
 
+#: Key set kinds over a base other than ``sobol`` (file ``ldbn_<kind>_<T>.npy``) -> the base.
+KIND_BASES = {"lattice": "lattice", "zorder": "zorder"}
+
+
 def load_ldbn_keys(
     kind: str,
     size: int,
@@ -435,20 +467,25 @@ def load_ldbn_keys(
     dims: int | None = None,
     seed0: int = SHIPPED_SEED0,
 ) -> list[LDBNKeys]:
-    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``) of tile ``size`` and
-    ``frames`` slices, one :class:`LDBNKeys` per frame slice (one for a screen tile).
+    """The shipped key set ``kind`` (``screen``, ``st``, ``fast``, ``atrous``, or ``lattice``
+    and ``zorder`` over those bases, :data:`KIND_BASES`) of tile ``size`` and ``frames``
+    slices, one :class:`LDBNKeys` per frame slice (one for a screen tile).
 
     The levels L and dimensions D are read from the file's shape ``[L, F, T, T, D + D/2]``;
     ``levels`` or ``dims``, when given, must match. Raises FileFormatError if the file is absent
     or malformed."""
     shape = (levels, frames, size, size, None if dims is None else dims + dims // 2)
     array = load_array(ldbn_file_name(kind, size, frames), np.int32, shape)
-    return keys_from_array(array, ldbn_file_name(kind, size, frames), seed0)
+    base = KIND_BASES.get(kind, "sobol")
+    return keys_from_array(array, ldbn_file_name(kind, size, frames), seed0, base)
 
 
-def keys_from_array(array: np.ndarray, name: str, seed0: int = SHIPPED_SEED0) -> list[LDBNKeys]:
+def keys_from_array(
+    array: np.ndarray, name: str, seed0: int = SHIPPED_SEED0, base: str = "sobol"
+) -> list[LDBNKeys]:
     """One :class:`LDBNKeys` per frame slice of a key table ``[L, F, T, T, D + D/2]`` (as
-    :func:`write_keys` writes it; D read from the channels), ``name`` naming it in errors."""
+    :func:`write_keys` writes it; D read from the channels) over ``base``, ``name`` naming it
+    in errors."""
     if array.ndim != 5:
         raise FileFormatError(
             f"{name}: expected keys [L, F, T, T, D + D/2], got {list(array.shape)}"
@@ -459,6 +496,8 @@ def keys_from_array(array: np.ndarray, name: str, seed0: int = SHIPPED_SEED0) ->
     keys = torch.from_numpy(np.ascontiguousarray(array, dtype=np.int32))
     dims = 2 * channels // 3
     return [
-        LDBNKeys(keys[:, f, ..., :dims].contiguous(), keys[:, f, ..., dims:].contiguous(), seed0)
+        LDBNKeys(
+            keys[:, f, ..., :dims].contiguous(), keys[:, f, ..., dims:].contiguous(), seed0, base
+        )
         for f in range(keys.shape[1])
     ]

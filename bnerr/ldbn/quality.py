@@ -18,7 +18,7 @@ import torch
 from bnerr.errors import ShapeError, check_positive_int
 from bnerr.ldbn.integrands import estimates, make_integrands
 from bnerr.ldbn.keys import SHIPPED_SEED0
-from bnerr.sequences.ldbn import shared_words
+from bnerr.sequences.ldbn_bases import base_table, keyed_words
 
 __all__ = ["blurred_share", "white_share"]
 
@@ -47,6 +47,8 @@ def blurred_share(
     sigma: float = 2.0,
     tests: int = 256,
     seed0: int = SHIPPED_SEED0,
+    base: str = "sobol",
+    level: int | None = None,
 ) -> float:
     """The share of the error variance a Gaussian blur keeps (module docstring).
 
@@ -55,6 +57,9 @@ def blurred_share(
         spp: the prefix measured (the first ``spp`` samples of each texel).
         pair: the dimension pair measured.
         seed0: the shared sequence's seed the keys were optimized for.
+        base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`).
+        level: the keys' level (their tile's ``2^l`` samples; ``zorder`` chunks are ``2^l``
+            long); default: the smallest that holds every ranked index.
     """
     if scramble.ndim != 4 or rank.shape[:3] != scramble.shape[:3]:
         raise ShapeError(
@@ -66,8 +71,9 @@ def blurred_share(
     keys = torch.from_numpy(scramble[..., 2 * pair : 2 * pair + 2].reshape(-1, 2)).long()
     ranks = torch.from_numpy(rank[..., pair].reshape(-1)).long()
     index = torch.arange(spp)[None, :] ^ ranks[:, None]  # [P, spp]
-    shared = shared_words(seed0, torch.arange(int(index.max()) + 1), 2 * pair, 2).T.long()
-    points = (shared[index] ^ keys[:, None, :]).float() / _TWO_24
+    level = int(index.max()).bit_length() if level is None else level
+    table = base_table(base, seed0, pair, level, frames * size * size)
+    points = keyed_words(base, table, index, keys, 1 << level).float() / _TWO_24
     err = estimates(points, make_integrands(tests, 1_000_003 + pair)).double()
     err = err.reshape(frames, size, size, -1).permute(0, 3, 1, 2)
     err = err - err.mean((2, 3), keepdim=True)

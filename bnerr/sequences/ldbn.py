@@ -56,6 +56,7 @@ from bnerr.hashing import MASK32
 from bnerr.native import SelfCheckedKernels
 from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _columns, _to_unit
+from bnerr.sequences.ldbn_bases import base_words, check_base, shared_words
 from bnerr.sequences.owen_sobol import _owen_sobol_columns, _pair_keys, _seeded_pair_keys
 
 __all__ = [
@@ -82,11 +83,16 @@ class LDBNKeys:
             level ``l`` (tile optimized for ``2^l`` samples), pixel ``(y, x)``, dimension ``d``.
         rank: ``[L, T, T, D // 2]`` int32, the ranking keys, ``rank[l] < 2^l``, one per pair.
         seed0: the seed of the shared Owen-Sobol sequence the keys were optimized for.
+        base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`):
+            ``sobol`` (digital shifts, the shipped sets), ``lattice`` (rotations of a rank-1
+            lattice) or ``zorder`` (chunks of one global sequence, the chunk in each pair's
+            first channel).
     """
 
     scramble: torch.Tensor
     rank: torch.Tensor
     seed0: int = 0
+    base: str = "sobol"
 
     def __post_init__(self) -> None:
         size = check_shape(self.scramble, "L T T D", "scramble")
@@ -102,7 +108,15 @@ class LDBNKeys:
             )
         if isinstance(self.seed0, bool) or not isinstance(self.seed0, int):
             raise DtypeError(f"seed0: expected an int, got {type(self.seed0).__name__}")
+        check_base(self.base)
         _check_key_ranges(self.scramble, self.rank)
+        if self.base == "zorder" and self.scramble.numel():
+            chunks, texels = self.scramble[..., 0::2], size["T"] * size["T"]
+            if int(chunks.max()) >= texels or bool(self.scramble[..., 1::2].any()):
+                raise ValueRangeError(
+                    f"scramble: expected zorder chunks in [0, {texels}) in each pair's first "
+                    f"channel and 0 in its second, got chunks up to {int(chunks.max())}"
+                )
 
     @property
     def levels(self) -> int:
@@ -135,15 +149,6 @@ def ldbn_level(spp: int, levels: int) -> int:
     spp = check_positive_int(spp, "spp")
     levels = check_positive_int(levels, "levels")
     return min((spp - 1).bit_length(), levels - 1)
-
-
-def shared_words(seed0: int, index: torch.Tensor, dim: int, count: int) -> torch.Tensor:
-    """``[count, N]`` int32: the top 24 bits of ``owen_sobol(seed0, index, d)``, one row per d."""
-    shared = torch.tensor(seed0 & 0xFFFFFFFF, dtype=torch.int64, device=index.device)
-    out = _columns(index.shape[0], count, index.device)
-    _owen_sobol_columns(shared, index, dim, out)
-    # values are k * 2^-24 exactly, so the product is an exact integer
-    return (out * _TWO_24).to(torch.int32)
 
 
 class LDBNSampler(Sampler):
@@ -209,16 +214,20 @@ class LDBNSampler(Sampler):
         device = index.device
         scramble, rank = (t.to(device) for t in (self._scramble, self._rank))
         end = dim + out.shape[0]
-        table = self._table(index, end, device)
+        table = self._table(index, end, device) if self.keys.base == "sobol" else None
         for pair in range(dim // 2, (end - 1) // 2 + 1):
             first = max(2 * pair, dim)
             count = min(2 * pair + 2, end) - first
             permuted = index ^ rank[pair].index_select(0, flat)
+            keys = scramble[2 * pair : 2 * pair + 2].index_select(1, flat)
             if table is not None:
                 words = table[first : first + count].index_select(1, permuted)
+                words = words ^ keys[first % 2 : first % 2 + count]
             else:
-                words = shared_words(self.keys.seed0, permuted, first, count)
-            words = words ^ scramble[first : first + count].index_select(1, flat)
+                tile = (self.level, self.keys.size * self.keys.size)
+                words = base_words(
+                    self.keys.base, self.keys.seed0, permuted, keys, (first, count), tile
+                )
             _to_unit(words, out=out[first - dim : first - dim + count])
 
     def _table(self, index: torch.Tensor, end: int, device: torch.device) -> torch.Tensor | None:
@@ -237,7 +246,9 @@ class LDBNSampler(Sampler):
         k = self.keys
         return (
             f"LDBNSampler(keys=[{k.levels}, {k.size}, {k.size}, {k.dims}], spp={self.spp}, "
-            f"offset={self.offset}, seed0={k.seed0})"
+            f"offset={self.offset}, seed0={k.seed0}"
+            + ("" if k.base == "sobol" else f", base={k.base!r}")
+            + ")"
         )
 
 
@@ -317,6 +328,8 @@ def _native_values(
 ) -> bool:
     """The lookup of the lanes' (seed, index, pixel) in C into ``out``; False when the native
     path does not apply."""
+    if sampler.keys.base != "sobol":
+        return False  # the C kernel reads the sobol base only
     kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
     if kernels is None:
         return False

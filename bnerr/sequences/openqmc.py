@@ -38,7 +38,7 @@ import numpy as np
 import torch
 
 from bnerr.errors import DtypeError, ValueRangeError, check_dtype, check_name, check_tensor
-from bnerr.hashing import MASK32
+from bnerr.hashing import MASK32, reverse32
 from bnerr.resources import load_array
 from bnerr.sequences.base import Sampler, _broadcast, _check_index_below, _columns
 
@@ -95,13 +95,6 @@ def _laine_karras(value: torch.Tensor, seed: torch.Tensor) -> torch.Tensor:
     return value ^ ((value * _LAINE_KARRAS[2]) & MASK32)
 
 
-def _reverse32(value: torch.Tensor) -> torch.Tensor:
-    """The 32 bits of each word in reverse order."""
-    for shift, mask in ((1, 0x55555555), (2, 0x33333333), (4, 0x0F0F0F0F), (8, 0x00FF00FF)):
-        value = ((value >> shift) & mask) | ((value & mask) << shift)
-    return ((value >> 16) | (value << 16)) & MASK32
-
-
 def _sobol_reversed(index16: torch.Tensor, dimension: int) -> torch.Tensor:
     """``sobolReversedIndex``: the XOR of dimension's columns over the set bits of a 16-bit word."""
     out = torch.zeros_like(index16)
@@ -152,13 +145,13 @@ def _draw_words(sampler, x, y, frame, index, key, size):
     """The ``size`` u32 words of ``drawSample<size>`` for broadcast int64 tensors of the inputs."""
     table_key, rank, sample = _domain_table(sampler, x, y, frame, index, key)
     if sampler == "sobolbn":
-        shuffled = _laine_karras(_reverse32(sample ^ rank), table_key)
+        shuffled = _laine_karras(reverse32(sample ^ rank), table_key)
         top = shuffled >> 16
         return [
-            _reverse32(_laine_karras(_sobol_reversed(top, c), _rotate_bytes(table_key, c)))
+            reverse32(_laine_karras(_sobol_reversed(top, c), _rotate_bytes(table_key, c)))
             for c in range(size)
         ]
-    shuffled = _laine_karras(_reverse32(sample ^ rank), _pcg_output(table_key))
+    shuffled = _laine_karras(reverse32(sample ^ rank), _pcg_output(table_key))
     state, words = table_key, []
     for c in range(size):
         state = _pcg_transition(state)

@@ -18,6 +18,12 @@ scrambling keys optimized offline (:class:`bnerr.sequences.LDBNSampler`, :mod:`b
   ``ldbn``; registered only when its table is shipped (:data:`LDBN128_SHIPPED`), so dropping the
   file into ``bnerr/data`` makes it work.
 
+- ``ldbn_lattice``, ``ldbn_zorder``: 64 x 64 screen sets to 64 spp over D = 8 whose keys act on
+  another base point set (:mod:`bnerr.sequences.ldbn_bases`): rotations of a rank-1 lattice, or
+  chunks of one global Owen-Sobol sequence starting from the Morton order (``ldbn_lattice_64``,
+  ``ldbn_zorder_64``; ``bnerr mask --ldbn --base lattice|zorder``), read like ``ldbn``;
+  registered only when their tables are shipped.
+
 All of them need ``spp`` (the level of the tiles: the smallest tile for at least spp samples) and
 give fresh per-pixel seeds every frame for the dimensions past the optimized ones (the pixel's own
 Owen-Sobol sequence there). They dictate their own sampler (``ldbn``).
@@ -42,10 +48,14 @@ from bnerr.strategies.variants import TemporalOptions
 __all__ = [
     "LDBN128_FILE",
     "LDBN128_SHIPPED",
+    "LDBN_BASE_STRATEGIES",
     "LDBN_SETS",
     "LDBN128Strategy",
     "LDBNATrousStrategy",
+    "LDBNBaseStrategy",
     "LDBNFastStrategy",
+    "LDBNLatticeStrategy",
+    "LDBNZOrderStrategy",
     "LDBNSTStrategy",
     "LDBNStrategy",
 ]
@@ -188,3 +198,66 @@ class LDBN128Strategy(LDBNStrategy):
 if LDBN128_SHIPPED:
     LDBN128Strategy.name = "ldbn128"
     REGISTRY.add(LDBN128Strategy)
+
+
+class LDBNBaseStrategy(LDBNStrategy):
+    """Keys over another base point set (``kind`` in :data:`bnerr.ldbn.keys.KIND_BASES`), a
+    64 x 64 screen set read like ``ldbn`` (module docstring). A subclass is registered under its
+    ``label`` only when its table is shipped (:meth:`register_if_shipped`)."""
+
+    name = ""
+    #: the key set's kind (its file ``ldbn_<kind>_64.npy``) and the name it registers under
+    kind: ClassVar[str] = ""
+    label: ClassVar[str] = ""
+    tile: ClassVar[int] = 64
+
+    @classmethod
+    def create(
+        cls, height: int, width: int, build: BuildOptions, options: TemporalOptions
+    ) -> Strategy:
+        keys = load_ldbn_keys(cls.kind, cls.tile)
+        return cls(height, width, keys=keys, spp=build.spp, **build.common)  # type: ignore[arg-type]
+
+    @classmethod
+    def register_if_shipped(cls) -> bool:
+        """Name and register the class when its key table is shipped; whether it was."""
+        if ldbn_file_name(cls.kind, cls.tile) not in shipped_ldbn():
+            return False
+        cls.name = cls.label
+        REGISTRY.add(cls)
+        return True
+
+
+class LDBNLatticeStrategy(LDBNBaseStrategy):
+    """``ldbn_lattice``: our keys as rotations of a rank-1 lattice (module docstring)."""
+
+    kind = "lattice"
+    label = "ldbn_lattice"
+    stream = 29
+    rank = 66
+    color = "#54278f"
+    raw_mse_note = (
+        "a rotated rank-1 lattice per pixel, not a scrambled net: lattices stratify "
+        "discontinuous integrands less well at low spp (every 4-point rank-1 lattice lies on "
+        "a diagonal; bnerr.sequences.ldbn_bases)"
+    )
+
+
+class LDBNZOrderStrategy(LDBNBaseStrategy):
+    """``ldbn_zorder``: our keys as chunks of one global sequence (module docstring)."""
+
+    kind = "zorder"
+    label = "ldbn_zorder"
+    stream = 30
+    rank = 67
+    color = "#807dba"
+    raw_mse_note = (
+        "chunks of one global Owen-Sobol sequence: each pixel alone is a scrambled net, as "
+        "white's, but the pixels' points are not independent"
+    )
+
+
+#: The key sets over other bases whose tables are shipped (registered), one class per kind.
+LDBN_BASE_STRATEGIES = [
+    c for c in (LDBNLatticeStrategy, LDBNZOrderStrategy) if c.register_if_shipped()
+]

@@ -149,9 +149,23 @@ def test_ldbn_joint_writes_the_joint_keys(tmp_path, capsys):
     assert "D=4, joint" in capsys.readouterr().out
 
 
+def test_ldbn_base_writes_keys_over_that_base(tmp_path, capsys):
+    from bnerr.ldbn.keys import KeyOptions, optimize_keys
+
+    out = tmp_path / "k.npy"
+    argv = ["mask", "--ldbn", "--base", "zorder", "--size", "8", "--spp", "4", "--dims", "2"]
+    assert main([*argv, "--iterations", "3", "--out", str(out)]) == 0
+    opts = KeyOptions(size=8, levels=3, dims=2, iterations=3, base="zorder")
+    scramble, rank = optimize_keys(opts)
+    assert np.array_equal(np.load(out), np.concatenate([scramble, rank], -1))
+    assert "D=2, base zorder" in capsys.readouterr().out
+
+
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
+        (["--base", "lattice", "--frames", "2"], "screen tile"),
+        (["--base", "zorder", "--size", "6"], "power of two"),
         (["--spp", "3"], "power of two"),
         (["--dims", "3"], "even"),
         (["--out-png"], ".npy"),

@@ -172,6 +172,10 @@ def test_registered_and_refuses_bad_input():
         LDBNKeys(keys.scramble | (1 << 24), keys.rank)
     with pytest.raises(DtypeError):
         LDBNKeys(keys.scramble.long(), keys.rank)
+    with pytest.raises(ValueRangeError, match="halton"):
+        LDBNKeys(keys.scramble, keys.rank, base="halton")
+    with pytest.raises(ValueRangeError, match="zorder chunks"):
+        LDBNKeys(keys.scramble, keys.rank, base="zorder")  # 24-bit words, not chunks
 
 
 # ------------------------------------------------------------------------------------------------

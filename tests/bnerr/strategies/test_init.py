@@ -45,7 +45,7 @@ from tests.bnerr.strategies._renders import (
 
 
 def test_names_are_sorted_and_complete():
-    from bnerr.strategies.ldbn import LDBN128_SHIPPED
+    from bnerr.strategies.ldbn import LDBN128_SHIPPED, LDBN_BASE_STRATEGIES
 
     assert tuple(STRATEGIES) == tuple(sorted(STRATEGIES))
     assert set(STRATEGIES) == {
@@ -54,6 +54,7 @@ def test_names_are_sorted_and_complete():
         *("ldbn", "ldbn_st", "ldbn_fast", "ldbn_atrous", "temporal_ldbn"),
         *("openqmc_sobolbn", "openqmc_latticebn"),
         *(("ldbn128",) if LDBN128_SHIPPED else ()),
+        *(cls.label for cls in LDBN_BASE_STRATEGIES),
         *VARIANTS,
     }
     for name in VARIANTS:

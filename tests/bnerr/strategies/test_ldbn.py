@@ -81,3 +81,32 @@ def test_ldbn128_renders_from_its_shipped_table():
     record: list = []
     strategy.frame(0, hash_render(record))
     assert record[0][1].keys.size == 128 and record[0][1].level == 6
+
+
+def test_keys_over_other_bases_render_like_ldbn_and_register_only_when_shipped():
+    import torch
+
+    from bnerr.ldbn.keys import KIND_BASES, shipped_ldbn
+    from bnerr.sequences import LDBNKeys
+    from bnerr.strategies import STRATEGIES
+    from bnerr.strategies.ldbn import LDBNLatticeStrategy, LDBNZOrderStrategy
+
+    assert {LDBNLatticeStrategy.kind, LDBNZOrderStrategy.kind} == set(KIND_BASES)
+    for cls in (LDBNLatticeStrategy, LDBNZOrderStrategy):
+        shipped = f"ldbn_{cls.kind}_64.npy" in shipped_ldbn()
+        assert (cls.label in STRATEGIES) == shipped and cls.family == "ldbn"
+        assert cls.raw_mse_note
+        chunks = torch.stack([torch.randperm(16) for _ in range(6)]).reshape(3, 4, 4, 2)
+        scramble = torch.stack([chunks, torch.zeros_like(chunks)], -1).reshape(3, 4, 4, 4)
+        if cls.kind == "lattice":
+            scramble = torch.randint(0, 1 << 24, (3, 4, 4, 4))
+        rank = torch.stack([torch.randint(0, 1 << lv, (4, 4, 2)) for lv in range(3)])
+        keys = LDBNKeys(scramble.to(torch.int32), rank.to(torch.int32), 18, cls.kind)
+        record: list = []
+        cls(5, 7, keys=[keys], spp=4, seed=1).frame(0, hash_render(record))
+        sampler = record[0][1]
+        assert sampler.keys.base == cls.kind and sampler.level == 2
+        seeds = torch.arange(35, dtype=torch.int64)
+        pixel = torch.stack([torch.arange(35) // 7, torch.arange(35) % 7], 1)
+        values = sampler.sample(seeds, torch.arange(35) % 8, 0, 6, pixel)
+        assert values.shape == (35, 6) and float(values.min()) >= 0 and float(values.max()) < 1
