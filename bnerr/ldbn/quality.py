@@ -15,7 +15,7 @@ import math
 import numpy as np
 import torch
 
-from bnerr.errors import ShapeError, check_positive_int
+from bnerr.errors import ShapeError, ValueRangeError, check_positive_int
 from bnerr.ldbn.integrands import estimates, make_integrands
 from bnerr.ldbn.keys import SHIPPED_SEED0
 from bnerr.sequences.ldbn_bases import base_table, keyed_words
@@ -43,7 +43,7 @@ def blurred_share(
     scramble: np.ndarray,
     rank: np.ndarray,
     spp: int,
-    pair: int = 0,
+    pair: int | tuple[int, ...] = 0,
     sigma: float = 2.0,
     tests: int = 256,
     seed0: int = SHIPPED_SEED0,
@@ -55,7 +55,10 @@ def blurred_share(
     Args:
         scramble: ``[F, T, T, D]`` one level's scrambling keys; rank: ``[F, T, T, D // 2]``.
         spp: the prefix measured (the first ``spp`` samples of each texel).
-        pair: the dimension pair measured.
+        pair: the dimension pair measured, or several pairs measured together on test
+            integrands of all their dimensions (each pair read through its own keys and ranks,
+            as the sampler reads them): the error of their joint point set, which the per-pair
+            optimization does not see.
         seed0: the shared sequence's seed the keys were optimized for.
         base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`).
         level: the keys' level (their tile's ``2^l`` samples; ``zorder`` chunks are ``2^l``
@@ -68,13 +71,20 @@ def blurred_share(
         )
     frames, size = scramble.shape[0], scramble.shape[1]
     spp = check_positive_int(spp, "spp")
-    keys = torch.from_numpy(scramble[..., 2 * pair : 2 * pair + 2].reshape(-1, 2)).long()
-    ranks = torch.from_numpy(rank[..., pair].reshape(-1)).long()
-    index = torch.arange(spp)[None, :] ^ ranks[:, None]  # [P, spp]
-    level = int(index.max()).bit_length() if level is None else level
-    table = base_table(base, seed0, pair, level, frames * size * size)
-    points = keyed_words(base, table, index, keys, 1 << level).float() / _TWO_24
-    err = estimates(points, make_integrands(tests, 1_000_003 + pair)).double()
+    pairs = (pair,) if isinstance(pair, int) else tuple(pair)
+    if not pairs or any(not 0 <= p < rank.shape[3] for p in pairs) or len(set(pairs)) < len(pairs):
+        raise ValueRangeError(
+            f"pair: expected distinct pairs in [0, {rank.shape[3]}) (the keys' dimension pairs), "
+            f"got {pair!r}"
+        )
+    if level is None:
+        level = max(int(rank[..., p].max()) for p in pairs).bit_length()
+        level = max(level, (spp - 1).bit_length())
+    points = torch.cat(
+        [_pair_points(scramble, rank, spp, p, (seed0, base, level)) for p in pairs], 2
+    )
+    seed = 1_000_003 + pairs[0] if len(pairs) == 1 else 2_000_003 + 7919 * pairs[0] + pairs[-1]
+    err = estimates(points, make_integrands(tests, seed, 2 * len(pairs))).double()
     err = err.reshape(frames, size, size, -1).permute(0, 3, 1, 2)
     err = err - err.mean((2, 3), keepdim=True)
     blurred = torch.fft.irfft2(torch.fft.rfft2(err) * _gauss_response(size, sigma), s=(size, size))
@@ -82,3 +92,16 @@ def blurred_share(
     kept = (blurred**2).sum((2, 3))
     valid = raw > 0
     return float((kept[valid] / raw[valid]).mean())
+
+
+def _pair_points(
+    scramble: np.ndarray, rank: np.ndarray, spp: int, pair: int, read: tuple[int, str, int]
+) -> torch.Tensor:
+    """``[P, spp, 2]`` the first ``spp`` points of every texel in ``pair`` (``read``: the
+    shared sequence's seed, the base and the keys' level)."""
+    seed0, base, level = read
+    keys = torch.from_numpy(scramble[..., 2 * pair : 2 * pair + 2].reshape(-1, 2)).long()
+    ranks = torch.from_numpy(rank[..., pair].reshape(-1)).long()
+    index = torch.arange(spp)[None, :] ^ ranks[:, None]  # [P, spp]
+    table = base_table(base, seed0, pair, level, keys.shape[0])
+    return keyed_words(base, table, index, keys, 1 << level).float() / _TWO_24
