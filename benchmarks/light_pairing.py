@@ -11,8 +11,8 @@ light always share the light's u half or its v half, never neither. Which one is
 two pairs' index shuffles: a coin per pixel for the per-pixel sequence (``white``'s Owen-Sobol),
 one constant for every pixel for LDBN's shared sequence (its ``seed0``). :func:`stratified_lights`
 reads that off the sampler's values; :func:`measure` renders each variant of :data:`VARIANTS` and
-gives its per-pixel variance across seed sets and its raw MSE, each as a ratio to white's, with
-the share of pixels in each class and the MSE of the two classes.
+gives its per-pixel variance across seed sets, its raw MSE and its MSE after a sigma-2 blur, each
+as a ratio to white's, with the share of pixels in each class and the MSE of the two classes.
 
 ``python -m benchmarks.light_pairing`` prints the table for ``snooker_plain``, ``snooker`` and
 ``direct`` at 64x64, 4 spp, 12 seed sets, frame 6 (a diagnosis: nothing is written under
@@ -33,6 +33,7 @@ import renderers
 from bnerr.color import luminance
 from bnerr.errors import ShapeError, ValueRangeError, check_positive_int
 from bnerr.frame import Frame
+from bnerr.metrics import blurred_mse
 from bnerr.sequences import LDBNKeys, Sampler, make_sampler
 from bnerr.strategies import make_strategy, pixel_seeds
 from bnerr.strategies.ldbn import LDBNStrategy
@@ -201,9 +202,9 @@ def _random_ldbn(seed0: int) -> Callable[[_Context, int], Draw]:
     return draw
 
 
-def _mixed(pairs: tuple[int, ...]) -> Callable[[_Context, int], Draw]:
+def _mixed(pairs: tuple[int, ...], name: str = "ldbn") -> Callable[[_Context, int], Draw]:
     def draw(ctx: _Context, s: int) -> Draw:
-        seeds, ldbn = _strategy_draw("ldbn", ctx, s)
+        seeds, ldbn = _strategy_draw(name, ctx, s)
         return seeds, PairMix(make_sampler("owen_sobol"), ldbn, pairs)
 
     return draw
@@ -229,6 +230,9 @@ VARIANTS: dict[str, Callable[[_Context, int], Draw]] = {
     "ldbn, random keys, seed0 3": _random_ldbn(3),
     "white, light chosen by u": _reused("white"),
     "ldbn, light chosen by u": _reused("ldbn"),
+    "ldbn_zorder": lambda ctx, s: _strategy_draw("ldbn_zorder", ctx, s),
+    "ldbn_zorder keys on pair 1 only": _mixed((1,), "ldbn_zorder"),
+    "ldbn_zorder keys on pairs 0-2 only": _mixed((0, 1, 2), "ldbn_zorder"),
 }
 
 
@@ -246,7 +250,8 @@ class Row:
     raw MSE; ``shares`` the fractions of (seed set, pixel) whose two-light samples are
     stratified in u only, v only and both (NaN with one light); ``mse_u``, ``mse_v`` the raw MSE
     of the u-only and v-only pixels over white's raw MSE (NaN where none); ``mse_sets`` each seed
-    set's raw MSE over white's in that seed set (for an interval)."""
+    set's raw MSE over white's in that seed set (for an interval); ``blurred`` the MSE after a
+    sigma-2 blur over white's."""
 
     name: str
     variance: float
@@ -256,17 +261,23 @@ class Row:
     mse_v: float
     #: each seed set's raw MSE over white's in the same seed set
     mse_sets: tuple[float, ...] = ()
+    #: the MSE after a sigma-2 blur over white's (how much of the error is low-frequency)
+    blurred: float = float("nan")
 
 
 def _luma(frame: Frame) -> torch.Tensor:
     return luminance(frame.color, dtype=torch.float64)
 
 
-def _moments(lum: torch.Tensor, ref: torch.Tensor) -> tuple[float, float, torch.Tensor]:
-    """Per-pixel variance across seed sets, raw MSE and each seed set's raw MSE ``[S]`` of
-    ``lum [S, H, W]`` against ``ref``."""
+_Moments = tuple[float, float, torch.Tensor, float]
+
+
+def _moments(lum: torch.Tensor, ref: torch.Tensor) -> _Moments:
+    """Per-pixel variance across seed sets, raw MSE, each seed set's raw MSE ``[S]`` and the
+    MSE after a sigma-2 blur of ``lum [S, H, W]`` against ``ref``."""
     per_set = (lum - ref).square().flatten(1).mean(1)
-    return float(lum.var(0).mean()), float(per_set.mean()), per_set
+    blurred = blurred_mse(lum, ref.expand_as(lum), 2.0).mean()
+    return float(lum.var(0).mean()), float(per_set.mean()), per_set, float(blurred)
 
 
 def _row(
@@ -274,13 +285,13 @@ def _row(
     lum: torch.Tensor,
     ref: torch.Tensor,
     strat: list,
-    base: tuple[float, float, torch.Tensor],
+    base: _Moments,
 ) -> Row:
     """The :class:`Row` of ``lum [S, H, W]`` against ``ref [H, W]``: ``strat`` the per-set
     (u, v) stratification of :func:`stratified_lights` (empty with one light), ``base`` white's
     :func:`_moments`."""
     err = (lum - ref).square().flatten(1)
-    variance, mse, per_set = _moments(lum, ref)
+    variance, mse, per_set, blurred = _moments(lum, ref)
     nan = float("nan")
     shares, mse_u, mse_v = (nan, nan, nan), nan, nan
     if strat:
@@ -290,7 +301,14 @@ def _row(
         mse_u, mse_v = (float(err[c].mean()) if c.any() else nan for c in classes[:2])
     ratios = tuple((per_set / base[2]).tolist())
     return Row(
-        name, variance / base[0], mse / base[1], shares, mse_u / base[1], mse_v / base[1], ratios
+        name,
+        variance / base[0],
+        mse / base[1],
+        shares,
+        mse_u / base[1],
+        mse_v / base[1],
+        ratios,
+        blurred / base[3],
     )
 
 
@@ -318,7 +336,7 @@ def measure(
     seeds = pixel_seeds(size, size, 0x5EED)
     ref = _luma(renderers.render(scene, t, seeds, make_sampler("owen_sobol"), ref_spp))
     rows: list[Row] = []
-    base: tuple[float, float, torch.Tensor] | None = None
+    base: _Moments | None = None
     for name in ["white"] + [n for n in wanted if n != "white"]:
         lum, strat = [], []
         for s in range(sets):
@@ -338,7 +356,7 @@ def _table(scene: str, rows: list[Row]) -> list[str]:
         return "-" if x != x else f"{x:.2f}"
 
     return [
-        f"| {scene} | {r.name} | {r.variance:.3f} | {r.mse:.3f} | "
+        f"| {scene} | {r.name} | {r.variance:.3f} | {r.mse:.3f} | {r.blurred:.3f} | "
         f"{' / '.join(f(x) for x in r.shares)} | {f(r.mse_u)} / {f(r.mse_v)} |"
         for r in rows
     ]
@@ -352,13 +370,20 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--size", type=int, default=64)
     parser.add_argument("--spp", type=int, default=4)
     parser.add_argument("--sets", type=int, default=12)
+    parser.add_argument(
+        "--variants",
+        nargs="+",
+        metavar="NAME",
+        help=f"default: all that apply, of {list(VARIANTS)}",
+    )
     args = parser.parse_args(argv)
     torch.set_num_threads(1)
-    print("| scene | variant | per-pixel variance / white | raw MSE / white | pixels stratified "
-          "in u only / v only / both | MSE of u-only / v-only pixels / white's |")  # fmt: skip
-    print("|---|---|---|---|---|---|")
+    print("| scene | variant | per-pixel variance / white | raw MSE / white | sigma-2 blurred MSE"
+          " / white | pixels stratified in u only / v only / both | MSE of u-only / v-only pixels"
+          " / white's |")  # fmt: skip
+    print("|---|---|---|---|---|---|---|")
     for scene in args.scenes:
-        rows = measure(scene, size=args.size, spp=args.spp, sets=args.sets)
+        rows = measure(scene, args.variants, size=args.size, spp=args.spp, sets=args.sets)
         print("\n".join(_table(scene, rows)), flush=True)
 
 

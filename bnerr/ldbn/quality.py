@@ -55,7 +55,7 @@ def blurred_share(
     Args:
         scramble: ``[F, T, T, D]`` one level's scrambling keys; rank: ``[F, T, T, D // 2]``.
         spp: the prefix measured (the first ``spp`` samples of each texel).
-        pair: the dimension pair measured, or several pairs measured together on test
+        pair: the dimension pair measured, or two pairs measured together on test
             integrands of all their dimensions (each pair read through its own keys and ranks,
             as the sampler reads them): the error of their joint point set, which the per-pair
             optimization does not see.
@@ -72,10 +72,11 @@ def blurred_share(
     frames, size = scramble.shape[0], scramble.shape[1]
     spp = check_positive_int(spp, "spp")
     pairs = (pair,) if isinstance(pair, int) else tuple(pair)
-    if not pairs or any(not 0 <= p < rank.shape[3] for p in pairs) or len(set(pairs)) < len(pairs):
+    bad = any(not 0 <= p < rank.shape[3] for p in pairs) or len(set(pairs)) < len(pairs)
+    if bad or not 1 <= len(pairs) <= 2:
         raise ValueRangeError(
-            f"pair: expected distinct pairs in [0, {rank.shape[3]}) (the keys' dimension pairs), "
-            f"got {pair!r}"
+            f"pair: expected one or two distinct pairs in [0, {rank.shape[3]}) (the keys' "
+            f"dimension pairs; the test integrands have 2 or 4 dimensions), got {pair!r}"
         )
     if level is None:
         level = max(int(rank[..., p].max()) for p in pairs).bit_length()

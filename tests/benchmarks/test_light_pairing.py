@@ -99,3 +99,5 @@ def test_the_pairing_decides_snooker_plains_raw_mse():
     white = rows["white"]
     assert white.mse_u < 0.8 < 1.2 < white.mse_v
     assert rows["ldbn"].variance < 0.8 < 1.2 < rows["ldbn, random keys, seed0 3"].variance
+    # the sigma-2 blurred MSE is a ratio to white's too (64x64: ldbn 0.38, docs/METHODS.md)
+    assert white.blurred == 1.0 and 0 < rows["ldbn"].blurred < 0.8

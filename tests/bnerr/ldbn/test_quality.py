@@ -39,11 +39,11 @@ def test_one_pair_in_a_tuple_is_that_pair():
     assert blurred_share(scramble, rank, 4, pair=(1,)) == blurred_share(scramble, rank, 4, pair=1)
 
 
-@pytest.mark.parametrize("pair", [2, -1, (), (0, 0)])
+@pytest.mark.parametrize("pair", [3, -1, (), (0, 0), (0, 1, 2)])
 def test_pairs_outside_the_keys_are_refused(pair):
-    scramble = np.zeros((1, 8, 8, 4), np.int32)
+    scramble = np.zeros((1, 8, 8, 6), np.int32)
     with pytest.raises(ValueRangeError, match="pair"):
-        blurred_share(scramble, np.zeros((1, 8, 8, 2), np.int32), 1, pair=pair)
+        blurred_share(scramble, np.zeros((1, 8, 8, 3), np.int32), 1, pair=pair)
 
 
 def test_shapes_are_checked():
