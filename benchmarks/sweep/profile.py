@@ -41,7 +41,7 @@ from benchmarks.sweep.parts import Parts, real_parts
 from benchmarks.sweep.plan import Run, plan
 from benchmarks.sweep.records import bare_key, final_records, load_records
 from benchmarks.sweep.references import ReferenceCache
-from benchmarks.sweep.runner import TUNED_PARAMS_FILE, _load_params
+from benchmarks.sweep.runner import TUNED_PARAMS_FILE, load_params
 from benchmarks.sweep.tuning import tune_denoisers
 from bnerr.errors import ValueRangeError
 from bnerr.io import atomic_write
@@ -124,7 +124,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     reached = seed_sets_reached(runs, args.results)
     parts = real_parts()
     references = ReferenceCache(args.cache, parts)
-    store = _load_params(Path(args.results) / TUNED_PARAMS_FILE)
+    store = load_params(Path(args.results) / TUNED_PARAMS_FILE)
     minutes = dict.fromkeys([*PARTS, "other", "total"], 0.0)
     # one task first, not counted: a worker pays the first imports and caches once, not per task
     measure_seed_set(

@@ -54,7 +54,7 @@ from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.outputs import clean_stale_temporaries
 from denoisers.tuning import ParamStore
 
-__all__ = ["TUNED_PARAMS_FILE", "SweepState", "run_suite", "start_sweep"]
+__all__ = ["TUNED_PARAMS_FILE", "SweepState", "load_params", "run_suite", "start_sweep"]
 
 #: Name of the tuned denoiser parameters file inside the output folder.
 TUNED_PARAMS_FILE = "tuned_params.json"
@@ -125,7 +125,7 @@ class SweepState:
             self.write()
 
 
-def _load_params(path: Path) -> ParamStore:
+def load_params(path: Path) -> ParamStore:
     """The tuned parameters a resumed sweep keeps: ``path``'s, an empty store if there is no
     such file, and an empty one with a warning if it is not a valid tuned-parameters file (the
     denoisers are tuned again, deterministically, so the same parameters come back; the file is
@@ -216,7 +216,7 @@ def start_sweep(
     _check_same_device(records.values(), device, out)
     out.mkdir(parents=True, exist_ok=True)
     clean_stale_temporaries(out, [RESULTS_FILE, TUNED_PARAMS_FILE])  # a killed writer's, if any
-    store = _load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
+    store = load_params(out / TUNED_PARAMS_FILE) if resume else ParamStore()
     runs = plan(suite) if runs is None else list(runs)
     _warn_unmeasured(records, runs)
     version = parts.code_version
