@@ -70,7 +70,6 @@ from bnerr.sequences.ldbn_bases import (
     check_base,
     keyed_words,
     morton_chunks,
-    shared_words,
 )
 
 __all__ = [
@@ -115,7 +114,7 @@ class KeyOptions:
         base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`):
             ``sobol`` (the shipped sets), ``lattice`` (random rotations permuted over the tile)
             or ``zorder`` (chunks permuted, from the Morton order); the last two are screen
-            tiles (``frames`` 1), not ``joint``, ``zorder`` on a power-of-two side.
+            tiles (``frames`` 1), ``zorder`` on a power-of-two side.
     """
 
     size: int = 64
@@ -153,10 +152,9 @@ class KeyOptions:
             raise ValueRangeError(f"levels: expected at most 12 (4096 spp), got {self.levels}")
         if self.kernel is not None:
             self.energy_kernel()  # checks its shape and values
-        if check_base(self.base) != "sobol" and (self.frames > 1 or self.joint):
+        if check_base(self.base) != "sobol" and self.frames > 1:
             raise ValueRangeError(
-                f"base {self.base!r}: expected a screen tile (frames 1, not joint), got "
-                f"frames {self.frames}, joint {self.joint}"
+                f"base {self.base!r}: expected a screen tile (frames 1), got frames {self.frames}"
             )
         if self.base == "zorder":
             morton_chunks(self.size)  # checks the side
@@ -252,16 +250,18 @@ class _Job:
         self, first: torch.Tensor, rank: torch.Tensor, progress: Progress | None
     ) -> torch.Tensor:
         """This pair's scrambling keys on 4D tests of it and the first pair, whose keys
-        ``first [P, 2]`` and ranks ``rank [P]`` (shared by both pairs) are fixed (on the CPU)."""
-        keys = torch.randint(0, _TWO_24, (self.texels, 2), generator=self.gen)
-        index = torch.arange(self.n)[None, :] ^ rank[:, None]  # [P, N]
-        words0 = shared_words(self.opts.seed0, torch.arange(self.n), 0, 2).T.long()
-        jitter = (words0[index] ^ first[:, None, :]).float() / _TWO_24  # [P, N, 2]
-        words = self.table.cpu()[index]  # [P, N, 2]
+        ``first [P, 2]`` and ranks ``rank [P]`` (shared by both pairs) are fixed (on the CPU);
+        the start is :meth:`random_keys` (the Morton chunks for ``zorder``)."""
+        keys = self.random_keys().cpu()
+        base, n = self.opts.base, self.n
+        index = torch.arange(n)[None, :] ^ rank[:, None]  # [P, N]
+        table0 = base_table(base, self.opts.seed0, 0, self.level, self.texels)
+        jitter = keyed_words(base, table0, index, first, n).float() / _TWO_24  # [P, N, 2]
+        table = self.table.cpu()
         tests = make_integrands(self.opts.tests, self.opts.seed * 7919 + 104729 + self.pair, 4)
 
         def values(texels: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
-            light = (words[texels] ^ keys[rows][:, None, :]).float() / _TWO_24
+            light = keyed_words(base, table, index[texels], keys[rows], n).float() / _TWO_24
             return estimates(torch.cat([jitter[texels], light], 2), tests)
 
         every = torch.arange(self.texels)

@@ -3,6 +3,8 @@ from the checkpoint, and the shipped key sets (present, valid, and blue on held-
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -96,7 +98,7 @@ def test_keys_over_another_base_are_valid_deterministic_and_recorded(base):
     [
         ({"base": "halton"}, "halton"),
         ({"base": "lattice", "frames": 2}, "screen tile"),
-        ({"base": "zorder", "joint": True}, "screen tile"),
+        ({"base": "zorder", "frames": 2}, "screen tile"),
         ({"base": "zorder", "size": 12}, "power of two"),
     ],
 )
@@ -137,6 +139,22 @@ def test_joint_pairs_share_the_first_ranks_and_keep_its_keys():
     assert np.array_equal(scramble, again[0]) and np.array_equal(rank, again[1])
     # one scrambling stage per joint job, 1 + level per plain one
     assert joint.steps() == 8 * (1 + 2 + 3 + 3)
+
+
+def test_joint_pairs_over_the_zorder_base_permute_its_chunks():
+    """Over ``zorder`` the joint descent starts from the Morton chunks and permutes them: the
+    second pair's keys stay a permutation of the tile's chunks (second channel 0), it takes the
+    first pair's ranks, and the first pair is the plain run's."""
+    opts = dataclasses.replace(SMALL, base="zorder", joint=True, iterations=8)
+    scramble, rank = optimize_keys(opts)
+    plain_scramble, plain_rank = optimize_keys(dataclasses.replace(opts, joint=False))
+    assert np.array_equal(scramble[..., :2], plain_scramble[..., :2])
+    assert np.array_equal(rank[..., 1], rank[..., 0])
+    for level in range(opts.levels):
+        chunks = np.sort(scramble[level, 0, ..., 2].reshape(-1))
+        assert np.array_equal(chunks, np.arange(opts.size**2))
+    assert not scramble[..., 3].any()
+    assert not np.array_equal(scramble[..., 2], plain_scramble[..., 2])
 
 
 def test_a_run_stopped_at_its_deadline_resumes_to_the_same_keys(tmp_path, monkeypatch):
