@@ -44,9 +44,11 @@ def test_strategies_follow_the_table_order_and_unlisted_names_come_last():
     assert strategy_order(names) == [
         "white", "temporal", "oracle", "temporal+demod", "temporal+groups",
     ]  # fmt: skip
-    # the registered classes by rank: temporal_ldbn among LDBN's, vertical with the bounds
+    # the registered classes by rank: temporal_ldbn among LDBN's, the shipped key sets over
+    # other bases (ldbn_zorder) beside ldbn128, vertical with the bounds
     assert strategy_order(STRATEGIES.classes()) == [
         "white", "bnds", "bnds_st", "zsobol", "openqmc_sobolbn", "openqmc_latticebn",
-        "cycles_blue", "zsobol_t", "ldbn", "ldbn128", "ldbn_st", "ldbn_fast", "ldbn_atrous",
+        "cycles_blue", "zsobol_t", "ldbn", "ldbn128", "ldbn_zorder", "ldbn_st", "ldbn_fast",
+        "ldbn_atrous",
         "temporal_ldbn", "temporal_sort", "temporal", "temporal_zsobol", "oracle", "vertical",
     ]  # fmt: skip
