@@ -193,7 +193,17 @@ def test_gap_is_an_ablation_bracketed_by_white_and_the_oracle_on_every_condition
     suite = get_suite("gap")
     cells = list(_cells(suite))
     assert {c[0] for c in cells} == set(renderers.SCENES)
-    assert {c[2] for c in cells} == {1, 4, 16}
+    assert {c[2] for c in cells} == {1, 4, 16, 64}
+    # 64 spp: the a-priori samplers on the goal scenes, bracketed by white and the oracle
+    at_64 = {(c[0], c[1]) for c in cells if c[2] == 64}
+    assert {scene for scene, _ in at_64} == {"direct", "indirect"}
+    assert {s for _, s in at_64} >= {
+        "white",
+        "oracle",
+        "ldbn_zorder",
+        "zsobol",
+        "openqmc_latticebn",
+    }
     conds = {c[4] for c in cells}
     # the coherent region needs no condition: every planned run measures it
     assert {c.region for c in conds} | {ALWAYS_REGION} == set(REGIONS)
@@ -204,8 +214,12 @@ def test_gap_is_an_ablation_bracketed_by_white_and_the_oracle_on_every_condition
     for sweep in suite.sweeps:  # every share has its two bounds and its baseline
         if sweep.strategies == ("vertical",):  # beside the oracle's cells, checked above
             continue
-        assert {"white", "temporal", "oracle", *GAP_BEST[::2]} <= set(sweep.strategies)
+        assert {"white", "oracle"} <= set(sweep.strategies)
         assert {"mse", "mse_blur1", "mse_blur2"} <= set(sweep.metrics)
+        if sweep.spp == (64,):  # the a-priori samplers only: the temporal ones stop at 16
+            assert sweep.reference_spp == 1024 and "temporal" not in sweep.strategies
+            continue
+        assert {"temporal", *GAP_BEST[::2]} <= set(sweep.strategies)
         if sweep.spp != (16,):  # the single options everywhere but at 16 spp
             assert set(GAP_SINGLE) | set(GAP_BEST) <= set(sweep.strategies)
     # one option each, and every option group is covered alone
