@@ -11,7 +11,8 @@ lane's seed as the pixel's key, built for a film 1024 wide and 64 spp.
 The render figure (:func:`measure_render`) is what the goal of issue 27 is stated in: each
 sampler drives an eager ``renderers.render`` of the Cornell box (128 x 128, 16 spp) with the seed
 image its strategy uses (Morton keys for the Z-order samplers, Cycles' scrambled keys for its
-patterns, the shipped screen-space keys for ``ldbn``, random seeds for the others); the renders
+patterns, the shipped screen-space keys for ``ldbn`` and the Z-ordered ones for ``ldbn_zorder``,
+a constant image and frame 3 for OpenQMC's two samplers, random seeds for the others); the renders
 take turns, so every sampler sees the same load, and the ratio is over per-pixel
 ``owen_sobol``'s time (goal: at most 1.2x).
 
@@ -39,7 +40,10 @@ from bnerr.timing import Stopwatch, sync
 __all__ = ["table", "main", "measure", "measure_render", "measure_samples"]
 
 #: The samplers of the render figure, in the order of the table.
-RENDERED = ("white", "owen_sobol", "zsobol", "zsobol_t", "cycles_pure", "cycles_first", "ldbn")
+RENDERED = (
+    *("white", "owen_sobol", "zsobol", "zsobol_t", "cycles_pure", "cycles_first", "ldbn"),
+    *("ldbn_zorder", "openqmc_sobolbn", "openqmc_latticebn"),
+)
 #: The render figure's goal: at most this times per-pixel Owen-Sobol's render time.
 RENDER_GOAL = 1.2
 
@@ -52,9 +56,9 @@ def _lanes(n: int, device: torch.device) -> tuple[torch.Tensor, torch.Tensor, to
     return seed, index, pixel
 
 
-def _ldbn_strategy(size: int, spp: int) -> LDBNStrategy:
-    strategy = make_strategy("ldbn", size, size, seed=0, spp=spp)
-    assert isinstance(strategy, LDBNStrategy)  # the class registered as "ldbn"
+def _ldbn_strategy(size: int, spp: int, name: str = "ldbn") -> LDBNStrategy:
+    strategy = make_strategy(name, size, size, seed=0, spp=spp)
+    assert isinstance(strategy, LDBNStrategy)  # the classes registered as "ldbn", "ldbn_*"
     return strategy
 
 
@@ -85,6 +89,10 @@ def _render_setups(size: int, spp: int) -> dict[str, tuple[Any, torch.Tensor]]:
         "cycles_pure": (make_sampler("cycles_pure", spp=spp), cycles_keys(size, size)),
         "cycles_first": (make_sampler("cycles_first", spp=spp), cycles_keys(size, size)),
         "ldbn": (_ldbn_strategy(size, spp).sampler(0), seeds),
+        "ldbn_zorder": (_ldbn_strategy(size, spp, "ldbn_zorder").sampler(0), seeds),
+        # OpenQMC's strategies pass a constant seed image (not read) and a frame number
+        "openqmc_sobolbn": (make_sampler("openqmc_sobolbn", frame=3), seeds * 0),
+        "openqmc_latticebn": (make_sampler("openqmc_latticebn", frame=3), seeds * 0),
     }
 
 

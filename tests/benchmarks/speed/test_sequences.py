@@ -23,4 +23,5 @@ def test_sequences_times_each_sampler_call_and_each_driven_render(monkeypatch):
     assert figures["sample"] and all(
         set(row) == {2} and row[2] > 0 for row in figures["sample"].values()
     )
-    assert figures["render"] and all(s > 0 for s in figures["render"].values())
+    assert set(figures["render"]) == set(sequences.RENDERED)
+    assert all(s > 0 for s in figures["render"].values())
