@@ -41,9 +41,11 @@ from renderers.layout import Layout
 
 __all__ = [
     "VARIANTS",
+    "Context",
     "PairMix",
     "ReusedChoice",
     "Row",
+    "capture",
     "draw",
     "lane_values",
     "measure",
@@ -164,7 +166,7 @@ def random_ldbn_keys(like: LDBNKeys, seed0: int, seed: int = 5) -> LDBNKeys:
 
 
 @dataclass(frozen=True)
-class _Context:
+class Context:
     """What every draw of one measurement shares."""
 
     size: int
@@ -173,13 +175,15 @@ class _Context:
     layout: Layout
 
 
-def _strategy_draw(name: str, ctx: _Context, s: int, **options: object) -> Draw:
+def _strategy_draw(name: str, ctx: Context, s: int, **options: object) -> Draw:
     """The seeds and sampler that strategy ``name`` (seed set ``s``) renders frame t with."""
     strategy = make_strategy(name, ctx.size, ctx.size, seed=s, spp=ctx.spp, **options)  # type: ignore[arg-type]
-    return _capture(strategy, ctx)
+    return capture(strategy, ctx)
 
 
-def _capture(strategy: object, ctx: _Context) -> Draw:
+def capture(strategy: object, ctx: Context) -> Draw:
+    """The seeds and sampler ``strategy`` renders frame ``ctx.t`` with: its one render call,
+    captured instead of run (a ``ctx.size`` square image)."""
     got: list[Draw] = []
 
     def render(seeds: torch.Tensor, sampler: Sampler) -> Frame:
@@ -192,26 +196,26 @@ def _capture(strategy: object, ctx: _Context) -> Draw:
     return got[0]
 
 
-def _random_ldbn(seed0: int) -> Callable[[_Context, int], Draw]:
-    def draw(ctx: _Context, s: int) -> Draw:
+def _random_ldbn(seed0: int) -> Callable[[Context, int], Draw]:
+    def draw(ctx: Context, s: int) -> Draw:
         shipped = _strategy_draw("ldbn", ctx, s)[1]
         keys = random_ldbn_keys(shipped.keys, seed0)  # type: ignore[attr-defined]
         strategy = LDBNStrategy(ctx.size, ctx.size, seed=s, keys=[keys], spp=ctx.spp)
-        return _capture(strategy, ctx)
+        return capture(strategy, ctx)
 
     return draw
 
 
-def _mixed(pairs: tuple[int, ...], name: str = "ldbn") -> Callable[[_Context, int], Draw]:
-    def draw(ctx: _Context, s: int) -> Draw:
+def _mixed(pairs: tuple[int, ...], name: str = "ldbn") -> Callable[[Context, int], Draw]:
+    def draw(ctx: Context, s: int) -> Draw:
         seeds, ldbn = _strategy_draw(name, ctx, s)
         return seeds, PairMix(make_sampler("owen_sobol"), ldbn, pairs)
 
     return draw
 
 
-def _reused(name: str) -> Callable[[_Context, int], Draw]:
-    def draw(ctx: _Context, s: int) -> Draw:
+def _reused(name: str) -> Callable[[Context, int], Draw]:
+    def draw(ctx: Context, s: int) -> Draw:
         seeds, sampler = _strategy_draw(name, ctx, s)
         return seeds, ReusedChoice(sampler, ctx.layout)
 
@@ -219,7 +223,7 @@ def _reused(name: str) -> Callable[[_Context, int], Draw]:
 
 
 #: Variant -> its draw of seed set s; the ratios are to ``white`` (per-pixel Owen-Sobol).
-VARIANTS: dict[str, Callable[[_Context, int], Draw]] = {
+VARIANTS: dict[str, Callable[[Context, int], Draw]] = {
     "white": lambda ctx, s: _strategy_draw("white", ctx, s),
     "white, sampler white (iid)": lambda ctx, s: _strategy_draw("white", ctx, s, sampler="white"),
     "zsobol": lambda ctx, s: _strategy_draw("zsobol", ctx, s),
@@ -241,7 +245,7 @@ def draw(name: str, layout: Layout, s: int, *, size: int, spp: int = 4, t: int =
     seed set ``s`` (``size x size``, on a scene of ``layout``)."""
     if name not in VARIANTS:
         raise ValueRangeError(f"name: expected a variant among {list(VARIANTS)}, got {name!r}")
-    return VARIANTS[name](_Context(size, spp, t, layout), s)
+    return VARIANTS[name](Context(size, spp, t, layout), s)
 
 
 @dataclass(frozen=True)
