@@ -49,6 +49,7 @@ def blurred_share(
     seed0: int = SHIPPED_SEED0,
     base: str = "sobol",
     level: int | None = None,
+    drift: int = 0,
 ) -> float:
     """The share of the error variance a Gaussian blur keeps (module docstring).
 
@@ -63,6 +64,12 @@ def blurred_share(
         base: the base point set the keys act on (:mod:`bnerr.sequences.ldbn_bases`).
         level: the keys' level (their tile's ``2^l`` samples; ``zorder`` chunks are ``2^l``
             long); default: the smallest that holds every ranked index.
+        drift: how far each texel's test integrands are moved from its left and upper
+            neighbour's, in units of ``1 / T`` of each pair's square: texel ``(y, x)``
+            evaluates the tests at its points plus ``drift (x, y) / T`` modulo 1 (an integer, so
+            the shift wraps with the tile). 0: every texel integrates the same functions, as
+            the optimizer assumed; in a render neighbouring pixels integrate different ones (a
+            shadow edge moves in the light's square from pixel to pixel).
     """
     if scramble.ndim != 4 or rank.shape[:3] != scramble.shape[:3]:
         raise ShapeError(
@@ -71,19 +78,15 @@ def blurred_share(
         )
     frames, size = scramble.shape[0], scramble.shape[1]
     spp = check_positive_int(spp, "spp")
-    pairs = (pair,) if isinstance(pair, int) else tuple(pair)
-    bad = any(not 0 <= p < rank.shape[3] for p in pairs) or len(set(pairs)) < len(pairs)
-    if bad or not 1 <= len(pairs) <= 2:
-        raise ValueRangeError(
-            f"pair: expected one or two distinct pairs in [0, {rank.shape[3]}) (the keys' "
-            f"dimension pairs; the test integrands have 2 or 4 dimensions), got {pair!r}"
-        )
+    pairs = _check_pairs(pair, rank.shape[3])
     if level is None:
         level = max(int(rank[..., p].max()) for p in pairs).bit_length()
         level = max(level, (spp - 1).bit_length())
     points = torch.cat(
         [_pair_points(scramble, rank, spp, p, (seed0, base, level)) for p in pairs], 2
     )
+    if check_positive_int(drift, "drift", minimum=0):
+        points = (points + _drift(frames, size, drift).repeat(1, len(pairs))[:, None]) % 1
     seed = 1_000_003 + pairs[0] if len(pairs) == 1 else 2_000_003 + 7919 * pairs[0] + pairs[-1]
     err = estimates(points, make_integrands(tests, seed, 2 * len(pairs))).double()
     err = err.reshape(frames, size, size, -1).permute(0, 3, 1, 2)
@@ -93,6 +96,25 @@ def blurred_share(
     kept = (blurred**2).sum((2, 3))
     valid = raw > 0
     return float((kept[valid] / raw[valid]).mean())
+
+
+def _check_pairs(pair: int | tuple[int, ...], count: int) -> tuple[int, ...]:
+    """``pair`` as a tuple of one or two distinct pairs among the keys' ``count``."""
+    pairs = (pair,) if isinstance(pair, int) else tuple(pair)
+    bad = any(not 0 <= p < count for p in pairs) or len(set(pairs)) < len(pairs)
+    if bad or not 1 <= len(pairs) <= 2:
+        raise ValueRangeError(
+            f"pair: expected one or two distinct pairs in [0, {count}) (the keys' dimension "
+            f"pairs; the test integrands have 2 or 4 dimensions), got {pair!r}"
+        )
+    return pairs
+
+
+def _drift(frames: int, size: int, drift: int) -> torch.Tensor:
+    """``[F T^2, 2]`` each texel's shift ``drift (x, y) / T`` of its points (``blurred_share``)."""
+    coords = torch.arange(size, dtype=torch.float32) * drift / size
+    y, x = torch.meshgrid(coords, coords, indexing="ij")
+    return torch.stack([x, y], -1).reshape(-1, 2).repeat(frames, 1)
 
 
 def _pair_points(
