@@ -95,12 +95,27 @@ def _laine_karras(value: torch.Tensor, seed: torch.Tensor) -> torch.Tensor:
     return value ^ ((value * _LAINE_KARRAS[2]) & MASK32)
 
 
+_SOBOL_BYTES: dict[tuple[int, torch.device], tuple[torch.Tensor, torch.Tensor]] = {}
+
+
+def _sobol_byte_tables(dimension: int, device: torch.device) -> tuple[torch.Tensor, torch.Tensor]:
+    """``[256]`` int64 twice: the XOR of dimension's columns 0-7 (then 8-15) over each byte."""
+    if (dimension, device) not in _SOBOL_BYTES:
+        byte = torch.arange(256, dtype=torch.int64)
+        columns = _SOBOL_REVERSED[dimension]
+        low, high = torch.zeros_like(byte), torch.zeros_like(byte)
+        for j in range(8):
+            low ^= ((byte >> j) & 1) * columns[j]
+            high ^= ((byte >> j) & 1) * columns[j + 8]
+        _SOBOL_BYTES[dimension, device] = (low.to(device), high.to(device))
+    return _SOBOL_BYTES[dimension, device]
+
+
 def _sobol_reversed(index16: torch.Tensor, dimension: int) -> torch.Tensor:
-    """``sobolReversedIndex``: the XOR of dimension's columns over the set bits of a 16-bit word."""
-    out = torch.zeros_like(index16)
-    for j, column in enumerate(_SOBOL_REVERSED[dimension]):
-        out ^= ((index16 >> j) & 1) * column
-    return out
+    """``sobolReversedIndex``: the XOR of dimension's columns over the set bits of a 16-bit word
+    (two byte lookups: the XOR is linear, so the low and the high byte's parts are independent)."""
+    low, high = _sobol_byte_tables(dimension, index16.device)
+    return low[index16 & 0xFF] ^ high[index16 >> 8]
 
 
 def _rotate_bytes(key: torch.Tensor, count: int) -> torch.Tensor:
