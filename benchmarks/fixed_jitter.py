@@ -56,9 +56,7 @@ class FixedJitter(Sampler):
         pixel: torch.Tensor | None,
     ) -> torch.Tensor:
         out = self.inner.sample(seed, index, dim, count, pixel).clone()  # [N, count]
-        pinned = range(dim, min(dim + count, 2))
-        if len(pinned):
-            out[:, pinned.start - dim : pinned.stop - dim] = 0.5
+        out[:, : max(2 - dim, 0)] = 0.5  # the columns of dims dim .. 1, none from dim 2 on
         return out
 
     def __repr__(self) -> str:

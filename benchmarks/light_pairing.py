@@ -280,7 +280,7 @@ def _moments(lum: torch.Tensor, ref: torch.Tensor) -> _Moments:
     """Per-pixel variance across seed sets, raw MSE, each seed set's raw MSE ``[S]`` and the
     MSE after a sigma-2 blur of ``lum [S, H, W]`` against ``ref``."""
     per_set = (lum - ref).square().flatten(1).mean(1)
-    blurred = blurred_mse(lum, ref.expand_as(lum), 2.0).mean()
+    blurred = blurred_mse(lum, ref.expand_as(lum), 2.0)  # pooled over the S seed sets
     return float(lum.var(0).mean()), float(per_set.mean()), per_set, float(blurred)
 
 

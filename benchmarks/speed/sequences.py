@@ -91,8 +91,8 @@ def _render_setups(size: int, spp: int) -> dict[str, tuple[Any, torch.Tensor]]:
         "ldbn": (_ldbn_strategy(size, spp).sampler(0), seeds),
         "ldbn_zorder": (_ldbn_strategy(size, spp, "ldbn_zorder").sampler(0), seeds),
         # OpenQMC's strategies pass a constant seed image (not read) and a frame number
-        "openqmc_sobolbn": (make_sampler("openqmc_sobolbn", frame=3), seeds * 0),
-        "openqmc_latticebn": (make_sampler("openqmc_latticebn", frame=3), seeds * 0),
+        "openqmc_sobolbn": (make_sampler("openqmc_sobolbn", frame=3), torch.zeros_like(seeds)),
+        "openqmc_latticebn": (make_sampler("openqmc_latticebn", frame=3), torch.zeros_like(seeds)),
     }
 
 
