@@ -5,8 +5,8 @@ disagree three times more than the other scenes' (the spread of their log ratios
 diagnosis finds where that spread lives. It renders seed sets of white and one rival in a scene
 of the quality suite, at the suite's settings (its frames, its references, its denoisers with
 the parameters tuned in ``results/quality``), and splits each seed set's pooled post-denoise
-squared error between the pixels next to a directly visible light (:func:`light_pixels`: the
-reference's first hit is an emitter, grown by ``grow`` pixels) and the rest:
+squared error between the pixels next to a directly visible light (:func:`bnerr.metrics.light_mask`:
+the reference's first hit is a light, grown by ``grow`` pixels) and the rest:
 
 - ``share``: the fraction of white's squared error in the light's pixels;
 - ``spread``: the standard deviation over seed sets of ``log(rival MSE / white MSE)``, over every
@@ -30,31 +30,15 @@ from typing import TYPE_CHECKING
 
 import torch
 
-from bnerr.errors import ShapeError, ValueRangeError, check_positive_int
-from bnerr.metrics import paired_ratio
+from bnerr.errors import ValueRangeError, check_positive_int
+from bnerr.metrics import light_mask, paired_ratio
 
 if TYPE_CHECKING:
     from benchmarks.sweep.measure import References
     from benchmarks.sweep.parts import Denoiser, Parts, Scene
     from benchmarks.sweep.plan import Run
 
-__all__ = ["light_pixels", "log_ratio_spread", "seed_set_errors"]
-
-
-def light_pixels(object_id: torch.Tensor, lights: Sequence[int], grow: int = 1) -> torch.Tensor:
-    """``[H, W]`` bool: the pixels within ``grow`` pixels (a square window) of one whose first
-    hit, ``object_id [1, H, W]`` (a frame's buffer: the object index as a float), is one of the
-    scene's ``lights`` (:attr:`renderers.Scene.lights`)."""
-    if object_id.dim() != 3 or object_id.shape[0] != 1:
-        raise ShapeError(f"object_id: expected [1, H, W], got {list(object_id.shape)}")
-    check_positive_int(grow, "grow", minimum=0)
-    ids = object_id.round().long()
-    hit = torch.zeros_like(ids, dtype=torch.bool)
-    for light in lights:
-        hit |= ids == light
-    size = 2 * grow + 1
-    grown = torch.nn.functional.max_pool2d(hit[None].float(), size, stride=1, padding=grow)
-    return grown[0, 0] > 0
+__all__ = ["log_ratio_spread", "seed_set_errors"]
 
 
 def seed_set_errors(errors: Sequence[torch.Tensor], mask: torch.Tensor) -> tuple[float, float]:
@@ -149,7 +133,7 @@ def _measure(args: argparse.Namespace) -> None:
     if ref.object_id is None:
         raise ValueRangeError(f"{args.scene}: expected a reference with an object_id buffer")
     # a scene that renders itself (Mitsuba XML) names no lights here: then no pixel is the light's
-    mask = light_pixels(ref.object_id, getattr(scene, "lights", ()), args.grow)
+    mask = light_mask(ref.object_id, getattr(scene, "lights", ()), args.grow)
     per: dict[str, dict[str, list[tuple[float, float]]]] = {"white": {}, args.rival: {}}
     for name, run in runs.items():
         denoisers = {

@@ -91,7 +91,7 @@ __all__ = [
 ]
 
 #: Pixel regions the metrics can be restricted to.
-REGIONS: tuple[str, ...] = ("all", "edges", "coherent")
+REGIONS: tuple[str, ...] = ("all", "edges", "coherent", "unlit")
 
 #: Per-pixel samplers a strategy can draw its sequences from (the strategies with their own
 #: sampler, bnds and the rivals, ignore the choice); plug-in samplers too
@@ -113,7 +113,11 @@ class Condition:
             discontinuity of the reference (:func:`bnerr.metrics.edge_mask`), or
             ``"coherent"``: the spatio-temporally coherent pixels where the seed paper says its
             method works (:func:`bnerr.metrics.coherent_mask`). The named suites measure it in
-            every run (``Suite.coherent``): its renders are shared.
+            every run (``Suite.coherent``): its renders are shared. Or ``"unlit"``: every pixel
+            but those within one pixel of a light the camera sees (:func:`bnerr.metrics.
+            light_mask`), whose edge, decided by the pixel jitter alone, otherwise holds most of
+            the squared error (the Cornell box's, docs/FINDINGS.md); every pixel in a scene
+            whose lights are out of view.
         sampler: the per-pixel sequences of white, temporal, temporal_sort and oracle:
             ``"owen_sobol"`` (the strategies' default) or ``"white"`` (a hash). The strategies
             with their own sampler (bnds and the rivals, ``bnerr.strategies.OWN_SAMPLERS``) ignore
@@ -213,6 +217,13 @@ class Suite:
             (:func:`benchmarks.sweep.plan.plan`; the renders are shared, so it costs only the
             metrics). True for every named suite; False keeps a hand-built suite's cells as
             its sweeps' conditions say.
+        resolve: with ``bnerr bench --until-resolved``, the pixel regions whose open verdicts
+            add seed sets (:func:`benchmarks.sweep.adaptive.run_until_resolved`); empty: every
+            region's (``--resolve`` overrides it).
+        stop_settled: with ``--until-resolved``, a cell whose verdict is settled gets no more
+            seed sets although its run grows for another cell: the run keeps only the denoisers
+            with an open cell (``--stop-settled`` sets it). Off: every cell of a growing run is
+            judged again at each look.
     """
 
     name: str
@@ -222,6 +233,12 @@ class Suite:
     crops: bool = True
     crops_every_spp: bool = False
     coherent: bool = False
+    resolve: tuple[str, ...] = ()
+    stop_settled: bool = False
+
+    def __post_init__(self) -> None:
+        for region in self.resolve:
+            check_name(region, REGIONS, "resolve region")
 
 
 class _Sets(TypedDict):

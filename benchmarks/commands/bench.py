@@ -41,7 +41,9 @@ the suite's seed sets, the runs of every scene, condition and spp whose decision
 still open are measured again at the next look (doubled seed sets, or B more), up to the cap
 (default 32), under a group-sequential design that keeps every verdict's 95 % coverage
 (:mod:`bnerr.metrics.sequential`); ``--resume`` continues an interrupted run to the same
-verdicts.
+verdicts. ``--resolve REGION...`` lets only those pixel regions' open verdicts add seed sets
+(default: the suite's ``resolve``, else every region); ``--stop-settled`` gives a settled cell
+no more seed sets although its run grows for another one.
 
 ``--ray [auto|local|HOST:PORT]`` runs the same cells as Ray tasks
 (:mod:`benchmarks.sweep.ray_runner`; the ``cluster`` extra): ``auto`` (the default when the flag has
@@ -72,7 +74,7 @@ from benchmarks.commands._args import (
 from benchmarks.reports import write_report
 from benchmarks.reports.page import write_index
 from benchmarks.speed import rewrite_speed_report, run_speed
-from benchmarks.suites import SUITES, Suite
+from benchmarks.suites import REGIONS, SUITES, Suite
 from benchmarks.sweep import runner
 from benchmarks.sweep.adaptive import DEFAULT_CAP, run_until_resolved
 from benchmarks.sweep.external_renderer import external_parts, renderer_suite
@@ -188,6 +190,21 @@ def _add_adaptive_options(parser: argparse.ArgumentParser) -> None:
         "--batch",
         type=positive_int,
         help="with --until-resolved: seed sets added per look (default: doubled each look)",
+    )
+    add(
+        "--resolve",
+        nargs="+",
+        choices=REGIONS,
+        metavar="REGION",
+        help="with --until-resolved: the pixel regions whose open verdicts add seed sets "
+        f"(default: the suite's, else every region; from {', '.join(REGIONS)})",
+    )
+    add(
+        "--stop-settled",
+        action="store_true",
+        default=None,
+        help="with --until-resolved: a settled cell gets no more seed sets although its run "
+        "grows for another cell (default: the suite's setting)",
     )
 
 
@@ -323,9 +340,11 @@ def _renderer(args: argparse.Namespace) -> ExternalRenderer | None:
 
 
 def _check_adaptive(args: argparse.Namespace) -> None:
-    """--seed-set-cap and --batch only with --until-resolved, which measures (no --report-only)."""
+    """--seed-set-cap, --batch, --resolve and --stop-settled only with --until-resolved, which
+    measures (no --report-only)."""
     if not args.until_resolved:
-        given = [f for f in ("seed_set_cap", "batch") if getattr(args, f) is not None]
+        options = ("seed_set_cap", "batch", "resolve", "stop_settled")
+        given = [f for f in options if getattr(args, f) is not None]
         if given:
             flags = ", ".join("--" + f.replace("_", "-") for f in given)
             raise ValueRangeError(f"{flags}: expected with --until-resolved, got without it")
@@ -386,7 +405,14 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     if args.until_resolved:
         cap = DEFAULT_CAP if args.seed_set_cap is None else args.seed_set_cap
         records = run_until_resolved(
-            suite, out, cap=cap, batch=args.batch, measure=measure, **common
+            suite,
+            out,
+            cap=cap,
+            batch=args.batch,
+            measure=measure,
+            resolve=args.resolve,
+            stop_settled=args.stop_settled,
+            **common,
         )
     else:
         records = measure(suite, out, **common)

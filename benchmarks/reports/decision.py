@@ -290,15 +290,27 @@ def _headline_cell(row: dict | None, rivals: int, rival: dict | None) -> str:
     return f"**{text}**{sets}" if said == "better" else text + _MARKS[said] + sets
 
 
+def _in_all(group: tuple) -> tuple:
+    """``group`` (:func:`benchmarks.reports.groups.group_key`) with its region set to every
+    pixel."""
+    return (*group[:3], "all", *group[4:])
+
+
 def _headline_cells(
-    rows: Sequence[dict], denoisers: Sequence[str], scenes: Sequence[str], exclude: Sequence[str]
+    rows: Sequence[dict],
+    denoisers: Sequence[str],
+    scenes: Sequence[str],
+    exclude: Sequence[str],
+    region: str = "all",
 ) -> list[tuple[str, int, list[tuple[dict | None, int, dict | None]]]]:
     """The headline's rows: (scene, spp, per denoiser the best row, its m and the lowest rival),
-    for the scenes without a condition, in ``scenes``' order."""
+    for the scenes without a condition but ``region``, in ``scenes``' order."""
     best = best_rows(rows, exclude)
     lowest = best_rows(rows, [*exclude, baseline()])
     rivals = rival_counts(rows, exclude)
-    plain = {k[0] for k in best if group_title(k[0]) == k[0][0]}
+    plain = {  # the scene's own condition, in ``region``
+        k[0] for k in best if k[0][3] == region and group_title(_in_all(k[0])) == k[0][0]
+    }
     return [
         (
             scene,
@@ -323,12 +335,14 @@ def headline_table(
     denoisers: Sequence[str],
     scenes: Sequence[str],
     exclude: Sequence[str] | None = None,
+    region: str = "all",
 ) -> str:
     """The README's headline: the decision table of ``scenes`` in that order, each without a
-    condition (the scene's own motion, depth, every pixel, the default sampler), one column per
-    denoiser of ``denoisers``, each cell the best strategy, its ratio to white and the seed sets
-    its verdict rests on (bold: below white beyond the interval). Markdown lines, no title."""
-    cells = _headline_cells(rows, denoisers, scenes, _excludes(rows, exclude))
+    condition (the scene's own motion, depth, the default sampler) in pixel ``region`` (every
+    pixel by default), one column per denoiser of ``denoisers``, each cell the best strategy,
+    its ratio to white and the seed sets its verdict rests on (bold: below white beyond the
+    interval). Markdown lines, no title."""
+    cells = _headline_cells(rows, denoisers, scenes, _excludes(rows, exclude), region)
     body = [[scene, str(spp)] + [_headline_cell(*c) for c in row] for scene, spp, row in cells]
     return "\n".join(table_lines(["scene", "spp", *denoisers], body)) + "\n"
 
@@ -338,15 +352,15 @@ def headline_summary(
     denoisers: Sequence[str],
     scenes: Sequence[str],
     exclude: Sequence[str] | None = None,
+    region: str = "all",
 ) -> str:
-    """The README's count of the headline's verdicts, one sentence: how many of its cells are
-    bold (a strategy below white), equal to white within the margin, worse (white lowest and its
-    rival above it) and open at the seed sets they reached, and the seed sets the cells took
-    (median and largest)."""
+    """The README's count of the headline's verdicts (:func:`headline_table`'s, in ``region``),
+    one sentence: how many of its cells are bold (a strategy below white), equal to white within
+    the margin, worse (white lowest and its rival above it) and open at the seed sets they
+    reached, and the seed sets the cells took (median and largest)."""
+    excluded = _excludes(rows, exclude)
     cells = [
-        c
-        for _, _, row in _headline_cells(rows, denoisers, scenes, _excludes(rows, exclude))
-        for c in row
+        c for _, _, row in _headline_cells(rows, denoisers, scenes, excluded, region) for c in row
     ]
     said = [_headline_said(*c) for c in cells]
     count = {v: said.count(v) for v in ("better", "equal", "worse", "open")}

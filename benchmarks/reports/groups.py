@@ -46,6 +46,7 @@ def group_title(key: tuple) -> str:
         f"max depth {depth}" if depth is not None else None,
         "object edges only" if region == "edges" else None,
         "coherent regions only" if region == "coherent" else None,
+        "away from visible lights" if region == "unlit" else None,
         f"{sampler} sequences" if sampler != "owen_sobol" else None,
     ]
     shown = [e for e in extra if e]

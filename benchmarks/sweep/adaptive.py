@@ -100,26 +100,44 @@ def adaptive_runs(suite: Suite, cap: int, batch: int | None = None) -> list[Run]
     return [dataclasses.replace(r, looks=designs[r.seed_sets]) for r in runs]
 
 
-def _open_groups(runs: Sequence[Run], records: Sequence[Record]) -> set[tuple]:
-    """The (group key, spp) of the cells whose verdict is open at the runs' current looks,
-    judged on the records of exactly those looks."""
+def _open_cells(
+    runs: Sequence[Run], records: Sequence[Record], regions: Sequence[str] = ()
+) -> set[tuple]:
+    """The (group key, spp, denoiser) of the cells whose verdict is open at the runs' current
+    looks, judged on the records of exactly those looks; with ``regions``, only the cells of
+    those pixel regions count (the others' verdicts are read, not pursued)."""
     planned = {c.key() for run in runs for c in run.cells()}
     current = [r for r in records if r.key in planned and r.has_pixels]
     verdicts = cell_verdicts(summarize(current))
-    return {(key[0], key[1]) for key, (said, _) in verdicts.items() if said == "open"}
+    return {
+        key
+        for key, (said, _) in verdicts.items()
+        if said == "open" and (not regions or key[0][3] in regions)
+    }
 
 
-def grow(runs: Sequence[Run], records: Sequence[Record]) -> list[Run]:
-    """The runs of the next round: those with a cell whose verdict is open, and not yet at their
-    cap, at their next look; the others as they are."""
-    open_groups = _open_groups(runs, records)
+def grow(
+    runs: Sequence[Run],
+    records: Sequence[Record],
+    regions: Sequence[str] = (),
+    stop_settled: bool = False,
+) -> list[Run]:
+    """The runs of the next round: those with a cell whose verdict is open (in one of
+    ``regions``, or in any region when empty), and not yet at their cap, at their next look;
+    the others as they are. ``stop_settled``: a grown run keeps only the denoisers with an open
+    cell, so a settled cell keeps the look that settled it (and a run left without a stateful
+    denoiser skips its warmup frames, as any stateless run does)."""
+    open_cells = _open_cells(runs, records, regions)
+    open_groups = {(group, spp) for group, spp, _ in open_cells}
     out = []
     for run in runs:
-        cells = run.cells()
-        keys = {(group_key(dataclasses.asdict(c)), c.spp) for c in cells}
+        keys = {(group_key(dataclasses.asdict(c)), c.spp) for c in run.cells()}
         if keys & open_groups and run.seed_sets < run.looks[-1]:
             later = [n for n in run.looks if n > run.seed_sets]
-            run = dataclasses.replace(run, seed_sets=later[0])
+            kept = run.denoisers
+            if stop_settled:
+                kept = tuple(d for d in kept if any((*k, d) in open_cells for k in keys))
+            run = dataclasses.replace(run, seed_sets=later[0], denoisers=kept)
         out.append(run)
     return out
 
@@ -215,10 +233,18 @@ def run_until_resolved(
     measure: Measure = run_suite,
     resume: bool = False,
     overwrite: bool = False,
+    resolve: Sequence[str] | None = None,
+    stop_settled: bool | None = None,
     **options: Any,
 ) -> list[Record]:
     """Measure ``suite`` at its seed sets, then add seed sets (doubling, or ``batch`` more) to the
     runs with an open verdict until none is open or each is at ``cap``; return every record.
+
+    ``resolve``: the pixel regions whose open verdicts add seed sets (None: the suite's
+    ``Suite.resolve``; empty: every region). The other regions' cells are measured on the same
+    renders and keep their verdicts, at the seed sets their runs reached. ``stop_settled``
+    (None: the suite's ``Suite.stop_settled``): a settled cell gets no more seed sets although
+    its run grows for another cell (:func:`grow`).
 
     Args:
         measure: :func:`benchmarks.sweep.runner.run_suite` or a function like it (the Ray
@@ -227,6 +253,8 @@ def run_until_resolved(
         options: passed to ``measure`` (parts, cache_dir, progress, ...).
     """
     runs = adaptive_runs(suite, cap, batch)
+    regions = tuple(suite.resolve if resolve is None else resolve)
+    stop = suite.stop_settled if stop_settled is None else stop_settled
     first = {"resume": resume, "overwrite": overwrite}
     held = _kept(out_dir) if resume else []
     judged = redesign(runs, held)
@@ -235,7 +263,7 @@ def run_until_resolved(
         held = judged
     held, replayed = _measure_round(measure, suite, out_dir, runs, held, **first, **options)
     while True:
-        grown = grow(runs, held + replayed)
+        grown = grow(runs, held + replayed, regions, stop)
         if grown == runs:
             return held + replayed
         runs = grown

@@ -54,6 +54,7 @@ from bnerr.metrics import (
     PreparedReference,
     coherent_mask,
     edge_mask,
+    light_mask,
     temporal_correlation,
 )
 from bnerr.spectrum import radial_power_spectrum
@@ -118,7 +119,12 @@ def _coherent(run: Run, ref: Frame, prev: Frame | None) -> torch.Tensor:
     return coherent_mask(scaled, prev)
 
 
-def _region_masks(run: Run, ref: Frame, prev: Frame | None) -> dict[str, torch.Tensor | None]:
+def _region_masks(
+    run: Run, ref: Frame, prev: Frame | None, lights: tuple[int, ...] = ()
+) -> dict[str, torch.Tensor | None]:
+    """Each region's pixel mask from the reference (None: every pixel). ``unlit``: every pixel
+    but those within one pixel of a visible light (``lights``, the scene's; None where the
+    camera sees none, so that the region's metrics are the whole image's bit for bit)."""
     masks: dict[str, torch.Tensor | None] = {}
     for region in run.regions:
         if region == "all":
@@ -130,6 +136,9 @@ def _region_masks(run: Run, ref: Frame, prev: Frame | None) -> dict[str, torch.T
             )
         elif region == "coherent":
             masks[region] = _coherent(run, ref, prev)
+        elif region == "unlit":
+            lit = light_mask(ref.object_id, lights, radius=1)
+            masks[region] = ~lit if bool(lit.any()) else None
         else:
             masks[region] = edge_mask(ref.object_id, radius=1)
     return masks
@@ -205,8 +214,10 @@ def _update_regions(
 class _SeedSetMeasurement:
     """Everything measured in one seed set: metrics, timings, spectra and crops, per cell."""
 
-    def __init__(self, run: Run, group: int, denoisers: dict[str, Denoiser]) -> None:
-        self.run, self.group, self.denoisers = run, group, denoisers
+    def __init__(
+        self, run: Run, group: int, denoisers: dict[str, Denoiser], lights: tuple[int, ...] = ()
+    ) -> None:
+        self.run, self.group, self.denoisers, self.lights = run, group, denoisers, lights
         metrics, regions = run.metrics, run.regions
         self.raw = {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions}
         self.den = {
@@ -258,10 +269,10 @@ class _SeedSetMeasurement:
         self.measured_t.append(t)
         if ref.variance is not None:
             self.floors.append(float(ref.variance.to(torch.float64).mean()))
-        masks = _region_masks(self.run, ref, prev)
+        masks = _region_masks(self.run, ref, prev, self.lights)
         for region, mask in masks.items():
-            if mask is not None:
-                self.coverage[region].append(float(mask.double().mean()))
+            if region in self.coverage:
+                self.coverage[region].append(1.0 if mask is None else float(mask.double().mean()))
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         target = PreparedReference(ref.color)  # the reference's share of the metrics, once
@@ -421,7 +432,9 @@ def measure_seed_set(
         )
     scene = scene_for(run, parts)
     chosen = {name: denoisers[name] for name in run.denoisers}
-    measurement = _SeedSetMeasurement(run, group, chosen)
+    # a scene that renders itself (a Mitsuba XML scene) names no lights: its unlit region is all
+    lights = tuple(getattr(scene, "lights", ()))
+    measurement = _SeedSetMeasurement(run, group, chosen, lights)
     tick = on_frame if on_frame is not None else (lambda: None)
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp

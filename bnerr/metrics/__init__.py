@@ -3,8 +3,9 @@
 One module per concern (docs/METHODS.md, section 6):
 
 - :mod:`bnerr.metrics.image`: the per-image metrics (``mse``, ``relmse``, ``psnr``, ``ssim``, the
-  blurred MSEs, ``flip``, ``lowfreq``), the pixel mask of object edges, the error's correlation
-  from frame to frame, and :class:`ImagePair`, the update half of every metric;
+  blurred MSEs, ``flip``, ``lowfreq``), the pixel masks of object edges and of visible lights,
+  the error's correlation from frame to frame, and :class:`ImagePair`, the update half of every
+  metric;
 - :mod:`bnerr.metrics.regions`: :func:`coherent_mask`, the spatio-temporally coherent pixels
   (one object, similar normals, depth and albedo in a 5x5 window, no disocclusion);
 - :mod:`bnerr.metrics.frames`: the metrics' table (:data:`METRIC_TABLE`, name -> update and
@@ -41,6 +42,7 @@ from bnerr.metrics.image import (
     edge_mask,
     flip,
     flip_available,
+    light_mask,
     lowfreq,
     mse,
     psnr,
@@ -98,6 +100,7 @@ __all__ = [
     "check_bootstrap",
     "coherent_mask",
     "edge_mask",
+    "light_mask",
     "equivalent",
     "flip",
     "flip_available",

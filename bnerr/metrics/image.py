@@ -79,6 +79,7 @@ __all__ = [
     "edge_mask",
     "flip",
     "flip_available",
+    "light_mask",
     "lowfreq",
     "masked_sum",
     "mse",
@@ -679,3 +680,37 @@ def temporal_correlation(
     a, b = a - fixed_sum(a) / a.numel(), b - fixed_sum(b) / b.numel()
     denom = math.sqrt(float(fixed_sum(a * a)) * float(fixed_sum(b * b)))
     return float(fixed_sum(a * b)) / denom if denom > 0 else 0.0
+
+
+def light_mask(
+    object_id: torch.Tensor, lights: tuple[int, ...] | list[int], radius: int = 1
+) -> torch.Tensor:
+    """Pixels within ``radius`` pixels (Chebyshev) of one whose first hit is a light: ``[H, W]``
+    bool.
+
+    A light the camera sees is an edge of very high radiance (the Cornell box's, 18.6 against a
+    0.5 ceiling): the share of it a pixel covers is decided by the pixel jitter alone, and under
+    HDR MSE those few pixels outweigh the rest of the image (docs/FINDINGS.md). The suites'
+    ``unlit`` region is every pixel but these.
+
+    Args:
+        object_id: ``[1, H, W]`` (a Frame's ``object_id``, the object index as a float) or
+            ``[H, W]``.
+        lights: the object indices of the lights (:attr:`renderers.Scene.lights`); none: no pixel.
+        radius: dilation radius in pixels, >= 0.
+    """
+    check_tensor(object_id, "object_id")
+    ids = object_id[0] if object_id.ndim == 3 and object_id.shape[0] == 1 else object_id
+    check_shape(ids, "H W", "object_id")
+    check_positive_int(radius, "radius", minimum=0)
+    rounded = ids.round().long()
+    hit = torch.zeros(ids.shape, dtype=torch.bool, device=ids.device)
+    for light in lights:
+        hit |= rounded == int(light)
+    if radius > 0 and bool(hit.any()):
+        size = 2 * radius + 1
+        grown = torch.nn.functional.max_pool2d(
+            hit[None, None].float(), size, stride=1, padding=radius
+        )
+        hit = grown[0, 0] > 0
+    return hit

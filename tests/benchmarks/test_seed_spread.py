@@ -7,23 +7,8 @@ import math
 import pytest
 import torch
 
-from benchmarks.seed_spread import light_pixels, log_ratio_spread, seed_set_errors
-from bnerr.errors import ShapeError, ValueRangeError
-
-
-def test_light_pixels_are_the_lights_first_hits_grown_by_a_square_window():
-    ids = torch.full((1, 6, 7), 2.0)
-    ids[0, 2, 3] = 5.0  # a light
-    ids[0, 5, 6] = 4.0  # another light, in the corner
-    ids[0, 0, 0] = -1.0  # background
-    want = torch.zeros(6, 7, dtype=torch.bool)
-    want[1:4, 2:5] = True
-    want[4:6, 5:7] = True
-    assert torch.equal(light_pixels(ids, (5, 4), grow=1), want)
-    assert torch.equal(light_pixels(ids, (5, 4), grow=0), (ids[0] == 5) | (ids[0] == 4))
-    assert not light_pixels(ids, (), grow=3).any()  # no light: no pixel
-    with pytest.raises(ShapeError):
-        light_pixels(ids[0], (5,))
+from benchmarks.seed_spread import log_ratio_spread, seed_set_errors
+from bnerr.errors import ValueRangeError
 
 
 def test_seed_set_errors_pool_every_pixel_and_the_rest():

@@ -84,8 +84,9 @@ def test_stability_varies_each_failure_axis():
     scenes = {c[0] for c in cells}
     assert {"snooker", "snooker_plain"} <= scenes <= set(renderers.SCENES)
     conds = {c[4] for c in cells}
-    # the coherent region needs no condition: every planned run measures it
-    assert {c.region for c in conds} | {ALWAYS_REGION} == set(REGIONS)
+    # the coherent region needs no condition: every planned run measures it; the unlit region
+    # differs from every pixel only where the camera sees a light (the Cornell box)
+    assert {c.region for c in conds} | {ALWAYS_REGION, "unlit"} == set(REGIONS)
     assert {c.sampler for c in conds} == set(SAMPLERS)
     assert {0, 1} < {c.motion for c in conds} and max(c.motion for c in conds) > 1
     depths = sorted(c.depth for c in conds if c.depth is not None)
@@ -205,8 +206,9 @@ def test_gap_is_an_ablation_bracketed_by_white_and_the_oracle_on_every_condition
         "openqmc_latticebn",
     }
     conds = {c[4] for c in cells}
-    # the coherent region needs no condition: every planned run measures it
-    assert {c.region for c in conds} | {ALWAYS_REGION} == set(REGIONS)
+    # the coherent region needs no condition: every planned run measures it; the unlit region
+    # differs from every pixel only where the camera sees a light (the Cornell box)
+    assert {c.region for c in conds} | {ALWAYS_REGION, "unlit"} == set(REGIONS)
     assert {c.sampler for c in conds} == set(SAMPLERS)
     assert {c.motion for c in conds} == {0, 1, 8}
     vertical = {(c[0], c[2], c[4]) for c in cells if c[1] == "vertical"}

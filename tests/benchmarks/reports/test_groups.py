@@ -32,6 +32,9 @@ def test_a_non_default_condition_is_named_in_title_and_slug():
     coherent = group_key(_row(region="coherent"))
     assert group_title(coherent) == "snooker (coherent regions only)"
     assert group_slug(coherent) == "snooker_coherent"
+    unlit = group_key(_row(region="unlit"))
+    assert group_title(unlit) == "snooker (away from visible lights)"
+    assert group_slug(unlit) == "snooker_unlit"
 
 
 def test_groups_sort_by_scene_then_condition_with_the_scenes_own_depth_first():

@@ -158,6 +158,20 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     assert summary in " ".join(readme.split()), summary
 
 
+def test_the_headline_reads_one_pixel_region_every_pixel_by_default():
+    # the same rows in the unlit region (a copy): that region's headline is the whole image's
+    # table, and the default headline does not read them
+    rows = [r for r in _rows_of("quality") if r["region"] == "all" and r["spp"] == 4]
+    unlit = [dict(r, region="unlit") for r in rows]
+    denoisers, scenes = ["gaussian", "oidn"], ["direct", "cornell"]
+    want = decision.headline_table(rows, denoisers, scenes)
+    assert decision.headline_table(rows + unlit, denoisers, scenes) == want
+    assert decision.headline_table(unlit, denoisers, scenes, region="unlit") == want
+    assert decision.headline_table(rows, denoisers, scenes, region="unlit").count("\n") == 2
+    summary = decision.headline_summary(rows, denoisers, scenes)
+    assert decision.headline_summary(unlit, denoisers, scenes, region="unlit") == summary
+
+
 def test_the_headline_counts_each_verdict_once_with_the_seed_sets_it_took():
     # the 4-spp rows as if they had stopped at the look of 4 seed sets, the others as measured
     rows = [

@@ -23,7 +23,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from benchmarks.sweep.runner import run_suite
-from bnerr.errors import ValueRangeError
+from bnerr.errors import UnknownNameError, ValueRangeError
 from tests._records import metric_pairs, small_record
 from tests._suites import tiny_suite
 
@@ -97,6 +97,70 @@ def test_seed_sets_are_added_only_where_the_verdict_is_open_up_to_the_cap():
     # resumed: the rounds replay from each look's records, nothing is measured again
     adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=measure, resume=True)
     assert all(call == [] for call in measure.calls[4:])
+
+
+def test_only_the_resolved_regions_open_verdicts_add_seed_sets():
+    # the tiny suite measures every pixel: resolving that region is the default design, and
+    # resolving another region (none of its cells) stops at the first look with 4 spp open
+    whole, scoped, other = _StandIn(), _StandIn(), _StandIn()
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=whole)
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=scoped, resolve=("all",))
+    assert scoped.records == whole.records
+    adaptive.run_until_resolved(_suite(), "unused", cap=16, measure=other, resolve=("edges",))
+    assert len(other.calls) == 1
+    assert {r.cell.seed_sets for r in other.records.values()} == {2}
+    # the suite's own resolve is the default, and --resolve overrides it
+    suite = dataclasses.replace(_suite(), resolve=("edges",))
+    own = _StandIn()
+    adaptive.run_until_resolved(suite, "unused", cap=16, measure=own)
+    assert own.records == other.records
+    adaptive.run_until_resolved(suite, "unused", cap=16, measure=own, resolve=())
+    assert own.records.keys() >= whole.records.keys()
+    with pytest.raises(UnknownNameError):
+        dataclasses.replace(_suite(), resolve=("lights",))
+
+
+class _PerDenoiser(_StandIn):
+    """The stand-in with a second denoiser, ``median``, on which every strategy is white noise
+    with a 20 % seed-set spread at every spp (its cells open to the cap)."""
+
+    def __call__(self, suite, out, *, runs, resume, overwrite, **options) -> list[Record]:
+        super().__call__(suite, out, runs=runs, resume=resume, overwrite=overwrite)
+        for key, rec in self.records.items():
+            if rec.cell.denoiser == "median":
+                spread = [_spread(rec.cell, g) for g in range(rec.cell.seed_sets)]
+                self.records[key] = dataclasses.replace(rec, den={"mse": metric_pairs(spread)})
+        return list(self.records.values())
+
+
+def _spread(cell, group: int) -> list[float]:
+    gen = torch.Generator().manual_seed(zlib.crc32(f"{cell.strategy} {cell.spp} {group}".encode()))
+    z = float(torch.randn(1, generator=gen, dtype=torch.float64))
+    return [math.exp(0.2 * z + 0.01 * f) for f in range(cell.frames)]
+
+
+def test_a_settled_cell_keeps_its_look_when_its_run_grows_for_another():
+    suite = tiny_suite(spp=(1, 4), denoisers=("gaussian", "median"), seed_sets=2)
+    plain, stopping = _PerDenoiser(), _PerDenoiser()
+    adaptive.run_until_resolved(suite, "unused", cap=8, measure=plain)
+    adaptive.run_until_resolved(suite, "unused", cap=8, measure=stopping, stop_settled=True)
+
+    def sets(measure):
+        return {
+            (r.cell.strategy, r.cell.spp, r.cell.denoiser): r.cell.seed_sets
+            for r in final_records(measure.records.values())
+        }
+
+    # at 1 spp gaussian's cell is settled at the first look and median's is open: without
+    # stopping both grow to the cap, with it gaussian's keeps its 2 seed sets
+    assert sets(plain)[("temporal", 1, "gaussian")] == 8
+    assert sets(stopping)[("temporal", 1, "gaussian")] == 2
+    assert sets(stopping)[("white", 1, "gaussian")] == 2
+    assert sets(stopping)[("temporal", 1, "median")] == 8
+    assert sets(stopping)[("temporal", 4, "gaussian")] == 8  # open: grows as before
+    # the records it keeps are the plain run's at that look, seed set for seed set
+    kept = {r.key: r for r in stopping.records.values()}
+    assert all(plain.records[k].den == r.den for k, r in kept.items())
 
 
 def test_an_interrupted_run_resumes_to_the_same_verdicts():

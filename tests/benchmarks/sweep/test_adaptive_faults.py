@@ -85,11 +85,11 @@ class _Stop(BaseException):
 def test_a_run_stopped_between_batches_resumes_to_the_same_verdicts(whole, tmp_path, monkeypatch):
     grow, rounds = adaptive.grow, []
 
-    def stop_after_first(runs, records):
+    def stop_after_first(runs, records, *scope):
         rounds.append(len(records))
         if len(rounds) == 1:
             raise _Stop
-        return grow(runs, records)
+        return grow(runs, records, *scope)
 
     monkeypatch.setattr(adaptive, "grow", stop_after_first)
     out = tmp_path / "out"
@@ -164,11 +164,11 @@ def test_a_plugin_changed_between_batches_is_refused_in_one_line_naming_it(
     plugin.write_text(DENOISER)
     grow, rounds = adaptive.grow, []
 
-    def change_after_first(runs, records):
+    def change_after_first(runs, records, *scope):
         rounds.append(1)
         if len(rounds) == 1:
             plugin.write_text(DENOISER + "# changed\n")
-        return grow(runs, records)
+        return grow(runs, records, *scope)
 
     monkeypatch.setattr(adaptive, "grow", change_after_first)
     refused_on_the_command_line(_bench(tmp_path), capsys, r"plug-in 'probe_box'.*box\.py:box")

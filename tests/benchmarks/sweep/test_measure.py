@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from benchmarks.suites import Suite, Sweep
+from benchmarks.suites import Condition, Suite, Sweep
 from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Parts
 from benchmarks.sweep.plan import plan
@@ -25,6 +25,11 @@ pytestmark = pytest.mark.usefixtures("one_thread")
 @dataclasses.dataclass(frozen=True)
 class _Scene:
     dimensions: int = 3
+
+
+@dataclasses.dataclass(frozen=True)
+class _Lit(_Scene):
+    lights: tuple[int, ...] = ()
 
 
 class _Render:
@@ -129,6 +134,30 @@ def test_coherent_records_say_how_much_of_the_image_they_cover(tmp_path):
     spectra = [r.spectrum["coherent"] for r in records]
     assert spectra[0].freq == records[0].spectrum["raw"].freq and spectra.count(spectra[0]) == 4
     assert spectra[0].power != records[0].spectrum["raw"].power
+
+
+@pytest.mark.parametrize("lights", [(1,), ()])
+def test_unlit_records_leave_out_the_pixels_next_to_a_visible_light(tmp_path, lights):
+    # object 1 (columns 7-9) is the light: grown by a pixel, columns 6-9 are left out; a scene
+    # whose lights are out of view measures every pixel, the whole image's records bit for bit
+    render = _Render()
+    parts = dataclasses.replace(
+        _parts(render), get_scene=lambda name, animated: _Lit(lights=lights)
+    )
+    sweep = Sweep(scenes=("direct",), strategies=("white",), spp=(2,), denoisers=("gaussian",),
+                  frames=2, warmup=3, res=(10, 8), reference_spp=4, seed_sets=2,
+                  conditions=(Condition(), Condition(region="unlit")))  # fmt: skip
+    (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=False))
+    run = dataclasses.replace(run, denoisers=("plain",))
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), {"plain": lambda f: f.color})
+    whole, unlit = records
+    assert (whole.cell.region, unlit.cell.region) == ("all", "unlit")
+    if lights:
+        assert unlit.coverage == [[0.6, 0.6], [0.6, 0.6]]
+        assert unlit.raw["mse"] != whole.raw["mse"]
+    else:
+        assert unlit.coverage == [[1.0, 1.0], [1.0, 1.0]]
+        assert unlit.raw == whole.raw and unlit.den == whole.den
 
 
 def test_records_hold_the_error_correlation_between_consecutive_measured_frames(tmp_path):

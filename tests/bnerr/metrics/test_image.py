@@ -18,6 +18,7 @@ from bnerr.metrics import (
     edge_mask,
     flip,
     image,
+    light_mask,
     lowfreq,
     mse,
     pooled_mean,
@@ -182,6 +183,22 @@ def test_flip_missing_package_says_how_to_install(monkeypatch):
         flip(pred, ref)
     with pytest.raises(ImportError, match="pip install"):
         FrameMetrics(["mse", "flip"])
+
+
+def test_light_mask_is_the_lights_first_hits_grown_by_a_square_window():
+    ids = torch.full((1, 6, 7), 2.0)
+    ids[0, 2, 3] = 5.0  # a light
+    ids[0, 5, 6] = 4.0  # another light, in the corner
+    ids[0, 0, 0] = -1.0  # background
+    want = torch.zeros(6, 7, dtype=torch.bool)
+    want[1:4, 2:5] = True
+    want[4:6, 5:7] = True
+    assert torch.equal(light_mask(ids, (5, 4), radius=1), want)
+    assert torch.equal(light_mask(ids, (5, 4), radius=0), (ids[0] == 5) | (ids[0] == 4))
+    assert not light_mask(ids, (), radius=3).any()  # no light: no pixel
+    assert torch.equal(light_mask(ids[0], (5, 4)), want)  # [H, W] as well as [1, H, W]
+    with pytest.raises(ShapeError):
+        light_mask(ids[None], (5,))
 
 
 def test_edge_mask_marks_pixels_next_to_an_id_change():
