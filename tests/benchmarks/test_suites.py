@@ -65,6 +65,11 @@ def test_quality_covers_every_scene_adoptable_strategy_and_denoiser_at_1_4_16_sp
         "atrous:own",
         "guided:own",
     }
+    # every pixel and away from visible lights, the latter's open verdicts adding seed sets and
+    # a settled cell stopping (the coverage study's design)
+    suite = get_suite("quality")
+    assert {c[4].region for c in cells} == {"all", "unlit"}
+    assert suite.resolve == ("unlit",) and suite.stop_settled
 
 
 def test_the_bounds_are_measured_where_shares_are_computed():

@@ -14,6 +14,7 @@ from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.groups import group_key
 from benchmarks.reports.page import ON_DEMAND
 from benchmarks.reports.table import summarize
+from benchmarks.suites import get_suite
 from benchmarks.sweep.records import (
     RESULTS_ARCHIVE,
     RESULTS_FILE,
@@ -152,9 +153,10 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     denoisers = [c.strip() for c in lines[0].strip("|").split("|")][2:]
     scenes = list(dict.fromkeys(line.strip("|").split("|")[0].strip() for line in lines[2:]))
     rows = _rows_of("quality")
-    assert found.group(1) == decision.headline_table(rows, denoisers, scenes)
+    region = get_suite("quality").resolve[0]  # the region whose verdicts the suite settles
+    assert found.group(1) == decision.headline_table(rows, denoisers, scenes, region=region)
     # and its count of the verdicts is the one the table's cells give
-    summary = decision.headline_summary(rows, denoisers, scenes)
+    summary = decision.headline_summary(rows, denoisers, scenes, region=region)
     assert summary in " ".join(readme.split()), summary
 
 
@@ -180,18 +182,21 @@ def test_the_headline_counts_each_verdict_once_with_the_seed_sets_it_took():
         if r["strategy"] in ("white", "ldbn", "zsobol")
     ]
     most = max(r["seed_sets"] for r in rows)
-    reached = {  # the seed sets of each scene-and-spp row (every strategy of a row shares them)
-        (r["scene"], str(r["spp"])): r["seed_sets"] for r in rows if r["region"] == "all"
+    reached = {  # the seed sets of each cell (every strategy of a cell grows with the others)
+        (r["scene"], str(r["spp"]), r["denoiser"]): r["seed_sets"]
+        for r in rows
+        if r["region"] == "all"
     }
     table = decision.headline_table(rows, ["gaussian", "taa"], ["direct", "indirect"])
+    head = table.splitlines()[0].strip("| ").split(" | ")
     body = [line.strip("| ").split(" | ") for line in table.splitlines()[2:]]
-    cells = [(row[0], row[1], c) for row in body for c in row[2:]]
+    cells = [(row[0], row[1], d, c) for row in body for d, c in zip(head[2:], row[2:])]
     assert len(cells) == 12
-    assert all(c.endswith(f"({reached[scene, spp]})") for scene, spp, c in cells), cells
-    assert {reached[scene, "4"] for scene, _, _ in cells} == {4}
+    assert all(c.endswith(f"({reached[scene, spp, d]})") for scene, spp, d, c in cells), cells
+    assert {reached[scene, "4", d] for scene, _, d, _ in cells} == {4}
     summary = decision.headline_summary(rows, ["gaussian", "taa"], ["direct", "indirect"])
-    bold = sum(c.startswith("**") for _, _, c in cells)
-    opened = sum(" open " in c for _, _, c in cells)
+    bold = sum(c.startswith("**") for _, _, _, c in cells)
+    opened = sum(" open " in c for _, _, _, c in cells)
     assert f"Of the 12 cells {12 - opened} carry a verdict: {bold} bold," in summary
     assert f"{opened} are open" in summary and f"at most {most} seed sets" in summary
 
