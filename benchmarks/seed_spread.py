@@ -77,27 +77,27 @@ def _errors(
 ) -> dict[str, list[torch.Tensor]]:
     """Per denoiser (and ``raw``): the squared error of each measured frame of seed set
     ``group`` of ``run`` (a stateless strategy; the stateful denoisers see the warmup frames)."""
-    from benchmarks.sweep.measure import _denoise, _stateful, t_reference
+    from benchmarks.sweep.measure import denoise_frame, is_stateful, t_reference
     from benchmarks.sweep.parts import BoundRender
     from bnerr.strategies import play
 
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
-    in_order = strategy.stateful or any(_stateful(d) for d in denoisers.values())
+    in_order = strategy.stateful or any(is_stateful(d) for d in denoisers.values())
     shown = range(run.warmup, run.warmup + run.frames)
     out: dict[str, list[torch.Tensor]] = {"raw": [], **{name: [] for name in denoisers}}
     render_at = functools.partial(BoundRender, parts, scene, run.spp)
     for d in denoisers.values():
-        if _stateful(d):
+        if is_stateful(d):
             d.reset()
     for t, frame in play(strategy, render_at, shown, max(run.motion, 1), in_order=in_order):
         if t < run.warmup:
             for d in denoisers.values():
-                if _stateful(d):
+                if is_stateful(d):
                     d(frame, t=t)
             continue
-        images = {name: _denoise(d, frame, t) for name, d in denoisers.items()}
+        images = {name: denoise_frame(d, frame, t) for name, d in denoisers.items()}
         ref = refs.get(run, scene, t_reference(run, t)).color
         out["raw"].append((frame.color - ref).double() ** 2)
         for name, image in images.items():

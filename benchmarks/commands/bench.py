@@ -352,6 +352,28 @@ def _check_adaptive(args: argparse.Namespace) -> None:
         raise ValueRangeError("--until-resolved: expected a run that measures, got --report-only")
 
 
+def _measure(
+    args: argparse.Namespace,
+    suite: Suite,
+    out: Path,
+    measure: Callable[..., list[Record]],
+    common: dict,
+) -> list[Record]:
+    """The suite's records: measured once, or with --until-resolved look by look."""
+    if not args.until_resolved:
+        return measure(suite, out, **common)
+    return run_until_resolved(
+        suite,
+        out,
+        cap=DEFAULT_CAP if args.seed_set_cap is None else args.seed_set_cap,
+        batch=args.batch,
+        measure=measure,
+        resolve=args.resolve,
+        stop_settled=args.stop_settled,
+        **common,
+    )
+
+
 def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool) -> str:
     """Measure the suite's cells into ``out`` (or only report them), compress the cells if
     ``compress``, then write the report: last, so that the page links the file the folder holds."""
@@ -402,20 +424,7 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     measure: Callable[..., list[Record]] = runner.run_suite
     if args.ray is not None:
         measure = functools.partial(run_suite_ray, address=args.ray, cpus_per_task=args.ray_cpus)
-    if args.until_resolved:
-        cap = DEFAULT_CAP if args.seed_set_cap is None else args.seed_set_cap
-        records = run_until_resolved(
-            suite,
-            out,
-            cap=cap,
-            batch=args.batch,
-            measure=measure,
-            resolve=args.resolve,
-            stop_settled=args.stop_settled,
-            **common,
-        )
-    else:
-        records = measure(suite, out, **common)
+    records = _measure(args, suite, out, measure, common)
     if compress:  # before the page is written: it links the file the folder then holds
         compress_records(out)
     device = "" if args.device == "cpu" else f" --device {args.device}"

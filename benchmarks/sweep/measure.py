@@ -64,7 +64,9 @@ from bnerr.timing import Stopwatch
 __all__ = [
     "References",
     "SeedSetResult",
+    "denoise_frame",
     "finish_run",
+    "is_stateful",
     "measure_run",
     "measure_seed_set",
     "merge_seed_sets",
@@ -183,16 +185,16 @@ class SeedSetResult:
     coverage: dict[str, list[float]] = field(default_factory=dict)
 
 
-def _stateful(denoiser: Denoiser) -> TypeGuard[StatefulDenoiser]:
+def is_stateful(denoiser: Denoiser) -> TypeGuard[StatefulDenoiser]:
     """Whether ``denoiser`` carries state from frame to frame (a stand-in may have no
     ``stateful`` at all: it is then stateless)."""
     return bool(getattr(denoiser, "stateful", False))
 
 
-def _denoise(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
+def denoise_frame(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
     """A stateful denoiser is told the frame's index (it checks the order); a stateless one
     is called with the frame alone."""
-    return denoiser(frame, t=t) if _stateful(denoiser) else denoiser(frame)
+    return denoiser(frame, t=t) if is_stateful(denoiser) else denoiser(frame)
 
 
 def _update_regions(
@@ -254,13 +256,13 @@ class _SeedSetMeasurement:
     def reset(self) -> None:
         """Start a sequence: every stateful denoiser forgets the frames it saw."""
         for denoiser in self.denoisers.values():
-            if _stateful(denoiser):
+            if is_stateful(denoiser):
                 denoiser.reset()
 
     def feed_warmup(self, t: int, frame: Frame) -> None:
         """Feed warmup frame ``t`` to the stateful denoisers (their output is not measured)."""
         for denoiser in self.denoisers.values():
-            if _stateful(denoiser):
+            if is_stateful(denoiser):
                 denoiser(frame, t=t)
 
     def add(self, t: int, frame: Frame, ref: Frame, prev: Frame | None = None) -> None:
@@ -288,7 +290,7 @@ class _SeedSetMeasurement:
         outputs = {}
         for name, denoiser in self.denoisers.items():
             watch = Stopwatch()
-            out = _denoise(denoiser, frame, t)
+            out = denoise_frame(denoiser, frame, t)
             self.timings[f"denoise_ms/{name}"].append(watch.ms(out))
             outputs[name] = out
             self._spectrum(name, out - ref.color)
@@ -440,7 +442,7 @@ def measure_seed_set(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
     # a stateful strategy, or a stateful denoiser, needs the warmup frames in order
-    in_order = strategy.stateful or any(_stateful(d) for d in chosen.values())
+    in_order = strategy.stateful or any(is_stateful(d) for d in chosen.values())
     shown = range(run.warmup, run.warmup + run.frames)
     for _ in range(first_frame(strategy, shown, in_order)):  # skipped warmup frames count as done
         tick()

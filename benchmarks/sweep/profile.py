@@ -52,7 +52,7 @@ __all__ = ["PARTS", "profile_seed_set", "seed_sets_reached"]
 PARTS: dict[str, tuple[str, str]] = {
     "render": ("bnerr/strategies/base.py", "play"),
     "warmup denoise": ("benchmarks/sweep/measure.py", "feed_warmup"),
-    "denoise": ("benchmarks/sweep/measure.py", "_denoise"),
+    "denoise": ("benchmarks/sweep/measure.py", "denoise_frame"),
     "metrics": ("benchmarks/sweep/measure.py", "_update_regions"),
     "spectra": ("benchmarks/sweep/measure.py", "_spectrum"),
     "references": ("benchmarks/sweep/references.py", "get"),
