@@ -77,7 +77,13 @@ def _errors(
 ) -> dict[str, list[torch.Tensor]]:
     """Per denoiser (and ``raw``): the squared error of each measured frame of seed set
     ``group`` of ``run`` (a stateless strategy; the stateful denoisers see the warmup frames)."""
-    from benchmarks.sweep.measure import denoise_frame, is_stateful, t_reference
+    from benchmarks.sweep.measure import (
+        denoise_frame,
+        feed_stateful,
+        is_stateful,
+        reset_stateful,
+        t_reference,
+    )
     from benchmarks.sweep.parts import BoundRender
     from bnerr.strategies import play
 
@@ -88,14 +94,10 @@ def _errors(
     shown = range(run.warmup, run.warmup + run.frames)
     out: dict[str, list[torch.Tensor]] = {"raw": [], **{name: [] for name in denoisers}}
     render_at = functools.partial(BoundRender, parts, scene, run.spp)
-    for d in denoisers.values():
-        if is_stateful(d):
-            d.reset()
+    reset_stateful(denoisers.values())
     for t, frame in play(strategy, render_at, shown, max(run.motion, 1), in_order=in_order):
         if t < run.warmup:
-            for d in denoisers.values():
-                if is_stateful(d):
-                    d(frame, t=t)
+            feed_stateful(denoisers.values(), t, frame)
             continue
         images = {name: denoise_frame(d, frame, t) for name, d in denoisers.items()}
         ref = refs.get(run, scene, t_reference(run, t)).color

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Protocol, TypeGuard
@@ -65,11 +65,13 @@ __all__ = [
     "References",
     "SeedSetResult",
     "denoise_frame",
+    "feed_stateful",
     "finish_run",
     "is_stateful",
     "measure_run",
     "measure_seed_set",
     "merge_seed_sets",
+    "reset_stateful",
     "scene_for",
     "t_reference",
     "t_render",
@@ -197,6 +199,20 @@ def denoise_frame(denoiser: Denoiser, frame: Frame, t: int) -> torch.Tensor:
     return denoiser(frame, t=t) if is_stateful(denoiser) else denoiser(frame)
 
 
+def reset_stateful(denoisers: Iterable[Denoiser]) -> None:
+    """Start a sequence: every stateful one of ``denoisers`` forgets the frames it saw."""
+    for denoiser in denoisers:
+        if is_stateful(denoiser):
+            denoiser.reset()
+
+
+def feed_stateful(denoisers: Iterable[Denoiser], t: int, frame: Frame) -> None:
+    """Feed warmup frame ``t`` to the stateful ones of ``denoisers`` (their output is dropped)."""
+    for denoiser in denoisers:
+        if is_stateful(denoiser):
+            denoiser(frame, t=t)
+
+
 def _update_regions(
     accs: Mapping[str, FrameMetrics],
     pred: torch.Tensor,
@@ -255,15 +271,11 @@ class _SeedSetMeasurement:
 
     def reset(self) -> None:
         """Start a sequence: every stateful denoiser forgets the frames it saw."""
-        for denoiser in self.denoisers.values():
-            if is_stateful(denoiser):
-                denoiser.reset()
+        reset_stateful(self.denoisers.values())
 
     def feed_warmup(self, t: int, frame: Frame) -> None:
         """Feed warmup frame ``t`` to the stateful denoisers (their output is not measured)."""
-        for denoiser in self.denoisers.values():
-            if is_stateful(denoiser):
-                denoiser(frame, t=t)
+        feed_stateful(self.denoisers.values(), t, frame)
 
     def add(self, t: int, frame: Frame, ref: Frame, prev: Frame | None = None) -> None:
         """Measure frame ``t`` (with its timings) against its reference (``prev``: the previous

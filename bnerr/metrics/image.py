@@ -630,13 +630,16 @@ def edge_mask(object_id: torch.Tensor, radius: int = 1) -> torch.Tensor:
     edge[:-1, :] |= dy
     edge[:, 1:] |= dx
     edge[:, :-1] |= dx
-    if radius > 0:
-        size = 2 * radius + 1
-        edge = torch.nn.functional.max_pool2d(
-            edge[None, None].float(), size, stride=1, padding=radius
-        )
-        edge = edge[0, 0] > 0
-    return edge
+    return _grown(edge, radius)
+
+
+def _grown(mask: torch.Tensor, radius: int) -> torch.Tensor:
+    """``mask [H, W]`` bool dilated by ``radius`` pixels (Chebyshev: a square window)."""
+    if radius == 0 or not bool(mask.any()):
+        return mask
+    size = 2 * radius + 1
+    grown = torch.nn.functional.max_pool2d(mask[None, None].float(), size, stride=1, padding=radius)
+    return grown[0, 0] > 0
 
 
 def temporal_correlation(
@@ -707,10 +710,4 @@ def light_mask(
     hit = torch.zeros(ids.shape, dtype=torch.bool, device=ids.device)
     for light in lights:
         hit |= rounded == int(light)
-    if radius > 0 and bool(hit.any()):
-        size = 2 * radius + 1
-        grown = torch.nn.functional.max_pool2d(
-            hit[None, None].float(), size, stride=1, padding=radius
-        )
-        hit = grown[0, 0] > 0
-    return hit
+    return _grown(hit, radius)
