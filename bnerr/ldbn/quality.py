@@ -20,7 +20,7 @@ from bnerr.ldbn.integrands import estimates, make_integrands
 from bnerr.ldbn.keys import SHIPPED_SEED0
 from bnerr.sequences.ldbn_bases import base_table, keyed_words
 
-__all__ = ["blurred_share", "white_share"]
+__all__ = ["blurred_share", "pair_points", "white_share"]
 
 _TWO_24 = 1 << 24
 
@@ -83,7 +83,7 @@ def blurred_share(
         level = max(int(rank[..., p].max()) for p in pairs).bit_length()
         level = max(level, (spp - 1).bit_length())
     points = torch.cat(
-        [_pair_points(scramble, rank, spp, p, (seed0, base, level)) for p in pairs], 2
+        [pair_points(scramble, rank, spp, p, (seed0, base, level)) for p in pairs], 2
     )
     if check_positive_int(drift, "drift", minimum=0):
         points = (points + _drift(frames, size, drift).repeat(1, len(pairs))[:, None]) % 1
@@ -117,7 +117,7 @@ def _drift(frames: int, size: int, drift: int) -> torch.Tensor:
     return torch.stack([x, y], -1).reshape(-1, 2).repeat(frames, 1)
 
 
-def _pair_points(
+def pair_points(
     scramble: np.ndarray, rank: np.ndarray, spp: int, pair: int, read: tuple[int, str, int]
 ) -> torch.Tensor:
     """``[P, spp, 2]`` the first ``spp`` points of every texel in ``pair`` (``read``: the

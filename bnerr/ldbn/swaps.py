@@ -22,7 +22,9 @@ alone:
   optimization: the light pair's keys meet each texel's own fixed jitter samples), a from ``x_a``
   to ``y_a`` and b from ``x_b`` to ``y_b`` at once:
   ``dE = 2 <d_a, phi_a> + 2 <d_b, phi_b> + 2 w(a - b) <d_a, d_b>``, ``d = y - x``
-  (:func:`joint_swap_descent`; with ``y_a = x_b``, ``y_b = x_a`` it is the plain swap's).
+  (:func:`joint_swap_descent`; with ``y_a = x_b``, ``y_b = x_a`` it is the plain swap's), plus
+  ``w(0) (|y_a|^2 - |x_a|^2 + |y_b|^2 - |x_b|^2)`` when the raw part is weighed too
+  (``self_weight``: it changes only when the features depend on the texel).
 
 Moves with ``dE < 0`` are kept, each with probability ``q``: moves made at once interact through
 their neighbours, and ``q`` (halved whenever an iteration raised the energy, raised slowly
@@ -403,10 +405,16 @@ def joint_swap_descent(
     iterations: int,
     gen: torch.Generator,
     progress: Progress | None = None,
+    self_weight: float = 0.0,
 ) -> torch.Tensor:
     """Permute P keys over the tile to lower :func:`energy` when a key's features depend on the
     texel that holds it (module docstring): ``evaluate`` gives them. The moves and draws are
     :func:`swap_descent`'s (one descent, on the CPU).
+
+    ``self_weight`` ``w(0)`` adds ``w(0) sum_p |x_p|^2``, which a move changes too when the
+    features depend on the texel: with a filter's autocorrelation as the kernel and 1 here the
+    descent lowers the filtered error itself, raw part included; 0 (the ``--joint`` keys'
+    rule) lowers only the cross terms.
 
     Returns:
         ``perm [P]`` int64: texel p takes key ``perm[p]``, starting from the identity.
@@ -421,7 +429,7 @@ def joint_swap_descent(
     acc = _Acceptance(1, cur.device)
     for it in range(check_positive_int(iterations, "iterations")):
         field = _field(cur, kfft, shape)
-        acc.observe(_energies(cur, field), perm[None])
+        acc.observe(_energies(cur, field) + self_weight * cur.square().sum((1, 2)), perm[None])
         pa, pb = _pairs(shape, seeds, 2 * it)
         a, b = pa[0], pb[0]
         da = evaluate(a, perm[b]).double().T - cur[0][:, a]
@@ -429,6 +437,9 @@ def joint_swap_descent(
         w = _offsets_weight(a, b, kern, shape)
         change = 2 * ((da * field[0][:, a]).sum(0) + (db * field[0][:, b]).sum(0))
         change = change + 2 * w * (da * db).sum(0)
+        if self_weight:
+            own = (da * (2 * cur[0][:, a] + da)).sum(0) + (db * (2 * cur[0][:, b] + db)).sum(0)
+            change = change + self_weight * own
         keep = acc.accept(change[None], seeds, 2 * it + 1)[0]
         a, b, da, db = a[keep], b[keep], da[:, keep], db[:, keep]
         cur[0][:, a] += da
@@ -436,6 +447,7 @@ def joint_swap_descent(
         perm[a], perm[b] = perm[b].clone(), perm[a].clone()
         if progress is not None:
             progress(1)
-    acc.observe(_energies(cur, _field(cur, kfft, shape)), perm[None], adapt=False)
+    final = _energies(cur, _field(cur, kfft, shape)) + self_weight * cur.square().sum((1, 2))
+    acc.observe(final, perm[None], adapt=False)
     assert acc.best is not None
     return acc.best[0]
