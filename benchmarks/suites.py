@@ -457,12 +457,13 @@ SUITES: dict[str, Suite] = {
                 **_GAP_SETS,
             ),
             # 64 spp, where offline renderers work (issue 40's goals: a third of the oracle's
-            # dividend kept): the a-priori samplers against white and the oracle on the two goal
-            # scenes (the temporal variants stop at 16 spp). The oracle's 32 candidates cost 2-7
-            # s a frame here.
+            # dividend kept): the a-priori samplers, and Cycles' blue-noise pattern (a rival of
+            # the quality suite, which stops at 16 spp), against white and the oracle on the two
+            # goal scenes (the temporal variants stop at 16 spp). The oracle's 32 candidates cost
+            # 2-7 s a frame here.
             Sweep(
                 scenes=("direct", "indirect"),
-                strategies=("white", *_GAP_APRIORI, "oracle"),
+                strategies=("white", *_GAP_APRIORI, "cycles_blue", "oracle"),
                 spp=(64,),
                 denoisers=_CHEAP_DENOISERS,
                 conditions=(Condition(region="all"),),
