@@ -1,10 +1,10 @@
 """Bindings of ``samplers.c``: the native CPU kernels of white noise, the Owen-Sobol, ZSobol and
-temporal Z-order samplers, Cycles' patterns (which index Owen-Sobol) and the LDBN lookup (which
-reads one shared Owen-Sobol sequence through per-pixel keys).
+temporal Z-order samplers, Cycles' patterns (which index Owen-Sobol), the LDBN lookup (which
+reads one shared Owen-Sobol sequence through per-pixel keys) and OpenQMC's ``sobolbn``.
 
 The C source ``samplers.c`` (package data of this package) is built, cached and loaded by
 :func:`bnerr.native.library`, with the same compiler search, hash check and single warning as the
-permutation kernels. This module binds its five functions and wraps them for tensors; each
+permutation kernels. This module binds its seven functions and wraps them for tensors; each
 sampler module owns its dispatch, its self-check against its torch path and the fallback.
 
 Why C: the torch paths make one full pass over the lanes per operation, and a ZSobol pair is
@@ -37,6 +37,7 @@ __all__ = [
     "kernels_for",
     "native_cycles",
     "native_ldbn",
+    "native_openqmc_sobolbn",
     "native_seeded",
     "seeded_self_check",
     "native_zsobol",
@@ -53,6 +54,7 @@ _SYMBOLS = (
     "bnerr_zsobol_t",
     "bnerr_cycles",
     "bnerr_ldbn",
+    "bnerr_openqmc_sobolbn",
 )
 
 
@@ -66,6 +68,7 @@ class SamplerKernels:
     cycles: Callable[..., int]
     ldbn: Callable[..., int]
     white: Callable[..., int]
+    openqmc_sobolbn: Callable[..., int]
     why: str
 
 
@@ -85,9 +88,11 @@ def _bind(library: ctypes.CDLL, why: str) -> SamplerKernels:
     ldbn.argtypes = [p, p, p, i64, i64, i64, p, p, p, p, p, p, p, c_int]
     white = library.bnerr_white
     white.argtypes = owen.argtypes
-    for function in (owen, zsobol, temporal, cycles, ldbn, white):
+    sobolbn = library.bnerr_openqmc_sobolbn
+    sobolbn.argtypes = [p, p, i64, i64, i64, u32, p, p, p, p, c_int]
+    for function in (owen, zsobol, temporal, cycles, ldbn, white, sobolbn):
         function.restype = c_int
-    return SamplerKernels(owen, zsobol, temporal, cycles, ldbn, white, why)
+    return SamplerKernels(owen, zsobol, temporal, cycles, ldbn, white, sobolbn, why)
 
 
 #: The library of ``samplers.c``: ``LIBRARY.load()`` gives the bound :class:`SamplerKernels`
@@ -286,5 +291,37 @@ def native_ldbn(
         seed.data_ptr(), index.data_ptr(), pixel.data_ptr(), n, dim, count, geometry.data_ptr(),
         scramble.data_ptr(), rank.data_ptr(), table.data_ptr(), shared.data_ptr(),
         keys.data_ptr(), out.data_ptr(), threads_for(n),
+    )  # fmt: skip
+    return code == 0
+
+
+def native_openqmc_sobolbn(
+    kernels: SamplerKernels,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    frame: int,
+    tables: tuple[torch.Tensor, torch.Tensor, torch.Tensor],
+    out: torch.Tensor,
+) -> bool:
+    """OpenQMC's ``sobolbn`` (:mod:`bnerr.sequences.openqmc`) into the rows of ``out``.
+
+    Args:
+        lanes: the lanes' index (int64 ``[N]``, in [0, 2^31)) and pixel (int64 ``[N, 2]``, (y,
+            x)).
+        frame: OpenQMC's frame (low 32 bits).
+        tables: OpenQMC's keys (int32 ``[65536]``, the u32 words), ranks (uint8 ``[65536]``) and
+            the byte tables of the reversed Sobol columns of components 0 and 1 (int32
+            ``[2, 2, 256]``: component, low / high byte).
+        out: float32 ``[count, N]``, contiguous.
+
+    Returns:
+        False when the kernel refused the sizes.
+    """
+    index, pixel = (t.contiguous() for t in lanes)
+    keys, ranks, sobol = (t.contiguous() for t in tables)
+    count, n = out.shape
+    code = kernels.openqmc_sobolbn(
+        index.data_ptr(), pixel.data_ptr(), n, dim, count, frame & 0xFFFFFFFF, keys.data_ptr(),
+        ranks.data_ptr(), sobol.data_ptr(), out.data_ptr(), threads_for(n),
     )  # fmt: skip
     return code == 0

@@ -39,7 +39,9 @@ import torch
 
 from bnerr.errors import DtypeError, ValueRangeError, check_dtype, check_name, check_tensor
 from bnerr.hashing import MASK32, reverse32
+from bnerr.native import SelfCheckedKernels
 from bnerr.resources import load_array
+from bnerr.sequences import native
 from bnerr.sequences.base import Sampler, _broadcast, _check_index_below, _columns
 
 __all__ = [
@@ -253,15 +255,22 @@ class _OpenQMCSampler(Sampler):
         _check_index_below(index, _MAX_INDEX, "OpenQMC's int index")
         out = _columns(seed.shape[0], count, seed.device)
         pixel = pixel.to(seed.device)
+        if not _native_values(self, (index, pixel), dim, out):
+            self._values_torch(index, pixel, dim, out)
+        return out.T
+
+    def _values_torch(
+        self, index: torch.Tensor, pixel: torch.Tensor, dim: int, out: torch.Tensor
+    ) -> None:
+        """The lanes' dimensions ``dim ..`` into the rows of ``out [count, N]`` with torch."""
         y, x = pixel[:, 0], pixel[:, 1]
-        end = dim + count
+        end = dim + out.shape[0]
         for pair in range(dim // 2, (end - 1) // 2 + 1):
             key = torch.full_like(index, pair)
             wanted = [c for c in (0, 1) if dim <= 2 * pair + c < end]
             words = _draw_words(self.openqmc, x, y, self.frame, index, key, wanted[-1] + 1)
             for c in wanted:
                 out[2 * pair + c - dim] = openqmc_float(words[c])
-        return out.T
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(frame={self.frame})"
@@ -280,3 +289,61 @@ class OpenQMCLatticeBNSampler(_OpenQMCSampler):
 
     name = "openqmc_latticebn"
     openqmc = "latticebn"
+
+
+# ------------------------------------------------------------------------------------------------
+# The native path (sobolbn on the CPU: bnerr/sequences/samplers.c, bnerr_openqmc_sobolbn)
+
+_NATIVE_TABLES: list[tuple[torch.Tensor, torch.Tensor, torch.Tensor]] = []
+
+
+def _native_tables() -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """sobolbn's keys (int32, the u32 words), ranks (uint8) and the byte tables of the reversed
+    Sobol columns of components 0 and 1 (int32 ``[2, 2, 256]``), as the C kernel reads them."""
+    if not _NATIVE_TABLES:
+        keys, ranks = _tables("sobol", torch.device("cpu"))
+        columns = [torch.stack(_sobol_byte_tables(c, torch.device("cpu"))) for c in (0, 1)]
+        sobol = torch.stack(columns).to(torch.int32)  # values < 2^16
+        _NATIVE_TABLES.append((keys.to(torch.int32), ranks.to(torch.uint8), sobol))
+    return _NATIVE_TABLES[0]
+
+
+def _native_values(
+    sampler: _OpenQMCSampler,
+    lanes: tuple[torch.Tensor, torch.Tensor],
+    dim: int,
+    out: torch.Tensor,
+    kernels: native.SamplerKernels | None = None,
+) -> bool:
+    """sobolbn's values of the lanes' (index, pixel) in C into ``out``; False when the native
+    path does not apply (another sampler, a CUDA tensor, no kernel)."""
+    if sampler.openqmc != "sobolbn":
+        return False  # latticebn's torch path is within 1.11x of Owen-Sobol's render
+    kernels = native.kernels_for(lanes, out, kernels, _native_kernels)
+    if kernels is None:
+        return False
+    tables = _native_tables()
+    return native.native_openqmc_sobolbn(kernels, lanes, dim, sampler.frame, tables, out)
+
+
+def _self_check(kernels: native.SamplerKernels) -> bool:
+    """The native kernel against the torch path: pixels negative and off the tile, indices up to
+    OpenQMC's 2^31 - 1 (past one 2^16 block), a frame above 2^31, first dimensions even and odd:
+    True if bit-identical."""
+    gen = torch.Generator().manual_seed(61)
+    sampler = OpenQMCSobolBNSampler(frame=2**31 + 12345)
+    pixel = torch.randint(-600, 600, (211, 2), generator=gen)
+    for high, dim, count in ((4, 0, 4), (2**17, 1, 2), (_MAX_INDEX, 3, 5), (70000, 6, 1)):
+        index = torch.randint(0, high, (211,), generator=gen)
+        want, got = (_columns(211, count, index.device) for _ in range(2))
+        sampler._values_torch(index, pixel, dim, want)
+        ok = _native_values(sampler, (index, pixel), dim, got, kernels)
+        if not ok or not torch.equal(got, want):
+            return False
+    return True
+
+
+#: The native kernels if they load and pass :func:`_self_check` (run once per library).
+_native_kernels = SelfCheckedKernels(
+    _self_check, "bnerr.sequences.openqmc: the native sobolbn kernel", native.LIBRARY
+)

@@ -1,8 +1,8 @@
 /* bnerr's native CPU kernels of the samplers (bnerr.sequences): white noise (bnerr_white),
    per-pixel Owen-Sobol padded by 2D pairs (bnerr_owen_sobol), Cycles' blue-noise patterns,
    which index it (bnerr_cycles), the LDBN lookup into one shared Owen-Sobol sequence
-   (bnerr_ldbn), pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol) and the
-   temporal Z-order sampler (bnerr_zsobol_t).
+   (bnerr_ldbn), pbrt-v4's ZSobol with its FastOwen value scramble (bnerr_zsobol), the
+   temporal Z-order sampler (bnerr_zsobol_t) and OpenQMC's sobolbn (bnerr_openqmc_sobolbn).
 
    Built by bnerr.native at first use, like permute.c. Each function writes dimensions
    dim .. dim + count - 1 of n lanes into out, a [count, n] float32 buffer (one row per
@@ -108,8 +108,20 @@ typedef struct {
     const uint32_t *shared;  /* per pair from dim / 2: the shared sequence's 3 pair hashes */
 } ldbn_t;
 
+/* OpenQMC's sobolbn: its 256 x 256 tables (keys, ranks; index y * 256 + x), the reversed Sobol
+   columns of components 0 and 1 as byte tables ([2][2][256]: component, low/high byte), the
+   lanes' pixels and OpenQMC's frame. */
 typedef struct {
-    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles, 4 LDBN, 5 white */
+    const int64_t *pixel;    /* per lane (y, x) */
+    const uint32_t *keys;
+    const uint8_t *ranks;
+    const uint32_t *sobol;
+    uint32_t frame;
+} oqmc_t;
+
+typedef struct {
+    int kind;                /* 0 owen_sobol, 1 zsobol, 2 zsobol_t, 3 Cycles, 4 LDBN, 5 white,
+                                6 OpenQMC sobolbn */
     const int64_t *seed;     /* owen_sobol: per-lane seeds (stride seed_stride) */
     const int64_t *index;    /* sample indices */
     int64_t seed_stride, n, lo, hi, dim, count;
@@ -123,6 +135,7 @@ typedef struct {
     const sobol1_t *s1;
     float *out;
     const ldbn_t *ldbn;
+    const oqmc_t *oqmc;
 } sjob_t;
 
 static inline void put(const sjob_t *j, int64_t d, int64_t i, float v) {
@@ -343,11 +356,59 @@ static void white_lanes(const sjob_t *j) {
     }
 }
 
+/* OpenQMC's integer steps (bnerr.sequences.openqmc): PCG's LCG step and output permutation,
+   and its Laine-Karras permutation (other constants than laine_karras above). */
+static inline uint32_t pcg_transition(uint32_t s) { return s * 747796405u + 2891336453u; }
+
+static inline uint32_t pcg_output(uint32_t s) {
+    s ^= s >> (4 + (s >> 28));
+    s *= 277803737u;
+    return s ^ (s >> 22);
+}
+
+static inline uint32_t oqmc_laine_karras(uint32_t v, uint32_t seed) {
+    v ^= v * 0x3D20ADEAu;
+    v += seed;
+    v *= (seed >> 16) | 1u;
+    v ^= v * 0x05526C56u;
+    return v ^ (v * 0x53A22864u);
+}
+
+/* uintToFloat: the low byte loses the top byte's bits, then one rounding to float32. */
+static inline float oqmc_float(uint32_t w) { return (float)(w & ~(w >> 24)) * 0x1p-32f; }
+
+/* sobolbn: pair p of a lane is components 0 and 1 of newDomain(p) of Sampler(x, y, frame,
+   index): the domain's tile shift picks the key and rank, the 16-bit sample id is shuffled by
+   the key, and each component is the reversed Sobol column XOR of its top half, scrambled by
+   the key rotated by a byte per component. */
+static void oqmc_lanes(const sjob_t *j) {
+    const oqmc_t *o = j->oqmc;
+    int64_t p0 = j->dim / 2, p1 = (j->dim + j->count - 1) / 2;
+    for (int64_t i = j->lo; i < j->hi; ++i) {
+        uint64_t y = (uint64_t)o->pixel[2 * i], x = (uint64_t)o->pixel[2 * i + 1];
+        uint32_t index = (uint32_t)j->index[i], sample = index & 0xFFFFu;
+        uint32_t init = 2891336453u + o->frame + (index >> 16);
+        for (int64_t p = p0; p <= p1; ++p) {
+            uint32_t shift = pcg_output(pcg_transition(init + (uint32_t)p));
+            uint64_t at = ((y + ((shift >> 8) & 0xFFu)) & 0xFFu) * 256 + ((x + shift) & 0xFFu);
+            uint32_t key = o->keys[at], rank = o->ranks[at];
+            uint32_t top = oqmc_laine_karras(rev32(sample ^ rank), key) >> 16;
+            for (int c = 0; c < 2; ++c) {
+                const uint32_t *t = o->sobol + 512 * c;
+                uint32_t column = t[top & 0xFFu] ^ t[256 + (top >> 8)];
+                uint32_t turned = c ? (key >> 8) | (key << 24) : key;
+                put(j, 2 * p + c, i, oqmc_float(rev32(oqmc_laine_karras(column, turned))));
+            }
+        }
+    }
+}
+
 static void *run_lanes(void *arg) {
     const sjob_t *j = (const sjob_t *)arg;
     if (j->kind == 0 || j->kind == 3) owen_sobol_lanes(j);
     else if (j->kind == 4) ldbn_lanes(j);
     else if (j->kind == 5) white_lanes(j);
+    else if (j->kind == 6) oqmc_lanes(j);
     else zsobol_lanes(j);
     return 0;
 }
@@ -386,7 +447,7 @@ static int run(sjob_t base, int threads) {
 int bnerr_white(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
                 int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
     sjob_t j = {5, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0,
-                out, 0};
+                out, 0, 0};
     return run(j, threads);
 }
 
@@ -395,7 +456,7 @@ int bnerr_white(const int64_t *seed, int64_t seed_stride, const int64_t *index, 
 int bnerr_owen_sobol(const int64_t *seed, int64_t seed_stride, const int64_t *index, int64_t n,
                      int64_t dim, int64_t count, const uint32_t *keys, float *out, int threads) {
     sjob_t j = {0, seed, index, seed_stride, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0,
-                out, 0};
+                out, 0, 0};
     return run(j, threads);
 }
 
@@ -405,7 +466,7 @@ int bnerr_cycles(const int64_t *key, const int64_t *index, int64_t n, int64_t di
                  uint32_t spp, int first, uint32_t seed0, uint32_t first_seed,
                  const uint32_t *keys, float *out, int threads) {
     uint64_t seeds = seed0 | ((uint64_t)first_seed << 32), mode = spp | ((uint64_t)!!first << 32);
-    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out, 0};
+    sjob_t j = {3, key, index, 1, n, 0, n, dim, count, seeds, mode, keys, 0, 0, 0, 0, 0, out, 0, 0};
     return run(j, threads);
 }
 
@@ -422,7 +483,7 @@ int bnerr_ldbn(const int64_t *seed, const int64_t *index, const int64_t *pixel, 
     const int64_t *g = geometry;
     if (g[0] < 1 || g[1] < 2 || g[1] % 2 || g[4] < 0 || g[5] < 0 || g[5] > g[1]) return 1;
     ldbn_t l = {pixel, scramble, rank, table, g[0], g[1], g[2], g[3], g[4], g[5], shared};
-    sjob_t j = {4, seed, index, 1, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out, &l};
+    sjob_t j = {4, seed, index, 1, n, 0, n, dim, count, 0, 0, keys, 0, 0, 0, 0, 0, out, &l, 0};
     return run(j, threads);
 }
 
@@ -433,7 +494,7 @@ int bnerr_zsobol(const int64_t *key, const int64_t *index, int64_t n, int64_t di
                  int log2spp, int n_digits, uint64_t key_mask, const uint32_t *seeds,
                  const uint8_t *perm, float *out, int threads) {
     sjob_t j = {1, key, index, 1, n, 0, n, dim, count, key_mask, 0, seeds, perm, log2spp,
-                n_digits, 0, 0, out, 0};
+                n_digits, 0, 0, out, 0, 0};
     return run(j, threads);
 }
 
@@ -445,6 +506,18 @@ int bnerr_zsobol_t(const int64_t *key, const int64_t *index, int64_t n, int64_t 
                    uint64_t epoch, const uint32_t *seeds, const uint8_t *perm, float *out,
                    int threads) {
     sjob_t j = {2, key, index, 1, n, 0, n, dim, count, key_mask, t, seeds, perm, log2spp,
-                n_digits, epoch, 0, out, 0};
+                n_digits, epoch, 0, out, 0, 0};
+    return run(j, threads);
+}
+
+/* OpenQMC's sobolbn (bnerr.sequences.openqmc) for lanes (index, pixel (y, x)), indices in
+   [0, 2^31); tables: keys and ranks [256 * 256], sobol [2][2][256] the byte tables of the
+   reversed Sobol columns of components 0 and 1 (low byte, then high byte). */
+int bnerr_openqmc_sobolbn(const int64_t *index, const int64_t *pixel, int64_t n, int64_t dim,
+                          int64_t count, uint32_t frame, const uint32_t *keys,
+                          const uint8_t *ranks, const uint32_t *sobol, float *out,
+                          int threads) {
+    oqmc_t o = {pixel, keys, ranks, sobol, frame};
+    sjob_t j = {6, index, index, 1, n, 0, n, dim, count, 0, 0, 0, 0, 0, 0, 0, 0, out, 0, &o};
     return run(j, threads);
 }

@@ -20,8 +20,10 @@ zsobol_t_module = importlib.import_module("bnerr.sequences.zsobol_t")
 cycles_module = importlib.import_module("bnerr.sequences.cycles")
 ldbn_module = importlib.import_module("bnerr.sequences.ldbn")
 white_module = importlib.import_module("bnerr.sequences.white")
+openqmc_module = importlib.import_module("bnerr.sequences.openqmc")
 SELF_CHECKED = (
-    white_module, owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module, ldbn_module
+    white_module, owen_sobol_module, zsobol_module, zsobol_t_module, cycles_module, ldbn_module,
+    openqmc_module,
 )  # fmt: skip
 
 
@@ -148,6 +150,20 @@ def test_ldbn_matches_torch_bit_for_bit(
     assert torch.equal(sampler.sample(seeds, index, dim, count, pixel), want)
 
 
+@pytest.mark.parametrize(
+    ("frame", "high", "dim", "count"), [(0, 64, 0, 8), (2**32 - 1, 2**31, 3, 6)]
+)
+def test_openqmc_sobolbn_matches_torch_bit_for_bit(kernels, monkeypatch, frame, high, dim, count):
+    gen = torch.Generator().manual_seed(frame & 0xFF)
+    pixel = torch.randint(-1000, 1000, (4099, 2), generator=gen)
+    index = torch.randint(0, high, (4099,), generator=gen)
+    sampler = make_sampler("openqmc_sobolbn", frame=frame)
+    seeds = torch.zeros_like(index)
+    got = sampler.sample(seeds, index, dim, count, pixel)
+    want = _torch_path(monkeypatch, sampler, seeds, index, dim, count, pixel)
+    assert torch.equal(got, want)
+
+
 def test_results_do_not_depend_on_the_thread_count(kernels):
     key, index = _lanes(zsobol_keys(256, 256), 16, 4096, 3, True)
     seeds, ldbn_index, pixel = _ldbn_lanes(16, 4096, 3, (0, 16))
@@ -155,6 +171,7 @@ def test_results_do_not_depend_on_the_thread_count(kernels):
         (make_sampler("zsobol", width=256, height=256, spp=16), (key, index, 0, 6)),
         (LDBNSampler(_ldbn_keys(5, 64, 8, 0), spp=16), (seeds, ldbn_index, 0, 12, pixel)),
         (make_sampler("white"), (key, index, 1, 7)),
+        (make_sampler("openqmc_sobolbn"), (seeds, ldbn_index, 1, 7, pixel)),
     ]
     before = torch.get_num_threads()
     try:

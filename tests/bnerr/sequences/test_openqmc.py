@@ -17,6 +17,7 @@ from bnerr.sequences import (
     OpenQMCLatticeBNSampler,
     OpenQMCSobolBNSampler,
     make_sampler,
+    native,
     openqmc_draw,
     openqmc_float,
 )
@@ -47,6 +48,29 @@ def test_words_and_floats_match_openqmc_bit_for_bit(vectors, name):
     assert np.array_equal(words.numpy(), vectors[f"{name}_words"].astype(np.int64))
     floats = openqmc_float(words).numpy().view(np.uint32)
     assert np.array_equal(floats, vectors[f"{name}_floats"])
+
+
+@pytest.mark.parametrize("path", ["native", "torch"])
+def test_the_sobolbn_sampler_gives_openqmcs_floats_on_both_paths(vectors, monkeypatch, path):
+    # Pair k of the sampler is components 0 and 1 of newDomain(k): the vectors' lanes of keys
+    # 0, 1 and 5 at frames 0 and 7, through the sampler seam (the C kernel on the CPU).
+    if path == "torch":
+        monkeypatch.setattr(native, "uses_native", lambda *tensors: False)
+    elif native.LIBRARY.load() is None:
+        pytest.skip(f"native sampler kernels unavailable: {native.LIBRARY.status()}")
+    lanes = torch.from_numpy(vectors["sobolbn_lanes"])
+    floats = vectors["sobolbn_floats"][:, :2]
+    seen = 0
+    for frame in lanes[:, 2].unique().tolist():
+        sampler = OpenQMCSobolBNSampler(frame=frame)
+        for key in lanes[:, 4].unique().tolist():
+            rows = (lanes[:, 2] == frame) & (lanes[:, 4] == key)
+            x, y, index = lanes[rows, 0], lanes[rows, 1], lanes[rows, 3]
+            pixel = torch.stack([y, x], 1)
+            got = sampler.sample(torch.zeros_like(index), index, 2 * key, 2, pixel)
+            assert np.array_equal(got.numpy().view(np.uint32), floats[rows.numpy()])
+            seen += int(rows.sum())
+    assert seen == lanes.shape[0]
 
 
 @pytest.mark.parametrize("name", NAMES)
