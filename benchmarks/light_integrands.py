@@ -1,33 +1,38 @@
-"""Why the light pair's blue noise fades past 4 spp on ``direct``: its integrands, measured.
+"""Why blue noise fades past 4 spp in the a-priori keys: the tracer's own integrands, measured.
 
 With the pixel jitter pinned at the pixel centre (:class:`benchmarks.fixed_jitter.FixedJitter`'s
 rule), a pixel of ``direct`` integrates one 2D function, its light integrand ``f_p(u, v)``: the
 luminance of the path through the point ``(u, v)`` of the light's square (dimensions 2-3).
-:func:`light_integrands` tabulates it at the centres of a ``G x G`` grid for every pixel, by
-``G^2`` renders at one sample (:class:`GridLight` pins the four dimensions), so that any key
-tile's error can then be computed without render noise: a texel's points read ``f_p`` at the cell
-they fall in, against the mean over the cells (:func:`keyed_errors`).
+:func:`pair_integrands` tabulates it at the centres of a ``G x G`` grid for every pixel, by
+``G^2`` renders at one sample (:class:`GridPair` pins every dimension), so that any key tile's
+error can then be computed without render noise: a texel's points read ``f_p`` at the cell they
+fall in, against the mean over the cells (:func:`keyed_errors`). On deeper scenes the same
+tabulates one pair with the others pinned at their midpoint (``indirect``: the light sample or
+the bounce direction at the first hit), a slice of the path space.
 
 Three measurements, each over many tile offsets:
 
-- :func:`edge_motion`: where the light is partly hidden (the *penumbra*: some cells dark, some
-  lit), how many of the square's cells change visibility from a pixel to its right and lower
-  neighbour, in ``1 / 64`` of the square (a straight edge moving by ``k / 64`` across the square
-  flips about ``k / 64`` of it): the scale of :func:`bnerr.ldbn.quality.blurred_share`'s
-  ``drift``.
+- :func:`edge_motion`: where the function is zero in part of the square (the *penumbra*, for
+  the light pair: some of the light hidden), how many of the square's cells change between zero
+  and not from a pixel to its right and lower neighbour, in ``1 / 64`` of the square (a straight
+  edge moving by ``k / 64`` across the square flips about ``k / 64`` of it): the scale of
+  :func:`bnerr.ldbn.quality.blurred_share`'s ``drift``.
 - :func:`arrangement_ratio`: the keys' error after a sigma-2 blur over the same point sets placed
   at random texels (which keeps each pixel's raw error and makes neighbours independent), over
-  every pixel, the penumbra and the lit pixels.
-- the same with the penumbra *frozen*: every penumbra pixel integrates one penumbra pixel's
-  function (the band's shape and place kept, the change from pixel to pixel taken away), the
-  experiment that separates the integrand's motion from the band's geometry.
+  every pixel, the penumbra and the pixels whose function is nowhere zero (*lit*); and the same
+  with the penumbra *frozen*: every penumbra pixel integrates one penumbra pixel's function (the
+  band's shape and place kept, the change from pixel to pixel taken away), the experiment that
+  separates the integrand's motion from the band's geometry.
+- :func:`carried_correlation`: how much of a point set's error carries over to the neighbour's
+  function.
 
 ``python -m benchmarks.light_integrands`` prints the tables for ``direct``'s frame 6 at
-128 x 128 with a 64 x 64 grid and the shipped Z-ordered and per-pixel keys (about a minute; a
-diagnosis, nothing is written under ``results/``; docs/METHODS.md, section 10, has the figures).
+128 x 128 with a 64 x 64 grid and the shipped Z-ordered and per-pixel keys (about a minute;
+``--scene indirect --pair 2`` for the bounce direction; ``--fit FRAMES`` fits the light pair's
+keys on other frames' integrands and measures them on this one). A diagnosis: nothing is written
+under ``results/``; docs/METHODS.md, section 10, has the figures.
 
-Not for: scenes whose pixels integrate more than the jitter and one light pair (the grid pins
-dimensions 0-3 only; ``direct`` uses exactly these), nor the benchmark's tables.
+Not for: the benchmark's tables.
 """
 
 from __future__ import annotations
@@ -47,12 +52,12 @@ from bnerr.ldbn.quality import pair_points
 from bnerr.ldbn.swaps import Evaluate, energy, energy_kernel, joint_swap_descent
 from bnerr.metrics import blurred_mse
 from bnerr.resources import load_array
-from bnerr.sequences import Sampler, make_sampler
+from bnerr.sequences import Sampler
 from bnerr.sequences.ldbn_bases import base_table, keyed_words
 from bnerr.strategies import pixel_seeds
 
 __all__ = [
-    "GridLight",
+    "GridPair",
     "KEY_SETS",
     "Ratios",
     "arrangement_ratio",
@@ -60,9 +65,9 @@ __all__ = [
     "edge_motion",
     "key_points",
     "keyed_errors",
-    "light_integrands",
     "fit_light_pair",
     "main",
+    "pair_integrands",
     "window_error",
     "windows",
 ]
@@ -77,17 +82,18 @@ LIGHT_PAIR = 1
 _SIGMA = 2.0
 
 
-class GridLight(Sampler):
-    """``inner``'s values with the jitter (dimensions 0-1) at the pixel centre and the light
-    pair (2-3) at ``(u, v)`` for every lane."""
+class GridPair(Sampler):
+    """Every lane's path pinned: the jitter (dimensions 0-1) at the pixel centre, dimension pair
+    ``pair`` at ``(u, v)`` and every other dimension at ``rest``."""
 
-    needs_pixel = True
-
-    def __init__(self, inner: Sampler, u: float, v: float) -> None:
-        if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0):
-            raise ValueRangeError(f"(u, v): expected a point of [0, 1)^2, got ({u}, {v})")
-        self.inner = inner
-        self.pinned = (0.5, 0.5, float(u), float(v))
+    def __init__(self, pair: int, u: float, v: float, rest: float = 0.5) -> None:
+        if not (0.0 <= u < 1.0 and 0.0 <= v < 1.0 and 0.0 <= rest < 1.0):
+            raise ValueRangeError(
+                f"(u, v), rest: expected points of [0, 1), got ({u}, {v}), {rest}"
+            )
+        self.pair = check_positive_int(pair, "pair")
+        self.point = (float(u), float(v))
+        self.rest = float(rest)
 
     def _sample(
         self,
@@ -97,33 +103,40 @@ class GridLight(Sampler):
         count: int,
         pixel: torch.Tensor | None,
     ) -> torch.Tensor:
-        out = self.inner.sample(seed, index, dim, count, pixel).clone()  # [N, count]
-        for d in range(dim, min(dim + count, len(self.pinned))):
-            out[:, d - dim] = self.pinned[d]
+        out = torch.full((seed.shape[0], count), self.rest, dtype=torch.float32, device=seed.device)
+        for d in range(dim, dim + count):
+            if d < 2:
+                out[:, d - dim] = 0.5
+            elif d // 2 == self.pair:
+                out[:, d - dim] = self.point[d % 2]
         return out
 
     def __repr__(self) -> str:
-        return f"GridLight({self.inner!r}, u={self.pinned[2]}, v={self.pinned[3]})"
+        return f"GridPair(pair={self.pair}, u={self.point[0]}, v={self.point[1]}, rest={self.rest})"
 
 
-def light_integrands(scene_name: str, t: int = 6, size: int = 128, grid: int = 64) -> torch.Tensor:
-    """``[H, W, G, G]`` float32: pixel ``(y, x)``'s luminance at the centre of cell ``(j, i)``
-    of the light's square (``u = (i + 0.5) / G``, ``v = (j + 0.5) / G``), jitter pinned, frame
-    ``t`` of the animated scene (``G^2`` renders at one sample)."""
+def pair_integrands(
+    scene_name: str, t: int = 6, size: int = 128, grid: int = 64, pair: int = LIGHT_PAIR
+) -> torch.Tensor:
+    """``[H, W, G, G]`` float32: pixel ``(y, x)``'s luminance with dimension pair ``pair`` at the
+    centre of cell ``(j, i)`` (``u = (i + 0.5) / G``, ``v = (j + 0.5) / G``), the jitter at the
+    pixel centre and every other dimension at 0.5, frame ``t`` of the animated scene (``G^2``
+    renders at one sample). On ``direct`` (D = 4) the light pair is all a pixel integrates; on a
+    deeper scene it is one slice of the path space through the others' midpoint."""
     size = check_positive_int(size, "size", minimum=2)
     grid = check_positive_int(grid, "grid", minimum=2)
     scene = renderers.get_scene(scene_name, animated=True)
-    if scene.layout.max_depth > 2 or scene.layout.lights != 1 or scene.layout.medium:
+    pairs = scene.layout.dimensions // 2
+    if not 1 <= pair < pairs:
         raise ValueRangeError(
-            f"scene: expected one light, direct light only and no medium (dimensions 0-3 are all "
-            f"a pixel integrates), got {scene_name!r} with {scene.layout}"
+            f"pair: expected a pair past the jitter, 1 to {pairs - 1} on {scene_name!r} (D = "
+            f"{scene.layout.dimensions}), got {pair}"
         )
     seeds = pixel_seeds(size, size, 0x5EED)
-    inner = make_sampler("owen_sobol")
     out = torch.empty(size, size, grid, grid, dtype=torch.float32)
     for j in range(grid):
         for i in range(grid):
-            sampler = GridLight(inner, (i + 0.5) / grid, (j + 0.5) / grid)
+            sampler = GridPair(pair, (i + 0.5) / grid, (j + 0.5) / grid)
             frame = renderers.render(scene, t, seeds, sampler, 1)
             out[:, :, j, i] = luminance(frame.color, dtype=torch.float32)
     return out
@@ -135,7 +148,8 @@ def _check_integrands(f: torch.Tensor) -> None:
 
 
 def penumbra(f: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-    """``(penumbra, lit)`` ``[H, W]`` bool: pixels that see part of the light, and all of it."""
+    """``(penumbra, lit)`` ``[H, W]`` bool: pixels whose function is zero in part of the square
+    and in none of it (for the light pair: the light partly hidden, and in full view)."""
     _check_integrands(f)
     visible = (f > 0).float().mean((2, 3))
     return (visible > 0) & (visible < 1), visible == 1
@@ -429,7 +443,9 @@ def _print_motion(f: torch.Tensor) -> None:
         print(f"| {axis} | {motion['pairs'][axis]} | {cells} |")
 
 
-def _print_ratios(f: torch.Tensor, names: Sequence[str], spps: Sequence[int], offsets: int) -> None:
+def _print_ratios(
+    f: torch.Tensor, names: Sequence[str], spps: Sequence[int], offsets: int, pair: int
+) -> None:
     print(
         "| keys | spp | penumbra's share of raw / blurred error | blurred / random arrangement: "
         "every pixel | penumbra | lit | penumbra frozen | error carried to the neighbour's "
@@ -439,7 +455,7 @@ def _print_ratios(f: torch.Tensor, names: Sequence[str], spps: Sequence[int], of
     for name in names:
         keys = _load(name)
         for spp in spps:
-            points = key_points(keys, KEY_SETS[name][1], spp)
+            points = key_points(keys, KEY_SETS[name][1], spp, pair)
             r = arrangement_ratio(f, points, offsets=offsets)
             carried = " / ".join(f"{c:.2f}" for c in carried_correlation(f, points))
             print(
@@ -452,7 +468,7 @@ def _print_ratios(f: torch.Tensor, names: Sequence[str], spps: Sequence[int], of
 def _print_fit(f: torch.Tensor, args: argparse.Namespace) -> None:
     """Fit ``ldbn_zorder``'s light pair on the training frames' integrands at each spp and
     compare with the shipped keys on the training windows and on the measured frame."""
-    tables = [light_integrands(args.scene, t, args.size, args.fit_grid) for t in args.fit]
+    tables = [pair_integrands(args.scene, t, args.size, args.fit_grid) for t in args.fit]
     train = windows(tables, 64, args.windows)
     shipped = _load("ldbn_zorder")
     print(
@@ -486,6 +502,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--frame", type=int, default=6)
     parser.add_argument("--size", type=int, default=128)
     parser.add_argument("--grid", type=int, default=64)
+    parser.add_argument("--pair", type=int, default=LIGHT_PAIR, help="the dimension pair tabulated")
     parser.add_argument("--keys", nargs="+", default=list(KEY_SETS), choices=list(KEY_SETS))
     parser.add_argument("--spp", nargs="+", type=int, default=[4, 16, 64])
     parser.add_argument("--offsets", type=int, default=8)
@@ -496,13 +513,15 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     if args.fit and args.frame in args.fit:
         parser.error(f"--fit: the measured frame {args.frame} must not be a training frame")
-    f = light_integrands(args.scene, args.frame, args.size, args.grid)
+    if args.fit and args.pair != LIGHT_PAIR:
+        parser.error(f"--fit: fits the light pair ({LIGHT_PAIR}) only, got --pair {args.pair}")
+    f = pair_integrands(args.scene, args.frame, args.size, args.grid, args.pair)
     if args.fit:
         _print_fit(f, args)
         return
     _print_motion(f)
     print()
-    _print_ratios(f, args.keys, args.spp, args.offsets)
+    _print_ratios(f, args.keys, args.spp, args.offsets, args.pair)
 
 
 if __name__ == "__main__":

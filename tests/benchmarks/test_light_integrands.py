@@ -1,4 +1,4 @@
-"""benchmarks.light_integrands: the grid pins exactly the four dimensions, its cells average to
+"""benchmarks.light_integrands: the grid pins every dimension, its cells average to
 the jitter-pinned render, the edge motion reads a known edge's speed, and the arrangement
 ratios behave as their definitions say on integrands built by hand."""
 
@@ -11,15 +11,15 @@ import torch
 import renderers
 from benchmarks.fixed_jitter import FixedJitter
 from benchmarks.light_integrands import (
-    GridLight,
+    GridPair,
     arrangement_ratio,
     carried_correlation,
     edge_motion,
     fit_light_pair,
     key_points,
     keyed_errors,
-    light_integrands,
     main,
+    pair_integrands,
     penumbra,
     window_error,
     windows,
@@ -35,26 +35,25 @@ def _zorder_keys() -> np.ndarray:
     return load_array("ldbn_zorder_64.npy", np.int32, (None, 1, None, None, None))
 
 
-def test_grid_pins_jitter_and_light_pair_only():
-    inner = make_sampler("owen_sobol")
+def test_grid_pins_jitter_pair_and_every_other_dimension():
     n = 32
-    seed = torch.arange(n, dtype=torch.int64) * 2654435761 % 2**32
+    seed = torch.arange(n, dtype=torch.int64)
     pixel = torch.stack([torch.arange(n) // 8, torch.arange(n) % 8], 1)
     index = torch.arange(n, dtype=torch.int64) % 4
-    got = GridLight(inner, 0.25, 0.75).sample(seed, index, 1, 6, pixel)
-    want = inner.sample(seed, index, 1, 6, pixel)
-    assert bool((got[:, 0] == 0.5).all()) and bool((got[:, 1] == 0.25).all())
-    assert bool((got[:, 2] == 0.75).all())
-    assert torch.equal(got[:, 3:], want[:, 3:])
+    got = GridPair(2, 0.25, 0.75, rest=0.125).sample(seed, index, 1, 6, pixel)
+    want = torch.tensor([0.5, 0.125, 0.125, 0.25, 0.75, 0.125])  # dimensions 1 .. 6
+    assert got.shape == (n, 6) and torch.equal(got, want.expand(n, 6))
 
 
-def test_grid_point_must_lie_in_the_unit_square():
-    with pytest.raises(ValueRangeError, match=r"\[0, 1\)\^2"):
-        GridLight(make_sampler("owen_sobol"), 1.0, 0.5)
+def test_grid_points_lie_in_the_unit_square_and_pair_0_is_the_jitter():
+    with pytest.raises(ValueRangeError, match=r"\[0, 1\)"):
+        GridPair(1, 1.0, 0.5)
+    with pytest.raises(ValueRangeError, match="pair"):
+        GridPair(0, 0.5, 0.5)
 
 
 def test_the_cells_average_to_the_jitter_pinned_render():
-    f = light_integrands("direct", t=6, size=16, grid=16)
+    f = pair_integrands("direct", t=6, size=16, grid=16)
     assert f.shape == (16, 16, 16, 16) and bool((f >= 0).all())
     scene = renderers.get_scene("direct", animated=True)
     seeds = pixel_seeds(16, 16, 0x5EED)
@@ -66,9 +65,11 @@ def test_the_cells_average_to_the_jitter_pinned_render():
     assert rel < 0.02
 
 
-def test_only_single_light_direct_scenes_are_tabulated():
-    with pytest.raises(ValueRangeError, match="one light"):
-        light_integrands("indirect", size=8, grid=2)
+def test_pairs_past_the_scenes_dimensions_are_refused_and_deeper_scenes_tabulate():
+    with pytest.raises(ValueRangeError, match=r"1 to 1 on 'direct'"):
+        pair_integrands("direct", size=8, grid=2, pair=2)
+    f = pair_integrands("indirect", size=8, grid=2, pair=2)  # the bounce direction at vertex 0
+    assert f.shape == (8, 8, 2, 2) and bool(torch.isfinite(f).all())
 
 
 def _moving_edge(k: int, size: int = 8, grid: int = 64) -> torch.Tensor:
