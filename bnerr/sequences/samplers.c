@@ -74,14 +74,18 @@ static inline uint64_t mix_bits(uint64_t v) {
     return v ^ (v >> 33);
 }
 
-/* pbrt's FastOwen randomizer of the reversed Sobol word x with the 32-bit seed s. */
-static inline uint32_t fast_owen(uint32_t x, uint32_t s) {
+/* The Laine-Karras permutation with pbrt's and OpenQMC's constants (a nested scramble in the
+   bit-reversed domain; OpenQMC's laineKarrasPermutation). */
+static inline uint32_t lk_permute(uint32_t x, uint32_t s) {
     x ^= x * 0x3D20ADEAu;
     x += s;
     x *= (s >> 16) | 1u;
     x ^= x * 0x05526C56u;
-    return rev32(x ^ (x * 0x53A22864u));
+    return x ^ (x * 0x53A22864u);
 }
+
+/* pbrt's FastOwen randomizer of the reversed Sobol word x with the 32-bit seed s. */
+static inline uint32_t fast_owen(uint32_t x, uint32_t s) { return rev32(lk_permute(x, s)); }
 
 /* pbrt's min(float32(v) * 2^-32, 0x1.fffffep-1). */
 static inline float word_to_float(uint32_t v) {
@@ -356,22 +360,14 @@ static void white_lanes(const sjob_t *j) {
     }
 }
 
-/* OpenQMC's integer steps (bnerr.sequences.openqmc): PCG's LCG step and output permutation,
-   and its Laine-Karras permutation (other constants than laine_karras above). */
+/* OpenQMC's integer steps (bnerr.sequences.openqmc): PCG's LCG step and output permutation (its
+   Laine-Karras permutation is lk_permute, pbrt's). */
 static inline uint32_t pcg_transition(uint32_t s) { return s * 747796405u + 2891336453u; }
 
 static inline uint32_t pcg_output(uint32_t s) {
     s ^= s >> (4 + (s >> 28));
     s *= 277803737u;
     return s ^ (s >> 22);
-}
-
-static inline uint32_t oqmc_laine_karras(uint32_t v, uint32_t seed) {
-    v ^= v * 0x3D20ADEAu;
-    v += seed;
-    v *= (seed >> 16) | 1u;
-    v ^= v * 0x05526C56u;
-    return v ^ (v * 0x53A22864u);
 }
 
 /* uintToFloat: the low byte loses the top byte's bits, then one rounding to float32. */
@@ -392,12 +388,12 @@ static void oqmc_lanes(const sjob_t *j) {
             uint32_t shift = pcg_output(pcg_transition(init + (uint32_t)p));
             uint64_t at = ((y + ((shift >> 8) & 0xFFu)) & 0xFFu) * 256 + ((x + shift) & 0xFFu);
             uint32_t key = o->keys[at], rank = o->ranks[at];
-            uint32_t top = oqmc_laine_karras(rev32(sample ^ rank), key) >> 16;
+            uint32_t top = lk_permute(rev32(sample ^ rank), key) >> 16;
             for (int c = 0; c < 2; ++c) {
                 const uint32_t *t = o->sobol + 512 * c;
                 uint32_t column = t[top & 0xFFu] ^ t[256 + (top >> 8)];
                 uint32_t turned = c ? (key >> 8) | (key << 24) : key;
-                put(j, 2 * p + c, i, oqmc_float(rev32(oqmc_laine_karras(column, turned))));
+                put(j, 2 * p + c, i, oqmc_float(fast_owen(column, turned)));
             }
         }
     }
