@@ -196,6 +196,12 @@ def key_points(keys: np.ndarray, base: str, spp: int, pair: int = LIGHT_PAIR) ->
     return pair_points(tile[..., :dims], tile[..., dims:], spp, pair, read)
 
 
+def _cell_index(points: torch.Tensor, grid: int) -> torch.Tensor:
+    """The flat grid cell ``j G + i`` that each point ``(u, v)`` of ``points [..., 2]`` falls in."""
+    cells = (points * grid).long().clamp_(0, grid - 1)
+    return cells[..., 1] * grid + cells[..., 0]
+
+
 def keyed_errors(
     f: torch.Tensor,
     points: torch.Tensor,
@@ -211,8 +217,7 @@ def keyed_errors(
     size = round(points.shape[0] ** 0.5)
     if points.dim() != 3 or points.shape[2] != 2 or size * size != points.shape[0]:
         raise ShapeError(f"points: expected [T^2, n, 2], got {list(points.shape)}")
-    cells = (points * grid).long().clamp_(0, grid - 1)
-    flat = cells[..., 1] * grid + cells[..., 0]  # [T^2, n]
+    flat = _cell_index(points, grid)  # [T^2, n]
     if perm is not None:
         flat = flat[perm]
     y = (torch.arange(height)[:, None] + offset[0]) % size
@@ -326,8 +331,7 @@ def carried_correlation(
         raise ValueRangeError("integrands: expected neighbours in the penumbra, got none")
     every = every[torch.randperm(every.shape[0], generator=gen)[:pairs]]
     chosen = torch.randperm(points.shape[0], generator=gen)[:keys]
-    cells = (points[chosen] * grid).long().clamp_(0, grid - 1)
-    flat = cells[..., 1] * grid + cells[..., 0]  # [K, n]
+    flat = _cell_index(points[chosen], grid)  # [K, n]
     errs = []
     for y, x in ((every[:, 0], every[:, 1]), (every[:, 2], every[:, 3])):
         values = f[y, x].reshape(every.shape[0], -1).double()  # [M, G^2]
@@ -391,8 +395,7 @@ def _window_errors(keys: np.ndarray, level: int, train: Windows) -> tuple[Evalua
 
     def errors(texels: torch.Tensor, rows: torch.Tensor) -> torch.Tensor:
         words = keyed_words("zorder", table, index[texels], chunks[rows], n)
-        cell = (words.float() / (1 << 24) * grid).long().clamp_(max=grid - 1)
-        flat = cell[..., 1] * grid + cell[..., 0]  # [M, n]
+        flat = _cell_index(words.float() / (1 << 24), grid)  # [M, n]
         at = train.pixels[texels][:, :, None] * (grid * grid) + flat[:, None, :]
         return train.values[at].double().mean(2) - train.exact[texels]
 
