@@ -77,6 +77,7 @@ from bnerr.strategies import check_strategy_name
 from renderers.catalog import SCENES
 
 __all__ = [
+    "CYCLES_SCENES",
     "GAP_BEST",
     "GAP_SINGLE",
     "REGIONS",
@@ -378,6 +379,16 @@ _GAP_METRICS = ("mse", "mse_blur1", "mse_blur2", "tmse", "trelmse", "mse_tavg")
 # (tests/test_ordering.py's docstring has the figures).
 _SETS = _Sets(seed_sets=4, frames=3, warmup=6)
 
+#: The ``cycles`` suite's three scenes, built in Blender by code (renderers/cycles/builders.py).
+CYCLES_SCENES: tuple[str, ...] = ("cycles_interior", "cycles_product", "cycles_outdoor")
+#: Cycles' own denoiser, bnerr's OIDN fed Cycles' denoising passes, the Gaussian tuned on white
+#: noise, the U-Net and temporal accumulation.
+_CYCLES_DENOISERS = ("cycles_oidn", "oidn", "gaussian", "unet", "taa")
+_SAME_SCENE_DENOISERS = ("oidn", "gaussian", "unet", "taa")
+#: 4 seed sets of 3 frames after 2 (TAA's history), 128x128, 1024-spp references rendered by
+#: Cycles with seeds no strategy uses.
+_CYCLES_SETS = _GapSets(seed_sets=4, frames=3, warmup=2, res=(128, 128), reference_spp=1024)
+
 SUITES: dict[str, Suite] = {
     "quick": Suite(
         name="quick",
@@ -665,6 +676,56 @@ SUITES: dict[str, Suite] = {
                 reference_spp=512,
                 conditions=tuple(Condition(depth=d) for d in (2, 3, 5, 9)),
                 **_SETS,
+            ),
+        ),
+    ),
+    "cycles": Suite(
+        name="cycles",
+        coherent=True,
+        description=(
+            "Blender Cycles as it ships: its classic pattern (white) against its blue-noise "
+            "default, after Cycles' own OIDN, bnerr's OIDN, the Gaussian, the U-Net and TAA, on "
+            "three scenes built by code at 1-64 spp, the adaptive and scrambled variants, and "
+            "cycles_blue against Cycles' pattern on the same scenes; --until-resolved"
+        ),
+        sweeps=(
+            # The answer for Cycles users: its default against its classic pattern, as shipped
+            # (the scenes keep Blender's default light paths, filter and clamping).
+            Sweep(
+                scenes=CYCLES_SCENES,
+                strategies=("white", "blue_noise"),
+                spp=(1, 4, 16, 64),
+                denoisers=_CYCLES_DENOISERS,
+                **_CYCLES_SETS,
+            ),
+            # The options that change how Cycles spreads its error over the screen.
+            Sweep(
+                scenes=CYCLES_SCENES,
+                strategies=(
+                    "white",
+                    "blue_noise_adaptive",
+                    "classic_adaptive",
+                    "classic_scrambled",
+                ),
+                spp=(4, 16),
+                denoisers=("cycles_oidn", "gaussian"),
+                **_CYCLES_SETS,
+            ),
+            # The same scenes in both renderers: Cycles' own pattern against bnerr's
+            # reproduction of it (cycles_blue) in bnerr's tracer, after the same denoisers.
+            Sweep(
+                scenes=("cycles_direct", "cycles_indirect"),
+                strategies=("white", "blue_noise"),
+                spp=(1, 4),
+                denoisers=("cycles_oidn", *_SAME_SCENE_DENOISERS),
+                **_CYCLES_SETS,
+            ),
+            Sweep(
+                scenes=("direct", "indirect"),
+                strategies=("white", "cycles_blue"),
+                spp=(1, 4),
+                denoisers=_SAME_SCENE_DENOISERS,
+                **_CYCLES_SETS,
             ),
         ),
     ),

@@ -11,6 +11,8 @@ The error classes also derive from the matching builtin (``ValueError``, ``TypeE
 A missing optional dependency is always a :class:`MissingExtraError` (Mitsuba and its LLVM
 library, OIDN, FLIP, Ray, imageio's ffmpeg), whose message names the extra that provides it and
 the command that installs it (:data:`EXTRAS`); the CLI prints it as one line with exit code 2.
+A missing required dependency (an environment installed before it was added) is a
+:class:`MissingDependencyError`, printed the same way.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ __all__ = [
     "ExternalProcessError",
     "FileFormatError",
     "MemoryLimitError",
+    "MissingDependencyError",
     "MissingExtraError",
     "NonFiniteError",
     "PluginError",
@@ -103,6 +106,8 @@ EXTRAS: dict[str, str] = {
     "llvm": "apt-get install libllvm19 (make does it as root on Debian), or point "
     "DRJIT_LIBLLVM_PATH at a libLLVM >= 19",
     "ffmpeg": "pip install 'imageio-ffmpeg>=0.8,<0.9' (a bnerr dependency: pip install . or make)",
+    "cycles": "make cycles (a Python 3.11 venv .venv-cycles with bpy==4.5.4; bpy pins numpy<2, "
+    "so it cannot share bnerr's environment), or point BNERR_BPY_PYTHON at a Python with bpy",
 }
 
 
@@ -129,6 +134,24 @@ class MissingExtraError(BnerrError, ImportError):
 
     def __reduce__(self) -> tuple[object, ...]:  # picklable (Ray and multiprocessing send it)
         return (_rebuild_missing_extra, (str(self), self.what, self.extra))
+
+
+class MissingDependencyError(BnerrError, ImportError):
+    """A required dependency is not installed (an environment set up before it was added).
+
+    The message reads ``"<what>: expected the package <package> (a dependency of bnerr; install:
+    pip install <package>), got <got>"``.
+    """
+
+    def __init__(self, what: str, package: str, got: str) -> None:
+        self.what, self.package = what, package
+        super().__init__(
+            f"{what}: expected the package {package} (a dependency of bnerr; install: "
+            f"pip install {package}), got {got}"
+        )
+
+    def __reduce__(self) -> tuple[object, ...]:  # picklable (Ray and multiprocessing send it)
+        return (type(self), (self.what, self.package, str(self).rsplit(", got ", 1)[-1]))
 
 
 def _rebuild_missing_extra(message: str, what: str, extra: str) -> MissingExtraError:

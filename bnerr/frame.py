@@ -44,6 +44,9 @@ class Frame:
             renders several times reports the sum); ``"strategy"``: a seed strategy's own work
             outside the renderer (:meth:`bnerr.strategies.Strategy.frame`); ``"denoise"``: the
             denoiser's (``bnerr denoise``).
+        own_denoised: ``[3, H, W]`` images the renderer denoised itself from the same samples, by
+            denoiser name (Cycles' own OIDN output rides along as ``"cycles_oidn"``, read by the
+            denoiser of that name); empty for a renderer that does not denoise.
     """
 
     color: torch.Tensor
@@ -54,6 +57,7 @@ class Frame:
     object_id: torch.Tensor | None = None
     variance: torch.Tensor | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    own_denoised: dict[str, torch.Tensor] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         size = check_shape(self.color, "3 H W", "Frame.color")
@@ -70,6 +74,13 @@ class Frame:
                     f"Frame.{name}: expected H x W = {size['H']} x {size['W']} like color, "
                     f"got {got['H']} x {got['W']}"
                 )
+        for name, image in self.own_denoised.items():
+            got = check_shape(image, "3 H W", f"Frame.own_denoised[{name!r}]")
+            if got != size:
+                raise ShapeError(
+                    f"Frame.own_denoised[{name!r}]: expected H x W = {size['H']} x {size['W']} "
+                    f"like color, got {got['H']} x {got['W']}"
+                )
 
     @property
     def height(self) -> int:
@@ -84,10 +95,11 @@ class Frame:
         return {
             f.name: getattr(self, f.name)
             for f in fields(self)
-            if f.name != "timings" and getattr(self, f.name) is not None
+            if f.name not in ("timings", "own_denoised") and getattr(self, f.name) is not None
         }
 
     def to(self, device: torch.device | str) -> Frame:
         """A copy with every buffer on ``device``."""
         moved = {name: t.to(device) for name, t in self.buffers().items()}
-        return Frame(**moved, timings=dict(self.timings))
+        own = {name: t.to(device) for name, t in self.own_denoised.items()}
+        return Frame(**moved, timings=dict(self.timings), own_denoised=own)

@@ -10,7 +10,9 @@ Names (the registry, :data:`DENOISERS`):
   each sequence and feed its frames in order (motion, depth, normal, object_id);
 - ``unet``: a small OIDN-style U-Net trained here on white-noise inputs (:mod:`denoisers.train`);
 - ``unet_blue``: the same network trained on white and blue-noise inputs (``--mix white+blue``);
-- ``oidn``: Intel Open Image Denoise, the production reference (optional extra ``reference``).
+- ``oidn``: Intel Open Image Denoise, the production reference (optional extra ``reference``);
+- ``cycles_oidn``: Cycles' own OIDN output of a Cycles frame's samples
+  (:mod:`denoisers.cycles_oidn`).
 
 **Plug-ins** (:mod:`bnerr.plugins`) join :data:`DENOISERS` under their ``name``: a
 :class:`Denoiser` subclass, or a plain function ``Frame -> [3, H, W]`` or ``torch.nn.Module``
@@ -36,6 +38,7 @@ import torch
 from bnerr import plugins
 from bnerr.errors import PluginError, UnknownNameError, check_name
 from denoisers.base import Denoiser, MissingBufferError, check_frame
+from denoisers.cycles_oidn import CyclesOIDN
 from denoisers.filters import ATrous, Bilateral, Gaussian, Guided, JointBilateral, Median
 from denoisers.identity import DenoiserIdentity, identity_in, of_kind
 from denoisers.oidn import OIDN
@@ -84,6 +87,7 @@ def _adapt(plugin: plugins.Plugin) -> tuple[str, type[Denoiser]]:
 _SHIPPED: tuple[type[Denoiser], ...] = (
     ATrous,
     Bilateral,
+    CyclesOIDN,
     Gaussian,
     Guided,
     JointBilateral,

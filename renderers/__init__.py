@@ -16,7 +16,14 @@
 This package imports :mod:`bnerr` only, never :mod:`denoisers` or :mod:`benchmarks`.
 """
 
-from renderers.catalog import SCENES, get_scene, load_scene, renders_itself, scene_version
+from renderers.catalog import (
+    SCENES,
+    get_scene,
+    is_cycles,
+    load_scene,
+    renders_itself,
+    scene_version,
+)
 from renderers.layout import Layout
 from renderers.scene import Scene
 from renderers.tracer import render, render_batch
@@ -26,6 +33,7 @@ __all__ = [
     "SCENES",
     "Scene",
     "get_scene",
+    "is_cycles",
     "load_scene",
     "render",
     "render_batch",

@@ -63,7 +63,15 @@ from renderers.scene import (
     affine,
 )
 
-__all__ = ["SCENES", "SHIPPED_SCENES", "get_scene", "load_scene", "renders_itself", "scene_version"]
+__all__ = [
+    "SCENES",
+    "SHIPPED_SCENES",
+    "get_scene",
+    "is_cycles",
+    "load_scene",
+    "renders_itself",
+    "scene_version",
+]
 
 _WHITE = Diffuse((0.8, 0.8, 0.8))
 
@@ -294,6 +302,8 @@ def load_scene(name_or_spec: str) -> str:
         mitsuba_scene = importlib.import_module("renderers.mitsuba_scene")
         builder = mitsuba_scene.load_mitsuba_scene(name_or_spec)
         return registry.add(plugins.Plugin(builder.__name__, builder, None, builder.files))
+    if name_or_spec.endswith(".blend") or name_or_spec in _cycles().BUILT:
+        return _load_cycles(name_or_spec)
     if name_or_spec.endswith(SCENE_FILE_SUFFIXES):
         registered = plugins.registered_file("bnerr.scenes", name_or_spec)
         if registered is not None:  # loaded already (the driver, then each unit of work)
@@ -311,6 +321,26 @@ def load_scene(name_or_spec: str) -> str:
     if not plugins.is_spec(name_or_spec):
         return name_or_spec
     return registry.add(plugins.resolve(name_or_spec))
+
+
+def _cycles():  # renderers.cycles, loaded when used (Blender itself only when it renders)
+    return importlib.import_module("renderers.cycles")
+
+
+def _load_cycles(name_or_spec: str) -> str:
+    """Register a ``.blend`` file (under its stem) or a built Cycles scene (under its name)."""
+    cycles = _cycles()
+    if name_or_spec in cycles.BUILT:
+        if plugins.loaded("bnerr.scenes", name_or_spec) is None:
+            builder = cycles.built_scene(name_or_spec)
+            SCENES.add(plugins.Plugin(name_or_spec, builder, None, ()))  # type: ignore[attr-defined]
+        return name_or_spec
+    path = Path(name_or_spec)
+    known = plugins.loaded("bnerr.scenes", path.stem)
+    if known is not None and known.files[:1] == (str(path.resolve()),):
+        return path.stem  # loaded before (a worker's parts load their specs on every use)
+    builder = cycles.load_blend(name_or_spec)
+    return SCENES.add(plugins.Plugin(builder.__name__, builder, None, builder.files))  # type: ignore[attr-defined]
 
 
 def _is_shipped(scene: Scene, describe: Callable[[Scene], dict], path: Path) -> bool:
@@ -359,7 +389,16 @@ def renders_itself(scene: object) -> bool:
     sweep and ``bnerr render`` call instead of the tracer (and whose time the tracer's budget
     does not model). That module is imported only once an XML scene was loaded."""
     module = sys.modules.get("renderers.mitsuba_scene")
-    return module is not None and isinstance(scene, module.MitsubaScene)
+    if module is not None and isinstance(scene, module.MitsubaScene):
+        return True
+    return is_cycles(scene)
+
+
+def is_cycles(scene: object) -> bool:
+    """Whether ``scene`` is a Cycles scene (:class:`renderers.cycles.CyclesScene`), whose
+    strategies are Cycles' own patterns (:mod:`renderers.cycles.patterns`)."""
+    module = sys.modules.get("renderers.cycles.scene")
+    return module is not None and isinstance(scene, module.CyclesScene)
 
 
 def scene_version(name: str) -> str:

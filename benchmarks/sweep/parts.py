@@ -26,9 +26,10 @@ import renderers
 from benchmarks.sweep.plugins import load_specs
 from benchmarks.sweep.version import code_version
 from bnerr import metrics, sequences, strategies
-from bnerr.errors import check_device
+from bnerr.errors import ValueRangeError, check_device
 from bnerr.frame import Frame
 from denoisers import tuning
+from renderers.cycles import CYCLES_STRATEGIES, CyclesPattern, make_pattern_strategy
 
 if TYPE_CHECKING:
     from bnerr.sequences import Sampler
@@ -207,6 +208,11 @@ def render_any(
     there; None: where they are); a scene that renders itself renders where it renders."""
     if renderers.renders_itself(scene):
         return scene.render(t, seeds, sampler, spp)  # type: ignore[attr-defined]
+    if isinstance(sampler, CyclesPattern):
+        raise ValueRangeError(
+            f"--strategies {sampler.name}: expected a Cycles scene for Cycles' own pattern, got "
+            f"bnerr's scene {getattr(scene, 'name', scene)!r}"
+        )
     if device is not None:
         seeds = seeds.to(device)
     return renderers.render(_own(scene), t, seeds, sampler, spp, compile=compile)
@@ -257,6 +263,15 @@ def real_parts(specs: tuple[tuple[str, str], ...] = (), device: str = "cpu") -> 
         name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
     ) -> Strategy:
         load_specs(specs)
+        if renderers.is_cycles(scene):  # Cycles takes one seed per frame: its own patterns only
+            return make_pattern_strategy(
+                name,
+                height,
+                width,
+                seed=seed,
+                scene=scene.name,
+                device=where,  # type: ignore[attr-defined]
+            )
         return strategies.make_strategy(
             name,
             height,
@@ -310,7 +325,7 @@ def known_names() -> dict[str, tuple[str, ...]]:
     own = tuple(f"{name}:own" for name in denoisers.DENOISERS if name in tuning.GRIDS)
     return {
         "known_scenes": tuple(renderers.SCENES),
-        "known_strategies": tuple(strategies.STRATEGIES),
+        "known_strategies": tuple(dict.fromkeys((*strategies.STRATEGIES, *CYCLES_STRATEGIES))),
         "known_denoisers": tuple(denoisers.DENOISERS) + own,
         "known_samplers": sequences.per_pixel_samplers(),
         "known_metrics": tuple(metrics.METRIC_TABLE),
