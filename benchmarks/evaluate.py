@@ -55,10 +55,13 @@ __all__ = [
     "FolderReferences",
     "FolderScene",
     "FolderStrategy",
+    "Evaluation",
     "default_metrics",
     "evaluate",
     "folder_parts",
     "folder_runs",
+    "measure_evaluation",
+    "plan_evaluation",
 ]
 
 #: The tuning seed sets' frames: as many as the sweep tunes on (tuning.tune_missing).
@@ -177,17 +180,21 @@ def _any_stateful(parts: Parts, denoisers: Sequence[str]) -> bool:
 
 
 def _check_files(folder: FrameFolder, runs: list[Run], stateful: bool) -> None:
-    """Every file the runs will read, before any pixel (:func:`check_folder`): the measured frames
-    (from frame 0 with a stateful denoiser), the references, and the tuning seed sets' frames."""
+    """Every file the runs will read, before anything is written (:func:`check_folder`): the
+    measured frames (from frame 0 with a stateful denoiser), the references, and the tuning seed
+    sets' frames; their headers first, then their pixels."""
     m = folder.manifest
     first = 0 if stateful else m.warmup
     methods = {run.strategy: list(m.seed_sets) for run in runs}
-    check_folder(folder, methods, range(first, m.warmup + m.frames))
+    tuned: dict[str, list[str]] = {}
+    times = range(m.warmup, m.warmup + min(m.frames, _TUNING_FRAMES))
     if m.tuning_seed_set is not None:
         own = [run.strategy for run in runs if any(split_own(d)[1] for d in run.denoisers)]
-        tuned = dict.fromkeys(["white", *own])
-        times = range(m.warmup, m.warmup + min(m.frames, _TUNING_FRAMES))
-        check_folder(folder, {k: [m.tuning_seed_set] for k in tuned}, times)
+        tuned = {k: [m.tuning_seed_set] for k in ["white", *own]}
+    for pixels in (False, True):  # every header before any pixel: the cheap refusals first
+        check_folder(folder, methods, range(first, m.warmup + m.frames), pixels=pixels)
+        if tuned:
+            check_folder(folder, tuned, times, pixels=pixels)
 
 
 def _denoisers(
@@ -204,6 +211,70 @@ def _denoisers(
     return make_denoisers(parts, dict.fromkeys(run.denoisers))
 
 
+@dataclass(frozen=True)
+class Evaluation:
+    """A frame folder checked and ready to measure (:func:`plan_evaluation`): nothing written yet.
+
+    Attributes:
+        folder: the frame folder.
+        runs: one run per method, white first (:func:`folder_runs`).
+        parts: the sweep's parts over the folder (:func:`folder_parts`).
+        notes: what the user is told (one seed set, no tuning seed set).
+    """
+
+    folder: FrameFolder
+    runs: tuple[Run, ...]
+    parts: Parts
+    notes: tuple[str, ...]
+
+
+def plan_evaluation(
+    root: str | Path | FrameFolder,
+    *,
+    denoisers: Sequence[str] = ("gaussian",),
+    metrics: Sequence[str] | None = None,
+    specs: Sequence[tuple[str, str]] = (),
+) -> Evaluation:
+    """Check the frame folder ``root`` for a measurement with these denoisers and metrics (as in
+    :func:`evaluate`), every file it will read to its last pixel, and write nothing.
+
+    Raises:
+        FileFormatError, ShapeError, NonFiniteError, UnknownNameError, ValueRangeError: the
+            folder's (see :mod:`benchmarks.frame_folder`).
+    """
+    folder = root if isinstance(root, FrameFolder) else FrameFolder(root)
+    m = folder.manifest
+    runs = folder_runs(m, denoisers, metrics or default_metrics())
+    parts = folder_parts(folder, specs)
+    _check_files(folder, runs, _any_stateful(parts, denoisers))
+    notes = []
+    if len(m.seed_sets) < 2:
+        notes.append("one seed set: the intervals over seed sets need two (none are given)")
+    if m.tuning_seed_set is None:
+        notes.append("no tuning_seed_set in the manifest: the denoisers keep their defaults")
+    return Evaluation(folder, tuple(runs), parts, tuple(notes))
+
+
+def measure_evaluation(
+    plan: Evaluation, out: str | Path, on_run: Callable[[Run], None] | None = None
+) -> list[Record]:
+    """Measure a checked folder (:func:`plan_evaluation`) into ``<out>/cells.jsonl`` and
+    ``<out>/crops``; return the records."""
+    m = plan.folder.manifest
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    references, store = FolderReferences(plan.folder), ParamStore()
+    records: list[Record] = []
+    for run in plan.runs:
+        if on_run is not None:
+            on_run(run)
+        chosen = _denoisers(run, plan.parts, references, store, m.tuning_seed_set is not None)
+        measured = measure_run(run, plan.parts, references, chosen, crops_dir=out / "crops")
+        records.extend(with_plugins(r).rounded() for r in measured)  # as bnerr bench keeps them
+    write_records(out, records)
+    return records
+
+
 def evaluate(
     root: str | Path | FrameFolder,
     out: str | Path,
@@ -214,7 +285,8 @@ def evaluate(
     on_run: Callable[[Run], None] | None = None,
 ) -> tuple[list[Record], list[str]]:
     """Measure every method of the frame folder ``root`` and write ``<out>/cells.jsonl`` (and the
-    crops); return the records and the notes for the user.
+    crops); return the records and the notes for the user (:func:`plan_evaluation`, then
+    :func:`measure_evaluation`).
 
     Args:
         root: the frame folder (``DIR``), or it read already.
@@ -228,25 +300,5 @@ def evaluate(
         FileFormatError, ShapeError, NonFiniteError, UnknownNameError, ValueRangeError: the
             folder's (see :mod:`benchmarks.frame_folder`), before anything is written.
     """
-    folder = root if isinstance(root, FrameFolder) else FrameFolder(root)
-    m = folder.manifest
-    runs = folder_runs(m, denoisers, metrics or default_metrics())
-    parts = folder_parts(folder, specs)
-    _check_files(folder, runs, _any_stateful(parts, denoisers))
-    notes = []
-    if len(m.seed_sets) < 2:
-        notes.append("one seed set: the intervals over seed sets need two (none are given)")
-    if m.tuning_seed_set is None:
-        notes.append("no tuning_seed_set in the manifest: the denoisers keep their defaults")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    references, store = FolderReferences(folder), ParamStore()
-    records: list[Record] = []
-    for run in runs:
-        if on_run is not None:
-            on_run(run)
-        chosen = _denoisers(run, parts, references, store, m.tuning_seed_set is not None)
-        measured = measure_run(run, parts, references, chosen, crops_dir=out / "crops")
-        records.extend(with_plugins(r).rounded() for r in measured)  # as bnerr bench keeps them
-    write_records(out, records)
-    return records, notes
+    plan = plan_evaluation(root, denoisers=denoisers, metrics=metrics, specs=specs)
+    return measure_evaluation(plan, out, on_run), list(plan.notes)

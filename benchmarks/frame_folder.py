@@ -366,7 +366,9 @@ class FrameFolder:
                 f"{size[0]} x {size[1]} in its header; refused before reading"
             )
 
-    def _read(self, path: Path, reference: bool = False) -> Frame:
+    def read_file(self, path: Path, reference: bool = False) -> Frame:
+        """The frame at ``path`` (a reference's with its variance), checked: its size, the
+        manifest's buffers, every value finite."""
         self.check_file(path)
         frame = read_frame(path)
         found: dict[str, torch.Tensor] = {}
@@ -411,11 +413,11 @@ class FrameFolder:
 
     def frame(self, method: str, seed_set: str, t: int) -> Frame:
         """The noisy frame ``t`` of ``method`` in ``seed_set`` (the manifest's buffers only)."""
-        return self._read(self.frame_path(method, seed_set, t))
+        return self.read_file(self.frame_path(method, seed_set, t))
 
     def reference(self, t: int) -> Frame:
         """The reference of frame ``t`` (of frame 0 in a static folder)."""
-        return self._read(self.reference_path(t), reference=True)
+        return self.read_file(self.reference_path(t), reference=True)
 
     def fingerprint(self) -> str:
         """A short hash of the manifest and every reference file: the records' reference
@@ -439,16 +441,22 @@ def _missing(paths: list[Path], what: str) -> FileFormatError:
     return FileFormatError(f"{first}: expected {what} the manifest implies, got no such file{more}")
 
 
-def check_folder(folder: FrameFolder, frames: dict[str, list[str]], times: range) -> None:
+def check_folder(
+    folder: FrameFolder, frames: dict[str, list[str]], times: range, *, pixels: bool = False
+) -> None:
     """Check, before reading any pixel, every file a measurement will read: ``frames`` maps each
     method to its seed-set folders, ``times`` the frame indices; plus the references of the
-    measured frames.
+    measured frames. With ``pixels``, then read every one of them as the measurement will
+    (:meth:`FrameFolder.frame`, :meth:`FrameFolder.reference`) and drop it: a truncated file,
+    missing channels or a non-finite pixel is refused before anything is written.
 
     Raises:
         FileFormatError: a missing frame or reference (one line: the first, and how many more),
-            or a file that is not an EXR.
+            or a file that is not an EXR (with ``pixels``: one that cannot be read, or lacks
+            the colour or a buffer the manifest names).
         ShapeError: a file whose header declares another size than the manifest's.
         ValueRangeError: a path that leaves the folder (a symbolic link).
+        NonFiniteError: with ``pixels``, a NaN or infinite value.
     """
     refs = sorted({folder.reference_path(t) for t in reference_frames(folder.manifest)})
     absent = [p for p in refs if not p.is_file()]
@@ -460,3 +468,8 @@ def check_folder(folder: FrameFolder, frames: dict[str, list[str]], times: range
         raise _missing(absent, "a frame")
     for path in [*refs, *noisy]:
         folder.check_file(path)
+    if pixels:
+        for path in refs:
+            folder.read_file(path, reference=True)
+        for path in noisy:
+            folder.read_file(path)

@@ -37,10 +37,15 @@ Not for: deep images, tiled or mip-mapped files, or anything but single-part sca
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import errno
+import io
 import json
 import os
 import struct
+import sys
+import tempfile
+import warnings
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import BinaryIO
@@ -72,6 +77,7 @@ __all__ = [
     "TONEMAPS",
     "atomic_write",
     "image_format",
+    "openexr_quiet",
     "read_exr",
     "read_frame",
     "write_exr",
@@ -102,6 +108,8 @@ TONEMAPS = tuple(sorted(_COLOR_TONEMAPS))
 TIMINGS_ATTRIBUTE = "bnerr_timings"
 
 _SUFFIX_ORDERS = (("R", "G", "B", "A"), ("X", "Y", "Z"), ("U", "V"))
+#: Bytes of OpenEXR's own stderr kept by :func:`openexr_quiet`.
+_CAUGHT_LIMIT = 4096
 
 
 # ------------------------------------------------------------------------------------------------
@@ -288,6 +296,61 @@ def _group(names: list[str], path: Path) -> dict[str, list[str]]:
     return grouped
 
 
+@contextlib.contextmanager
+def openexr_quiet(path: str | os.PathLike) -> Iterator[list[str]]:
+    """Run the ``with`` block (calls into OpenEXR) with the process's stdout and stderr caught
+    (file descriptors 1 and 2, and Python's ``sys.stdout`` and ``sys.stderr``): on a corrupt file
+    the C library prints its own line to stderr and the binding "Warning: Exception raised
+    reading pixel data" to stdout, before the exception that bnerr turns into its one line.
+
+    Yields a list that holds, once the block ends, what was printed as one line (empty if
+    nothing). If the block raises, the caller quotes it in its error; if it succeeds, what was
+    printed is passed on as one warning naming ``path``: nothing is lost, and nothing is printed
+    past bnerr's own lines.
+    """
+    said: list[str] = []
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError, AttributeError):
+            stream.flush()
+    _flush_c_streams()  # what was printed before is not caught
+    saved = {fd: os.dup(fd) for fd in (1, 2)}
+    python = io.StringIO()  # the binding may print through Python's sys.stdout (py::print)
+    try:
+        with (
+            tempfile.TemporaryFile() as caught,
+            contextlib.redirect_stdout(python),
+            contextlib.redirect_stderr(python),
+        ):
+            for fd in saved:
+                os.dup2(caught.fileno(), fd)
+            try:
+                yield said
+            finally:
+                _flush_c_streams()  # the C++ binding's lines sit in C's stdout buffer until then
+                for fd, copy in saved.items():
+                    os.dup2(copy, fd)
+                caught.seek(0)
+                text = caught.read(_CAUGHT_LIMIT).decode("utf-8", "replace")
+                text += python.getvalue()[:_CAUGHT_LIMIT]
+                said.append(" / ".join(t.strip() for t in text.splitlines() if t.strip()))
+    finally:
+        for copy in saved.values():
+            os.close(copy)
+    if said[0]:  # a read that succeeded but printed: one warning, after the streams are back
+        warnings.warn(f"{path}: OpenEXR said: {said[0]}", stacklevel=3)
+
+
+def _flush_c_streams() -> None:
+    """``fflush(NULL)``: C's stdio buffers (where ``std::cout`` writes go) onto their files."""
+    with contextlib.suppress(OSError, AttributeError, TypeError):
+        ctypes.CDLL(None).fflush(None)
+
+
+def _said(said: list[str]) -> str:
+    """``; OpenEXR said: ...`` for an error message, or nothing."""
+    return f"; OpenEXR said: {said[0]}" if said and said[0] else ""
+
+
 def _read_exr(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict]:
     """Buffers and header of an EXR file; every failure is a FileFormatError naming the file."""
     import OpenEXR
@@ -295,17 +358,21 @@ def _read_exr(path: str | os.PathLike) -> tuple[dict[str, torch.Tensor], dict]:
     path = _check_path(path)
     if not path.is_file():
         raise FileFormatError(f"{path}: no such file")
+    said: list[str] = []
     try:
-        if not OpenEXR.isOpenExrFile(str(path)):
-            raise FileFormatError(f"{path}: not an OpenEXR file (no EXR magic number)")
-        exr = OpenEXR.File(str(path), separate_channels=True)
-        header = exr.header()
-        channels = {name: channel.pixels for name, channel in exr.channels().items()}
+        with openexr_quiet(path) as said:
+            if not OpenEXR.isOpenExrFile(str(path)):
+                raise FileFormatError(f"{path}: not an OpenEXR file (no EXR magic number)")
+            exr = OpenEXR.File(str(path), separate_channels=True)
+            header = exr.header()
+            channels = {name: channel.pixels for name, channel in exr.channels().items()}
     except FileFormatError:
         raise
     except Exception as error:  # the binding raises RuntimeError or ValueError on corrupt data
+        reason = str(error).splitlines()[0] if str(error) else ""
         raise FileFormatError(
-            f"{path}: corrupt or truncated OpenEXR file ({type(error).__name__}: {error})"
+            f"{path}: corrupt or truncated OpenEXR file ({type(error).__name__}: "
+            f"{reason}){_said(said)}"
         ) from error
     if not channels:
         raise FileFormatError(f"{path}: the OpenEXR file holds no channels")

@@ -17,6 +17,10 @@ for as long as a command writes into the folder, so that a second ``bnerr bench`
 interleaving its files with the first one's. The lock is released by the kernel when the
 process ends, however it ends (a SIGKILL leaves no stale lock).
 
+:func:`undo_on_failure` removes what a command created in its output folder (files, folders,
+the lock file, the folder itself) when the command fails with an exception: a refusal that
+comes late (a plug-in that raises mid-run) leaves nothing half-written behind.
+
 Not for: network file systems whose ``flock`` is not shared between hosts.
 """
 
@@ -42,6 +46,7 @@ __all__ = [
     "clean_stale_temporaries",
     "output_lock",
     "temporary_name",
+    "undo_on_failure",
 ]
 
 #: The lock file's name inside a locked folder.
@@ -237,3 +242,38 @@ def output_lock(
         yield path
     finally:
         os.close(fd)  # closing the descriptor releases the lock
+
+
+def _entries(folder: Path) -> set[Path] | None:
+    """Every path under ``folder`` (itself included), or None when it does not exist."""
+    if not folder.is_dir():
+        return None
+    found = {folder}
+    for base, dirs, files in os.walk(folder):
+        found.update(Path(base, name) for name in [*dirs, *files])
+    return found
+
+
+@contextlib.contextmanager
+def undo_on_failure(folder: str | os.PathLike) -> Iterator[Path]:
+    """Run the ``with`` block; if it raises, remove every file and folder under ``folder`` that
+    was not there when the block began (``folder`` itself too if it was new), then re-raise.
+
+    Files that existed before are left as they are (a command that overwrites one does so
+    atomically, :func:`bnerr.io.atomic_write`). Take it outside :func:`output_lock`, so that a
+    lock file the command created goes too (its descriptor is closed first).
+    """
+    path = Path(folder)
+    before = _entries(path)
+    try:
+        yield path
+    except BaseException:
+        after = _entries(path) or set()
+        new = sorted(after - (before or set()), key=lambda p: len(p.parts), reverse=True)
+        for entry in new:  # deepest first: a folder is empty once its new files are gone
+            with contextlib.suppress(OSError):
+                if entry.is_dir() and not entry.is_symlink():
+                    entry.rmdir()
+                else:
+                    entry.unlink()
+        raise

@@ -100,7 +100,7 @@ from bnerr.external import (
     run_program,
 )
 from bnerr.frame import BUFFERS, Frame
-from bnerr.io import write_exr
+from bnerr.io import openexr_quiet, write_exr
 from denoisers.base import Denoiser
 from denoisers.temporal import check_continues
 
@@ -356,17 +356,24 @@ def _read_output(
     limit = _SIZE_FACTOR * height * width * 3 * 4 + _SIZE_SLACK
     if path.stat().st_size > limit:
         raise fail(f"an output EXR of at most {limit} bytes", f"{path.stat().st_size} bytes")
+    said: list[str] = []
     try:
-        got_size, names = _exr_header(path)
-        if got_size != size:
-            raise fail(f"an output of {height} x {width} pixels", f"{got_size[0]} x {got_size[1]}")
-        if names != ["B", "G", "R"]:
-            raise fail("the output channels R, G, B only", ", ".join(names) or "none")
-        planes = _exr_planes(path)
+        with openexr_quiet(path) as said:  # OpenEXR's own lines go into the one error line
+            got_size, names = _exr_header(path)
+            if got_size != size:
+                raise fail(
+                    f"an output of {width} x {height} pixels (width x height)",
+                    f"{got_size[1]} x {got_size[0]}",
+                )
+            if names != ["B", "G", "R"]:
+                raise fail("the output channels R, G, B only", ", ".join(names) or "none")
+            planes = _exr_planes(path)
     except ExternalProcessError:
         raise
     except Exception as error:  # the binding raises RuntimeError or ValueError on corrupt data
-        raise fail("an OpenEXR output", f"{type(error).__name__}: {error}") from None
+        reason = str(error).splitlines()[0] if str(error) else ""
+        quoted = f"; OpenEXR said: {said[0]}" if said and said[0] else ""
+        raise fail("an OpenEXR output", f"{type(error).__name__}: {reason}{quoted}") from None
     if any(p.dtype not in (np.float32, np.float16) for p in planes):
         raise fail("FLOAT or HALF output channels", ", ".join(str(p.dtype) for p in planes))
     out = torch.from_numpy(np.stack([p.astype(np.float32) for p in planes]))

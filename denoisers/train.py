@@ -171,8 +171,8 @@ def make_training_set(pairs: Sequence[tuple[Frame, torch.Tensor]]) -> TrainingSe
             size = (frame.height, frame.width)
         elif size != (frame.height, frame.width):
             raise ShapeError(
-                f"training pair {i}: expected {size[0]} x {size[1]} like pair 0, "
-                f"got {frame.height} x {frame.width}"
+                f"training pair {i}: expected {size[1]} x {size[0]} like pair 0, "
+                f"got {frame.width} x {frame.height}"
             )
         exposure = auto_exposure(frame.color)
         albedo, normal = required(frame, "albedo"), required(frame, "normal")

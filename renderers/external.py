@@ -45,7 +45,8 @@ other samplers get ``none`` and zeros). ``{seeds}``, ``{out}`` and ``{spp}`` are
 the manifest's folder (a relative program path must lie inside it: :mod:`bnerr.external`).
 :func:`command_manifest` makes the manifest of ``bnerr bench --renderer-cmd "TEMPLATE"``.
 
-**The frame**: an OpenEXR file of ``H x W`` with the channel names of :mod:`bnerr.io` (``R G B``;
+**The frame**: an OpenEXR file of ``W x H`` pixels (width x height, the order of ``--res`` and of
+every size in bnerr's messages) with the channel names of :mod:`bnerr.io` (``R G B``;
 ``albedo.R ..``, ``normal.X ..``, ``depth.Z``, ``motion.X motion.Y``, ``object_id.Y``,
 ``variance.R ..``), FLOAT or HALF, every value finite; a file of more than four times the bytes
 of 16 uncompressed float32 channels (plus 64 KiB) is refused before it is read. The buffers the
@@ -435,8 +436,9 @@ def _read(
     except FileFormatError as err:
         raise _fail(manifest, argv, "an OpenEXR frame", str(err), work) from None
     if (frame.height, frame.width) != size:
-        got = f"{frame.height} x {frame.width}"
-        raise _fail(manifest, argv, f"a frame of {size[0]} x {size[1]} pixels", got, work)
+        got = f"{frame.width} x {frame.height}"  # width x height, as --res and bnerr eval say
+        want = f"a frame of {size[1]} x {size[0]} pixels (width x height)"
+        raise _fail(manifest, argv, want, got, work)
     missing = [b for b in manifest.buffers if getattr(frame, b) is None]
     if missing:
         raise _fail(

@@ -12,7 +12,9 @@ method is measured as ``bnerr bench`` measures a strategy (:mod:`benchmarks.eval
 ``--out`` (default ``DIR/results``) gets ``cells.jsonl``, ``table.csv``, ``table.md``,
 ``decision.md``, the charts and ``index.html``. A folder that already holds finished cells is
 refused unless ``--overwrite``; the command holds ``--out``'s write lock while it runs. Any
-problem with the folder is one line naming the file, before anything is written.
+problem with the folder is one line naming the file, found before anything is written (every
+file is read to its last pixel first); a failure after that (a plug-in that raises mid-run)
+removes what the run had written, the lock file and a folder it created included.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from pathlib import Path
 import torch
 
 from benchmarks.commands._args import names, positive_int
-from benchmarks.evaluate import evaluate
+from benchmarks.evaluate import measure_evaluation, plan_evaluation
 from benchmarks.frame_folder import FrameFolder
 from benchmarks.reports import write_report
 from benchmarks.sweep.parts import known_names
@@ -32,7 +34,7 @@ from benchmarks.sweep.plan import Run
 from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.records import check_no_results
 from bnerr.errors import check_name, check_positive_int
-from bnerr.outputs import output_lock
+from bnerr.outputs import check_folder_path, output_lock, undo_on_failure
 
 __all__ = ["register", "run"]
 
@@ -79,23 +81,22 @@ def run(args: argparse.Namespace) -> int:
         check_name(name, known["known_metrics"], "metric")
     folder = FrameFolder(args.dir)  # the folder and its manifest, before --out is created
     out = args.out if args.out is not None else args.dir / "results"
+    check_folder_path(out, "--out")
+    if not args.overwrite:
+        check_no_results(out, resumable=False)
+    plan = plan_evaluation(  # every file to its last pixel: a refusal writes nothing
+        folder, denoisers=chosen, metrics=metrics, specs=tuple(dict.fromkeys(specs))
+    )
 
     def say(run: Run) -> None:
         if not args.quiet:
             print(f"bnerr eval: measuring {run.strategy}", file=sys.stderr)
 
-    with output_lock(out, "bnerr eval"):
+    with undo_on_failure(out), output_lock(out, "bnerr eval"):
         if not args.overwrite:
-            check_no_results(out)
-        records, notes = evaluate(
-            folder,
-            out,
-            denoisers=chosen,
-            metrics=metrics,
-            specs=tuple(dict.fromkeys(specs)),
-            on_run=say,
-        )
-        for note in notes:
+            check_no_results(out, resumable=False)  # again: another run may have finished
+        records = measure_evaluation(plan, out, on_run=say)
+        for note in plan.notes:
             print(f"bnerr eval: note: {note}", file=sys.stderr)
         text = write_report(out, records, title=f"bnerr eval {args.dir}", charts=not args.no_charts)
     if not args.quiet:

@@ -540,9 +540,10 @@ def _write_all(fd: int, data: bytes, size: int, path: Path) -> None:
         ) from err
 
 
-def check_no_results(out_dir: str | Path) -> None:
+def check_no_results(out_dir: str | Path, *, resumable: bool = True) -> None:
     """Raise :class:`ResultsExistError` if ``<out_dir>/cells.jsonl`` holds any line (finished
-    cells that a fresh run would discard); the file is not parsed."""
+    cells that a fresh run would discard); the file is not parsed. ``resumable``: the command
+    has ``--resume`` (``bnerr bench``), which the message then offers; ``bnerr eval`` has not."""
     found = _read_results(out_dir)
     if found is None:
         return
@@ -551,6 +552,10 @@ def check_no_results(out_dir: str | Path) -> None:
     if count:
         raise ResultsExistError(
             f"{path}: expected no finished cells in the output folder of a fresh run, got "
-            f"{count}; pass --resume to keep them and measure only the missing cells, or "
-            f"--overwrite to discard them"
+            + (
+                f"{count}; pass --resume to keep them and measure only the missing cells, or "
+                "--overwrite to discard them"
+                if resumable
+                else f"{count}; pass --overwrite to discard them, or choose another --out"
+            )
         )

@@ -131,8 +131,8 @@ def coherent_mask(
         return ok
     if (prev.height, prev.width) != (frame.height, frame.width):
         raise ShapeError(
-            f"coherent_mask: expected prev of {frame.height} x {frame.width} like frame, got "
-            f"{prev.height} x {prev.width}"
+            f"coherent_mask: expected prev of {frame.width} x {frame.height} like frame, got "
+            f"{prev.width} x {prev.height}"
         )
     if frame.motion is None:
         raise ValueRangeError("coherent_mask: expected frame with a motion buffer, got none")

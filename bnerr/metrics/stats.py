@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -72,6 +73,7 @@ __all__ = [
     "bootstrap_interval",
     "check_bootstrap",
     "equivalent",
+    "exp_bound",
     "not_worse",
     "paired_ratio",
     "paired_ratios",
@@ -91,6 +93,9 @@ __all__ = [
 #: default, a t-interval over seed sets) and ``"bootstrap"`` (the former two-stage percentile
 #: bootstrap, which undercovers at 4 seed sets; kept for comparison and for old results).
 METHODS = ("t", "bootstrap")
+
+#: The largest log a float64 holds the exp of (709.78...).
+_LOG_MAX = math.log(sys.float_info.max)
 
 #: What :func:`as_stats` reads: per-frame values ``[F]``, ``[S, F]`` or pairs ``[S, F, 2]``, as a
 #: tensor, a NumPy array or nested sequences (a record's ``MetricPairs`` entry).
@@ -374,7 +379,17 @@ def paired_ratio(
     if ra.numel() == 1:
         return Estimate(float(value), 0.0, math.inf, n, level)
     log_lo, log_hi = t_interval(torch.log(ra / rb), torch.log(value), level)
-    return Estimate(float(value), math.exp(float(log_lo)), math.exp(float(log_hi)), n, level)
+    return Estimate(float(value), exp_bound(float(log_lo)), exp_bound(float(log_hi)), n, level)
+
+
+def exp_bound(log_bound: float) -> float:
+    """``exp(log_bound)``, a ratio's interval bound from its log: ``inf`` past float64's range
+    (a log above 709.78, which ``math.exp`` refuses with an OverflowError; far below, exp is 0), so
+    that a ratio whose interval spans more than float64 holds reads as unbounded on that side
+    (one huge pixel, a firefly of 1e24, makes one seed set's mean dwarf another's)."""
+    if log_bound > _LOG_MAX:
+        return math.inf
+    return math.exp(log_bound)
 
 
 def _batch(values: torch.Tensor | np.ndarray, name: str) -> torch.Tensor:
@@ -451,7 +466,7 @@ def paired_ratios(
     log_lo, log_hi = t_interval(torch.log(ra / rb), torch.log(value), level)
     n = a.shape[1] * a.shape[2]
     return [
-        Estimate(v, math.exp(lo), math.exp(hi), n, level)
+        Estimate(v, exp_bound(lo), exp_bound(hi), n, level)
         for v, lo, hi in zip(value.tolist(), log_lo.tolist(), log_hi.tolist(), strict=True)
     ]
 
@@ -473,8 +488,8 @@ def relevel_ratio(estimate: Estimate, level: float, df: int) -> Estimate:
     half = se * t_quantile(level, df)
     return Estimate(
         estimate.value,
-        estimate.value * math.exp(-half),
-        estimate.value * math.exp(half),
+        estimate.value * exp_bound(-half),
+        estimate.value * exp_bound(half),
         estimate.n,
         level,
     )

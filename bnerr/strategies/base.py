@@ -148,10 +148,10 @@ def check_fits(what: str, height: int, width: int, per_pixel: int, device: torch
     """
     if height * width > 1 << 31:
         raise ValueRangeError(
-            f"height * width: expected at most 2^31 pixels, got {height} x {width} = "
+            f"height * width: expected at most 2^31 pixels, got {width} x {height} = "
             f"{height * width}"
         )
-    name = f"{what} strategy at {height} x {width} ({per_pixel} bytes per pixel)"
+    name = f"{what} strategy at {width} x {height} ({per_pixel} bytes per pixel)"
     check_memory(height * width * per_pixel, name, device)
 
 
@@ -377,8 +377,8 @@ class _Checked:
             raise DtypeError(f"render: expected a Frame, got {type(out).__name__}")
         if (out.height, out.width) != (self.height, self.width):
             raise ShapeError(
-                f"render: expected a {self.height} x {self.width} frame, "
-                f"got {out.height} x {out.width}"
+                f"render: expected a {self.width} x {self.height} frame (width x height), "
+                f"got {out.width} x {out.height}"
             )
         if "render" in out.timings:
             self.render_ms.append(float(out.timings["render"]))

@@ -5,6 +5,7 @@ what came (tests/_probes.py); what is refused before any pixel is read writes no
 from __future__ import annotations
 
 import os
+import shutil
 import struct
 from pathlib import Path
 
@@ -17,6 +18,8 @@ from tests._frame_folders import SYNTHETIC, synthetic_folder, toml_text
 from tests._probes import refused_on_the_command_line
 
 pytestmark = pytest.mark.usefixtures("one_thread")
+
+INF = float("inf")
 
 
 def _manifest(**changes):
@@ -89,6 +92,15 @@ CASES = {
                              r"white/0/0001\.exr"),
     "symlink out of the folder": (_symlink_out, r"mine/1/0000\.exr: expected a file inside"),
     "NaN pixel": (_frame_file(_nan), r"white/0/0001\.exr: color: expected finite values"),
+    # issue 54
+    "infinite pixel": (_frame_file(lambda p: write_exr(p, {"color": torch.full((3, 8, 8), INF)})),
+                       r"white/0/0001\.exr: color: expected finite values, got 0 NaN and 192"),
+    "NaN in the last frame read": (lambda root: _nan(root / "mine" / "1" / frame_name(1)),
+                                   r"mine/1/0001\.exr: color: expected finite values"),
+    "manifest alone": (lambda root: [shutil.rmtree(c) for c in root.iterdir() if c.is_dir()],
+                       r"reference/0000\.exr: expected a reference the manifest implies"),
+    "text file named .exr": (_frame_file(lambda p: p.write_text("hello\n")),
+                             r"white/0/0001\.exr: expected an OpenEXR file"),
 }  # fmt: skip
 
 
@@ -101,8 +113,9 @@ def test_a_broken_folder_is_refused_in_one_line(tmp_path, capsys, what):
     refused_on_the_command_line(
         ["eval", str(root), "--out", str(out), "--quiet", "--no-charts"], capsys, words
     )
-    if what != "NaN pixel":  # refused before any pixel is read: nothing written
-        assert not (out / "cells.jsonl").exists()
+    # docs/EVAL.md: found before anything is written, the NaN pixel too (issue 54: it was
+    # exempted, and every case left the lock file): no results folder at all
+    assert not out.exists()
 
 
 def test_a_folder_that_is_not_one(tmp_path, capsys):

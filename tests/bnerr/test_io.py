@@ -345,3 +345,30 @@ def test_exr_size_reads_the_header_alone(tmp_path):
     (tmp_path / "c.exr").write_bytes((tmp_path / "a.exr").read_bytes()[:30])
     with pytest.raises(FileFormatError, match="expected an OpenEXR header"):
         exr_size(tmp_path / "c.exr")
+
+
+def test_openexrs_own_lines_on_a_truncated_file_are_folded_into_the_one_error(tmp_path, capfd):
+    """Issue 54: OpenEXR printed its own lines (the C library's to stderr, the binding's
+    "Warning: Exception raised reading pixel data" to stdout) before bnerr's one line; they are
+    caught and quoted in the error instead, and nothing reaches the process's stdout or stderr."""
+    path = tmp_path / "cut.exr"
+    write_exr(path, {"color": _rand(3, 0)})
+    path.write_bytes(path.read_bytes()[:400])
+    capfd.readouterr()
+    with pytest.raises(FileFormatError) as caught:
+        read_exr(path)
+    out, err = capfd.readouterr()
+    assert (out, err) == ("", "")
+    message = str(caught.value)
+    assert "\n" not in message and "OpenEXR said: " in message
+    assert message.startswith(f"{path}: corrupt or truncated OpenEXR file")
+    print("after")  # the process's own streams work again
+    assert capfd.readouterr().out == "after\n"
+
+
+def test_a_clean_read_prints_nothing_and_warns_nothing(tmp_path, capfd, recwarn):
+    path = tmp_path / "fine.exr"
+    write_exr(path, {"color": _rand(3, 0)})
+    capfd.readouterr()
+    assert read_exr(path)["color"].shape == (3, H, W)
+    assert capfd.readouterr() == ("", "") and not recwarn.list

@@ -16,6 +16,7 @@ from bnerr.outputs import (
     clean_stale_temporaries,
     output_lock,
     temporary_name,
+    undo_on_failure,
 )
 
 
@@ -117,3 +118,25 @@ def test_a_named_lock_refuses_a_second_writer_of_that_name_only(tmp_path):
         with output_lock(tmp_path, "bnerr train", lock_name=".b.pt.bnerr.lock"):
             pass
     assert os.path.exists(Path(tmp_path) / ".a.pt.bnerr.lock")
+
+
+def test_undo_on_failure_removes_what_the_block_created_and_keeps_the_rest(tmp_path):
+    """Issue 54: a command that fails after it began writing leaves nothing half-written: new
+    files, new folders, the lock file and the output folder itself (when it was new) go; what
+    was there before stays."""
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError), undo_on_failure(out), output_lock(out, "test"):
+        (out / "crops").mkdir()
+        (out / "crops" / "a.npz").write_bytes(b"x")
+        (out / "cells.jsonl").write_text("{}\n")
+        raise RuntimeError("late")
+    assert not out.exists()
+    out.mkdir()
+    (out / "mine.txt").write_text("kept")
+    with pytest.raises(KeyboardInterrupt), undo_on_failure(out), output_lock(out, "test"):
+        (out / "cells.jsonl").write_text("{}\n")
+        raise KeyboardInterrupt
+    assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
+    with undo_on_failure(out), output_lock(out, "test"):  # success: everything stays
+        (out / "cells.jsonl").write_text("{}\n")
+    assert (out / "cells.jsonl").is_file() and (out / ".bnerr.lock").is_file()

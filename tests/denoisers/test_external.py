@@ -240,7 +240,8 @@ def test_a_temporal_program_gets_frames_in_order_with_the_previous_output(tmp_pa
     [
         ("fail", "expected exit status 0, got exit status 3"),
         ("nothing", "expected an output EXR at {output} (output.exr), got no such file"),
-        ("size", f"expected an output of {H} x {W} pixels, got {H - 1} x {W}"),
+        # width x height, the order of --res and bnerr eval (issue 54)
+        ("size", f"expected an output of {W} x {H} pixels (width x height), got {W} x {H - 1}"),
         ("channels", "expected the output channels R, G, B only, got A, B, G, R"),
         ("nan", f"expected finite output values, got 1 NaN or infinite of {3 * H * W}"),
         ("uint", "expected FLOAT or HALF output channels, got uint32"),

@@ -100,7 +100,7 @@ CASES = [
     Bad("partial output", _run("head -c 300 ready.exr > \"$2\"\n", _color()),
         ExternalProcessError, r"denoiser 'probe_ext'.*expected an OpenEXR output"),
     Bad("wrong size", _run("cp ready.exr \"$2\"\n", _color(H, W - 1)), ExternalProcessError,
-        r"denoiser 'probe_ext'.*expected an output of 8 x 8 pixels, got 8 x 7"),
+        r"denoiser 'probe_ext'.*expected an output of 8 x 8 pixels \(width x height\), got 7 x 8"),
     Bad("wrong channels", _run("cp ready.exr \"$2\"\n", {**_color(), "depth": torch.ones(1, H, W)}),
         ExternalProcessError, r"denoiser 'probe_ext'.*expected the output channels R, G, B only"),
     Bad("NaN output", _run("cp ready.exr \"$2\"\n", _color(value=float("nan"))),

@@ -105,7 +105,8 @@ def test_the_oracles_candidates_are_the_frames_of_one_seed_image_each(tmp_path, 
             r"expected finite values in color, got 3 NaN and 0 infinite of 72, first at pixel "
             r"\(y, x\) = \(0, 0\)",
         ),
-        ("small", "expected a frame of 4 x 6 pixels, got 4 x 5"),
+        # width x height, the order of --res and of bnerr eval's messages (issue 54)
+        ("small", r"expected a frame of 6 x 4 pixels \(width x height\), got 5 x 4"),
         ("noalbedo", "expected the buffers color, albedo, got no albedo"),
         ("exit", "expected exit status 0, got exit status 1(.|\n)*the renderer gave up"),
     ],

@@ -133,7 +133,7 @@ CASES = [
     Bad("partial frame", _render('head -c 200 ready.exr > "$3"\n', _frame()),
         ExternalProcessError, r"renderer 'probe_renderer'.*expected an OpenEXR frame"),
     Bad("wrong size", _render(COPY, _frame(H + 1, W)), ExternalProcessError,
-        r"renderer 'probe_renderer'.*expected a frame of 8 x 8 pixels, got 9 x 8"),
+        r"renderer 'probe_renderer'.*a frame of 8 x 8 pixels \(width x height\), got 8 x 9"),
     Bad("missing buffer", _render(COPY, _frame(), buffers=["color", "albedo"]),
         ExternalProcessError, r"renderer 'probe_renderer'.*expected the buffers color, albedo"),
     Bad("wrong channels", _render(COPY, {"albedo": torch.ones(3, H, W)}), ExternalProcessError,

@@ -4,6 +4,7 @@ the same frames; the tables, charts and page are written; every problem with the
 line; finished results are not overwritten silently; a plug-in denoiser runs."""
 
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -67,6 +68,21 @@ def _broken(root, what):
         write_exr(
             root / "white" / "0" / frame_name(1), {"color": torch.full((3, 8, 8), float("inf"))}
         )
+    elif what == "one nan":  # in the last method's last frame: found only by reading pixels
+        color = torch.full((3, 8, 8), 0.5)
+        color[2, 7, 7] = float("nan")
+        write_exr(root / "mine" / "1" / frame_name(1), {"color": color})
+    elif what == "truncated":
+        path = root / "mine" / "1" / frame_name(1)
+        path.write_bytes(path.read_bytes()[:400])
+    elif what == "no rgb":
+        write_exr(root / "mine" / "1" / frame_name(1), {"albedo": torch.ones(3, 8, 8)})
+    elif what == "text":
+        (root / "mine" / "1" / frame_name(1)).write_text("not an image\n")
+    elif what == "manifest alone":
+        for child in root.iterdir():
+            if child.name != MANIFEST:
+                shutil.rmtree(child)
     elif what == "key":
         (root / MANIFEST).write_text(toml_text({**SYNTHETIC, "fps": 24}))
     elif what == "escape":
@@ -88,14 +104,42 @@ def _broken(root, what):
         ("key", "manifest.toml: unknown keys fps; expected keys from scene, spp, resolution"),
         ("escape", "methods: expected plain folder names inside the folder"),
         ("symlink", "mine/0/0000.exr: expected a file inside"),
+        ("one nan", "mine/1/0001.exr: color: expected finite values, got 1 NaN"),
+        ("truncated", "mine/1/0001.exr: corrupt or truncated OpenEXR file"),
+        ("no rgb", "mine/1/0001.exr: expected channels R, G, B for the frame's color"),
+        ("text", "mine/1/0001.exr: expected an OpenEXR file, got no EXR magic number"),
+        ("manifest alone", "reference/0000.exr: expected a reference the manifest implies"),
     ],
 )
-def test_a_broken_folder_is_one_line(tmp_path, capsys, what, says):
+def test_a_broken_folder_is_one_line_and_nothing_is_written(tmp_path, capfd, what, says):
+    """docs/EVAL.md: every problem is found "before anything is written": not the lock, not a
+    crop, not the results folder (issue 54: the lock stayed after every refusal, and a NaN, a
+    truncated file or missing channels left crops); one line on the process's stderr, OpenEXR's
+    own lines included."""
     root = synthetic_folder(tmp_path / "f")
     _broken(root, what)
-    assert says in _fails(["eval", str(root), "--quiet", "--no-charts"], capsys)
-    if what != "nan":  # refused before any pixel is read: nothing written
-        assert not (root / "results" / "cells.jsonl").exists()
+    capfd.readouterr()
+    assert main(["eval", str(root), "--quiet", "--no-charts"]) == 2
+    out, err = capfd.readouterr()
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bnerr eval: error: "), err
+    assert says in lines[0] and out == ""
+    assert not (root / "results").exists()
+
+
+def test_one_huge_finite_pixel_gives_a_result_not_a_traceback(tmp_path, capsys):
+    """Issue 54: one pixel of 1e24 (a firefly, a corrupt file) made the ratio's upper bound
+    overflow ``math.exp`` after cells.jsonl was written, so the rerun was refused. The ratio is
+    a number the report shows (its bound inf) and the run finishes."""
+    root = synthetic_folder(tmp_path / "f")
+    color = torch.full((3, 8, 8), 0.5)
+    color[0, 2, 2] = 1e24
+    write_exr(root / "mine" / "1" / frame_name(1), {"color": color})
+    out = tmp_path / "out"
+    assert main(["eval", str(root), "--out", str(out), "--quiet", "--no-charts"]) == 0
+    assert "inf]" in (out / "table.md").read_text()
+    mine = [r for r in load_records(out) if r.cell.strategy == "mine"]
+    assert mine and all(max(p[0] / p[1] for s in r.raw["mse"] for p in s) > 1e40 for r in mine)
 
 
 def test_eval_refuses_to_discard_finished_results_and_says_one_seed_set(tmp_path, capsys):
@@ -105,7 +149,8 @@ def test_eval_refuses_to_discard_finished_results_and_says_one_seed_set(tmp_path
     captured = capsys.readouterr()
     assert "note: one seed set: the intervals over seed sets need two" in captured.err
     assert "### gradient" in captured.out and (out / "table.md").is_file()
-    assert "--overwrite" in _fails(["eval", str(root), "--out", str(out), "--quiet"], capsys)
+    refused = _fails(["eval", str(root), "--out", str(out), "--quiet"], capsys)
+    assert "--overwrite" in refused and "--resume" not in refused  # eval has no --resume
     assert main(["eval", str(root), "--out", str(out), "--quiet", "--overwrite"]) == 0
     assert "note: one seed set" in capsys.readouterr().err  # said under --quiet too
     assert "nothing" in _fails(["eval", str(tmp_path / "nothing"), "--quiet"], capsys)

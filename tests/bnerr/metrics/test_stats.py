@@ -37,6 +37,7 @@ from bnerr.metrics.coverage import (
     simulate,
     t_intervals,
 )
+from bnerr.metrics.stats import exp_bound
 
 
 def test_bootstrap_is_deterministic_and_brackets_the_mean():
@@ -379,3 +380,21 @@ def test_one_seed_set_leaves_out_the_frames_that_weigh_nothing():
     est = paired_ratio(a, b)
     assert est.value == pytest.approx(9.0 / 5.0) and 0 < est.lo < est.value < est.hi
     assert math.isfinite(bootstrap_interval(a).lo)
+
+
+def test_a_ratio_whose_bound_overflows_reads_as_unbounded_not_an_error():
+    """Issue 54: one firefly of 1e24 in one seed set makes its mean dwarf the other's; the log
+    ratio's upper bound then lies past float64's exp (709.78) and ``math.exp`` raised an
+    OverflowError after cells.jsonl was written. The bound is inf, the rest of the ratio kept."""
+    values = torch.tensor([[1.0, 1.0], [1e300, 1e300]], dtype=torch.float64)
+    baseline = torch.ones(2, 2, dtype=torch.float64)
+    single = paired_ratio(values, baseline)
+    assert math.isfinite(single.value) and single.value > 1e299
+    assert single.hi == math.inf and 0.0 <= single.lo <= single.value
+    pairs = torch.stack([values, torch.ones_like(values)], dim=-1)[None]
+    base = torch.stack([baseline, torch.ones_like(baseline)], dim=-1)[None]
+    (batched,) = paired_ratios(pairs, base)
+    assert (batched.value, batched.lo, batched.hi) == (single.value, single.lo, single.hi)
+    wide = relevel_ratio(Estimate(1.0, math.exp(-700.0), math.exp(700.0), 4, 0.95), 0.999, 1)
+    assert wide.hi == math.inf and wide.lo == 0.0
+    assert exp_bound(709.0) == math.exp(709.0) and exp_bound(710.0) == math.inf

@@ -105,7 +105,8 @@ def test_bad_input_raises_typed_errors():
     ):
         make_strategy("temporal", 8, 8, mask_size=32)
     strategy = make_strategy("white", 8, 8)
-    with pytest.raises(ShapeError, match=r"render: expected a 8 x 8 frame, got 4 x 4"):
+    wrong = r"render: expected a 8 x 8 frame \(width x height\), got 4 x 4"
+    with pytest.raises(ShapeError, match=wrong):
         strategy.frame(0, lambda seeds, sampler: Frame(color=torch.zeros(3, 4, 4)))
     with pytest.raises(DtypeError, match=r"render: expected a Frame, got Tensor"):
         strategy.frame(0, lambda seeds, sampler: torch.zeros(3, 8, 8))
