@@ -6,6 +6,8 @@ One module per concern (docs/METHODS.md, section 6):
   blurred MSEs, ``flip``, ``lowfreq``), the pixel masks of object edges and of visible lights,
   the error's correlation from frame to frame, and :class:`ImagePair`, the update half of every
   metric;
+- :mod:`bnerr.metrics.cvvdp`: ColorVideoVDP's JOD of a seed set's sequence (the metric
+  ``cvvdp``), with its display model and HDR-to-display mapping;
 - :mod:`bnerr.metrics.regions`: :func:`coherent_mask`, the spatio-temporally coherent pixels
   (one object, similar normals, depth and albedo in a 5x5 window, no disocclusion);
 - :mod:`bnerr.metrics.frames`: the metrics' table (:data:`METRIC_TABLE`, name -> update and

@@ -53,6 +53,7 @@ from bnerr.errors import (
     check_name,
     check_positive_int,
 )
+from bnerr.metrics.cvvdp import CVVDP_FRAMES, cvvdp_update, require_cvvdp
 from bnerr.metrics.image import ImagePair, PreparedReference, require_flip
 from bnerr.metrics.stats import Estimate, bootstrap_interval, paired_ratio, pooled_mean
 from bnerr.metrics.temporal import (
@@ -81,6 +82,8 @@ class Metric:
         interval: summary tables give the pooled value's bootstrap interval (``_lo``, ``_hi``),
             before and after denoising.
         ratio: summary tables give the paired ratio to the white-noise baseline with its interval.
+        difference: summary tables give the paired difference to the white-noise baseline with
+            its interval (a score on an interval scale, where a ratio means nothing: JOD).
         group: the metrics of one group sit side by side in summary tables (each one's raw value,
             then each one's denoised value); None: a group of its own.
         tabled: summary tables give the metric columns at all.
@@ -94,6 +97,7 @@ class Metric:
     require: Callable[[], None] | None = None
     interval: bool = False
     ratio: bool = False
+    difference: bool = False
     group: str | None = None
     tabled: bool = True
     description: str = ""
@@ -182,11 +186,23 @@ METRIC_TABLE: dict[str, Metric] = plugins.PluginRegistry(
         # named.
         # No suite names it and table.csv never had its columns, so the tables leave it out.
         "flip": Metric(ImagePair.flip, default=False, require=require_flip, tabled=False),
+        # ColorVideoVDP's JOD of each seed set's sequence (bnerr.metrics.cvvdp): higher is
+        # better, so tables give its difference to white, not a ratio. About 0.14 s per sequence
+        # of 3 frames and image kind: measured only when named (a suite's metrics).
+        "cvvdp": Metric(
+            cvvdp_update,
+            default=False,
+            require=require_cvvdp,
+            interval=True,
+            difference=True,
+            window=CVVDP_FRAMES,
+        ),
     },
     sort=False,
 )
 
-#: Every shipped metric's name, in table order. ``flip`` needs ``flip-evaluator``.
+#: Every shipped metric's name, in table order. ``flip`` needs ``flip-evaluator``, ``cvvdp`` the
+#: package ``cvvdp``.
 METRICS: tuple[str, ...] = tuple(dict.keys(METRIC_TABLE))
 
 
@@ -217,7 +233,7 @@ class FrameMetrics:
 
     Args:
         names: metric names from :data:`METRIC_TABLE` (default: its ``default`` ones, all but
-            ``flip``, which is slow).
+            ``flip`` and ``cvvdp``, which are slow).
         tile: tile size of the ``lowfreq`` spectrum (clamped to the image by the spectrum).
     """
 

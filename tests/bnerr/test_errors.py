@@ -6,6 +6,7 @@ import torch
 from bnerr import errors
 from bnerr.errors import (
     MemoryLimitError,
+    MissingDependencyError,
     NonFiniteError,
     available_memory,
     check_finite,
@@ -84,3 +85,16 @@ def test_check_device_takes_a_cuda_index_that_exists(monkeypatch):
     assert errors.check_device("cuda:1") == torch.device("cuda", 1)
     with pytest.raises(errors.ValueRangeError, match=r"\(cpu, cuda:0, cuda:1\), got cuda:2"):
         errors.check_device("cuda:2")
+
+
+def test_a_missing_dependency_is_one_line_that_says_how_to_install_it_and_pickles():
+    import pickle
+
+    err = MissingDependencyError("cvvdp", "cvvdp==0.5.7", "no module named 'pycvvdp'")
+    assert str(err) == (
+        "cvvdp: expected the package cvvdp==0.5.7 (a dependency of bnerr; install: pip install "
+        "cvvdp==0.5.7), got no module named 'pycvvdp'"
+    )
+    assert isinstance(err, ImportError)
+    again = pickle.loads(pickle.dumps(err))
+    assert str(again) == str(err) and again.package == "cvvdp==0.5.7"
