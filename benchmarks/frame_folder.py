@@ -47,6 +47,7 @@ from bnerr.errors import (
 )
 from bnerr.frame import BUFFERS, Frame
 from bnerr.io import exr_size, read_exr, read_frame
+from bnerr.metrics.regions import REGION_BUFFERS
 
 __all__ = [
     "AUX_BUFFERS",
@@ -89,8 +90,8 @@ MANIFEST_KEYS: dict[str, tuple[bool, str]] = {
     "tuning_seed_set": (False, "a held-out seed-set folder the denoisers are tuned on"),
 }
 _RESERVED = (REFERENCE, "results")  # the reference folder, and the default --out
-_COHERENT_NEEDS = ("albedo", "normal", "depth", "object_id")
-_REGION_NEEDS = {"all": (), "edges": ("object_id",), "coherent": _COHERENT_NEEDS}
+_COHERENT_NEEDS = REGION_BUFFERS["coherent"]
+_REGION_NEEDS = {k: v for k, v in REGION_BUFFERS.items() if k in ("all", "edges", "coherent")}
 _PLAIN = {3: (("R", "G", "B"),), 2: (("R", "G"), ("X", "Y"), ("U", "V"))}
 
 

@@ -311,13 +311,36 @@ def load_renderer_manifest(manifest_path: str | os.PathLike) -> RendererManifest
     return _manifest(path, path.parent, path.read_text(encoding="utf-8"), raw)
 
 
+#: Programs that run another one named after them (``python3 render.py``): the scene of a
+#: ``--renderer-cmd`` is named after that one.
+_INTERPRETER = re.compile(
+    r"(\{python\}|python[0-9.]*|pypy[0-9.]*|env|sh|bash|zsh|dash|node|ruby|perl|julia|Rscript"
+    r"|blender|uv|conda)(\.exe)?"
+)
+
+
+def _program_of(argv: list[str]) -> str:
+    """The program a command line runs: its first word, or past an interpreter and its options
+    (``python3 -u render.py``, ``{python} render.py``, ``env X=1 ./tracer``) the script's."""
+    for i, word in enumerate(argv):
+        if not _INTERPRETER.fullmatch(Path(word).name):
+            return word
+        rest = [w for w in argv[i + 1 :] if not w.startswith("-") and "=" not in w]
+        if not rest:
+            return word
+        if not _INTERPRETER.fullmatch(Path(rest[0]).name):
+            return rest[0]
+    return argv[0]
+
+
 def command_manifest(
     template: str, name: str | None = None, folder: str | os.PathLike | None = None
 ) -> RendererManifest:
     """The manifest of ``bnerr bench --renderer-cmd "TEMPLATE"``: ``template`` split with
     :func:`shlex.split` into argv (never run through a shell), run in ``folder`` (default: the
     current directory), named ``name`` (default: the program's file name without suffix, the
-    script's after ``{python}``).
+    script's after an interpreter and its options: ``{python}``, ``python3 -u``, ``bash``,
+    ``env``...).
     It lists ``samplers = ["owen_sobol", "ldbn"]`` when the template has ``{sampler}`` and the
     four ``{ldbn_...}`` placeholders, else ``["owen_sobol"]``; the other keys keep their
     defaults (every Frame buffer the file holds is kept).
@@ -339,7 +362,7 @@ def command_manifest(
     if not argv:
         raise ManifestError(f"--renderer-cmd: expected a command, got {template!r}")
     ldbn = all("{" + p + "}" in template for p in ("sampler", *_LDBN_PLACEHOLDERS))
-    program = argv[1] if argv[0] == "{python}" and len(argv) > 1 else argv[0]
+    program = _program_of(argv)
     stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(program).stem) or "renderer"
     raw = dict(
         RENDERER_KEYS,

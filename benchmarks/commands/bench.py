@@ -56,6 +56,7 @@ threads) of each task.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import sys
 from collections.abc import Callable
@@ -77,7 +78,7 @@ from benchmarks.speed import rewrite_speed_report, run_speed
 from benchmarks.suites import REGIONS, SUITES, Suite
 from benchmarks.sweep import runner
 from benchmarks.sweep.adaptive import DEFAULT_CAP, run_until_resolved
-from benchmarks.sweep.external_renderer import external_parts, renderer_suite
+from benchmarks.sweep.external_renderer import external_parts, renderer_regions, renderer_suite
 from benchmarks.sweep.parts import known_names, real_parts
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
@@ -89,7 +90,9 @@ from benchmarks.sweep.records import (
     load_records,
 )
 from bnerr.errors import DtypeError, ValueRangeError, check_device, check_positive_int
+from bnerr.metrics.regions import REGION_BUFFERS
 from bnerr.outputs import check_folder_path, output_lock
+from renderers.cycles import CYCLES_STRATEGIES, check_cells, is_cycles_name
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
 
 __all__ = ["register"]
@@ -374,6 +377,28 @@ def _measure(
     )
 
 
+def _for_renderer(suite: Suite, renderer: ExternalRenderer, named: bool) -> Suite:
+    """``suite`` with the strategies and pixel regions an external renderer can give, what is
+    left out said once on stderr, before the first render."""
+    suite, dropped = renderer_suite(suite, renderer, named=named)
+    label = renderer.manifest.label
+    if dropped:
+        print(
+            f"bnerr bench: left out {', '.join(dropped)}: {label} lists no sampler for them",
+            file=sys.stderr,
+        )
+    suite, regions = renderer_regions(suite, renderer)
+    if regions:
+        need = sorted({b for r in regions for b in REGION_BUFFERS[r]})
+        print(
+            f"bnerr bench: left out the region(s) {', '.join(regions)}: {label} gives no "
+            f"{', '.join(need)} buffer (its manifest's buffers: "
+            f"{', '.join(renderer.manifest.buffers)})",
+            file=sys.stderr,
+        )
+    return suite
+
+
 def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool) -> str:
     """Measure the suite's cells into ``out`` (or only report them), compress the cells if
     ``compress``, then write the report: last, so that the page links the file the folder holds."""
@@ -406,13 +431,7 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     specs = list(dict.fromkeys(specs))
     parts = real_parts(tuple(specs), device=args.device)
     if renderer is not None:
-        suite, dropped = renderer_suite(suite, renderer, named=args.strategies is not None)
-        if dropped:
-            print(
-                f"bnerr bench: left out {', '.join(dropped)}: {renderer.manifest.label} lists "
-                f"no sampler for them",
-                file=sys.stderr,
-            )
+        suite = _for_renderer(suite, renderer, named=args.strategies is not None)
         parts = external_parts(renderer, tuple(specs))
     common = dict(
         cache_dir=args.cache,
@@ -448,6 +467,46 @@ def _check_device(args: argparse.Namespace) -> None:
         )
 
 
+def _on_cycles(args: argparse.Namespace, suite: Suite) -> Suite:
+    """``suite`` with Cycles' strategies only when ``--scenes`` names only Cycles scenes and
+    ``--strategies`` names none: those of its strategies Cycles runs, else ``white`` and
+    ``blue_noise`` (a note says what was left out)."""
+    scenes = names(args.scenes)
+    if not scenes or args.strategies is not None or not all(map(is_cycles_name, scenes)):
+        return suite
+    sweeps, dropped = [], []
+    for sweep in suite.sweeps:
+        kept = tuple(s for s in sweep.strategies if s in CYCLES_STRATEGIES)
+        dropped += [s for s in sweep.strategies if s not in kept]
+        sweeps.append(
+            dataclasses.replace(
+                sweep, strategies=kept if len(kept) > 1 else ("white", "blue_noise")
+            )
+        )
+    if dropped:
+        print(
+            f"bnerr bench: left out {', '.join(dict.fromkeys(dropped))}: a Cycles scene runs "
+            f"Cycles' own patterns ({', '.join(CYCLES_STRATEGIES)})",
+            file=sys.stderr,
+        )
+    return dataclasses.replace(suite, sweeps=tuple(sweeps))
+
+
+def _check_cycles(args: argparse.Namespace, suite: Suite) -> None:
+    """Each scene against the strategies its sweeps pair it with (the command line's overrides
+    applied): a Cycles scene opened in Blender and given Cycles' patterns only, bnerr's scenes
+    none of them (:func:`renderers.cycles.check_cells`)."""
+    pairs: dict[str, list[str]] = {}
+    for sweep in suite.sweeps:
+        scenes = names(args.scenes) or sweep.scenes
+        strategies = names(args.strategies) or sweep.strategies
+        for scene in scenes:
+            known = pairs.setdefault(scene, [])
+            known += [s for s in strategies if s not in known]
+    for scene, strategies in pairs.items():
+        check_cells(scene, strategies)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the suite while holding ``--out``'s write lock; print the table unless ``--quiet``."""
 
@@ -465,6 +524,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("results") / suite.name
     if args.cache is not None and not suite.scripts:  # a file there: refused before any render
         check_folder_path(args.cache, "--cache")
+    if not suite.scripts and args.renderer is None and args.renderer_cmd is None:
+        suite = _on_cycles(args, suite)
+        _check_cycles(args, suite)  # before the lock: a refused Cycles run writes nothing
     with output_lock(out, "bnerr bench"):
         compress = args.compress or any((Path(out) / name).exists() for name in ARCHIVES)
         if suite.scripts:

@@ -13,6 +13,11 @@ lists: every per-pixel one (``white``, ``temporal`` and its variants, ``temporal
 oracle) when it lists the sweep's per-pixel sampler (``owen_sobol``), and those that dictate
 their own sampler (``ldbn``, ...) when it lists that one. A suite's strategies that cannot run
 are left out with a note; one named on the command line is refused.
+
+Which pixel regions (:func:`renderer_regions`): those whose buffers the manifest's ``buffers``
+list (``coherent`` needs albedo, normal, depth and object_id; ``edges`` and ``unlit`` the object
+ids: :data:`bnerr.metrics.regions.REGION_BUFFERS`). A renderer that gives colour only measures
+every pixel; the regions left out are said once, before the first render.
 """
 
 from __future__ import annotations
@@ -29,10 +34,17 @@ from benchmarks.sweep.plugins import load_specs
 from bnerr import sequences
 from bnerr.errors import UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
+from bnerr.metrics.regions import REGION_BUFFERS
 from bnerr.strategies import OWN_SAMPLERS, parse_variant
 from renderers.external import ExternalRenderer
 
-__all__ = ["ExternalScene", "external_parts", "renderer_suite", "strategy_sampler"]
+__all__ = [
+    "ExternalScene",
+    "external_parts",
+    "renderer_regions",
+    "renderer_suite",
+    "strategy_sampler",
+]
 
 
 @dataclass(frozen=True)
@@ -128,3 +140,35 @@ def renderer_suite(
             )
         sweeps.append(dataclasses.replace(sweep, scenes=(renderer.name,), strategies=tuple(keep)))
     return dataclasses.replace(suite, sweeps=tuple(sweeps)), tuple(dict.fromkeys(dropped))
+
+
+def renderer_regions(suite: Suite, renderer: ExternalRenderer) -> tuple[Suite, tuple[str, ...]]:
+    """``suite`` without the pixel regions whose buffers the renderer's manifest does not list
+    (module docstring), and the regions left out, before anything renders.
+
+    Raises:
+        ValueRangeError: a sweep left with no region to measure (every condition of it needs a
+            buffer the renderer does not give).
+    """
+    given = set(renderer.manifest.buffers)
+
+    def can(region: str) -> bool:
+        return set(REGION_BUFFERS.get(region, ())) <= given
+
+    dropped = [c.region for s in suite.sweeps for c in s.conditions if not can(c.region)]
+    if suite.coherent and not can("coherent"):
+        dropped.append("coherent")
+    sweeps = []
+    for sweep in suite.sweeps:
+        kept = tuple(c for c in sweep.conditions if can(c.region))
+        if not kept:
+            need = sorted({b for c in sweep.conditions for b in REGION_BUFFERS.get(c.region, ())})
+            raise ValueRangeError(
+                f"{renderer.manifest.label}: expected the buffers {', '.join(need)} for the "
+                f"regions {', '.join(sorted({c.region for c in sweep.conditions}))}, got "
+                f"buffers {', '.join(renderer.manifest.buffers)}"
+            )
+        sweeps.append(dataclasses.replace(sweep, conditions=kept))
+    coherent = suite.coherent and can("coherent")
+    out = dataclasses.replace(suite, sweeps=tuple(sweeps), coherent=coherent)
+    return out, tuple(dict.fromkeys(dropped))

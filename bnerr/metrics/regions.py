@@ -30,9 +30,19 @@ from bnerr.color import luminance
 from bnerr.errors import ShapeError, ValueRangeError, check_positive_int, check_range
 from bnerr.frame import Frame
 
-__all__ = ["coherent_mask"]
+__all__ = ["REGION_BUFFERS", "coherent_mask"]
 
 _AUX = ("object_id", "normal", "depth", "albedo")
+
+#: The auxiliary buffers of the reference each pixel region is computed from: ``all`` none,
+#: ``edges`` and ``unlit`` the object ids, ``coherent`` the four of :func:`coherent_mask`. A
+#: renderer or a frame folder without them cannot measure the region.
+REGION_BUFFERS: dict[str, tuple[str, ...]] = {
+    "all": (),
+    "edges": ("object_id",),
+    "unlit": ("object_id",),
+    "coherent": ("albedo", "normal", "depth", "object_id"),
+}
 
 
 def _buffers(frame: Frame, name: str) -> dict[str, torch.Tensor]:

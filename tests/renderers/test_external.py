@@ -150,6 +150,25 @@ def test_a_command_template_is_split_without_a_shell_and_named_after_its_program
         command_manifest("tracer 'open")
 
 
+@pytest.mark.parametrize(
+    ("template", "name"),
+    [
+        ("python3 my_render.py {seeds} {spp} {out}", "my_render"),
+        (f"{sys.executable} -u tools/flat.py {{seeds}} {{spp}} {{out}}", "flat"),
+        ("env OMP_NUM_THREADS=1 ./pbrt_bridge {seeds} {spp} {out}", "pbrt_bridge"),
+        ("bash run.sh {seeds} {spp} {out}", "run"),
+        ("./tracer --seeds {seeds} --spp {spp} --out {out}", "tracer"),
+    ],
+)
+def test_a_command_run_through_an_interpreter_is_named_after_its_script(tmp_path, template, name):
+    """Issue 54: ``python3 render.py ...`` named the scene ``python`` (only ``{python}`` was
+    looked past): the records and reference cache of every Python renderer shared one name."""
+    for program in ("pbrt_bridge", "tracer"):
+        (tmp_path / program).write_text("#!/bin/sh\n")
+        (tmp_path / program).chmod(0o755)
+    assert command_manifest(template, None, tmp_path).name == name
+
+
 def test_an_ldbn_sampler_is_described_by_its_exported_key_set_slice_and_offset(tmp_path):
     strategy = make_strategy("ldbn", 16, 16, seed=1, spp=4)
     manifest = command_manifest(

@@ -11,6 +11,7 @@ post-Gaussian MSE / white's, temporal 0.74 [0.62, 0.89], ldbn 0.31 [0.27, 0.36],
 from __future__ import annotations
 
 import re
+import sys
 
 import numpy as np
 import pytest
@@ -87,3 +88,41 @@ def test_a_wrong_renderer_is_one_error_line_before_any_work(tmp_path, capsys, ex
     assert code == 2 and err.count("\n") == 1 and err.startswith("bnerr bench: error: "), err
     assert re.search(message, err), err
     assert not (tmp_path / "o" / "cells.jsonl").exists()
+
+
+#: A renderer that writes colour only (seed / 2^32 in grey), as a new user's first one does.
+COLOR_ONLY = """
+import struct, sys
+import numpy as np, OpenEXR
+seeds, out = sys.argv[1:3]
+data = open(seeds, 'rb').read()
+_, _, w, h, k, _ = struct.unpack_from('<4s5I', data)
+s = np.frombuffer(data, '<u4', offset=24).reshape(k, h, w)[0]
+r = np.ascontiguousarray(0.5 + (s / 2**32 - 0.5) * 0.2, dtype=np.float32)
+OpenEXR.File({'type': OpenEXR.scanlineimage}, {'R': r, 'G': r, 'B': r}).write(out)
+"""
+
+
+def test_a_colour_only_renderer_runs_the_default_bench_without_its_regions(
+    tmp_path, capsys, monkeypatch
+):
+    """Issue 54: with the default ``buffers = ["color"]`` the quick suite stopped after 7 frames
+    ("expected an object_id buffer for region 'coherent'"); the coherent region is left out and
+    said once, the scene is named after the script, not ``python``."""
+    (tmp_path / "grey.py").write_text(COLOR_ONLY)
+    monkeypatch.chdir(tmp_path)
+    command = f"{sys.executable} grey.py {{seeds}} {{out}} {{spp}}"
+    args = [
+        "bench", "--suite", "quick", "--renderer-cmd", command,
+        "--strategies", "white", "temporal", "--spp", "1", "--denoisers", "gaussian",
+        "--res", "8x8", "--frames", "1", "--warmup", "1", "--seed-sets", "2",
+        "--reference-spp", "2", "--out", str(tmp_path / "o"), "--cache", str(tmp_path / "c"),
+        "--quiet", "--no-charts",
+    ]  # fmt: skip
+    assert main(args) == 0, capsys.readouterr().err
+    err = capsys.readouterr().err
+    notes = [line for line in err.splitlines() if "left out the region" in line]
+    assert len(notes) == 1 and "coherent" in notes[0] and "object_id" in notes[0], err
+    records = load_records(tmp_path / "o")
+    assert {r.cell.scene for r in records} == {"grey"}
+    assert {r.cell.region for r in records} == {"all"}

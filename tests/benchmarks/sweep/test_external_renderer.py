@@ -4,6 +4,7 @@ tests/benchmarks/commands/test_bench_renderer.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 import pytest
@@ -13,12 +14,14 @@ from benchmarks.suites import Condition
 from benchmarks.sweep.external_renderer import (
     ExternalScene,
     external_parts,
+    renderer_regions,
     renderer_suite,
     strategy_sampler,
 )
 from benchmarks.sweep.parts import BoundRender, real_parts
 from benchmarks.sweep.runner import run_suite
 from bnerr.errors import UnknownNameError, ValueRangeError
+from bnerr.metrics.regions import REGION_BUFFERS
 from renderers.external import ExternalRenderer, command_manifest
 from tests._suites import tiny_suite
 
@@ -73,6 +76,29 @@ def test_the_suite_keeps_the_strategies_whose_sampler_the_program_lists(renderer
         renderer_suite(white, renderer, named=False)
     assert strategy_sampler("temporal+relative", "owen_sobol") == "owen_sobol"
     assert strategy_sampler("ldbn_fast", "owen_sobol") == "ldbn"
+
+
+def test_regions_need_the_buffers_the_manifest_lists(tmp_path):
+    """Issue 54: a renderer giving colour only (the default ``buffers = ["color"]``) stopped the
+    default bench after 7 frames ("expected an object_id buffer for region 'coherent'"): the
+    regions it cannot give are left out before the first render, the others kept."""
+    (tmp_path / "flat.py").write_text(SCRIPT)
+    color = ExternalRenderer(
+        command_manifest(f"{sys.executable} flat.py {{seeds}} {{out}} {{spp}}", "flat", tmp_path)
+    )
+    assert color.manifest.buffers == ("color",)
+    regions = (Condition(region="all"), Condition(region="edges"), Condition(region="unlit"))
+    suite = dataclasses.replace(tiny_suite(conditions=regions), coherent=True)
+    kept, dropped = renderer_regions(suite, color)
+    assert [c.region for c in kept.sweeps[0].conditions] == ["all"] and not kept.coherent
+    assert dropped == ("edges", "unlit", "coherent")
+    full = ExternalRenderer(
+        dataclasses.replace(color.manifest, buffers=("color", *REGION_BUFFERS["coherent"]))
+    )
+    assert renderer_regions(suite, full) == (suite, ())
+    edges = tiny_suite(conditions=(Condition(region="edges"),))
+    with pytest.raises(ValueRangeError, match=r"expected the buffers object_id for the regions"):
+        renderer_regions(edges, color)
 
 
 @pytest.mark.slow
