@@ -7,13 +7,15 @@ from it). :data:`METRICS`, the shipped names in table order, is derived from it.
 one update function and one table entry; :class:`FrameMetrics` and the report need no change.
 
 **Plug-in metrics** (:mod:`bnerr.plugins`): a function ``metric(pred [C, H, W], ref [C, H, W])
--> scalar`` (with a ``mask`` parameter it also gets the region's ``[H, W]`` mask, else it scores
-the whole image), given as a spec (:func:`load_metric`) or installed as an entry point of the
-group ``bnerr.metrics``, joins :data:`METRIC_TABLE` after the shipped entries, under its
-``name`` attribute (else the spec's or entry point's name); its row in summary tables is
-described by optional attributes on the function: ``description`` (else its docstring's first
-line), ``interval``, ``ratio`` and ``group`` (as :class:`Metric`'s). A :class:`Metric` itself is
-a plug-in too.
+-> scalar`` (with a ``mask`` parameter it also gets the region's ``[H, W]`` bool mask; without
+one, in a region's rows it scores ``pred`` with every pixel outside the region replaced by the
+reference's, no error there: a maximum is the region's, a mean over pixels the region's times
+its share, which a ratio to white cancels), given as a spec (:func:`load_metric`) or installed
+as an entry point of the group ``bnerr.metrics``, joins :data:`METRIC_TABLE` after the shipped
+entries, under its ``name`` attribute (else the spec's or entry point's name); its row in
+summary tables is described by optional attributes on the function: ``description`` (else its
+docstring's first line), ``interval``, ``ratio`` and ``group`` (as :class:`Metric`'s). A
+:class:`Metric` itself is a plug-in too.
 
 **Update and compute** (the split of torchmetrics' ``_psnr_update`` / ``_psnr_compute``).
 Each metric's update reduces one frame to a pair ``(numerator, denominator)`` (``(sum e^2,
@@ -118,9 +120,10 @@ class _PluginUpdate:
 
     def __call__(self, pair: ImagePair) -> torch.Tensor:
         extra = {"mask": pair.mask} if self.masked else {}
-        value = plugins.call_plugin(
-            self.plugin, "metric", self.fn, pair.pred, pair.ref.color, **extra
-        )
+        pred = pair.pred
+        if pair.mask is not None and not self.masked:  # region-blind: no error outside it
+            pred = torch.where(pair.mask, pair.pred, pair.ref.color)
+        value = plugins.call_plugin(self.plugin, "metric", self.fn, pred, pair.ref.color, **extra)
         try:
             number = float(value)  # type: ignore[arg-type,unused-ignore]
         except (TypeError, ValueError, RuntimeError):

@@ -216,3 +216,36 @@ def test_an_empty_region_adds_a_weightless_frame():
     assert torch.equal(gapped.stats("mse").sum(1), full.stats("mse").sum(1))  # same pooled mean
     with pytest.raises(ValueRangeError):
         gapped.update_empty(group=-1)
+
+
+def test_a_plug_in_metric_measures_the_region_with_or_without_a_mask_parameter(forget):
+    """Issue 54: a plug-in metric without a ``mask`` parameter reported its whole-image value in
+    the region rows. It now sees no error outside the region (a maximum is the region's); one
+    with ``mask`` gets the region's mask itself."""
+    from bnerr import plugins
+    from bnerr.metrics.frames import load_metric
+
+    def maxerr(pred, ref):
+        """the largest absolute error"""
+        return float((pred - ref).abs().max())
+
+    def masked_max(pred, ref, mask=None):
+        """the largest absolute error in the region"""
+        err = (pred - ref).abs().amax(0)
+        return float(err[mask].max() if mask is not None else err.max())
+
+    table = METRIC_TABLE
+    for fn, name in ((maxerr, "blind_max"), (masked_max, "masked_max")):
+        fn.name = name
+        forget.append(("bnerr.metrics", name))
+        assert table.add(plugins.Plugin(f"test:{name}", fn)) == name
+    assert load_metric("blind_max") == "blind_max"
+    ref = torch.full((3, 8, 8), 0.5)
+    pred = ref + 0.1
+    pred[:, 0, 0] = 9.0  # a firefly outside the region
+    mask = torch.ones(8, 8, dtype=torch.bool)
+    mask[0, 0] = False
+    region = FrameMetrics(["blind_max", "masked_max"]).update(pred, ref, mask=mask)
+    assert region == {"blind_max": pytest.approx(0.1), "masked_max": pytest.approx(0.1)}
+    whole = FrameMetrics(["blind_max", "masked_max"]).update(pred, ref)
+    assert whole == {"blind_max": pytest.approx(8.5), "masked_max": pytest.approx(8.5)}
