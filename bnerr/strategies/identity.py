@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from bnerr import plugins
 from bnerr.errors import UnknownNameError
 from bnerr.strategies.registry import REGISTRY
 
@@ -86,11 +87,22 @@ def baseline() -> str:
     """
     found = [n for n, c in REGISTRY.classes().items() if c.family == "baseline"]
     if len(found) != 1:
+        where = [f"{n} ({_origin(n)})" for n in found]
         raise UnknownNameError(
-            f"baseline strategy: expected exactly one registered strategy of family 'baseline', "
-            f"got {found or 'none'}"
+            f"baseline strategy: expected exactly one registered strategy of family 'baseline' "
+            f"(a plug-in declares family = 'baseline' only to replace white), got "
+            f"{', '.join(where) or 'none'}"
         )
     return found[0]
+
+
+def _origin(name: str) -> str:
+    """Where strategy ``name`` comes from: its plug-in (spec and distribution), or its class."""
+    plugin = plugins.loaded("bnerr.strategies", name)
+    if plugin is not None:
+        return plugin.who
+    cls = REGISTRY.classes()[name]
+    return f"{cls.__module__}.{cls.__qualname__}"
 
 
 def bounds() -> tuple[str, ...]:

@@ -16,6 +16,34 @@ from bnerr.errors import PluginError, ValueRangeError, check_name
 __all__ = ["REGISTRY", "StrategyRegistry"]
 
 
+#: A strategy's identity (docs/ARCHITECTURE.md's contribution table) and its default when a
+#: plug-in declares none: family ``"other"`` (none declared), a rank after every shipped one,
+#: no notes. ``color`` is never inherited (``Strategy`` docstring).
+_IDENTITY_DEFAULTS: dict[str, object] = {
+    "family": "other",
+    "rank": 1000,
+    "raw_mse_note": "",
+    "bound_note": "",
+}
+
+
+def _shipped(cls: type) -> bool:
+    return cls.__module__.split(".")[0] == "bnerr"
+
+
+def _own_identity(cls: Any) -> None:
+    """Give a plug-in class that subclasses a shipped strategy the identity defaults for each of
+    :data:`_IDENTITY_DEFAULTS` it does not declare itself (nor a class of its own between it and
+    the shipped one): subclassing ``WhiteStrategy`` must not make a plug-in a second baseline,
+    nor list a new family at white's rank 0. What it declares is kept."""
+    if _shipped(cls):
+        return
+    for attr, default in _IDENTITY_DEFAULTS.items():
+        owner = next((c for c in cls.__mro__ if attr in vars(c)), None)
+        if owner is not None and _shipped(owner) and owner.__name__ != "Strategy":
+            setattr(cls, attr, default)
+
+
 class StrategyRegistry(Mapping[str, Any]):
     """Strategy name -> class, filled by the classes themselves (``Strategy.__init_subclass__``).
 
@@ -62,6 +90,7 @@ class StrategyRegistry(Mapping[str, Any]):
                 f"{plugin.who}: expected a subclass of bnerr.strategies.base.Strategy (or of a "
                 f"shipped strategy) with a name, got {got}"
             )
+        _own_identity(cls)
         family = getattr(cls, "family", None)
         if not isinstance(family, str) or not family:
             raise PluginError(
