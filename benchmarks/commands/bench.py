@@ -84,6 +84,8 @@ from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import (
     ARCHIVES,
+    DIGITS,
+    TIMING_DIGITS,
     Record,
     compact_records,
     compress_records,
@@ -275,8 +277,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     compress = "keep the cells as cells.jsonl.xz (a folder holding an archive keeps it so anyway)"
     add("--compress", action="store_true", help=compress)
     compact = (
-        "with --report-only: round the folder's records to the precision runs record now (6 "
-        "significant digits, timings 3) and compress them, before the reports"
+        "with --report-only: round the folder's records to the precision runs record now "
+        f"({DIGITS} significant digits, timings {TIMING_DIGITS}) and compress them, before the "
+        "reports"
     )
     add("--compact", action="store_true", help=compact)
     add("--quiet", action="store_true", help="no progress bar, no table on stdout")

@@ -6,6 +6,7 @@ import gc
 import gzip
 import json
 import lzma
+import re
 
 import pytest
 
@@ -31,7 +32,7 @@ from benchmarks.sweep.records import (
     write_records,
 )
 from bnerr.errors import BnerrError, FileFormatError, ValueRangeError
-from tests._paths import RESULTS
+from tests._paths import RESULTS, ROOT
 from tests._records import metric_pairs, small_record
 
 
@@ -280,3 +281,22 @@ def test_the_collector_is_paused_only_while_records_are_read(tmp_path, enabled):
         assert gc.isenabled() == enabled
     finally:
         (gc.enable if was else gc.disable)()
+
+
+def test_the_docs_and_the_help_state_the_precision_records_keep(capsys):
+    """Issue 54: cells.jsonl's precision read 4 significant digits in USAGE, 5 in INTERFACES and
+    6 in ``bench --help``; each now states :data:`DIGITS` (and :data:`TIMING_DIGITS`)."""
+    from benchmarks.cli import build_parser
+    from benchmarks.sweep.records import DIGITS, TIMING_DIGITS
+
+    usage = (ROOT / "docs" / "USAGE.md").read_text()
+    interfaces = " ".join((ROOT / "docs" / "INTERFACES.md").read_text().split())
+    assert f"({DIGITS} significant digits, whole numbers" in " ".join(usage.split())
+    assert f"keeps {DIGITS} significant digits of each measured value" in interfaces
+    assert f"and {TIMING_DIGITS} of each timing" in interfaces
+    with pytest.raises(SystemExit):
+        build_parser("bench").parse_args(["bench", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert f"({DIGITS} significant digits, timings {TIMING_DIGITS})" in text
+    found = {int(n) for n in re.findall(r"(\d) significant digits", usage + interfaces + text)}
+    assert found == {DIGITS}

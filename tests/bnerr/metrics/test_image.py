@@ -367,3 +367,29 @@ def test_temporal_correlation_refuses_mismatched_shapes():
         temporal_correlation(torch.zeros(3, 8, 8), torch.zeros(3, 8, 8), torch.zeros(2, 8, 9))
     with pytest.raises(ShapeError):
         temporal_correlation(torch.zeros(3, 8, 8), torch.zeros(3, 8, 9))
+
+
+def test_the_blur_is_the_one_methods_md_states_in_scipys_words():
+    """Issue 54: METHODS said "a Gaussian blur of sigma 1 and 2 pixels" without the border rule
+    or the truncation; with SciPy's defaults a reader got another number. The paragraph now
+    gives SciPy's call, and this checks it against the code (and that the defaults differ)."""
+    from scipy.ndimage import gaussian_filter
+
+    from tests._paths import ROOT
+
+    methods = " ".join((ROOT / "docs" / "METHODS.md").read_text().split())
+    call = 'scipy.ndimage.gaussian_filter(err, (0, sigma, sigma), mode="mirror", truncate=3.0)'
+    assert call in methods and "`2 ceil(3 sigma) + 1` taps: 7 and 13" in methods
+    gen = torch.Generator().manual_seed(54)
+    ref = torch.rand(3, 24, 30, generator=gen, dtype=torch.float64)
+    noise = torch.randn(3, 24, 30, generator=gen, dtype=torch.float64)
+    high = noise - torch.nn.functional.avg_pool2d(noise[None], 3, 1, 1, False)[0]  # blue-ish
+    for err in (noise, high):
+        for sigma in (1.0, 2.0):
+            ours = float(blurred_mse(ref + err, ref, sigma))
+            kernel = 2 * math.ceil(3 * sigma) + 1
+            assert kernel == {1.0: 7, 2.0: 13}[sigma]
+            scipy = gaussian_filter(err.numpy(), (0, sigma, sigma), mode="mirror", truncate=3.0)
+            assert ours == pytest.approx(float(np.mean(scipy**2)), rel=1e-12)
+            default = float(np.mean(gaussian_filter(err.numpy(), (0, sigma, sigma)) ** 2))
+            assert abs(default / ours - 1) > 1e-3  # the defaults are another blur
