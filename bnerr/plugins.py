@@ -12,6 +12,8 @@ A plug-in comes three ways:
 - an installed distribution's entry point in one of :data:`GROUPS` (``bnerr.strategies``,
   ``bnerr.denoisers``, ``bnerr.samplers``, ``bnerr.metrics``, ``bnerr.scenes``): loaded once,
   lazily, the first time the registry of its group is read (:class:`PluginRegistry`), and cached.
+  One that fails to load (or is the wrong kind) is left out with one warning naming it and its
+  distribution, so that it breaks no command that does not use it; naming it gives its error.
 
 This module is generic: it knows no registry. Each registry (``bnerr.strategies``,
 ``bnerr.sequences``, ``bnerr.metrics``, ``denoisers``, ``renderers.catalog``) checks what a
@@ -36,6 +38,7 @@ import importlib.metadata
 import importlib.util
 import inspect
 import sys
+import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -48,6 +51,7 @@ __all__ = [
     "GROUPS",
     "Plugin",
     "PluginRegistry",
+    "broken",
     "call_plugin",
     "file_module_name",
     "installed",
@@ -59,6 +63,7 @@ __all__ = [
     "record",
     "registered_file",
     "resolve",
+    "skip_broken",
 ]
 
 #: The entry-point groups a distribution can register plug-ins in.
@@ -214,14 +219,34 @@ def _resolve(spec: str) -> Plugin:
     return Plugin(spec, obj, distribution)
 
 
+_BROKEN: dict[tuple[str, str], PluginError] = {}
+
+
+def broken(group: str, name: str) -> PluginError | None:
+    """The error of the installed entry point ``name`` of ``group`` that could not be loaded or
+    registered (:func:`installed`, :class:`PluginRegistry`), or None."""
+    return _BROKEN.get((group, name))
+
+
+def skip_broken(group: str, name: str, err: PluginError) -> None:
+    """Keep ``err`` as entry point ``name``'s (:func:`broken`) and say it once, as a warning:
+    one broken installed plug-in must not stop every command, only one that names it."""
+    if (group, name) not in _BROKEN:
+        _BROKEN[(group, name)] = err
+        warnings.warn(f"{err}; it is left out", stacklevel=3)
+
+
 @functools.cache
 def installed(group: str) -> tuple[Plugin, ...]:
     """The plug-ins installed distributions declare as entry points of ``group`` (one of
     :data:`GROUPS`), each loaded once (cached), sorted by entry-point name.
 
+    An entry point that cannot be loaded is left out with one warning naming it and its
+    distribution (:func:`skip_broken`); a command that names it gets its error
+    (:func:`broken`, :class:`PluginRegistry`).
+
     Raises:
-        PluginError: an entry point cannot be loaded (the message names it and its
-            distribution).
+        PluginError: an unknown group.
     """
     if group not in GROUPS:
         raise PluginError(f"entry-point group: expected one of {', '.join(GROUPS)}, got {group!r}")
@@ -232,11 +257,16 @@ def installed(group: str) -> tuple[Plugin, ...]:
         plugin = Plugin(f"entry point {point.name}", None, distribution)
         try:
             obj = point.load()
-        except Exception as err:
-            raise PluginError(
-                f"{plugin.who} of group {group}: expected {point.value!r} to load, got "
-                f"{type(err).__name__}: {_first_line(err)}"
-            ) from err
+        except (Exception, SystemExit) as err:  # a plug-in's sys.exit() must not end bnerr
+            skip_broken(
+                group,
+                point.name,
+                PluginError(
+                    f"{plugin.who} of group {group}: expected {point.value!r} to load, got "
+                    f"{type(err).__name__}: {_first_line(err)}"
+                ),
+            )
+            continue
         found.append(Plugin(plugin.spec, obj, distribution))
     return tuple(found)
 
@@ -351,7 +381,10 @@ class PluginRegistry(dict):
         self._state = "loading"  # a plug-in that reads the registry while it loads sees the shipped
         try:
             for plugin in installed(self.group):
-                self.add(plugin)
+                try:
+                    self.add(plugin)
+                except PluginError as err:  # the wrong kind: left out, said once
+                    skip_broken(self.group, plugin.spec.removeprefix("entry point "), err)
         except BaseException:
             self._state = "new"
             raise
@@ -377,6 +410,9 @@ class PluginRegistry(dict):
     def __getitem__(self, name: str) -> Any:
         if not dict.__contains__(self, name):
             self._load()
+            error = broken(self.group, name)
+            if error is not None and not dict.__contains__(self, name):
+                raise error
         return dict.__getitem__(self, name)
 
     def __contains__(self, name: object) -> bool:

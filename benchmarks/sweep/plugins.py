@@ -63,6 +63,9 @@ def load_names(
         own = group == "bnerr.denoisers" and value.endswith(_OWN)
         bare = value.removesuffix(_OWN) if own else value
         name = LOADERS[group](bare)
+        error = plugins.broken(group, name)
+        if error is not None:  # an installed entry point that failed to load, named here
+            raise error
         if name != bare:
             specs.append((group, bare))
         names.append(name + (_OWN if own else ""))

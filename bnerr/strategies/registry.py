@@ -68,7 +68,14 @@ class StrategyRegistry(Mapping[str, Any]):
         self._installed = True  # a plug-in that reads the registry while loading sees the rest
         try:
             for plugin in plugins.installed("bnerr.strategies"):
-                self.add_plugin(plugin)
+                try:
+                    self.add_plugin(plugin)
+                except (PluginError, ValueRangeError) as err:  # left out, said once
+                    name = plugin.spec.removeprefix("entry point ")
+                    error = (
+                        err if isinstance(err, PluginError) else PluginError(f"{plugin.who}: {err}")
+                    )
+                    plugins.skip_broken("bnerr.strategies", name, error)
         except BaseException:
             self._installed = False
             raise
@@ -148,6 +155,9 @@ class StrategyRegistry(Mapping[str, Any]):
             self._load_installed()
         if name in self._classes:
             return self._classes[name]
+        error = plugins.broken("bnerr.strategies", name)
+        if error is not None and name not in self._variants:
+            raise error  # an installed entry point that failed to load, named here
         return self._classes[self._variants[name]]
 
     def __contains__(self, name: object) -> bool:

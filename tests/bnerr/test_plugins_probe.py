@@ -6,6 +6,7 @@ SystemExit or a silently converted output; a denoiser plug-in that raises mid-ru
 from __future__ import annotations
 
 import json
+import re
 import textwrap
 from pathlib import Path
 
@@ -175,18 +176,61 @@ def test_a_bad_plugin_is_refused_in_one_line_naming_it(case, tmp_path, clean):
     check(case, tmp_path)
 
 
-def test_an_entry_point_that_cannot_load_names_its_distribution(tmp_path, monkeypatch):
-    info = tmp_path / "brokenden-0.3.dist-info"
-    info.mkdir()
+def _broken_distribution(folder: Path) -> Path:
+    """A distribution ``brokenden 0.3`` whose ``bnerr.denoisers`` entry point ``broken`` names a
+    module that does not exist."""
+    info = folder / "brokenden-0.3.dist-info"
+    info.mkdir(parents=True)
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: brokenden\nVersion: 0.3\n")
     (info / "entry_points.txt").write_text("[bnerr.denoisers]\nbroken = no_such_mod_41:den\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
+    return folder
+
+
+def test_an_entry_point_that_cannot_load_is_left_out_once_and_named_when_used(
+    tmp_path, monkeypatch
+):
+    """Issue 54: one broken installed plug-in stopped every bench, even one that did not use it.
+    It is left out with one warning naming it and its distribution; looking it up by name gives
+    that error."""
+    monkeypatch.syspath_prepend(str(_broken_distribution(tmp_path)))
+    monkeypatch.setattr(plugins, "_BROKEN", {})
     plugins.installed.cache_clear()
     try:
-        with pytest.raises(PluginError, match=r"entry point broken.*brokenden 0\.3.*no_such_mod"):
-            plugins.installed("bnerr.denoisers")
+        with pytest.warns(UserWarning, match=r"entry point broken.*brokenden 0\.3.*no_such_mod"):
+            found = plugins.installed("bnerr.denoisers")
+        assert "entry point broken" not in [p.spec for p in found]
+        error = plugins.broken("bnerr.denoisers", "broken")
+        assert isinstance(error, PluginError) and "brokenden 0.3" in str(error)
+        registry = plugins.PluginRegistry("bnerr.denoisers", lambda p: ("x", p), {"box": 1})
+        assert registry["box"] == 1 and "broken" not in registry
+        with pytest.raises(PluginError, match=r"entry point broken.*brokenden 0\.3"):
+            registry["broken"]
     finally:
         plugins.installed.cache_clear()
+
+
+def test_a_broken_entry_point_stops_no_bench_that_does_not_name_it(tmp_path):
+    from tests._paths import bnerr_cli
+
+    site = _broken_distribution(tmp_path / "site")
+    common = [
+        "--suite", "quick", "--scenes", "direct", "--strategies", "white", "--spp", "1",
+        "--frames", "1", "--warmup", "0", "--res", "8x8", "--reference-spp", "2",
+        "--seed-sets", "1", "--metrics", "mse", "--cache", str(tmp_path / "cache"),
+        "--quiet", "--no-charts",
+    ]  # fmt: skip
+    done = bnerr_cli(
+        "bench", *common, "--denoisers", "gaussian", "--out", str(tmp_path / "o"), path=[site]
+    )
+    assert done.returncode == 0, done.stderr
+    warned = [line for line in done.stderr.splitlines() if "brokenden" in line]
+    assert len(warned) == 1 and warned[0].startswith("bnerr bench: warning: plug-in 'entry")
+    named = bnerr_cli(
+        "bench", *common, "--denoisers", "broken", "--out", str(tmp_path / "n"), path=[site]
+    )
+    assert named.returncode == 2 and "Traceback" not in named.stderr
+    assert re.search(r"bnerr bench: error: plug-in 'entry point broken' \(brokenden 0\.3\)",
+                     named.stderr), named.stderr  # fmt: skip
 
 
 FLAKY = '''
