@@ -9,6 +9,8 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
   share of the image each restricted region covers, :mod:`~benchmarks.reports.regions`);
 - ``decision.md`` (:mod:`~benchmarks.reports.decision`): the strategy to use per scene,
   condition, spp and denoiser;
+- ``perceptual.md`` (:mod:`~benchmarks.reports.perceptual`): the same cells judged in JOD
+  (ColorVideoVDP) and by FLIP, when the records hold them (else no file);
 - ``gap.md`` and ``gap.csv`` (:mod:`~benchmarks.reports.gap`): each strategy's share of the
   white-to-oracle distance, when the records hold white and the oracle;
 - ``denoisers.md`` (:mod:`~benchmarks.reports.denoisers`): how each denoiser responds to each
@@ -41,6 +43,7 @@ from benchmarks.reports.decision import decision_table
 from benchmarks.reports.denoisers import write_denoise_tables
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.page import write_suite_page
+from benchmarks.reports.perceptual import perceptual_report
 from benchmarks.reports.regions import coverage_markdown
 from benchmarks.reports.seed import write_seed_report
 from benchmarks.reports.table import csv_text, markdown_table, summarize
@@ -56,7 +59,8 @@ def write_report(
     title: str | None = None,
     charts: bool = True,
 ) -> str:
-    """Write ``table.csv``, ``table.md``, ``decision.md``, ``gap.md`` / ``gap.csv`` (when the
+    """Write ``table.csv``, ``table.md``, ``decision.md``, ``perceptual.md`` (when the records
+    hold a perceptual metric), ``gap.md`` / ``gap.csv`` (when the
     records hold white and the oracle: :mod:`benchmarks.reports.gap`), the charts and the page
     ``index.html`` into ``out_dir``; return the Markdown of ``table.md``.
 
@@ -80,6 +84,12 @@ def write_report(
         Path(tmp).write_text(text)
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
+    perceptual = perceptual_report(rows)
+    if perceptual:
+        with atomic_write(out / "perceptual.md") as tmp:
+            Path(tmp).write_text(perceptual)
+    else:  # a report is a function of the records: none that hold no perceptual metric
+        (out / "perceptual.md").unlink(missing_ok=True)
     shares = write_gap_tables(out, records)
     write_denoise_tables(out, records, rows)
     if charts:

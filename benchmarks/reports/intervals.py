@@ -1,5 +1,6 @@
 """The intervals of a table's cells, computed together: every pooled-mean interval and every
-paired ratio to white that :func:`benchmarks.reports.table.summarize` asks for, batched by shape.
+paired ratio (or difference, :func:`bnerr.metrics.paired_differences`) to white that
+:func:`benchmarks.reports.table.summarize` asks for, batched by shape.
 
 A suite's table asks for thousands of small intervals (the quality suite: about 150,000, each
 over 8-16 seed sets of 3 frames), and one call of :func:`bnerr.metrics.bootstrap_interval` or
@@ -28,6 +29,7 @@ from bnerr.errors import BnerrError
 from bnerr.metrics import (
     Estimate,
     bootstrap_interval,
+    paired_differences,
     paired_ratio,
     paired_ratios,
     pooled_intervals,
@@ -63,6 +65,7 @@ class Intervals:
     seed: int = 0
     singles: list[tuple[dict, str, np.ndarray]] = field(default_factory=list)
     pairs: list[tuple[dict, str, np.ndarray, np.ndarray]] = field(default_factory=list)
+    differences: list[tuple[dict, str, np.ndarray, np.ndarray]] = field(default_factory=list)
 
     def interval(self, row: dict, column: str, stats: np.ndarray) -> None:
         """Ask for the pooled mean of ``stats [S, F, 2]`` with its interval."""
@@ -71,6 +74,10 @@ class Intervals:
     def ratio(self, row: dict, column: str, mine: np.ndarray, base: np.ndarray) -> None:
         """Ask for the paired ratio of ``mine`` to ``base`` (both ``[S, F, 2]``, one shape)."""
         self.pairs.append((row, column, mine, base))
+
+    def difference(self, row: dict, column: str, mine: np.ndarray, base: np.ndarray) -> None:
+        """Ask for the paired difference ``mine - base`` (both ``[S, F, 2]``, one shape)."""
+        self.differences.append((row, column, mine, base))
 
     def _one(self, stats: np.ndarray) -> Estimate:
         return bootstrap_interval(stats, resamples=self.resamples, seed=self.seed)
@@ -83,7 +90,13 @@ class Intervals:
         them."""
         _fill(self.singles, pooled_intervals, self._one)
         _fill(self.pairs, paired_ratios, self._one_ratio)
-        self.singles, self.pairs = [], []
+        _fill(self.differences, paired_differences, _one_difference)
+        self.singles, self.pairs, self.differences = [], [], []
+
+
+def _one_difference(mine: np.ndarray, base: np.ndarray) -> Estimate:
+    (found,) = paired_differences(mine[None], base[None])
+    return found
 
 
 def _fill(

@@ -3,7 +3,9 @@
 :func:`write_suite_page` writes a suite's page, static and self-contained (style and script
 inlined, :mod:`benchmarks.reports.html`), linking every file of the folder:
 
-- the decision table, then ``gap.md`` and ``denoisers.md`` (``table.md``, every cell, is linked) as
+- first the decision table as a picture (:mod:`benchmarks.reports.heatmap`: a heatmap of the
+  verdicts, and the JOD's where the records hold ColorVideoVDP), then its text, ``perceptual.md``
+  where written, then ``gap.md`` and ``denoisers.md`` (``table.md``, every cell, is linked) as
   tables sortable by column;
 - per group (scene and condition): the interactive error-against-time charts
   (:mod:`benchmarks.reports.svgchart`), the PNG charts, the image comparison of its crops (the
@@ -32,6 +34,7 @@ from benchmarks.reports.groups import (
     group_title,
     strategy_order,
 )
+from benchmarks.reports.heatmap import decision_heatmap, jod_heatmap
 from benchmarks.reports.html import markdown_html, page
 from benchmarks.reports.links import broken_links
 from benchmarks.reports.previews import ERROR_GAIN, crop_strip
@@ -52,6 +55,8 @@ _REPORTS = ("gap.md", "denoisers.md")
 #: The per-cell report, linked rather than inlined (a third of a page's bytes, and results/ has a
 #: size limit: the decision table above it holds its verdicts).
 _CELL_REPORT = "table.md"
+#: The perceptual decision (:mod:`benchmarks.reports.perceptual`), after the MSE one.
+_PERCEPTUAL = "perceptual.md"
 _CHART_PREFIXES = ("error_vs_time_", "oracle_share_", "spectra_")
 
 
@@ -190,8 +195,10 @@ def write_suite_page(
     order = sorted(by_slug, key=lambda s: group_order(group_key(by_slug[s][0])))
     toc = " · ".join(f'<a href="#{s}">{html.escape(s)}</a>' for s in order)
     parts = ['<p><a href="../index.html">All results</a></p>', f"<p>Scenes: {toc}</p>"]
-    if (out / "decision.md").exists():
-        parts.append(markdown_html((out / "decision.md").read_text(encoding="utf-8")))
+    parts += [decision_heatmap(rows), jod_heatmap(rows)]
+    for name in ("decision.md", _PERCEPTUAL):
+        if (out / name).exists():
+            parts.append(markdown_html((out / name).read_text(encoding="utf-8")))
     parts += [_group_section(out, s, by_slug[s], recs[s]) for s in order]
     if (out / _CELL_REPORT).exists():
         parts.append(

@@ -10,7 +10,9 @@ The script does three things, each on the elements the page marks for it:
   choice ``src|tile|tiles|ref`` with ``ref >= 0`` is an error map: the tile and the reference
   tile of the same strip blended with CSS ``difference``, brightened by
   :data:`~benchmarks.reports.previews.ERROR_GAIN`;
-- SVG charts need nothing: each point carries a ``<title>`` that the browser shows on hover.
+- SVG charts need nothing: each point carries a ``<title>`` that the browser shows on hover;
+  nor does the decision's heatmap (:mod:`benchmarks.reports.heatmap`): its colours are inline
+  and each cell's ``title`` is its hover text.
 
 Not for: anything that reads image pixels (pages opened from disk may not).
 """
@@ -46,6 +48,15 @@ image-rendering:pixelated}
 padding:1px 4px}
 .cmp-label.a{left:4px}.cmp-label.b{right:4px}
 .anims img{margin:4px;border:1px solid #ccc}
+.hm{margin:.8em 0}.hm figcaption{font-weight:600;margin-bottom:.3em}
+table.heatmap td.hm-cell{text-align:center;font-size:11px;line-height:1.25;min-width:84px;
+cursor:help}
+table.heatmap th{cursor:default;text-align:left}
+.hm-legend{position:relative;width:360px;margin:.3em 12px 1.6em}
+.hm-bar{height:12px;border:1px solid #999}
+.hm-ticks{position:relative;height:14px;font-size:11px}
+.hm-ticks span{position:absolute;transform:translateX(-50%)}
+.hm-legend small{display:block;width:min(720px,90vw)}
 """
 
 SCRIPT = r"""

@@ -4,7 +4,8 @@
   denoiser, condition) with the raw and denoised MSE and their 95% intervals, relMSE,
   PSNR, SSIM, the blurred MSEs, the error's low-frequency fraction, the ratio of each strategy to
   white noise on the same frames (paired t-interval over seed sets,
-  :func:`bnerr.metrics.paired_ratio`),
+  :func:`bnerr.metrics.paired_ratio`), the JOD's difference to white's where ``cvvdp`` was
+  measured (``<kind>_cvvdp_diff``, :func:`bnerr.metrics.paired_differences`: higher is better),
   and the render, permutation and denoise milliseconds per frame. The metric columns come from
   :data:`bnerr.metrics.METRIC_TABLE` (:func:`table_columns`): a metric added there reaches the
   table with no change here. The other reports read these rows too.
@@ -90,6 +91,12 @@ def _ratio_names() -> list[str]:
     return sorted(names, key=lambda name: name != _HEADLINE_RATIO)  # stable: the rest keep order
 
 
+def _difference_names() -> list[str]:
+    """``<kind>_<m>`` of every metric given a difference to white (a score on an interval scale:
+    ``cvvdp``'s JOD), the raw ones, then the denoised ones, each in table order."""
+    return [f"{k}_{name}" for k in _KINDS for name, m in _tabled().items() if m.difference]
+
+
 def _value_names() -> list[str]:
     """``<kind>_<m>`` of the other metrics: per group (one metric, or the blurred MSEs), the raw
     values, then the denoised ones."""
@@ -109,6 +116,7 @@ def table_columns() -> tuple[str, ...]:
         "dimensions",
         *(f"{name}{b}" for name in _interval_names() for b in _BOUNDS),
         *(f"{name}_ratio{b}" for name in _ratio_names() for b in _BOUNDS),
+        *(f"{name}_diff{b}" for name in _difference_names() for b in _BOUNDS),
         *_value_names(),
         *_TIMES_AND_FLAGS,
     )
@@ -160,14 +168,19 @@ def _metric_columns(row: dict, arrays: Arrays, intervals: Intervals) -> None:
 
 
 def _ratio_columns(row: dict, arrays: Arrays, white: Arrays | None, intervals: Intervals) -> None:
-    """The paired ratios to the white record of the same cell, of the metrics that have one,
-    asked of ``intervals``."""
+    """The paired ratios (and differences) to the white record of the same cell, of the metrics
+    that have one, asked of ``intervals``."""
     for name in _ratio_names():
         mine = arrays.get(name)
         base = None if white is None else white.get(name)
         if mine is None or base is None or mine.shape != base.shape:
             continue
         intervals.ratio(row, f"{name}_ratio", mine, base)
+    for name in _difference_names():
+        mine = arrays.get(name)
+        base = None if white is None else white.get(name)
+        if mine is not None and base is not None and mine.shape == base.shape:
+            intervals.difference(row, f"{name}_diff", mine, base)
 
 
 def _row(rec: Record, arrays: Arrays, white: Arrays | None, intervals: Intervals) -> dict:

@@ -186,9 +186,9 @@ METRIC_TABLE: dict[str, Metric] = plugins.PluginRegistry(
             window_average_mse, interval=True, ratio=True, group="flicker", window=TAVG_FRAMES
         ),
         # FLIP needs an optional package and about 0.5 s per 256x256 image: measured only when
-        # named.
-        # No suite names it and table.csv never had its columns, so the tables leave it out.
-        "flip": Metric(ImagePair.flip, default=False, require=require_flip, tabled=False),
+        # named. Its ratio to white is a perceptual verdict (benchmarks/reports/perceptual.py);
+        # its columns stay empty where it was not measured.
+        "flip": Metric(ImagePair.flip, default=False, require=require_flip, ratio=True),
         # ColorVideoVDP's JOD of each seed set's sequence (bnerr.metrics.cvvdp): higher is
         # better, so tables give its difference to white, not a ratio. About 0.14 s per sequence
         # of 3 frames and image kind: measured only when named (a suite's metrics).

@@ -75,11 +75,13 @@ __all__ = [
     "equivalent",
     "exp_bound",
     "not_worse",
+    "paired_differences",
     "paired_ratio",
     "paired_ratios",
     "percentile_interval",
     "pooled_intervals",
     "pooled_mean",
+    "relevel_difference",
     "relevel_ratio",
     "replicates",
     "resample_weights",
@@ -469,6 +471,54 @@ def paired_ratios(
         Estimate(v, exp_bound(lo), exp_bound(hi), n, level)
         for v, lo, hi in zip(value.tolist(), log_lo.tolist(), log_hi.tolist(), strict=True)
     ]
+
+
+def paired_differences(
+    values: torch.Tensor | np.ndarray, baseline: torch.Tensor | np.ndarray, level: float = 0.95
+) -> list[Estimate]:
+    """The paired difference ``mean(values) - mean(baseline)`` of each of a batch of cells, with
+    its t-interval over seed sets: for a score on an interval scale, where a ratio means nothing
+    (ColorVideoVDP's JOD, :mod:`bnerr.metrics.cvvdp`). Each seed set gives one difference of its
+    pooled means; the interval is ``d -+ t * sd / sqrt(S)`` with S - 1 degrees of freedom,
+    centred on the difference of the pooled means over all the data. ``values`` and ``baseline``
+    ``[B, S, F, 2]``; with one seed set (S = 1) the interval is unbounded, ``(-inf, inf)``.
+
+    Raises:
+        ShapeError: the shapes differ, or not pairs ``[B, S, F, 2]``; NonFiniteError.
+    """
+    check_bootstrap(level, 100)
+    a = torch.as_tensor(values, dtype=torch.float64, device="cpu")
+    b = torch.as_tensor(baseline, dtype=torch.float64, device="cpu")
+    if a.shape != b.shape or a.ndim != 4 or a.shape[-1] != 2 or 0 in a.shape:
+        raise ShapeError(
+            f"values: expected pairs [B, S, F, 2] of the shape of baseline {list(b.shape)}, "
+            f"got {list(a.shape)}"
+        )
+    check_finite(a, "values")
+    check_finite(b, "baseline")
+    value = _pooled(a) - _pooled(b)
+    n = a.shape[1] * a.shape[2]
+    if a.shape[1] < 2:
+        return [Estimate(v, -math.inf, math.inf, n, level) for v in value.tolist()]
+    lo, hi = t_interval(set_means(a) - set_means(b), value, level)
+    return [
+        Estimate(v, low, high, n, level)
+        for v, low, high in zip(value.tolist(), lo.tolist(), hi.tolist(), strict=True)
+    ]
+
+
+def relevel_difference(estimate: Estimate, level: float, df: int) -> Estimate:
+    """The same t-interval of a difference (:func:`paired_differences`, symmetric around
+    ``value``) at another confidence ``level``: ``value -+ t(level) * se`` with the standard
+    error read back from the interval at ``estimate.level`` (as :func:`relevel_ratio` for a
+    ratio). An unbounded interval stays unbounded."""
+    check_range(level, "level", 0.5, 1.0 - 1e-9)
+    check_positive_int(df, "df")
+    if not (-math.inf < estimate.lo <= estimate.value <= estimate.hi < math.inf):
+        return Estimate(estimate.value, -math.inf, math.inf, estimate.n, level)
+    se = (estimate.hi - estimate.value) / t_quantile(estimate.level, df)
+    half = se * t_quantile(level, df)
+    return Estimate(estimate.value, estimate.value - half, estimate.value + half, estimate.n, level)
 
 
 def relevel_ratio(estimate: Estimate, level: float, df: int) -> Estimate:

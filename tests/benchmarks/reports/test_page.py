@@ -5,6 +5,7 @@ runs as root on Debian), driven by Playwright with that executable (Playwright n
 browser here). Without either, the browser tests skip and say why; the HTML tests still run.
 """
 
+import re
 import shutil
 from pathlib import Path
 from urllib.parse import unquote, urlparse
@@ -166,5 +167,41 @@ def test_the_flip_and_the_slider_change_what_is_shown(browser, site):
     assert layer_a.evaluate("e => e.style.backgroundBlendMode") == "difference"
     cmp.locator(".cmp-view").hover()
     assert cmp.locator(".cmp-lens").evaluate("e => e.style.display") == "block"
+    assert errors == []
+    page.close()
+
+
+def test_the_page_opens_with_the_decision_heatmap(browser, site):
+    """Item 5 of issue 53: the decision table as a picture before any text table, a cell per
+    scene, spp and denoiser coloured by its ratio to white, marked with its verdict, named by
+    its strategy, its interval on hover."""
+    from benchmarks.reports.decision import cell_verdicts
+    from benchmarks.reports.table import summarize
+    from benchmarks.sweep.records import final_records, load_records
+
+    page, errors = _open(browser, site / "quick" / "index.html")
+    first = page.evaluate(
+        "() => [...document.querySelectorAll('figure.hm, table')].map(e => e.className)[0]"
+    )
+    assert first == "hm"  # before decision.md's sortable table
+    cells = page.eval_on_selector_all(
+        "table.heatmap td.hm-cell",
+        """els => els.map(e => [e.dataset.verdict, e.dataset.value, e.title, e.innerText,
+            getComputedStyle(e).backgroundColor, e.getBoundingClientRect().width])""",
+    )
+    rows = summarize([r for r in final_records(load_records(site / "quick")) if r.has_pixels])
+    verdicts = cell_verdicts(rows)
+    assert len(cells) == len(verdicts)  # every cell of the decision, one colour each
+    assert sorted(c[0] for c in cells) == sorted(v for v, _ in verdicts.values())
+    for said, value, title, text, colour, width in cells:
+        assert re.search(r"\[\d\.\d{3}, \d\.\d{3}\]", title) and said in title  # the interval
+        assert text.split()[0] in title and value in text and width > 40
+        blue = float(value) < 1.0
+        r, _, b = (int(x) for x in re.findall(r"\d+", colour)[:3])
+        assert (b > r) == blue or abs(float(value) - 1.0) < 0.02, (value, colour)
+    hover = page.locator("table.heatmap td.hm-cell").first
+    hover.hover()
+    assert hover.get_attribute("title").startswith(hover.inner_text().split("\n")[0])
+    page.locator("figure.hm").first.screenshot(path=str(site / "heatmap.shot.png"))
     assert errors == []
     page.close()

@@ -2,6 +2,7 @@
 
 import csv
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -17,7 +18,7 @@ from benchmarks.sweep.records import (
     Timings,
     write_records,
 )
-from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio
+from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, Metric, paired_ratio, t_quantile
 from bnerr.strategies import strategy_identity
 from tests._records import metric_pairs
 
@@ -254,7 +255,7 @@ def test_a_metric_added_to_the_table_reaches_table_csv(tmp_path, monkeypatch):
         "den_maxerr",
     ]
     assert [c for c in header if c not in added] == list(COLUMNS)
-    assert header.index("raw_maxerr") == header.index("den_trelmse") + 1  # the last value
+    assert header.index("raw_maxerr") == header.index("den_flip") + 1  # the last value
     want = np.asarray(white)[..., 0].sum() / np.asarray(white)[..., 1].sum()
     assert float(rows[0]["raw_maxerr"]) == pytest.approx(want, rel=1e-5)  # written as .6g
     temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == "1")
@@ -264,9 +265,10 @@ def test_a_metric_added_to_the_table_reaches_table_csv(tmp_path, monkeypatch):
     assert table_columns() == COLUMNS
 
 
-def test_a_metric_the_table_keeps_out_of_tables_gets_no_column():
-    assert METRIC_TABLE["flip"].tabled is False
-    assert not [c for c in COLUMNS if "flip" in c]
+def test_a_metric_the_table_keeps_out_of_tables_gets_no_column(monkeypatch):
+    monkeypatch.setitem(METRIC_TABLE, "hidden", Metric(_max_abs_error, ratio=True, tabled=False))
+    assert not [c for c in table_columns() if "hidden" in c]
+    assert "den_flip_ratio" in COLUMNS  # flip's ratio is a perceptual verdict (empty unmeasured)
     assert all(
         f"raw_{name}" in COLUMNS or f"raw_{name}_ratio" in COLUMNS
         for name, m in METRIC_TABLE.items()
@@ -349,3 +351,33 @@ def test_records_without_the_temporal_metrics_build_reports_as_before():
         one_frame, den={**one_frame.den, "tmse": [[[0.0, 0.0]]] * 2}
     )  # a single measured frame: nothing to difference
     assert summarize([single])[0]["den_tmse"] is None
+
+
+def _jod_pairs(per_set: list[float]) -> list:
+    """cvvdp's pairs of 2 seed sets x 3 frames, pooling to ``per_set`` (the telescoping
+    increments of a constant JOD are the JOD itself)."""
+    return [[[j, 1.0]] * 3 for j in per_set]
+
+
+def test_cvvdp_gets_its_value_interval_and_difference_to_white_not_a_ratio():
+    jods = {"white": [6.0, 6.4], "temporal": [7.1, 7.3], "oracle": [5.0, 5.6]}
+    records = [
+        dataclasses.replace(
+            r,
+            raw={**r.raw, "cvvdp": _jod_pairs([6.0, 6.0])},
+            den={**r.den, "cvvdp": _jod_pairs(jods[r.cell.strategy])},
+        )
+        for r in _records()
+    ]
+    rows = summarize(records)
+    temporal = next(r for r in rows if r["strategy"] == "temporal" and r["spp"] == 1)
+    assert temporal["den_cvvdp"] == pytest.approx(7.2)
+    diffs = np.array([7.1 - 6.0, 7.3 - 6.4])
+    half = t_quantile(0.95, 1) * diffs.std(ddof=1) / math.sqrt(2)
+    assert temporal["den_cvvdp_diff"] == pytest.approx(diffs.mean())
+    assert (temporal["den_cvvdp_diff_lo"], temporal["den_cvvdp_diff_hi"]) == pytest.approx(
+        (diffs.mean() - half, diffs.mean() + half)
+    )
+    assert temporal["raw_cvvdp_diff"] == pytest.approx(0.0)
+    assert "den_cvvdp_ratio" not in COLUMNS and "den_cvvdp_diff_lo" in COLUMNS
+    assert all(r["den_cvvdp_diff"] is None for r in summarize(_records()))  # not measured

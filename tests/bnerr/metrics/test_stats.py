@@ -37,7 +37,7 @@ from bnerr.metrics.coverage import (
     simulate,
     t_intervals,
 )
-from bnerr.metrics.stats import exp_bound
+from bnerr.metrics.stats import exp_bound, paired_differences, relevel_difference
 
 
 def test_bootstrap_is_deterministic_and_brackets_the_mean():
@@ -398,3 +398,36 @@ def test_a_ratio_whose_bound_overflows_reads_as_unbounded_not_an_error():
     wide = relevel_ratio(Estimate(1.0, math.exp(-700.0), math.exp(700.0), 4, 0.95), 0.999, 1)
     assert wide.hi == math.inf and wide.lo == 0.0
     assert exp_bound(709.0) == math.exp(709.0) and exp_bound(710.0) == math.inf
+
+
+def _pairs(values: list[list[float]]) -> torch.Tensor:
+    """Per-frame values ``[S][F]`` as pairs ``(value, 1)``, ``[S, F, 2]``."""
+    x = torch.tensor(values, dtype=torch.float64)
+    return torch.stack([x, torch.ones_like(x)], dim=-1)
+
+
+def test_a_paired_difference_is_a_t_interval_over_the_seed_sets_differences():
+    a = _pairs([[7.0, 7.2], [6.8, 7.0], [7.5, 7.3], [7.1, 6.9]])
+    b = _pairs([[6.5, 6.7], [6.6, 6.4], [6.9, 7.1], [6.8, 6.8]])
+    (est,) = paired_differences(a[None], b[None])
+    per_set = (a[..., 0].mean(1) - b[..., 0].mean(1)).numpy()
+    half = t_quantile(0.95, 3) * per_set.std(ddof=1) / 2.0
+    assert est.value == pytest.approx(per_set.mean())
+    assert (est.lo, est.hi) == pytest.approx((per_set.mean() - half, per_set.mean() + half))
+    assert est.n == 8 and est.level == 0.95
+    wider = relevel_difference(est, 1 - 0.05 / 10, 3)
+    assert wider.lo < est.lo and wider.hi > est.hi and wider.value == est.value
+    assert wider.hi - wider.value == pytest.approx(
+        half * t_quantile(1 - 0.05 / 10, 3) / t_quantile(0.95, 3)
+    )
+    assert (relevel_difference(wider, 0.95, 3).lo, relevel_difference(wider, 0.95, 3).hi) == (
+        pytest.approx((est.lo, est.hi))
+    )
+
+
+def test_a_paired_difference_over_one_seed_set_is_unbounded():
+    (est,) = paired_differences(_pairs([[7.0, 7.2]])[None], _pairs([[6.0, 6.2]])[None])
+    assert est.value == pytest.approx(1.0) and (est.lo, est.hi) == (-math.inf, math.inf)
+    assert relevel_difference(est, 0.99, 1).hi == math.inf
+    with pytest.raises(ShapeError, match=r"values: expected pairs \[B, S, F, 2\]"):
+        paired_differences(_pairs([[7.0, 7.2]]), _pairs([[6.0, 6.2]]))
