@@ -34,6 +34,7 @@ from benchmarks.reports.intervals import Intervals
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.plan import Cell
 from benchmarks.sweep.records import Record, collector_paused
+from bnerr import plugins
 from bnerr.metrics import METRIC_TABLE, Metric, check_bootstrap
 from bnerr.strategies import OWN_SAMPLERS, baseline, bounds, strategy_identity
 
@@ -249,13 +250,26 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
     return out
 
 
+def _unmeasured_plugin_columns(rows: Sequence[dict]) -> set[str]:
+    """The columns of plug-in metrics (not shipped: :func:`bnerr.plugins.loaded`) that no row
+    fills: an installed metric the records never measured adds no empty columns (issue 54)."""
+    names = [m for m in _tabled() if plugins.loaded("bnerr.metrics", m) is not None]
+    empty = set()
+    for column in table_columns():
+        base = column.removesuffix("_lo").removesuffix("_hi")
+        base = base.removesuffix("_ratio").removesuffix("_diff")
+        if base.partition("_")[2] in names and all(r.get(column) is None for r in rows):
+            empty.add(column)
+    return empty
+
+
 def csv_text(rows: Sequence[dict]) -> str:
     """The text of ``table.csv``: the :data:`COLUMNS` header, one line per row, floats to 6
     significant digits, None as an empty field."""
     buffer = io.StringIO()
-    writer = csv.DictWriter(
-        buffer, fieldnames=table_columns(), lineterminator="\n", extrasaction="ignore"
-    )
+    unused = _unmeasured_plugin_columns(rows)  # a report is a function of its records
+    fields = [c for c in table_columns() if c not in unused]
+    writer = csv.DictWriter(buffer, fieldnames=fields, lineterminator="\n", extrasaction="ignore")
     writer.writeheader()
     for row in rows:
         writer.writerow(

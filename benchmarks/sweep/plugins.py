@@ -137,9 +137,13 @@ def load_recorded(records: Iterable[Record]) -> list[str]:
         for key, entry in (record.plugins or {}).items():
             group, _, name = key.partition(":")
             spec = entry.get("spec") or ""
-            if (group, spec) in seen or group not in LOADERS or spec.startswith("entry point "):
+            if (group, spec) in seen or group not in LOADERS:
                 continue
             seen.add((group, spec))
+            if spec.startswith("entry point "):
+                note = _installed_note(group, name, spec, entry.get("fingerprint"))
+                notes.extend([note] if note else [])
+                continue
             try:
                 LOADERS[group](spec)
             except BnerrError as err:
@@ -147,3 +151,20 @@ def load_recorded(records: Iterable[Record]) -> list[str]:
                     f"plug-in {name!r} ({spec}) not loaded, reported from its records: {err}"
                 )
     return notes
+
+
+def _installed_note(group: str, name: str, spec: str, fingerprint: object) -> str | None:
+    """The note of :func:`load_recorded` for a plug-in measured as an installed entry point that
+    is not installed (or will not load) here, or None when it is registered."""
+    try:
+        LOADERS[group](name)  # reads the registry: its installed entry points load
+    except BnerrError as err:
+        return f"plug-in {name!r} ({spec}) not loaded, reported from its records: {err}"
+    if plugins.loaded(group, name) is not None:
+        return None
+    error = plugins.broken(group, spec.removeprefix("entry point "))
+    why = str(error) if error is not None else "no installed distribution gives it here"
+    return (
+        f"plug-in {name!r} ({spec} of group {group}, measured with {fingerprint}) not loaded, "
+        f"reported from its records: {why}"
+    )

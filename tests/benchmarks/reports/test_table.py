@@ -381,3 +381,37 @@ def test_cvvdp_gets_its_value_interval_and_difference_to_white_not_a_ratio():
     assert temporal["raw_cvvdp_diff"] == pytest.approx(0.0)
     assert "den_cvvdp_ratio" not in COLUMNS and "den_cvvdp_diff_lo" in COLUMNS
     assert all(r["den_cvvdp_diff"] is None for r in summarize(_records()))  # not measured
+
+
+def test_an_installed_metric_the_records_lack_adds_no_columns(forget):
+    """Issue 54: a metric plug-in registered in this process (as an installed entry point is)
+    added empty columns to every table.csv, so that the same folder's report differed with the
+    environment. Its columns appear only where a record measured it; shipped ones always."""
+    from benchmarks.reports.table import csv_text
+    from bnerr import plugins
+    from tests._records import small_record
+
+    def blind(pred, ref):
+        """a plug-in metric"""
+        return 0.0
+
+    blind.name = "tab_plug"
+    forget.append(("bnerr.metrics", "tab_plug"))
+    before = [
+        small_record(
+            s, "gaussian", raw={"mse": metric_pairs([[1.0, 2.0]] * 2)},
+            den={"mse": metric_pairs([[1.0, 2.0]] * 2)}, frames=2, seed_sets=2,
+        )
+        for s in ("white", "temporal")
+    ]  # fmt: skip
+    text = csv_text(summarize(before))
+    METRIC_TABLE.add(plugins.Plugin("entry point tab_plug", blind, "tabdist 1.0"))
+    assert "raw_tab_plug" in table_columns()
+    assert csv_text(summarize(before)) == text  # the records alone decide
+    measured = [
+        dataclasses.replace(r, raw={**r.raw, "tab_plug": metric_pairs([[0.5, 0.5]] * 2, 1.0)})
+        for r in before
+    ]
+    header = csv_text(summarize(measured)).splitlines()[0].split(",")
+    assert "raw_tab_plug" in header and "den_tab_plug" not in header
+    assert "den_mse_ratio" in header  # a shipped metric's columns stay, filled or not
