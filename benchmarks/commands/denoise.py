@@ -29,7 +29,7 @@ from bnerr.frame import Frame
 from bnerr.io import image_format, read_frame, write_image
 from bnerr.outputs import check_output
 from bnerr.timing import sync
-from denoisers import get_denoiser, load_denoiser
+from denoisers import denoiser_identity, get_denoiser, load_denoiser
 from denoisers.tuning import ParamStore
 
 __all__ = ["parse_params", "register", "run"]
@@ -88,7 +88,9 @@ def run(args: argparse.Namespace) -> int:
     buffers = {**frame.buffers(), "color": color}
     timings = {**frame.timings, "denoise": elapsed_ms}
     write_image(output, Frame(**buffers, timings=timings), exposure=args.exposure)
-    print(f"{denoiser!r}: {frame.width}x{frame.height} in {elapsed_ms:.1f} ms -> {args.output}")
+    kind = denoiser_identity(args.denoiser).kind  # filter, temporal, learned, a plug-in's own
+    size = f"{frame.width}x{frame.height}"
+    print(f"{denoiser!r} ({kind}): {size} in {elapsed_ms:.1f} ms -> {args.output}")
     return 0
 
 

@@ -39,6 +39,7 @@ from benchmarks.reports.html import markdown_html, page
 from benchmarks.reports.links import broken_links
 from benchmarks.reports.previews import ERROR_GAIN, crop_strip
 from benchmarks.reports.svgchart import legend_html, ratio_svg
+from benchmarks.suites import SUITES
 from benchmarks.sweep.records import Record
 from bnerr.errors import FileFormatError
 from bnerr.io import atomic_write
@@ -72,6 +73,15 @@ def _write(path: Path, text: str, root: Path, coming: tuple[Path, ...] = ()) -> 
         Path(tmp).write_text(text, encoding="utf-8")
 
 
+def rebuild_command(out: Path) -> str:
+    """The command that rebuilds the reports of ``out`` from its cells: ``--suite NAME`` where
+    the folder is named after a suite (``results/quick``), else ``--out`` and the folder's name
+    (a run into ``--out den`` is not the suite ``den``: issue 54)."""
+    if out.name in SUITES:
+        return f"bnerr bench --suite {out.name} --report-only"
+    return f"bnerr bench --report-only --out {out.name}"
+
+
 def _files(out: Path) -> str:
     names = sorted(
         p.name
@@ -80,7 +90,7 @@ def _files(out: Path) -> str:
     )
     links = " · ".join(f'<a href="{html.escape(n)}">{html.escape(n)}</a>' for n in names)
     tables = " and ".join(f"<code>{n}</code>" for n in ON_DEMAND)
-    command = f"bnerr bench --suite {html.escape(out.name)} --report-only"
+    command = html.escape(rebuild_command(out))
     return (
         f"<p>Files: {links}</p><p>{tables} (every column of every cell) are written from the "
         f"cells on demand by <code>{command}</code>; the committed results leave them out.</p>"

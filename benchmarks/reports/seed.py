@@ -45,6 +45,7 @@ from benchmarks.reports.groups import (
 )
 from benchmarks.reports.palette import family, strategy_style
 from benchmarks.reports.previews import load_crop
+from benchmarks.suites import SUITES
 from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.metrics import best_level, relevel_share
@@ -201,6 +202,20 @@ def _group_text(key: tuple, shares: list[GapShare], figures: list[str]) -> list[
     return lines
 
 
+def _written_by(out: Path) -> str:
+    """Whence the README: the suite where the folder is named after one, else the folder (a run
+    into ``--out den`` is not the suite ``den``: issue 54)."""
+    if out.name in SUITES:
+        return (
+            f"Written by `bnerr bench --suite {out.name}` from its records (do not edit; the "
+            "folder's name is the suite's)."
+        )
+    return (
+        f"Written by `bnerr bench` into `{out.name}` from its records (do not edit; "
+        f"`bnerr bench --report-only --out {out.name}` writes it again)."
+    )
+
+
 def write_seed_report(
     out_dir: str | Path, records: Sequence[Record], shares: Sequence[GapShare]
 ) -> list[Path]:
@@ -212,8 +227,7 @@ def write_seed_report(
     text = [
         "# The seed talk's claim: blue error in coherent regions",
         "",
-        f"Written by `bnerr bench --suite {out.name}` from its records (do not edit; the folder's "
-        "name is the suite's). Each figure: the "
+        _written_by(out) + " Each figure: the "
         "reference and each strategy's raw frame (first measured frame of seed set 0), an "
         "enlarged inset of the yellow square, and the raw error's power spectrum over the coherent "
         "pixels (blue noise: low power left of the dashed line at 1/8 cycle per pixel).",

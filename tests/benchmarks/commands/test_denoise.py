@@ -169,3 +169,13 @@ def test_denoise_on_cuda_writes_what_the_cpu_does_to_rounding(tmp_path):
     assert main([*args, "--out", str(tmp_path / "cuda.exr"), "--device", "cuda"]) == 0
     cpu, cuda = read_frame(tmp_path / "cpu.exr").color, read_frame(tmp_path / "cuda.exr").color
     assert torch.allclose(cuda, cpu, rtol=0, atol=3e-2 * float(cpu.abs().max()))  # cuDNN's TF32
+
+
+@pytest.mark.parametrize(("name", "kind"), [("gaussian", "filter"), ("unet", "learned")])
+def test_denoise_says_the_denoisers_kind(tmp_path, capsys, name, kind):
+    """Issue 54: a denoiser's kind, which the plug-in docs describe, appeared in no output."""
+    path, _ = _frame_file(tmp_path)
+    out = tmp_path / "out.exr"
+    assert main(["denoise", "--denoiser", name, "--in", str(path), "--out", str(out)]) == 0
+    line = capsys.readouterr().out.strip()
+    assert f"({kind}): 12x10 in " in line and line.endswith(f"-> {out}")

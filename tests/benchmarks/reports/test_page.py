@@ -205,3 +205,11 @@ def test_the_page_opens_with_the_decision_heatmap(browser, site):
     page.locator("figure.hm").first.screenshot(path=str(site / "heatmap.shot.png"))
     assert errors == []
     page.close()
+
+
+def test_the_rebuild_command_names_a_suite_only_for_a_suite_folder(tmp_path):
+    """Issue 54: a run into ``--out den`` was told to rebuild with ``--suite den``."""
+    from benchmarks.reports.page import rebuild_command
+
+    assert rebuild_command(tmp_path / "quick") == "bnerr bench --suite quick --report-only"
+    assert rebuild_command(tmp_path / "den") == "bnerr bench --report-only --out den"

@@ -78,3 +78,19 @@ def test_the_best_variant_is_read_at_the_level_corrected_for_the_best_of_m(tmp_p
     alone = write_seed_report(tmp_path, records, shares[:1])[-1].read_text()
     assert "keeps 0.60 [0.52, 0.68] (95.00% interval for the best of 1" in alone
     assert "**holds**" in alone
+
+
+def test_the_readme_names_the_suite_only_when_the_folder_is_one(tmp_path):
+    """Issue 54: a quick run into ``--out den`` wrote "Written by `bnerr bench --suite den`",
+    a suite that does not exist; a folder named after a suite keeps its committed text."""
+    den, seed = tmp_path / "den", tmp_path / "seed"
+    for folder in (den, seed):
+        folder.mkdir()
+        records = _records(folder)
+        write_seed_report(folder, records, gap_shares(records))
+    text = (den / "README.md").read_text()
+    assert "--suite den" not in text
+    assert "Written by `bnerr bench` into `den`" in text
+    assert "`bnerr bench --report-only --out den` writes it again" in text
+    committed = "Written by `bnerr bench --suite seed` from its records (do not edit; the folder's"
+    assert committed + " name is the suite's)." in (seed / "README.md").read_text()
