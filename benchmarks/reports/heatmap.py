@@ -174,9 +174,9 @@ def jod_heatmap(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> s
         cells[key] = HeatCell(
             found.row["strategy"], f"{est.value:+.2f}", position, found.verdict, hover
         )
-    ticks = [(-1.0, "+1 JOD"), (0.0, "0"), (1.0, "-1 JOD")]
+    ticks = [(-1.0, "+1"), (-0.5, "+0.5"), (0.0, "0"), (0.5, "-0.5"), (1.0, "-1")]
     caption = (
-        "The best rival's JOD minus white's (ColorVideoVDP on the denoised sequences, "
+        "The best rival's JOD minus white's, in JOD (ColorVideoVDP on the denoised sequences, "
         "perceptual.md): blue seen as better than white, red as worse."
     )
     return heatmap_html(cells, "The same cells judged in JOD", ticks, caption)
