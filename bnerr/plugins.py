@@ -102,9 +102,14 @@ class Plugin:
 
     @property
     def fingerprint(self) -> str:
-        """:func:`plugin_fingerprint` of its object (the distribution's when installed)."""
+        """:func:`plugin_fingerprint` of its object: for an installed one the distribution's
+        ``name==version`` and its module's source hash (an editable install's edit changes it
+        though the version does not); for a manifest or scene file the hash of its files (an
+        executable denoiser's program file among them)."""
         if self.distribution is not None:
-            return self.distribution.replace(" ", "==")
+            source = _source_hash(self.obj)
+            version = self.distribution.replace(" ", "==")
+            return f"{version}+{source}" if source else version
         if self.files:
             return "sha256:" + _file_hash([Path(f) for f in self.files])
         return plugin_fingerprint(self.obj)
@@ -303,24 +308,39 @@ def plugin_failure(plugin: Plugin, expected: str, err: BaseException) -> PluginE
     )
 
 
-def plugin_fingerprint(obj: object) -> str:
-    """A short string identifying a plug-in's code: ``name==version`` of the installed
-    distribution that owns its module, else ``sha256:`` and 16 hex digits of its source file
-    (the file of the module that defines it); ``"unknown"`` when neither can be found."""
+def _module_of(obj: object) -> ModuleType | None:
     target = getattr(obj, "plugin_source", obj)  # an adapter names what it wraps
     target = inspect.unwrap(target) if callable(target) else target
     if not (inspect.isfunction(target) or inspect.isclass(target) or inspect.ismodule(target)):
         target = type(target)
-    module = inspect.getmodule(target)
+    return inspect.getmodule(target)
+
+
+def _source_hash(obj: object) -> str | None:
+    """``sha256:`` and 16 hex digits of the source file of the module defining ``obj``, or
+    None when it has none (a built-in, a module made in memory)."""
+    module = _module_of(obj)
+    file = getattr(module, "__file__", None) if module is not None else None
+    if not file or not Path(file).is_file():
+        return None
+    return "sha256:" + _file_hash([Path(file)])
+
+
+def plugin_fingerprint(obj: object) -> str:
+    """A short string identifying a plug-in's code: ``sha256:`` and 16 hex digits of its source
+    file (the file of the module that defines it), after ``name==version+`` of the installed
+    distribution that owns that module; ``"unknown"`` when neither can be found.
+
+    What it does not see: other files the module imports or reads, and what an executable
+    plug-in's program runs besides its own file (docs/PLUGINS.md, section 7)."""
+    module = _module_of(obj)
     if module is None:
         return "unknown"
     owner = _distribution_of(module.__name__)
+    source = _source_hash(obj)
     if owner is not None:
-        return owner.replace(" ", "==")
-    file = getattr(module, "__file__", None)
-    if not file or not Path(file).is_file():
-        return "unknown"
-    return "sha256:" + _file_hash([Path(file)])
+        return owner.replace(" ", "==") + (f"+{source}" if source else "")
+    return source or "unknown"
 
 
 def _file_hash(files: list[Path]) -> str:
@@ -352,7 +372,7 @@ def registered_file(group: str, path: str | Path) -> str | None:
     one that would clash with it by name."""
     resolved = (str(Path(path).resolve()),)
     for (where, name), plugin in _LOADED.items():
-        if where == group and plugin.files == resolved:
+        if where == group and plugin.files[:1] == resolved:  # the manifest, then its program
             return name
     return None
 

@@ -124,7 +124,9 @@ def load_denoiser(name_or_spec: str) -> str:
         external = importlib.import_module("denoisers.external")
         path = Path(name_or_spec)
         cls = external.denoiser_class(path)
-        plugin = plugins.Plugin(name_or_spec, cls, None, files=(str(path.resolve()),))
+        program = external.program_file(cls.manifest)  # what runs: its edit is seen on --resume
+        files = (str(path.resolve()), *([str(program)] if program is not None else []))
+        plugin = plugins.Plugin(name_or_spec, cls, None, files=files)
         return registry.add(plugin)
     if not plugins.is_spec(name_or_spec):
         return name_or_spec

@@ -112,6 +112,7 @@ __all__ = [
     "ManifestError",
     "denoiser_class",
     "load_manifest",
+    "program_file",
     "run_manifest",
 ]
 
@@ -319,6 +320,17 @@ def _execute(manifest: Manifest, argv: list[str], work: Path) -> None:
     """Run ``argv`` in the manifest's folder, in a session of its own, with the time limit."""
     what = f"denoiser {manifest.name!r} ({manifest.path.name})"
     run_program(what, argv, cwd=manifest.folder, timeout_s=manifest.timeout_s, work=work)
+
+
+def program_file(manifest: Manifest) -> Path | None:
+    """The file the manifest's command runs (its program, or the script after ``{python}``),
+    once resolved against the manifest's folder; None for a program found on ``PATH`` or
+    ``{python} -m``. Its bytes are part of the plug-in's fingerprint, so that ``--resume``
+    sees an edited program behind an unchanged manifest."""
+    for arg in manifest.command[:2]:
+        if os.path.isabs(arg) and os.path.isfile(arg):
+            return Path(arg)
+    return None
 
 
 def _exr_header(path: Path) -> tuple[tuple[int, int], list[str]]:

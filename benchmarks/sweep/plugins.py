@@ -116,8 +116,9 @@ def check_resume(records: Iterable[Record]) -> None:
                 raise PluginError(
                     f"--resume: expected plug-in {name!r} ({now.spec}) unchanged since its "
                     f"cells in the results were measured, got fingerprint {now.fingerprint} "
-                    f"(was {then.get('fingerprint')}); measure again with --overwrite, or "
-                    "into another --out"
+                    f"(was {then.get('fingerprint')}; it hashes the plug-in's own file, a "
+                    "manifest's program, an installed version, not what they import or read); "
+                    "measure again with --overwrite, or into another --out"
                 )
 
 

@@ -89,6 +89,8 @@ def test_a_manifest_path_dispatches_to_the_external_denoiser(tmp_path, monkeypat
         name = "ext_plug"
 
     stand_in.denoiser_class = lambda path: External
+    stand_in.program_file = lambda manifest: None  # the file its command runs: none here
+    External.manifest = None
     monkeypatch.setitem(sys.modules, "denoisers.external", stand_in)
     forget.append(("bnerr.denoisers", "ext_plug"))
     manifest = _write(tmp_path / "den.toml", "name = 'ext_plug'\n")
@@ -176,3 +178,29 @@ def test_a_strategy_file_also_imported_as_a_module_still_loads_by_its_spec(
     importlib.import_module("twice_mod")  # an entry point's import: the class registers itself
     assert strategies.REGISTRY.name_of(f"{path}:Mine") == "plug_twice"  # the file's own import
     assert strategies.make_strategy("plug_twice", 4, 4).name == "plug_twice"
+
+
+def test_an_installed_plugins_fingerprint_follows_its_source_not_only_its_version(
+    tmp_path, monkeypatch
+):
+    """Issue 54: ``--resume`` did not see an edited entry-point module whose version did not
+    change (an editable install); the fingerprint is ``name==version+sha256:<its source>``."""
+    info = tmp_path / "fpdist54-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: fpdist54\nVersion: 1.0\n")
+    (info / "top_level.txt").write_text("fpmod54\n")
+    source = tmp_path / "fpmod54.py"
+    source.write_text("def metric(pred, ref):\n    return 0.0\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    plugins._top_level_distributions.cache_clear()
+    try:
+        plugin = plugins.resolve("fpmod54:metric")
+        assert plugin.distribution == "fpdist54 1.0"
+        before = plugin.fingerprint
+        assert before.startswith("fpdist54==1.0+sha256:")
+        assert plugins.plugin_fingerprint(plugin.obj) == before
+        source.write_text("def metric(pred, ref):\n    return 1.0\n")  # same version
+        assert plugin.fingerprint != before and plugin.fingerprint.startswith("fpdist54==1.0+")
+    finally:
+        plugins._top_level_distributions.cache_clear()
+        sys.modules.pop("fpmod54", None)

@@ -204,3 +204,24 @@ def test_a_manifest_loaded_again_is_the_same_registered_class(forget):
     cls = DENOISERS[name]
     assert denoisers.load_denoiser(manifest) == name  # a worker loads the parts' specs again
     assert DENOISERS[name] is cls
+
+
+def test_a_manifests_fingerprint_follows_the_program_it_runs(tmp_path, forget):
+    """Issue 54: ``--resume`` did not see an edited program behind an unchanged manifest (the
+    fingerprint hashed the manifest alone); it hashes the program file the command runs too."""
+    import shutil
+
+    from bnerr import plugins
+
+    folder = tmp_path / "ext"
+    shutil.copytree(EXAMPLES / "external_denoiser", folder)
+    manifest = folder / "manifest.toml"
+    forget.append(("bnerr.denoisers", "example_joint_bilateral"))
+    name = denoisers.load_denoiser(str(manifest))
+    plugin = plugins.loaded("bnerr.denoisers", name)
+    assert plugin.files == (str(manifest.resolve()), str((folder / "denoise.py").resolve()))
+    before = plugin.fingerprint
+    with (folder / "denoise.py").open("a") as script:
+        script.write("\n# an edit that changes what runs\n")
+    assert plugin.fingerprint != before and plugin.fingerprint.startswith("sha256:")
+    assert denoisers.load_denoiser(str(manifest)) == name  # still found by its manifest

@@ -95,7 +95,8 @@ def test_bench_measures_every_kind_of_plugin_and_resume_refuses_a_changed_one(si
     page = (site / "out" / "index.html").read_text()
     assert all(word in page for word in ("mine", "box3", "tiny"))
     records = (site / "out" / "cells.jsonl").read_text()
-    assert '"bnerr.denoisers:box3": {"fingerprint": "boxden==1.2"' in records
+    # the version and the module's source (issue 54: an edit without a version bump is seen)
+    assert '"bnerr.denoisers:box3": {"fingerprint": "boxden==1.2+sha256:' in records
     assert '"bnerr.samplers:hashy"' in records and "strat.py:Mine" in records
 
     (site / "strat.py").write_text(textwrap.dedent(STRATEGY) + "# changed\n")
@@ -120,6 +121,7 @@ def test_a_recorded_plugin_that_cannot_be_loaded_any_more_is_named_not_fatal(tmp
     record = dataclasses.replace(
         record, plugins={"bnerr.metrics:maxerr": gone, "bnerr.denoisers:box3": installed}
     )
-    notes = load_recorded([record, record])  # each spec once; an entry point is the registry's
-    assert len(notes) == 1
+    notes = load_recorded([record, record])  # each spec once
+    assert len(notes) == 2  # issue 54: an entry point not installed here is named too
     assert notes[0].startswith(f"plug-in 'maxerr' ({gone['spec']}) not loaded, reported from")
+    assert notes[1].startswith("plug-in 'box3' (entry point box3 of group bnerr.denoisers, ")
