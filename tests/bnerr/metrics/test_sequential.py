@@ -5,6 +5,7 @@ failing the same test)."""
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 import torch
@@ -17,6 +18,20 @@ from bnerr.metrics.sequential import ALPHA, Design, looks, naive_design, run_seq
 # Simulated cells per setting: 4000 put the binomial band at 3 standard errors (1.0 % at a miss
 # rate of 5 %) and the whole file under a minute on one core.
 TRIALS = 4000
+
+
+def _stated_bias_bound() -> float:
+    """The early-stopping bias bound docs/METHODS.md states ("the stated bound is N %")."""
+    from tests._paths import ROOT
+
+    text = " ".join((ROOT / "docs" / "METHODS.md").read_text().split())
+    match = re.search(r"the stated bound is (\d+(?:\.\d+)?) %", text)
+    assert match is not None, "docs/METHODS.md states no early-stopping bias bound"
+    return float(match.group(1)) / 100
+
+
+#: The early-stopping bias bound of docs/METHODS.md (2 %).
+BIAS_BOUND = _stated_bias_bound()
 
 
 def band(rate: float, trials: int = TRIALS) -> float:
@@ -100,9 +115,16 @@ def test_the_adaptive_procedure_keeps_its_coverage(
     )
     stated = ALPHA / rivals
     assert r.miss <= band(stated), f"missed {r.miss:.4f} > {band(stated):.4f} (nominal {stated})"
-    # Early stopping biases the reported ratio away from 1; the larger run (docs/METHODS.md,
-    # section 6) measured at most 1.6 % at these settings: stated bound 3 %.
-    assert abs(math.expm1(r.bias)) < 0.03, f"bias of the ratio {math.expm1(r.bias):+.4f}"
+    # Early stopping biases the reported ratio away from 1; docs/METHODS.md (section 6) states a
+    # bound of 2 %. The margin comes from the data as the miss-rate band does (issue 54: it was a
+    # flat 3 %, which no defect reached): the bound must hold with 3 standard errors of the
+    # simulated bias to spare, and with no effect and symmetric seed-set noise, where stopping
+    # cannot favour a side, the bias is 0 within 3 standard errors (a centre off by a bias
+    # fails it).
+    bias, margin = math.expm1(r.bias), 3 * r.bias_se
+    assert abs(bias) + margin <= BIAS_BOUND, f"bias {bias:+.4f} ± {margin:.4f} > {BIAS_BOUND}"
+    if effect == 0.0 and not skewed:
+        assert abs(r.bias) <= margin + 1e-12, f"bias {r.bias:+.5f} beyond ±{margin:.5f}"
 
 
 def test_adding_seed_sets_until_significant_fails_the_same_test() -> None:

@@ -1,0 +1,90 @@
+"""benchmarks.reports.decision: the verdicts' intervals are the group-sequential design's
+(issue 54, item 15). The coverage study simulates :func:`bnerr.metrics.sequential.run_sequential`,
+which only it uses, while the sweep's verdicts go through :func:`decision.design_of`,
+:func:`decision.corrected` and ``Design.interval``; with ``design_of`` giving a one-look design (no
+alpha spent per look) every stand-in test still passed. Here the two paths give the same
+intervals look by look, and the coverage study runs through the verdicts' own path, where a
+design that spends no alpha fails it."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import torch
+
+from benchmarks.reports import decision
+from bnerr.metrics import t_quantile
+from bnerr.metrics.sequential import Design, looks, run_sequential
+
+LOOKS = looks(4, 16)  # 4, 8, 16: the suites' first look doubled to a cap of 16
+
+
+def _row(logs: torch.Tensor, n: int, design_looks: tuple[int, ...]) -> dict:
+    """The table row of a cell after ``n`` seed sets with per-seed-set log ratios ``logs``: its
+    ratio and 95 % t-interval as ``table.csv`` holds them, the design's looks as the record's."""
+    sub = logs[:n]
+    centre = float(sub.mean())
+    half = t_quantile(decision.LEVEL, n - 1) * float(sub.std()) / math.sqrt(n)
+    return {
+        "den_mse_ratio": math.exp(centre),
+        "den_mse_ratio_lo": math.exp(centre - half),
+        "den_mse_ratio_hi": math.exp(centre + half),
+        "seed_sets": n,
+        "looks": design_looks,
+        "frames": 3,
+    }
+
+
+def _logs(trials: int, effect: float, sd: float, seed: int) -> torch.Tensor:
+    gen = torch.Generator().manual_seed(seed)
+    return math.log(1 - effect) + sd * torch.randn(trials, LOOKS[-1], generator=gen).double()
+
+
+@pytest.mark.parametrize("rivals", [1, 3])
+def test_the_verdicts_path_gives_the_sequential_designs_intervals_look_by_look(rivals):
+    logs = _logs(300, 0.05, 0.08, seed=54)
+    centres = torch.stack([logs[:, :n].mean(dim=1) for n in LOOKS], dim=1)
+    design = Design(LOOKS)
+    stop, _, lo, hi = run_sequential(logs, centres, design, rivals, decision.EQUAL_MARGIN)
+    stopped_early = 0
+    for i in range(logs.shape[0]):
+        k = int(stop[i])
+        for j, n in enumerate(LOOKS[: k + 1]):
+            est = decision.corrected(_row(logs[i], n, LOOKS), rivals)
+            if j < k:  # the sweep's verdict agrees that the cell went on
+                assert decision.verdict(est) == "open", (i, n)
+        assert est.lo == pytest.approx(math.exp(float(lo[i])), rel=1e-9)
+        assert est.hi == pytest.approx(math.exp(float(hi[i])), rel=1e-9)
+        stopped_early += k < len(LOOKS) - 1
+    assert 0 < stopped_early < logs.shape[0]  # both kinds of cell were compared
+
+
+def _misses(logs: torch.Tensor) -> float:
+    """The share of cells whose verdict, taken look by look through decision.corrected and
+    decision.verdict until settled, rests on an interval that misses the true ratio 1."""
+    missed = 0
+    for trial in logs:
+        for n in LOOKS:
+            est = decision.corrected(_row(trial, n, LOOKS), 1)
+            if decision.verdict(est) != "open" or n == LOOKS[-1]:
+                missed += est.lo > 1.0 or est.hi < 1.0
+                break
+    return missed / logs.shape[0]
+
+
+def test_the_coverage_study_through_the_verdicts_path(monkeypatch):
+    """2000 cells with no effect, seed-set sd 0.1, looks 4-8-16: the verdicts' intervals miss
+    the true ratio no more than their 5 % (3 binomial standard errors above, as
+    tests/bnerr/metrics/test_sequential.py); with design_of spending the whole alpha at every
+    look (a one-look design each time, the defect of issue 54) the same cells miss beyond it."""
+    logs = _logs(2000, 0.0, 0.1, seed=15)
+    trials = logs.shape[0]
+    band = 0.05 + 3 * math.sqrt(0.05 * 0.95 / trials)
+    missed = _misses(logs)
+    assert missed <= band, f"missed {missed:.4f} > {band:.4f}"
+    monkeypatch.setattr(
+        decision, "design_of", lambda row: Design((row["seed_sets"],), 1 - decision.LEVEL)
+    )
+    unspent = _misses(logs)
+    assert unspent > band, f"a design spending no alpha per look missed only {unspent:.4f}"
