@@ -56,6 +56,7 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.util
+import weakref
 from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any
@@ -164,25 +165,34 @@ def sequence_jod(
     return float(jod)
 
 
-#: The last scores, by the identity of the frames scored (the images, references and masks,
-#: held by the entry so that no other object takes their ids while it is cached).
+#: The last scores, by the identity of the frames scored (the images, references and masks),
+#: with weak references to them: a hit counts only while every one is still the same object, and
+#: the cache keeps no frame alive.
 _SCORES: OrderedDict[tuple[int, ...], tuple[float, tuple[object, ...]]] = OrderedDict()
 _CACHED = 256
+
+
+def _same(held: tuple[object, ...], objs: tuple[object, ...]) -> bool:
+    return all(
+        (h is None and o is None) or (isinstance(h, weakref.ref) and h() is o)
+        for h, o in zip(held, objs, strict=True)
+    )
 
 
 def _score(pairs: Sequence[ImagePair]) -> float:
     """:func:`sequence_jod` of the window ``pairs``, cached: the next frame's update reads it
     again as the window without its last frame."""
-    held = tuple(obj for p in pairs for obj in (p.pred, p.ref, p.mask))
-    key = tuple(id(obj) for obj in held)
+    objs = tuple(obj for p in pairs for obj in (p.pred, p.ref, p.mask))
+    key = tuple(id(obj) for obj in objs)
     found = _SCORES.get(key)
-    if found is not None:
+    if found is not None and _same(found[1], objs):
         _SCORES.move_to_end(key)
         return found[0]
     jod = sequence_jod(
         [p.pred for p in pairs], [p.ref.color for p in pairs], [p.mask for p in pairs]
     )
-    _SCORES[key] = (jod, held)
+    _SCORES[key] = (jod, tuple(None if o is None else weakref.ref(o) for o in objs))
+    _SCORES.move_to_end(key)
     while len(_SCORES) > _CACHED:
         _SCORES.popitem(last=False)
     return jod

@@ -11,7 +11,7 @@ import pytest
 import torch
 
 from bnerr.errors import MissingDependencyError, ShapeError
-from bnerr.metrics import METRIC_TABLE, FrameMetrics, mse
+from bnerr.metrics import METRIC_TABLE, FrameMetrics, ImagePair, mse
 from bnerr.metrics import cvvdp as cv
 
 pytestmark = [
@@ -203,3 +203,21 @@ def test_its_table_entry_gives_a_difference_not_a_ratio():
     entry = METRIC_TABLE["cvvdp"]
     assert entry.difference and entry.interval and not entry.ratio
     assert not entry.default and entry.window == cv.CVVDP_FRAMES
+
+
+def test_the_cache_keeps_no_frame_alive_and_misses_when_an_id_is_reused():
+    import gc
+    import weakref
+
+    refs = _reference(2)
+    pred = refs[0] + 0.05
+    acc = FrameMetrics(["cvvdp"])
+    acc.update(pred, refs[0])
+    alive = weakref.ref(pred)
+    del acc, pred
+    gc.collect()
+    assert alive() is None  # the cached score held it weakly
+    again = refs[0] + 0.1  # may take the freed id: the dead reference is no hit
+    assert cv._score([ImagePair(again, refs[0])]) == pytest.approx(
+        cv.sequence_jod([again], [refs[0]])
+    )
