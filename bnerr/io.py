@@ -433,7 +433,7 @@ def read_frame(path: str | os.PathLike) -> Frame:
                 f"({error})"
             ) from error
     try:
-        return Frame(**known, timings=timings)
+        return Frame(**known, timings=timings, own_denoised={})
     except (ShapeError, DtypeError) as error:
         raise FileFormatError(f"{path}: not a valid frame ({error})") from error
 

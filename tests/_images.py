@@ -18,7 +18,8 @@ def noisy_pair(seed=0, shape=(3, 24, 20), noise=0.1):
 def random_frame(h=12, w=10, seed=0, *, scale=1.0, drop=(), **fields) -> Frame:
     """An ``h x w`` frame of seeded random buffers: color uniform in [0, scale), albedo uniform,
     unit normals, depth in [1, 2), motion in [-0.5, 0.5), object 0; the buffers named in ``drop``
-    left out (drawn all the same, so the others do not change); ``fields`` added (``timings``)."""
+    left out (drawn all the same, so the others do not change); ``fields`` added (``timings``);
+    ``own_denoised`` holds a random ``cycles_oidn`` image unless given."""
     g = torch.Generator().manual_seed(seed)
     buffers = dict(
         color=scale * torch.rand(3, h, w, generator=g),
@@ -30,6 +31,9 @@ def random_frame(h=12, w=10, seed=0, *, scale=1.0, drop=(), **fields) -> Frame:
     )
     for name in drop:
         buffers.pop(name)
+    if "own_denoised" not in fields:  # a renderer's own denoised image, as Cycles' frames carry
+        own = torch.Generator().manual_seed(seed + 7919)
+        fields["own_denoised"] = {"cycles_oidn": torch.rand(3, h, w, generator=own)}
     return Frame(**buffers, **fields)
 
 

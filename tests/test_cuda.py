@@ -123,6 +123,8 @@ def _denoise(denoiser: denoisers.Denoiser, frames: list[Frame]) -> torch.Tensor:
 
 @pytest.mark.parametrize("name", sorted(denoisers.DENOISERS))
 def test_a_denoiser_gives_its_output_on_the_device_close_to_the_cpu(name):
+    if name == "cycles_oidn":
+        pytest.skip("cycles_oidn computes nothing: it returns Cycles' own output of a Cycles frame")
     device = _device()
     scene = _scene()
     frames = [

@@ -87,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     color = color.cpu()
     buffers = {**frame.buffers(), "color": color}
     timings = {**frame.timings, "denoise": elapsed_ms}
-    write_image(output, Frame(**buffers, timings=timings), exposure=args.exposure)
+    write_image(output, Frame(**buffers, timings=timings, own_denoised={}), exposure=args.exposure)
     kind = denoiser_identity(args.denoiser).kind  # filter, temporal, learned, a plug-in's own
     size = f"{frame.width}x{frame.height}"
     print(f"{denoiser!r} ({kind}): {size} in {elapsed_ms:.1f} ms -> {args.output}")

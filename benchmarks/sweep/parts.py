@@ -269,8 +269,8 @@ def real_parts(specs: tuple[tuple[str, str], ...] = (), device: str = "cpu") -> 
                 height,
                 width,
                 seed=seed,
-                scene=scene.name,
-                device=where,  # type: ignore[attr-defined]
+                scene=getattr(scene, "name", ""),
+                device=where,
             )
         return strategies.make_strategy(
             name,

@@ -114,4 +114,4 @@ class OracleStrategy(Strategy):
         for f in frames:
             for key, ms in f.timings.items():
                 timings[key] = timings.get(key, 0.0) + ms
-        return Frame(**buffers, timings=timings)
+        return Frame(**buffers, timings=timings, own_denoised={})

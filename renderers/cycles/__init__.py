@@ -6,6 +6,7 @@
 - :mod:`renderers.cycles.patterns`: Cycles' sampling patterns as the strategies of a Cycles scene
   (``white`` is the classic pattern, ``blue_noise`` Blender 4.4's default, and their variants);
 - :mod:`renderers.cycles.session`: the long-lived Blender process that holds a scene;
+- :mod:`renderers.cycles.checks`: the door's checks, made before a command writes anything;
 - ``worker.py`` and ``builders.py``: the Blender side, run under the Python that has ``bpy``
   (``make cycles``), never imported by bnerr itself.
 
@@ -13,13 +14,21 @@ Blender (and so ``bpy``) is GPL; bnerr talks to it as a separate program over a 
 none of it. docs/CYCLES.md is the user's page.
 """
 
+from renderers.cycles.checks import check_cells, is_cycles_name
 from renderers.cycles.patterns import (
     CYCLES_STRATEGIES,
     CyclesPattern,
     make_pattern_strategy,
     refusal,
 )
-from renderers.cycles.scene import BUILT, CyclesScene, built_scene, load_blend, recipe_of_scene
+from renderers.cycles.scene import (
+    BUILT,
+    CyclesScene,
+    built_scene,
+    load_blend,
+    recipe_of_scene,
+    save_blend,
+)
 
 __all__ = [
     "BUILT",
@@ -27,8 +36,11 @@ __all__ = [
     "CyclesPattern",
     "CyclesScene",
     "built_scene",
+    "check_cells",
+    "is_cycles_name",
     "load_blend",
     "make_pattern_strategy",
     "recipe_of_scene",
     "refusal",
+    "save_blend",
 ]

@@ -43,6 +43,7 @@ __all__ = [
     "CyclesPattern",
     "CyclesPatternStrategy",
     "make_pattern_strategy",
+    "pattern_class",
     "pattern_of",
     "refusal",
 ]
@@ -103,7 +104,6 @@ class CyclesPatternStrategy(Strategy):
         self, height: int, width: int, *, seed: int = 0, device: torch.device | str = "cpu"
     ) -> None:
         self.name = self.label
-        self.own_sampler = f"cycles_{self.pattern.lower()}"
         super().__init__(height, width, seed=seed, device=device)
 
     @classmethod
@@ -123,6 +123,7 @@ class CyclesPatternStrategy(Strategy):
 class BlueNoise(CyclesPatternStrategy):
     """``blue_noise``: Cycles' blue-noise pattern (Blender 4.4's default through AUTOMATIC)."""
 
+    own_sampler = "cycles_blue_noise"
     label = "blue_noise"
     pattern = "BLUE_NOISE"
 
@@ -130,6 +131,7 @@ class BlueNoise(CyclesPatternStrategy):
 class BlueNoiseAdaptive(CyclesPatternStrategy):
     """``blue_noise_adaptive``: the blue-noise pattern under adaptive sampling."""
 
+    own_sampler = "cycles_blue_noise"
     label = "blue_noise_adaptive"
     pattern = "BLUE_NOISE"
     adaptive = True
@@ -138,6 +140,7 @@ class BlueNoiseAdaptive(CyclesPatternStrategy):
 class ClassicScrambled(CyclesPatternStrategy):
     """``classic_scrambled``: the classic pattern with scrambling distance 0.1."""
 
+    own_sampler = "cycles_tabulated_sobol"
     label = "classic_scrambled"
     pattern = "TABULATED_SOBOL"
     scrambling_distance = 0.1
@@ -146,6 +149,7 @@ class ClassicScrambled(CyclesPatternStrategy):
 class ClassicAdaptive(CyclesPatternStrategy):
     """``classic_adaptive``: the classic pattern under adaptive sampling."""
 
+    own_sampler = "cycles_tabulated_sobol"
     label = "classic_adaptive"
     pattern = "TABULATED_SOBOL"
     adaptive = True
@@ -172,6 +176,14 @@ def make_pattern_strategy(
     if name not in _PATTERNS:
         raise ValueRangeError(refusal(name, scene))
     return _PATTERNS[name](height, width, seed=seed, device=device)
+
+
+def pattern_class(name: str) -> str | None:
+    """The Cycles ``sampling_pattern`` strategy ``name`` renders with (None: not a pattern)."""
+    if name == "white":
+        return "TABULATED_SOBOL"
+    found = _PATTERNS.get(name)
+    return None if found is None else found.pattern
 
 
 def refusal(name: str, scene: str) -> str:

@@ -49,6 +49,7 @@ from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.frame import Frame
 from renderers.cycles.patterns import pattern_of
 from renderers.cycles.session import CyclesSession, session
+from renderers.scene import Checker, Fixed, Rectangle, Scene, Sphere
 
 __all__ = [
     "BUILT",
@@ -56,6 +57,7 @@ __all__ = [
     "built_scene",
     "load_blend",
     "recipe_of_scene",
+    "save_blend",
 ]
 
 _HERE = Path(__file__).parent
@@ -252,7 +254,7 @@ def _blender_axes(v: tuple[float, float, float]) -> list[float]:
     return [float(v[0]), -float(v[2]), float(v[1])]
 
 
-def recipe_of_scene(scene: object, frames: int = BUILT_FRAMES) -> dict:
+def recipe_of_scene(scene: Scene, frames: int = BUILT_FRAMES) -> dict:
     """The builder recipe of a bnerr scene (``renderers.scene.Scene``): its spheres, rectangles
     (constant or checker albedo) and rectangle lights in Blender's axes, the camera's pose at
     frames 0..frames-1, the field of view along x, and Cycles' bounce count for its depth.
@@ -261,21 +263,22 @@ def recipe_of_scene(scene: object, frames: int = BUILT_FRAMES) -> dict:
         ValueRangeError: the scene has what the rebuild does not carry (boxes, a medium, felt
             textures, moving spheres, a field of view along another axis).
     """
-    from renderers.scene import Checker, Fixed, Rectangle, Sphere
-
     s = scene
     fail = [
         what
         for what, bad in (
             ("a medium", getattr(s, "medium", None) is not None),
-            ("a field of view along y", s.camera.fov_axis != "x"),  # type: ignore[attr-defined]
+            ("a field of view along y", s.camera.fov_axis != "x"),
         )
         if bad
     ]
     spheres, rectangles = [], []
-    for shape in s.shapes:  # type: ignore[attr-defined]
+    for shape in s.shapes:
         albedo = shape.material.albedo
         if isinstance(shape, Sphere) and isinstance(shape.center, Fixed):
+            if not isinstance(albedo, tuple):
+                fail.append(f"{shape.name}'s texture")
+                continue
             spheres.append(
                 {
                     "name": shape.name,
@@ -284,39 +287,16 @@ def recipe_of_scene(scene: object, frames: int = BUILT_FRAMES) -> dict:
                     "albedo": list(albedo),
                 }
             )
-        elif (
-            isinstance(shape, Rectangle)
-            and not isinstance(albedo, tuple)
-            and not isinstance(albedo, Checker)
-        ):
-            fail.append(f"{shape.name}'s texture")
-        elif isinstance(shape, Rectangle):
-            entry: dict = {
-                "name": shape.name,
-                "center": _blender_axes(shape.center),
-                "u": _blender_axes(shape.u),
-                "v": _blender_axes(shape.v),
-            }
-            if shape.emission is not None:
-                entry["radiance"] = list(shape.emission)
-            elif isinstance(albedo, Checker):
-                entry["checker"] = {
-                    "color0": list(albedo.color0),
-                    "color1": list(albedo.color1),
-                    "cells_u": albedo.cells_u,
-                    "cells_v": albedo.cells_v,
-                }
-            else:
-                entry["albedo"] = list(albedo)
-            rectangles.append(entry)
+        elif isinstance(shape, Rectangle) and isinstance(albedo, (tuple, Checker)):
+            rectangles.append(_rectangle_entry(shape, albedo))
         else:
-            fail.append(f"{shape.name} ({type(shape).__name__}, or a moving sphere)")
+            fail.append(f"{shape.name} ({type(shape).__name__}, a texture or a moving sphere)")
     if fail:
         raise ValueRangeError(
-            f"{s.name}: expected spheres, rectangles and rectangle lights to rebuild in "  # type: ignore[attr-defined]
+            f"{s.name}: expected spheres, rectangles and rectangle lights to rebuild in "
             f"Blender, got {', '.join(fail)}"
         )
-    poses = [[_blender_axes(p) for p in s.camera.pose(t)] for t in range(frames)]  # type: ignore[attr-defined]
+    poses = [[_blender_axes(p) for p in s.camera.pose(t)] for t in range(frames)]
     return {
         "kind": "shapes",
         "spheres": spheres,
@@ -324,7 +304,30 @@ def recipe_of_scene(scene: object, frames: int = BUILT_FRAMES) -> dict:
         "poses": poses,
         "fov": float(s.camera.fov),
         "max_bounces": max(int(s.max_depth) - 2, 0),
-    }  # type: ignore[attr-defined]
+    }
+
+
+def _rectangle_entry(shape: Rectangle, albedo: tuple[float, float, float] | Checker) -> dict:
+    """A rectangle of the recipe: its corners' frame in Blender's axes and its albedo, checker
+    or (a light) radiance."""
+    entry: dict = {
+        "name": shape.name,
+        "center": _blender_axes(shape.center),
+        "u": _blender_axes(shape.u),
+        "v": _blender_axes(shape.v),
+    }
+    if shape.emission is not None:
+        entry["radiance"] = list(shape.emission)
+    elif isinstance(albedo, Checker):
+        entry["checker"] = {
+            "color0": list(albedo.color0),
+            "color1": list(albedo.color1),
+            "cells_u": albedo.cells_u,
+            "cells_v": albedo.cells_v,
+        }
+    else:
+        entry["albedo"] = list(albedo)
+    return entry
 
 
 def _built_recipe(name: str) -> dict:
@@ -345,6 +348,14 @@ BUILT: dict[str, str] = {
     "cycles_direct": "bnerr's direct scene rebuilt in Blender, rendered by Cycles",
     "cycles_indirect": "bnerr's indirect scene rebuilt in Blender, rendered by Cycles",
 }
+
+
+def save_blend(scene: str, path: str | os.PathLike) -> Path:
+    """Write the built Cycles scene ``scene`` (a key of :data:`BUILT`) to the ``.blend`` file
+    ``path`` (its camera animation included), as Blender saves it; returns the path."""
+    out = Path(path).resolve()
+    built_scene(scene)().session.ask({"op": "save", "blend": str(out)})
+    return out
 
 
 def built_scene(name: str) -> Callable[[], CyclesScene]:

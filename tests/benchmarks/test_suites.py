@@ -31,11 +31,26 @@ def _cells(suite):
 
 
 def test_every_suite_is_named_as_its_key_and_has_work():
-    assert sorted(SUITES) == ["gap", "quality", "quick", "seed", "speed", "stability"]
+    assert sorted(SUITES) == ["cycles", "gap", "quality", "quick", "seed", "speed", "stability"]
     for name, suite in SUITES.items():
         assert suite.name == name and suite.description
         assert bool(suite.sweeps) != bool(suite.scripts), name  # cells or scripts, not both
     assert get_suite("quick") is SUITES["quick"]
+
+
+def test_cycles_measures_its_default_after_its_own_denoiser_and_the_same_scene_twice():
+    cells = list(_cells(get_suite("cycles")))
+    scenes = {c[0] for c in cells}
+    assert {"cycles_interior", "cycles_product", "cycles_outdoor"} <= scenes
+    headline = {(c[1], c[2], c[3]) for c in cells if c[0] == "cycles_product"}
+    for spp in (1, 4, 16, 64):
+        for denoiser in ("cycles_oidn", "gaussian", "unet", "taa"):
+            assert {("white", spp, denoiser), ("blue_noise", spp, denoiser)} <= headline
+    assert {c[1] for c in cells} >= {"blue_noise_adaptive", "classic_adaptive", "classic_scrambled"}
+    # Cycles' own pattern and bnerr's reproduction of it on the same scenes, at 1 and 4 spp
+    same = {(c[0], c[1], c[2]) for c in cells if c[0] in ("direct", "cycles_direct")}
+    assert {("direct", "cycles_blue", 1), ("cycles_direct", "blue_noise", 4)} <= same
+    assert all(s.reference_spp >= 1024 and s.warmup >= 1 for s in get_suite("cycles").sweeps)
 
 
 def test_quick_brackets_the_method_with_white_and_oracle():
@@ -60,7 +75,8 @@ def test_quality_covers_every_scene_adoptable_strategy_and_denoiser_at_1_4_16_sp
     assert families >= {"baseline", "rival", "temporal", "ldbn"}
     assert {"ldbn128", "openqmc_sobolbn", "openqmc_latticebn", "zsobol"} <= strategies
     assert {c[2] for c in cells} == {1, 4, 16}
-    assert {c[3] for c in cells} == set(denoisers.DENOISERS) | {
+    # every denoiser but Cycles' own, which runs on Cycles scenes only (the cycles suite)
+    assert {c[3] for c in cells} == set(denoisers.DENOISERS) - {"cycles_oidn"} | {
         "gaussian:own",
         "atrous:own",
         "guided:own",

@@ -33,3 +33,13 @@ def test_bad_buffers_are_refused_naming_the_buffer():
         Frame(color=color, depth=torch.zeros(2, 4, 5))
     with pytest.raises(DtypeError, match=r"Frame\.color"):
         Frame(color=color.double())
+
+
+def test_a_renderer_s_own_denoised_image_rides_along_checked_and_moved():
+    own = {"cycles_oidn": torch.rand(3, 4, 5)}
+    frame = Frame(color=torch.rand(3, 4, 5), own_denoised=own)
+    assert "own_denoised" not in frame.buffers()
+    moved = frame.to("cpu")
+    assert torch.equal(moved.own_denoised["cycles_oidn"], own["cycles_oidn"])
+    with pytest.raises(ShapeError, match=r"Frame.own_denoised\['cycles_oidn'\]: expected H x W"):
+        Frame(color=torch.rand(3, 4, 5), own_denoised={"cycles_oidn": torch.rand(3, 5, 4)})

@@ -13,6 +13,7 @@ from tests._paths import EXAMPLES
 NAMES = [
     "atrous",
     "bilateral",
+    "cycles_oidn",
     "gaussian",
     "guided",
     "joint_bilateral",
