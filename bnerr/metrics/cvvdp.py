@@ -25,24 +25,22 @@ the same for every method:
   (its ``replicate`` padding).
 
 **As a metric of the table.** JOD pools nonlinearly over frames (a norm, then a curve), so a
-frame cannot be scored on its own. The update of frame t (a ``window`` of up to
-:data:`CVVDP_FRAMES` frames, :class:`~bnerr.metrics.frames.FrameMetrics`) scores the sequence of
-the seed set's frames up to t, ``J_t`` over ``n_t`` frames, and returns the pair ``(n_t J_t -
-n_{t-1} J_{t-1}, n_t - n_{t-1})`` (``J`` of the window without frame t, from a cache of the last
-scores): the pairs telescope, so the pooled mean of a seed set's frames is the JOD of its whole
-sequence, and intervals over seed sets come from the same compute step as every other metric.
-A single pair means nothing alone. A frame whose region held no pixel ends the sequence, as it
-ends the temporal metrics' windows: the seed set then scores the frame-weighted mean of its
-sequences' JODs; past :data:`CVVDP_FRAMES` frames the window slides and the sum no longer
-telescopes exactly (no suite measures that many).
+frame cannot be scored on its own: ``cvvdp`` is a *sequence* metric
+(:class:`~bnerr.metrics.frames.Metric`'s ``sequence``). :class:`~bnerr.metrics.frames.
+FrameMetrics` keeps the seed set's frames and scores the sequence once, when its pairs are read
+(:func:`cvvdp_sequence`), each frame getting ``(J, 1)``: the pooled mean of a seed set is the JOD
+of its whole sequence, and intervals over seed sets come from the same compute step as every
+other metric. A frame whose region held no pixel ends the sequence, as it ends the temporal
+metrics' windows: the seed set then scores the frame-weighted mean of its sequences' JODs.
 
 **Regions.** JOD pools over the whole image; restricted to a pixel mask, the frame shown keeps
 the measured image inside the region and the reference outside it, so that only the region's
 error is seen (the region's share of the image weighs in the JOD).
 
-**Cost.** About 0.03 s for one 128 x 128 frame, 0.05 s for two and 0.07 s for three on one CPU
-thread (a first call builds the model, about a second); a seed set of 3 frames costs 0.14 s per
-image kind (raw, each denoiser) and pixel region.
+**Cost.** About 0.03 s for one 128 x 128 frame, 0.05 s for two and 0.07 s for three on one idle
+CPU thread (a first call builds the model, about a second): a seed set of 3 frames costs 0.07 s
+per image kind (raw, each denoiser) and pixel region, more than the ten metrics the suites
+measure together.
 
 **Determinism.** cvvdp runs in float32 torch: its values may differ in the last bits with the
 thread count or the machine, unlike the fixed-order sums of :mod:`bnerr.metrics.image`.
@@ -56,8 +54,6 @@ from __future__ import annotations
 import functools
 import importlib
 import importlib.util
-import weakref
-from collections import OrderedDict
 from collections.abc import Sequence
 from typing import Any
 
@@ -71,10 +67,9 @@ __all__ = [
     "CVVDP_DISPLAY",
     "CVVDP_EXPOSURE",
     "CVVDP_FPS",
-    "CVVDP_FRAMES",
     "CVVDP_TONEMAP",
     "cvvdp_available",
-    "cvvdp_update",
+    "cvvdp_sequence",
     "display_encode",
     "require_cvvdp",
     "sequence_jod",
@@ -88,8 +83,6 @@ CVVDP_FPS = 30.0
 CVVDP_EXPOSURE = 0.0
 #: The tone map of :func:`bnerr.color.tonemap` from radiance to the display's [0, 1].
 CVVDP_TONEMAP = "reinhard"
-#: The most frames of a seed set one score sees (the metric's window).
-CVVDP_FRAMES = 32
 #: The pinned version (pyproject.toml's dependency), named in the error when it is missing.
 _PACKAGE = "cvvdp==0.5.7"
 
@@ -165,45 +158,11 @@ def sequence_jod(
     return float(jod)
 
 
-#: The last scores, by the identity of the frames scored (the images, references and masks),
-#: with weak references to them: a hit counts only while every one is still the same object, and
-#: the cache keeps no frame alive.
-_SCORES: OrderedDict[tuple[int, ...], tuple[float, tuple[object, ...]]] = OrderedDict()
-_CACHED = 256
-
-
-def _same(held: tuple[object, ...], objs: tuple[object, ...]) -> bool:
-    return all(
-        (h is None and o is None) or (isinstance(h, weakref.ref) and h() is o)
-        for h, o in zip(held, objs, strict=True)
-    )
-
-
-def _score(pairs: Sequence[ImagePair]) -> float:
-    """:func:`sequence_jod` of the window ``pairs``, cached: the next frame's update reads it
-    again as the window without its last frame."""
-    objs = tuple(obj for p in pairs for obj in (p.pred, p.ref, p.mask))
-    key = tuple(id(obj) for obj in objs)
-    found = _SCORES.get(key)
-    if found is not None and _same(found[1], objs):
-        _SCORES.move_to_end(key)
-        return found[0]
+def cvvdp_sequence(pairs: Sequence[ImagePair]) -> torch.Tensor:
+    """``cvvdp``'s pair for a seed set's sequence ``pairs`` (oldest first): ``(J, 1)`` with ``J``
+    its JOD (:func:`sequence_jod`), which :class:`~bnerr.metrics.frames.FrameMetrics` gives every
+    frame of the sequence, so that their pooled mean is ``J``."""
     jod = sequence_jod(
         [p.pred for p in pairs], [p.ref.color for p in pairs], [p.mask for p in pairs]
     )
-    _SCORES[key] = (jod, tuple(None if o is None else weakref.ref(o) for o in objs))
-    _SCORES.move_to_end(key)
-    while len(_SCORES) > _CACHED:
-        _SCORES.popitem(last=False)
-    return jod
-
-
-def cvvdp_update(pairs: Sequence[ImagePair]) -> torch.Tensor:
-    """``cvvdp``'s pair for the last frame of ``pairs`` (the seed set's frames up to it, oldest
-    first): ``(n J_n - (n - 1) J_{n-1}, 1)`` with ``J_k`` the JOD of the first ``k`` frames, so
-    that the pooled mean of a sequence's pairs is its JOD (the module docstring)."""
-    n = len(pairs)
-    total = n * _score(pairs)
-    if n > 1:
-        total -= (n - 1) * _score(pairs[:-1])
-    return torch.tensor([total, 1.0], dtype=torch.float64, device=pairs[-1].pred.device)
+    return torch.tensor([jod, 1.0], dtype=torch.float64)

@@ -32,6 +32,15 @@ the current frame (oldest first, at most ``window``); a frame whose region held 
 (:meth:`FrameMetrics.update_empty`) ends a window. Only the frames given count: a sweep gives its
 measured frames, never the warmup, so a pair of frames is measured only when both are.
 
+**Sequences** (ColorVideoVDP, :mod:`bnerr.metrics.cvvdp`). A metric whose ``sequence`` is set
+scores a seed set's whole sequence at once, a value no frame has alone: :class:`FrameMetrics`
+keeps the seed set's frames and calls its update once per sequence, with all of them (oldest
+first), when the pairs are read (:meth:`FrameMetrics.stats`), and every frame of the sequence gets
+the pair it returns (``(J, 1)``: the pooled mean of the seed set is ``J``). A frame whose region
+held no pixel ends the sequence (the next frame starts another); frames added after the pairs
+were read extend their sequence, which is scored again. :meth:`FrameMetrics.update` gives such a
+metric's per-frame value as NaN (not known before the sequence ends).
+
 Not for: the error's correlation from frame to frame along the motion
 (:func:`bnerr.metrics.image.temporal_correlation`, measured beside the table).
 """
@@ -42,7 +51,7 @@ import functools
 import inspect
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import torch
@@ -55,7 +64,7 @@ from bnerr.errors import (
     check_name,
     check_positive_int,
 )
-from bnerr.metrics.cvvdp import CVVDP_FRAMES, cvvdp_update, require_cvvdp
+from bnerr.metrics.cvvdp import cvvdp_sequence, require_cvvdp
 from bnerr.metrics.image import ImagePair, PreparedReference, require_flip
 from bnerr.metrics.stats import Estimate, bootstrap_interval, paired_ratio, pooled_mean
 from bnerr.metrics.temporal import (
@@ -92,6 +101,8 @@ class Metric:
         description: what the row measures, in words (a plug-in's; "" for the shipped ones,
             which docs/METHODS.md describes).
         window: the most frames of a seed set the update sees at once (1: the current frame).
+        sequence: the update scores a seed set's whole sequence, ``update(pairs: tuple[ImagePair,
+            ...]) -> [2]`` once per sequence (the module docstring); ``window`` is then unused.
     """
 
     update: Callable[[Any], torch.Tensor]
@@ -104,7 +115,11 @@ class Metric:
     tabled: bool = True
     description: str = ""
     window: int = 1
+    sequence: bool = False
 
+
+#: A sequence metric's pair before its sequence is scored (:meth:`FrameMetrics.stats` scores it).
+_UNSCORED = torch.tensor([math.nan, 0.0], dtype=torch.float64)
 
 #: Gaussian blur widths (pixels) of the blurred-MSE metrics ``mse_blur1`` and ``mse_blur2``.
 BLUR_SIGMAS: dict[str, float] = {"mse_blur1": 1.0, "mse_blur2": 2.0}
@@ -193,12 +208,12 @@ METRIC_TABLE: dict[str, Metric] = plugins.PluginRegistry(
         # better, so tables give its difference to white, not a ratio. About 0.14 s per sequence
         # of 3 frames and image kind: measured only when named (a suite's metrics).
         "cvvdp": Metric(
-            cvvdp_update,
+            cvvdp_sequence,
             default=False,
             require=require_cvvdp,
             interval=True,
             difference=True,
-            window=CVVDP_FRAMES,
+            sequence=True,
         ),
     },
     sort=False,
@@ -217,6 +232,17 @@ def load_metric(name_or_spec: str) -> str:
     table = METRIC_TABLE
     assert isinstance(table, plugins.PluginRegistry)
     return table.add(plugins.resolve(name_or_spec))
+
+
+@dataclass
+class _Sequence:
+    """One sequence of a seed set: each frame's slot in the pairs and its pair, how many of its
+    frames the pairs were last scored with, and whether a frame may still join it."""
+
+    slots: list[int] = field(default_factory=list)
+    pairs: list[ImagePair] = field(default_factory=list)
+    scored: int = 0
+    open: bool = True
 
 
 class FrameMetrics:
@@ -253,7 +279,12 @@ class FrameMetrics:
         self.names = chosen
         self.tile = check_positive_int(tile, "tile", minimum=2)
         self._updates = {name: table[name].update for name in chosen}
-        self._windows = {name: check_positive_int(table[name].window, "window") for name in chosen}
+        self._sequences = tuple(name for name in chosen if table[name].sequence)
+        self._windows = {
+            name: 1 if name in self._sequences else check_positive_int(table[name].window, "window")
+            for name in chosen
+        }
+        self._runs: dict[int, list[_Sequence]] = {}  # per seed set, its sequences
         # per seed set, the last frames a windowed metric needs (None: a frame without pixels)
         self._keep = max(self._windows.values(), default=1) - 1
         self._recent: dict[int, list[ImagePair | None]] = {}
@@ -316,12 +347,40 @@ class FrameMetrics:
             )
         check_positive_int(group, "group", minimum=0)
         frames = self._window(group, pair)
-        row = {name: self._update_one(name, pair, frames) for name in self.names}
-        for name, stats in row.items():
-            self._stats[name].append(stats.cpu())
+        row = {
+            name: self._update_one(name, pair, frames)
+            for name in self.names
+            if name not in self._sequences
+        }
+        for name in self.names:
+            stats = row.get(name)  # a sequence's pair is written when it is scored
+            self._stats[name].append(_UNSCORED if stats is None else stats.cpu())
+        if self._sequences:
+            self._extend_sequence(group, pair)
         self._groups.append(group)
         self._remember(group, pair.error_only())
-        return {name: float(pooled_mean(stats)) for name, stats in row.items()}
+        values = {name: float(pooled_mean(stats)) for name, stats in row.items()}
+        return {name: values.get(name, math.nan) for name in self.names}
+
+    def _extend_sequence(self, group: int, pair: ImagePair) -> None:
+        """Add the frame (its slot: the next in the pairs) to the seed set's open sequence."""
+        runs = self._runs.setdefault(group, [])
+        if not runs or not runs[-1].open:  # none yet, or the last one ended by an empty frame
+            runs.append(_Sequence())
+        runs[-1].slots.append(len(self._groups))
+        runs[-1].pairs.append(pair.bare())
+
+    def _score_sequences(self) -> None:
+        """Score every sequence not scored at its current length, once for all its frames."""
+        for runs in self._runs.values():
+            for seq in runs:
+                if seq.scored == len(seq.pairs):
+                    continue
+                for name in self._sequences:
+                    stats = self._updates[name](tuple(seq.pairs)).to(torch.float64).cpu()
+                    for slot in seq.slots:
+                        self._stats[name][slot] = stats
+                seq.scored = len(seq.pairs)
 
     def update_empty(self, group: int = 0) -> None:
         """Add a frame in which the region measured holds no pixel (a coherent region that the
@@ -331,6 +390,8 @@ class FrameMetrics:
         check_positive_int(group, "group", minimum=0)
         for name in self.names:
             self._stats[name].append(torch.zeros(2, dtype=torch.float64))
+        for seq in self._runs.get(group, [])[-1:]:
+            seq.open = False  # the next frame starts another sequence
         self._groups.append(group)
         self._remember(group, None)
 
@@ -346,6 +407,8 @@ class FrameMetrics:
         check_name(name, self.names, "metric")
         if not self._groups:
             raise ValueRangeError("FrameMetrics: expected at least one frame, got none")
+        if name in self._sequences:
+            self._score_sequences()
         groups = torch.tensor(self._groups)
         stats = torch.stack(self._stats[name])
         order = torch.argsort(groups, stable=True)

@@ -447,6 +447,11 @@ class ImagePair:
         metrics read from it), so that a window of past frames holds no other map."""
         return self._sharing(self.mask, {"err": self.err})
 
+    def bare(self) -> ImagePair:
+        """This pair holding none of its maps (what a sequence metric keeps of each frame until
+        the sequence is scored: the image, reference and mask only)."""
+        return self._sharing(self.mask, {})
+
     def _sharing(self, mask: torch.Tensor | None, maps: dict[object, Any]) -> ImagePair:
         """A pair of this image and reference over ``mask`` (checked) holding ``maps``."""
         pair = object.__new__(ImagePair)

@@ -249,3 +249,43 @@ def test_a_plug_in_metric_measures_the_region_with_or_without_a_mask_parameter(f
     assert region == {"blind_max": pytest.approx(0.1), "masked_max": pytest.approx(0.1)}
     whole = FrameMetrics(["blind_max", "masked_max"]).update(pred, ref)
     assert whole == {"blind_max": pytest.approx(8.5), "masked_max": pytest.approx(8.5)}
+
+
+# -- sequence metrics ------------------------------------------------------------------------------
+
+
+def test_a_sequence_metric_scores_each_sequence_once_and_gives_every_frame_its_pair(monkeypatch):
+    """A value of the whole sequence (its frame count times 10 plus its first frame's max error,
+    which no frame has alone): the update runs once per sequence, when the pairs are read; an
+    empty frame ends a sequence; frames added after a read extend theirs, scored again."""
+    calls = []
+
+    def whole(pairs):
+        calls.append(len(pairs))
+        first = float(pairs[0].err.abs().max())
+        return torch.tensor([10.0 * len(pairs) + first, 1.0], dtype=torch.float64)
+
+    monkeypatch.setitem(METRIC_TABLE, "whole", Metric(whole, default=False, sequence=True))
+    acc = FrameMetrics(["mse", "whole"])
+    frames = [_pair(seed=k) for k in range(5)]
+    firsts = [float((p - r).abs().max()) for p, r in frames]
+    assert np.isnan(acc.update(*frames[0], group=0)["whole"])  # not known before the end
+    acc.update(*frames[2], group=0)
+    acc.update_empty(group=0)
+    acc.update(*frames[3], group=0)  # a second sequence of seed set 0
+    for k in (1, 4, 0, 1):
+        acc.update(*frames[k], group=1)
+    assert calls == []
+    stats = acc.stats("whole")
+    assert sorted(calls) == [1, 2, 4]
+    assert stats[0].tolist() == [[20 + firsts[0], 1.0]] * 2 + [[0.0, 0.0], [10 + firsts[3], 1.0]]
+    assert stats[1].tolist() == [[40 + firsts[1], 1.0]] * 4
+    acc.stats("whole")
+    assert sorted(calls) == [1, 2, 4]  # read again: nothing scored again
+    acc.update(*frames[4], group=0)  # extends seed set 0's second sequence
+    acc.update(*frames[2], group=1)
+    stats = acc.stats("whole")
+    assert sorted(calls) == [1, 2, 2, 4, 5]
+    assert stats[0, 3:].tolist() == [[20 + firsts[3], 1.0]] * 2
+    assert stats[1].tolist() == [[50 + firsts[1], 1.0]] * 5
+    assert acc.compute()["mse"].n == acc.compute()["whole"].n
