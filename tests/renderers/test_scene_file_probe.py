@@ -57,9 +57,24 @@ def _fifo(tmp_path):
 
 
 def _texture(cells: int):
+    """The scene with a checker texture of ``cells x cells`` cells on its first rectangle, in the
+    keys SCENE_FILES.md names (``cells_u``, ``cells_v``; issue 54: the case wrote an unknown key
+    ``cells`` and so never reached the size limit)."""
+
     def edit(document):
-        document["textures"] = {"huge": {"type": "checker", "cells": [cells, cells]}}
-        document["shapes"][0]["texture"] = "huge"
+        document["textures"] = {
+            "huge": {
+                "type": "checker",
+                "cells_u": cells,
+                "cells_v": cells,
+                "color0": [0.1, 0.1, 0.1],
+                "color1": [0.9, 0.9, 0.9],
+            }
+        }
+        rectangle = next(s for s in document["shapes"] if s.get("type") == "rectangle")
+        for key in ("albedo", "material"):
+            rectangle.pop(key, None)
+        rectangle["texture"] = "huge"
 
     return _edited(edit)
 
@@ -96,7 +111,9 @@ CASES = [
     Bad("too many shapes", _edited(lambda d: d["shapes"].extend([d["shapes"][1]] * 300)),
         SceneFileError, r"bad\.json.*shapes.*256"),
     Bad("10^6 x 10^6 texture cells", _texture(10**6), SceneFileError,
-        r"bad\.json.*texture.*cells"),
+        r"bad\.json: textures\.huge\.cells_u: expected an integer in \[1, 65536\], got int 10+$"),
+    Bad("65536 x 65536 texture cells", _texture(65536), SceneFileError,
+        r"bad\.json: textures\.huge: expected at most 4194304 texture cells.*got 4294967296"),
     Bad("file over 1 MiB", _toml(DIRECT + "#" * (1 << 20)), SceneFileError,
         r"bad\.toml.*1048576 bytes"),
     Bad("not UTF-8", lambda p: (p / "bad.toml").write_bytes(b"name = '\xff\xfe'\n")
@@ -109,6 +126,14 @@ CASES = [
     Bad("a folder", lambda p: (p / "dir.toml").mkdir() or load_scene_file(p / "dir.toml"),
         SceneFileError, r"dir\.toml.*regular file"),
 ]  # fmt: skip
+
+
+def test_the_texture_cases_edit_a_scene_that_loads_at_a_small_size(tmp_path):
+    """The control of the two texture-size cases: the same edit at 64 x 64 cells loads, so what
+    they refuse is the size."""
+    scene = _texture(64)(tmp_path)()  # load_scene_file gives the scene's builder
+    albedo = scene.shapes[0].material.albedo
+    assert (type(albedo).__name__, albedo.cells_u, albedo.cells_v) == ("Checker", 64, 64)
 
 
 @pytest.mark.parametrize("case", CASES, ids=ids(CASES))
