@@ -58,6 +58,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
+import json
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -92,9 +93,10 @@ from benchmarks.sweep.records import (
     load_records,
 )
 from bnerr.errors import DtypeError, ValueRangeError, check_device, check_positive_int
+from bnerr.io import atomic_write
 from bnerr.metrics.regions import REGION_BUFFERS
 from bnerr.outputs import check_folder_path, output_lock
-from renderers.cycles import CYCLES_STRATEGIES, check_cells, is_cycles_name
+from renderers.cycles import CYCLES_STRATEGIES, check_cells, is_cycles_name, settings_record
 from renderers.external import ExternalRenderer, command_manifest, load_renderer_manifest
 
 __all__ = ["register"]
@@ -495,10 +497,11 @@ def _on_cycles(args: argparse.Namespace, suite: Suite) -> Suite:
     return dataclasses.replace(suite, sweeps=tuple(sweeps))
 
 
-def _check_cycles(args: argparse.Namespace, suite: Suite) -> None:
+def _check_cycles(args: argparse.Namespace, suite: Suite) -> dict[str, dict]:
     """Each scene against the strategies its sweeps pair it with (the command line's overrides
     applied): a Cycles scene opened in Blender and given Cycles' patterns only, bnerr's scenes
-    none of them (:func:`renderers.cycles.check_cells`)."""
+    none of them (:func:`renderers.cycles.check_cells`). Returns what Blender found in each
+    Cycles scene, by name."""
     pairs: dict[str, list[str]] = {}
     for sweep in suite.sweeps:
         scenes = names(args.scenes) or sweep.scenes
@@ -506,8 +509,15 @@ def _check_cycles(args: argparse.Namespace, suite: Suite) -> None:
         for scene in scenes:
             known = pairs.setdefault(scene, [])
             known += [s for s in strategies if s not in known]
-    for scene, strategies in pairs.items():
-        check_cells(scene, strategies)
+    found = {scene: check_cells(scene, strategies) for scene, strategies in pairs.items()}
+    return {Path(scene).stem: info for scene, info in found.items() if info is not None}
+
+
+def _write_cycles_record(out: Path, infos: dict[str, dict]) -> None:
+    """``cycles_scenes.json`` in ``out``: Blender's version and every setting bnerr changed in
+    each Cycles scene, with the file's own values (:func:`renderers.cycles.settings_record`)."""
+    with atomic_write(Path(out) / "cycles_scenes.json") as path:
+        path.write_text(json.dumps(settings_record(infos), indent=1, sort_keys=True) + "\n")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -527,15 +537,18 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or Path("results") / suite.name
     if args.cache is not None and not suite.scripts:  # a file there: refused before any render
         check_folder_path(args.cache, "--cache")
+    infos: dict[str, dict] = {}
     if not suite.scripts and args.renderer is None and args.renderer_cmd is None:
         suite = _on_cycles(args, suite)
-        _check_cycles(args, suite)  # before the lock: a refused Cycles run writes nothing
+        infos = _check_cycles(args, suite)  # before the lock: a refused run writes nothing
     with output_lock(out, "bnerr bench"):
         compress = args.compress or any((Path(out) / name).exists() for name in ARCHIVES)
         if suite.scripts:
             text = _run_speed(args, suite, out)
         else:
             text = _run_cells(args, suite, out, compress)
+        if infos:
+            _write_cycles_record(out, infos)
     write_index(Path(out).resolve().parent)  # the results page of every suite beside it
     if not args.quiet:
         print(text)

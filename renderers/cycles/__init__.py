@@ -28,6 +28,7 @@ from renderers.cycles.scene import (
     load_blend,
     recipe_of_scene,
     save_blend,
+    settings_record,
 )
 
 __all__ = [
@@ -43,4 +44,5 @@ __all__ = [
     "recipe_of_scene",
     "refusal",
     "save_blend",
+    "settings_record",
 ]

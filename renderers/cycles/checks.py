@@ -24,9 +24,10 @@ def is_cycles_name(name: str) -> bool:
     return name.endswith(".blend") or name in BUILT
 
 
-def check_cells(scene: str, strategies: Iterable[str]) -> None:
+def check_cells(scene: str, strategies: Iterable[str]) -> dict | None:
     """Refuse a run that pairs scene ``scene`` with ``strategies`` and cannot work (module
-    docstring); a Cycles scene is opened in Blender to check it.
+    docstring); a Cycles scene is opened in Blender to check it, and what Blender found in it is
+    returned (:attr:`CyclesScene.info`; None for bnerr's scenes).
 
     Raises:
         FileFormatError, MissingExtraError, ExternalProcessError, ValueRangeError: one line each.
@@ -39,7 +40,7 @@ def check_cells(scene: str, strategies: Iterable[str]) -> None:
                 f"--strategies {own[0]}: expected a Cycles scene (a .blend file or one of "
                 f"{', '.join(BUILT)}) for Cycles' own pattern, got bnerr's scene {scene!r}"
             )
-        return
+        return None
     for name in strategies:
         if name not in CYCLES_STRATEGIES:
             raise ValueRangeError(refusal(name, scene))
@@ -56,3 +57,4 @@ def check_cells(scene: str, strategies: Iterable[str]) -> None:
                 f"pattern (4.4 or later), got Blender {info['blender']} with "
                 f"{', '.join(info['patterns']) or 'no pattern list'}"
             )
+    return info

@@ -58,6 +58,7 @@ __all__ = [
     "load_blend",
     "recipe_of_scene",
     "save_blend",
+    "settings_record",
 ]
 
 _HERE = Path(__file__).parent
@@ -142,6 +143,34 @@ class CyclesScene:
             assert frame.motion is not None
             frame.motion.zero_()
         return frame.to(seeds.device)
+
+
+#: What every render sets, whatever the file says (the strategy's pattern, seed, spp and
+#: adaptive sampling aside): the record written beside the results (:func:`settings_record`).
+TAKEN_OVER: dict[str, object] = {
+    "use_animated_seed": False,
+    "adaptive_threshold": 0.01,
+    "adaptive_min_samples": 0,
+    "auto_scrambling_distance": False,
+    "scrambling_distance": "1.0 (off) unless the strategy sets it",
+    "use_denoising": True,
+    "denoiser": "OPENIMAGEDENOISE",
+    "denoising_input_passes": "RGB_ALBEDO_NORMAL",
+    "denoising_prefilter": "ACCURATE",
+    "denoising_store_passes": True,
+    "device": "CPU",
+    "use_motion_blur": False,
+    "use_compositing": False,
+    "resolution_percentage": 100,
+    "pass_index": "1, 2, ... per object, by name",
+    "passes": "Z, Normal, Object Index, Vector, denoising data",
+}
+
+
+def settings_record(infos: dict[str, dict]) -> dict:
+    """What a Cycles run measured with: per scene, Blender's version, the camera, the frame
+    range and the file's own settings before bnerr changed them; and what bnerr set."""
+    return {"scenes": infos, "bnerr_sets": TAKEN_OVER}
 
 
 def _channel(channels: dict, name: str, path: str) -> np.ndarray:

@@ -38,6 +38,11 @@ def test_the_page_runs_as_written(tmp_path, capsys, monkeypatch):
     assert {r["denoiser"] for r in rows} >= {"cycles_oidn", "gaussian"}
     assert {r["scene"] for r in rows} == {"product"}
     assert "| blue_noise |" in (out / "table.md").read_text()
+    record = json.loads((out / "cycles_scenes.json").read_text())  # Blender and what bnerr set
+    product = record["scenes"]["product"]
+    assert product["blender"].startswith("4.5") and product["camera"] == "camera"
+    assert product["settings"]["sampling_pattern"] == "AUTOMATIC"  # the file's, before bnerr's
+    assert record["bnerr_sets"]["use_animated_seed"] is False
 
 
 @pytest.mark.parametrize(
