@@ -41,6 +41,7 @@ LONGEST_FIRST = (
     "tests/benchmarks/commands/test_bench_external.py",  # 39
     "tests/benchmarks/sweep/test_ordering_coherent.py",  # 35
     "tests/benchmarks/commands/test_bench_renderer.py",  # 35
+    "tests/benchmarks/commands/test_bench_cycles.py",  # 35 (Blender renders, where bpy is)
     "tests/benchmarks/commands/test_bench_docs.py",  # 26
     "tests/benchmarks/sweep/test_external_renderer.py",  # 22
     "tests/denoisers/test_external.py",  # 20
