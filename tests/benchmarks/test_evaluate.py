@@ -103,3 +103,38 @@ def test_the_denoisers_are_tuned_on_the_held_out_seed_set(tmp_path):
 def test_own_tuning_needs_a_tuning_seed_set(tmp_path):
     with pytest.raises(ValueRangeError, match="gaussian:own: expected a tuning_seed_set"):
         evaluate(synthetic_folder(tmp_path / "f"), tmp_path / "out", denoisers=["gaussian:own"])
+
+
+def test_the_render_cost_is_the_frames_bnerr_timings_else_0(tmp_path):
+    """docs/EVAL.md: a frame whose header holds ``bnerr_timings`` has that render time recorded,
+    one without it reads 0 (issue 54: no test checked either)."""
+    from bnerr.frame import Frame
+    from bnerr.io import read_frame, write_frame
+
+    root = synthetic_folder(tmp_path / "f")
+    for t in range(2):  # mine's frames carry their render time, white's carry none
+        for seed_set in ("0", "1"):
+            path = root / "mine" / seed_set / frame_name(t)
+            frame = read_frame(path)
+            write_frame(path, Frame(color=frame.color, timings={"render": 12.5 + t}))
+    records, _ = evaluate(root, tmp_path / "out")
+    render = {r.cell.strategy: r.timings.render_ms for r in records}
+    assert render["white"] == [[0.0, 0.0], [0.0, 0.0]]
+    assert render["mine"] == [[12.5, 13.5], [12.5, 13.5]]
+
+
+def test_flicker_is_not_measured_with_one_frame(tmp_path):
+    """docs/EVAL.md: the flicker metrics compare consecutive measured frames, so with ``frames =
+    1`` they are not measured: no pair holds a pixel, and the table's columns are empty."""
+    from benchmarks.reports.table import summarize
+
+    root = synthetic_folder(tmp_path / "f", frames=1)
+    records, _ = evaluate(root, tmp_path / "out")
+    for record in records:
+        for kind in (record.raw, record.den):
+            for name in ("tmse", "trelmse", "mse_tavg"):
+                assert all(pair[1] == 0 for frames in kind[name] for pair in frames), name
+            assert any(pair[1] > 0 for frames in kind["mse"] for pair in frames)
+    for row in summarize(records):
+        assert row["den_tmse"] is None and row["den_mse_tavg"] is None
+        assert row["den_mse"] is not None

@@ -111,3 +111,58 @@ def test_the_runner_measures_the_programs_frames_against_its_own_reference(rende
     white = next(r for r in records if r.cell.strategy == "white" and r.cell.region == "all")
     assert all(ms > 0 for frames in white.timings.render_ms for ms in frames)
     assert torch.tensor(white.raw["mse"]).gt(0).all()
+
+
+#: A stand-in that logs, per run, its argument list and what it read from stdin (then a frame
+#: of its seeds, as SCRIPT): the protocol's run-time claims read off its log.
+LOGGING = """
+import json, os, signal, struct, sys
+import numpy as np, OpenEXR
+signal.signal(signal.SIGALRM, lambda *a: (_ for _ in ()).throw(TimeoutError()))
+signal.alarm(5)
+try:
+    stdin = "eof" if os.read(0, 1) == b"" else "data"
+except OSError:
+    stdin = "closed"
+except TimeoutError:
+    stdin = "blocked"
+signal.alarm(0)
+log, seeds, out = sys.argv[1:4]
+with open(log, "a") as f:
+    f.write(json.dumps({"argv": sys.argv[4:], "stdin": stdin}) + "\\n")
+data = open(seeds, 'rb').read()
+_, _, w, h, k, _ = struct.unpack_from('<4s5I', data)
+s = np.frombuffer(data, '<u4', offset=24).reshape(k, h, w)[0]
+r = np.ascontiguousarray(0.5 + (s / 2**32 - 0.5) * 0.2, dtype=np.float32)
+OpenEXR.File({'type': OpenEXR.scanlineimage}, {'R': r, 'G': r, 'B': r}).write(out)
+"""
+
+
+def test_the_protocols_run_time_claims(tmp_path):
+    """docs/RENDERER_PROTOCOL.md (issue 54: no test read these): ``{width}``, ``{height}`` and
+    ``{{ }}`` are filled at run time, stdin is closed (a read ends at once), and the references
+    are rendered at the reference spp (the other stand-ins ignore ``{spp}``)."""
+    import json
+
+    (tmp_path / "logging.py").write_text(LOGGING)
+    log = tmp_path / "runs.jsonl"
+    template = (
+        f"{sys.executable} logging.py {log} {{seeds}} {{out}} --spp {{spp}} --size "
+        "{width}x{height} {{literal}}"
+    )
+    renderer = ExternalRenderer(command_manifest(template, "logged", tmp_path))
+    suite, _ = renderer_suite(
+        tiny_suite(res=(10, 8), strategies=("white",), denoisers=("gaussian",), reference_spp=8,
+                   frames=1, warmup=0, seed_sets=1),
+        renderer, False,
+    )  # fmt: skip
+    run_suite(
+        suite, tmp_path / "out", parts=external_parts(renderer), cache_dir=tmp_path / "cache",
+        progress=False,
+    )  # fmt: skip
+    runs = [json.loads(line) for line in log.read_text().splitlines()]
+    assert runs and all(r["stdin"] in ("eof", "closed") for r in runs), runs
+    for r in runs:
+        assert r["argv"][2:] == ["--size", "10x8", "{literal}"], r["argv"]
+    spps = sorted(int(r["argv"][1]) for r in runs)
+    assert spps[0] == 1 and spps[-1] == 8, spps  # the frames at 1 spp, the reference at 8

@@ -42,3 +42,41 @@ def test_report_only_names_a_missing_entry_point_and_a_missing_spec(tmp_path):
 
 def test_a_shipped_or_present_plug_in_gives_no_note():
     assert load_recorded([_record({})]) == []
+
+
+def test_resume_refuses_a_changed_scene_file_or_denoiser_manifest(tmp_path, forget):
+    """docs/PLUGINS.md, section 7 (issue 54: no test read it for files): a record measured with
+    a scene file or an executable denoiser's manifest is refused by ``--resume`` once that file
+    (or the manifest's program) changed; unchanged, it resumes."""
+    import shutil
+
+    import pytest
+
+    import denoisers
+    import renderers
+    from benchmarks.sweep.plugins import check_resume, with_plugins
+    from bnerr.errors import PluginError
+    from tests._paths import EXAMPLES
+
+    scene_file = tmp_path / "my_direct.toml"
+    text = (EXAMPLES / "scenes" / "direct.toml").read_text()
+    scene_file.write_text(text.replace('name = "direct"', 'name = "resume_direct"'))
+    folder = tmp_path / "ext"
+    shutil.copytree(EXAMPLES / "external_denoiser", folder)
+    forget += [("bnerr.scenes", "resume_direct"), ("bnerr.denoisers", "example_joint_bilateral")]
+    scene = renderers.load_scene(str(scene_file))
+    denoiser = denoisers.load_denoiser(str(folder / "manifest.toml"))
+    pairs = metric_pairs([[1.0, 2.0]])
+    record = with_plugins(
+        small_record("white", denoiser, raw={"mse": pairs}, den={"mse": pairs}, frames=2,
+                     seed_sets=1, scene=scene)  # fmt: skip
+    )
+    assert set(record.plugins) == {f"bnerr.scenes:{scene}", f"bnerr.denoisers:{denoiser}"}
+    check_resume([record])  # unchanged: resumes
+    for path in (scene_file, folder / "manifest.toml", folder / "denoise.py"):
+        before = path.read_bytes()
+        path.write_bytes(before + b"\n# changed\n")
+        with pytest.raises(PluginError, match=r"--resume: expected plug-in .* unchanged"):
+            check_resume([record])
+        path.write_bytes(before)
+    check_resume([record])
