@@ -68,8 +68,15 @@ def test_resume_refuses_a_changed_scene_file_or_denoiser_manifest(tmp_path, forg
     denoiser = denoisers.load_denoiser(str(folder / "manifest.toml"))
     pairs = metric_pairs([[1.0, 2.0]])
     record = with_plugins(
-        small_record("white", denoiser, raw={"mse": pairs}, den={"mse": pairs}, frames=2,
-                     seed_sets=1, scene=scene)  # fmt: skip
+        small_record(
+            "white",
+            denoiser,
+            raw={"mse": pairs},
+            den={"mse": pairs},
+            frames=2,
+            seed_sets=1,
+            scene=scene,
+        )  # fmt: skip
     )
     assert set(record.plugins) == {f"bnerr.scenes:{scene}", f"bnerr.denoisers:{denoiser}"}
     check_resume([record])  # unchanged: resumes
