@@ -76,7 +76,7 @@ def test_resume_refuses_a_changed_scene_file_or_denoiser_manifest(tmp_path, forg
             frames=2,
             seed_sets=1,
             scene=scene,
-        )  # fmt: skip
+        )
     )
     assert set(record.plugins) == {f"bnerr.scenes:{scene}", f"bnerr.denoisers:{denoiser}"}
     check_resume([record])  # unchanged: resumes
