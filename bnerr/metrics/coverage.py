@@ -37,7 +37,7 @@ import torch
 
 from bnerr.metrics.sequential import Design, looks, naive_design, run_sequential
 from bnerr.metrics.share import share_interval
-from bnerr.metrics.stats import resample_weights, set_means, t_interval
+from bnerr.metrics.stats import resample_weights, set_means, t_interval, t_quantile
 
 __all__ = [
     "CONTENT_SD",
@@ -45,11 +45,13 @@ __all__ = [
     "LEVELS",
     "RHO",
     "Coverage",
+    "PerceptualCoverage",
     "SequentialCoverage",
     "ShareCoverage",
     "bootstrap_intervals",
     "coverage",
     "main",
+    "perceptual_coverage",
     "sequential_coverage",
     "share_coverage",
     "share_intervals",
@@ -296,6 +298,87 @@ def sequential_coverage(
     )
 
 
+@dataclass(frozen=True)
+class PerceptualCoverage:
+    """A second metric's verdict at the look the MSE's adaptive procedure stopped at
+    (:func:`perceptual_coverage`): the share of cells whose interval of the second metric's
+    difference misses its truth, its binomial standard error, and the mean seed sets used."""
+
+    looks: tuple[int, ...]
+    effect: float
+    rho: float
+    rivals: int
+    trials: int
+    miss: float
+    miss_se: float
+    mean_seed_sets: float
+
+
+def perceptual_coverage(
+    design: Design,
+    effect: float,
+    rho: float,
+    trials: int,
+    *,
+    set_sd: float = 0.05,
+    rivals: int = 1,
+    frames: int = 3,
+    seed: int = 0,
+) -> PerceptualCoverage:
+    """The perceptual verdict's coverage when the seed sets are added by the MSE's rule
+    (:mod:`benchmarks.reports.perceptual`): cells of true MSE ratio ``1 - effect`` run through
+    :func:`bnerr.metrics.sequential.run_sequential`, and per seed set a JOD difference to white
+    of truth 0 whose deviation has correlation ``-rho`` with the seed set's MSE log ratio (a
+    seed set lucky in MSE is lucky in JOD: the stopping rule then selects the JOD too). At the
+    look each cell stopped at, the JOD's t-interval at that look's level (the design's, as the
+    perceptual table uses) misses the truth or not. A miss rate above ``design.alpha`` would
+    mean the MSE's looks are not the JOD verdict's to use."""
+    gen = torch.Generator().manual_seed(seed)
+    a, b = simulate(trials, design.cap, frames, set_sd, gen, effect=effect)
+    logs = torch.log(set_means(_pairs(a)) / set_means(_pairs(b)))  # [T, N]
+    sa, sb = a.sum(dim=2).cumsum(dim=1), b.sum(dim=2).cumsum(dim=1)
+    index = torch.tensor([n - 1 for n in design.looks])
+    stop, _, _, _ = run_sequential(logs, torch.log(sa[:, index] / sb[:, index]), design, rivals)
+    z = (logs - logs.mean()) / logs.std()  # each seed set's MSE luck, standardized
+    own = torch.randn(logs.shape, generator=gen, dtype=torch.float64)
+    jod = -(rho * z + math.sqrt(max(0.0, 1.0 - rho * rho)) * own)  # truth 0
+    missed = []
+    for n in design.looks:
+        sub = jod[:, :n]
+        half = t_quantile(design.level(n, rivals), n - 1) * sub.std(dim=1) / math.sqrt(n)
+        missed.append(sub.mean(dim=1).abs() > half)
+    miss_at = torch.stack(missed, dim=1).gather(1, stop[:, None])[:, 0].double()
+    miss = float(miss_at.mean())
+    counts = torch.tensor(design.looks, dtype=torch.float64)
+    return PerceptualCoverage(
+        design.looks,
+        effect,
+        rho,
+        rivals,
+        trials,
+        miss,
+        math.sqrt(miss * (1 - miss) / trials),
+        float(counts[stop].mean()),
+    )
+
+
+def _perceptual_table(trials: int) -> None:
+    """Print the perceptual verdicts' table (``--perceptual``): the quality suite's looks (4 to
+    32 seed sets), one rival and its m = 11, MSE effects 0 to 10 %, correlations 0 to 1."""
+    print("| looks | m | MSE effect | correlation | JOD miss % (nominal 5) | mean seed sets |")
+    print("|---|---|---|---|---|---|")
+    design = Design(looks(4, 32))
+    for rivals in (1, 11):
+        for effect in (0.0, 0.05, 0.10):
+            for rho in (0.0, 0.5, 0.9, 1.0):
+                r = perceptual_coverage(design, effect, rho, trials, rivals=rivals)
+                print(
+                    f"| 4-8-16-32 | {rivals} | {effect:.0%} | {rho:.1f} | "
+                    f"{100 * r.miss:.2f} ± {100 * r.miss_se:.2f} | {r.mean_seed_sets:.1f} |",
+                    flush=True,
+                )
+
+
 def simulate_levels(
     trials: int,
     seed_sets: int,
@@ -499,6 +582,12 @@ def main(argv: Sequence[str] | None = None) -> None:
         help="instead: the gap shares' and the best variant's table (bnerr.metrics.share)",
     )
     parser.add_argument(
+        "--perceptual",
+        type=int,
+        metavar="TRIALS",
+        help="instead: the perceptual verdicts' coverage at the MSE rule's looks, TRIALS per row",
+    )
+    parser.add_argument(
         "--sequential",
         type=int,
         metavar="TRIALS",
@@ -508,6 +597,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     torch.set_num_threads(1)  # bit-identical tables, and fair to a shared machine
     if args.sequential:
         _sequential_table(args.sequential)
+        return
+    if args.perceptual:
+        _perceptual_table(args.perceptual)
         return
     if args.shares:
         _shares_table(args.shares)

@@ -1,8 +1,9 @@
 """The coverage study's gap shares (bnerr.metrics.coverage --shares): the gap share's interval
 and the seed suite's verdict on the best of m variants keep their stated miss rates at 2, 3, 4
 and 8 seed sets, with normal and skewed seed-set effects, at 95 % and at the family level; the
-uncorrected best of m does not. (The ratio's coverage is tested in test_stats.py, the adaptive
-procedure's in test_sequential.py.)"""
+uncorrected best of m does not; and the perceptual verdicts keep theirs at the looks the MSE's
+adaptive rule stopped at (--perceptual). (The ratio's coverage is tested in test_stats.py, the
+adaptive procedure's in test_sequential.py.)"""
 
 from __future__ import annotations
 
@@ -12,7 +13,13 @@ import pytest
 import torch
 
 from benchmarks.reports.gap import gap_shares
-from bnerr.metrics.coverage import share_coverage, share_intervals, simulate_levels
+from bnerr.metrics.coverage import (
+    perceptual_coverage,
+    share_coverage,
+    share_intervals,
+    simulate_levels,
+)
+from bnerr.metrics.sequential import Design, looks, naive_design
 from tests._records import metric_pairs, small_record
 
 # Simulated cells per setting: 6000 put the band below at 3 binomial standard errors (0.84 % at
@@ -86,3 +93,23 @@ def test_the_best_of_m_shares_needs_the_corrected_level(seed_sets, rivals, skewe
     assert corrected.miss <= band(0.05), f"corrected: missed {corrected.miss:.4f}"
     if rivals >= 4:  # at m = 2 the uncorrected excess (6-7 %) is within this run's band
         assert plain.miss > band(0.05), f"uncorrected: missed only {plain.miss:.4f}"
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.9, 1.0])
+@pytest.mark.parametrize("effect", [0.0, 0.05])
+def test_a_perceptual_verdict_keeps_its_level_at_the_looks_the_mse_rule_stopped_at(effect, rho):
+    """The JOD verdict of benchmarks/reports/perceptual.py takes the look an adaptive cell's MSE
+    verdict settled at and that look's level: each look spends its share of alpha, so whatever
+    the MSE rule (even a JOD that moves with the MSE seed set by seed set, rho = 1) the miss rate
+    stays within alpha (the union bound), here measured."""
+    design = Design(looks(4, 32))
+    found = perceptual_coverage(design, effect, rho, TRIALS, seed=7)
+    assert found.miss <= band(0.05), found
+    assert found.mean_seed_sets > 4  # the rule did add seed sets
+
+
+def test_the_same_check_fails_a_design_that_spends_alpha_at_every_look():
+    """Where each look spends the whole alpha (the naive "add until significant"), a JOD that
+    moves with the MSE is stopped when it looks significant too: the check above sees it."""
+    found = perceptual_coverage(naive_design(32), 0.0, 1.0, TRIALS, seed=7)
+    assert found.miss > band(0.05), found
