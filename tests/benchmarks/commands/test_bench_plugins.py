@@ -125,3 +125,64 @@ def test_a_recorded_plugin_that_cannot_be_loaded_any_more_is_named_not_fatal(tmp
     assert len(notes) == 2  # issue 54: an entry point not installed here is named too
     assert notes[0].startswith(f"plug-in 'maxerr' ({gone['spec']}) not loaded, reported from")
     assert notes[1].startswith("plug-in 'box3' (entry point box3 of group bnerr.denoisers, ")
+
+
+#: A strategy and a sampler whose renders only they could give: every pixel of every frame and
+#: seed set the same seed (CONSTANT), and every sample 0.5 (HALF). A silent fall back to white or
+#: to the per-pixel sampler gives each seed set other frames.
+USED = """
+import torch
+
+from bnerr.sequences import WhiteSampler
+from bnerr.strategies import WhiteStrategy
+
+
+class Constant(WhiteStrategy):
+    name = "used_constant"
+    family = "experimental"
+    stream = 0x51A7E154
+
+    def _frame(self, t, render):
+        seeds = torch.full((self.height, self.width), 7, dtype=torch.int64, device=self.device)
+        return render(seeds, self.sampler)
+
+
+class Half(WhiteSampler):
+    name = "used_half"
+
+    def _sample(self, seed, index, dim, count, pixel):
+        return torch.full((seed.numel(), count), 0.5, dtype=torch.float32, device=seed.device)
+"""
+
+
+def test_a_plug_in_strategy_and_sampler_are_the_ones_that_render(tmp_path, forget):
+    """Issue 54: the tests' plug-ins subclass white, so a silent fall back to white would pass.
+    These render what only they can: the constant strategy gives every seed set the same frames
+    (white's differ), the half sampler a noise-free frame (every seed set the same too)."""
+    from benchmarks.cli import main
+    from benchmarks.sweep.records import load_records
+
+    (tmp_path / "used.py").write_text(USED)
+    forget += [("bnerr.strategies", "used_constant"), ("bnerr.samplers", "used_half")]
+    args = [
+        "bench", "--suite", "quick", "--scenes", "direct",
+        "--strategies", "white", f"{tmp_path / 'used.py'}:Constant",
+        "--samplers", "owen_sobol", f"{tmp_path / 'used.py'}:Half",
+        "--denoisers", "gaussian", "--metrics", "mse", "--spp", "1", "--frames", "1",
+        "--warmup", "0", "--res", "8x8", "--reference-spp", "2", "--seed-sets", "3",
+        "--out", str(tmp_path / "out"), "--cache", str(tmp_path / "cache"), "--quiet",
+        "--no-charts",
+    ]  # fmt: skip
+    assert main(args) == 0
+    raw = {
+        (r.cell.strategy, r.cell.sampler): [s[0][0] for s in r.raw["mse"]]
+        for r in load_records(tmp_path / "out")
+        if r.cell.region == "all" and r.cell.denoiser == "gaussian"
+    }
+    assert set(raw) == {(s, p) for s in ("white", "used_constant")
+                        for p in ("owen_sobol", "used_half")}  # fmt: skip
+    spread = {key: len(set(values)) for key, values in raw.items()}
+    assert spread[("white", "owen_sobol")] == 3  # white: fresh seeds per seed set
+    assert spread[("used_constant", "owen_sobol")] == 1  # the same seeds in every seed set
+    assert spread[("white", "used_half")] == spread[("used_constant", "used_half")] == 1
+    assert raw[("white", "used_half")] == raw[("used_constant", "used_half")]  # no noise at all
