@@ -55,6 +55,7 @@ __all__ = [
     "Judge",
     "Judged",
     "agreement",
+    "headline_agreement",
     "judge_cells",
     "judged",
     "perceptual_report",
@@ -203,6 +204,36 @@ def agreement(
         if (mse[k][0] == "better") != (seen[k].verdict == "better")
     ]
     return agree, len(keys), lines
+
+
+def headline_agreement(
+    rows: Sequence[dict],
+    denoisers: Sequence[str],
+    scenes: Sequence[str],
+    region: str = "all",
+    judge: Judge = JUDGES[0],
+) -> str:
+    """The README's one line on the headline's cells (those of
+    :func:`benchmarks.reports.decision.headline_table`: ``scenes`` without a condition, in pixel
+    ``region``, the ``denoisers``): how many the judge's verdict agrees with the MSE's on, and
+    how many where one says better and the other does not; "" when the rows hold no judge."""
+    if not judged(rows, judge):
+        return ""
+
+    def headline(key: tuple) -> bool:
+        group = key[0]
+        whole = (*group[:3], "all", *group[4:])
+        return group[0] in scenes and group[3] == region and group_title(whole) == group[0]
+
+    mse = {k: v for k, v in cell_verdicts(rows).items() if headline(k) and k[2] in denoisers}
+    seen = judge_cells(rows, judge)
+    keys = [k for k in mse if k in seen]
+    agree = sum(mse[k][0] == seen[k].verdict for k in keys)
+    differ = sum((mse[k][0] == "better") != (seen[k].verdict == "better") for k in keys)
+    return (
+        f"Judged in {judge.unit} ({judge.metric}, perceptual.md), {agree} of these {len(keys)} "
+        f"cells get the MSE's verdict; in {differ} one says better and the other does not."
+    )
 
 
 def _what(judge: Judge) -> str:

@@ -113,3 +113,25 @@ def test_an_unbounded_interval_stays_open():
     rows[1]["den_cvvdp_diff_lo"], rows[1]["den_cvvdp_diff_hi"] = -math.inf, math.inf
     (found,) = judge_cells(rows, _JOD).values()
     assert found.verdict == "open"
+
+
+def test_the_readmes_line_counts_agreement_over_the_headlines_cells_only():
+    rows = [
+        _row("white", 1, 0.0),
+        _row("ldbn", 1, 0.5, mse=0.8),  # both better
+        _row("white", 4, 0.0, den="oidn"),
+        _row("ldbn", 4, -0.6, mse=0.8, den="oidn"),  # MSE better, JOD worse
+        _row("white", 4, 0.0, den="taa"),  # a denoiser the headline does not show
+        _row("ldbn", 4, -0.6, mse=0.8, den="taa"),
+    ]
+    rows += [dict(r, region="coherent") for r in rows[:2]]  # another region: not counted
+    line = perceptual.headline_agreement(rows, ["gaussian", "oidn"], ["direct"])
+    assert line == (
+        "Judged in JOD (cvvdp, perceptual.md), 1 of these 2 cells get the MSE's verdict; in 1 "
+        "one says better and the other does not."
+    )
+    assert perceptual.headline_agreement(rows, ["gaussian"], ["cornell"]).startswith(
+        "Judged in JOD (cvvdp, perceptual.md), 0 of these 0 cells"
+    )
+    plain = [{k: v for k, v in r.items() if "cvvdp" not in k} for r in rows]
+    assert perceptual.headline_agreement(plain, ["gaussian"], ["direct"]) == ""
