@@ -289,8 +289,8 @@ def test_the_docs_and_the_help_state_the_precision_records_keep(capsys):
     from benchmarks.cli import build_parser
     from benchmarks.sweep.records import DIGITS, TIMING_DIGITS
 
-    usage = (ROOT / "docs" / "USAGE.md").read_text()
-    interfaces = " ".join((ROOT / "docs" / "INTERFACES.md").read_text().split())
+    usage = (ROOT / "docs/USAGE.md").read_text()
+    interfaces = " ".join((ROOT / "docs/INTERFACES.md").read_text().split())
     assert f"({DIGITS} significant digits, whole numbers" in " ".join(usage.split())
     assert f"keeps {DIGITS} significant digits of each measured value" in interfaces
     assert f"and {TIMING_DIGITS} of each timing" in interfaces

@@ -377,7 +377,7 @@ def test_the_blur_is_the_one_methods_md_states_in_scipys_words():
 
     from tests._paths import ROOT
 
-    methods = " ".join((ROOT / "docs" / "METHODS.md").read_text().split())
+    methods = " ".join((ROOT / "docs/METHODS.md").read_text().split())
     call = 'scipy.ndimage.gaussian_filter(err, (0, sigma, sigma), mode="mirror", truncate=3.0)'
     assert call in methods and "`2 ceil(3 sigma) + 1` taps: 7 and 13" in methods
     gen = torch.Generator().manual_seed(54)

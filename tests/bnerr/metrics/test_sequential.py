@@ -24,7 +24,7 @@ def _stated_bias_bound() -> float:
     """The early-stopping bias bound docs/METHODS.md states ("the stated bound is N %")."""
     from tests._paths import ROOT
 
-    text = " ".join((ROOT / "docs" / "METHODS.md").read_text().split())
+    text = " ".join((ROOT / "docs/METHODS.md").read_text().split())
     match = re.search(r"the stated bound is (\d+(?:\.\d+)?) %", text)
     assert match is not None, "docs/METHODS.md states no early-stopping bias bound"
     return float(match.group(1)) / 100
