@@ -17,9 +17,10 @@ for as long as a command writes into the folder, so that a second ``bnerr bench`
 interleaving its files with the first one's. The lock is released by the kernel when the
 process ends, however it ends (a SIGKILL leaves no stale lock).
 
-:func:`undo_on_failure` removes what a command created in its output folder (files, folders,
-the lock file, the folder itself) when the command fails with an exception: a refusal that
-comes late (a plug-in that raises mid-run) leaves nothing half-written behind.
+:func:`undo_on_failure` holds that lock and removes what the command created in the folder
+(files, folders, the lock file, the folder itself) when it fails with an exception: a refusal
+that comes late (a plug-in that raises mid-run) leaves nothing half-written behind, and a busy
+folder's files (another process's) are never touched.
 
 Not for: network file systems whose ``flock`` is not shared between hosts.
 """
@@ -255,25 +256,45 @@ def _entries(folder: Path) -> set[Path] | None:
 
 
 @contextlib.contextmanager
-def undo_on_failure(folder: str | os.PathLike) -> Iterator[Path]:
-    """Run the ``with`` block; if it raises, remove every file and folder under ``folder`` that
-    was not there when the block began (``folder`` itself too if it was new), then re-raise.
+def undo_on_failure(
+    folder: str | os.PathLike, what: str = "bnerr", lock_name: str = LOCK_NAME
+) -> Iterator[Path]:
+    """Hold the folder's write lock (:func:`output_lock`) for the ``with`` block; if the block
+    raises, remove every file and folder under ``folder`` that was not there when it took the
+    lock, then the lock file and ``folder`` itself if they were new, and re-raise.
 
-    Files that existed before are left as they are (a command that overwrites one does so
-    atomically, :func:`bnerr.io.atomic_write`). Take it outside :func:`output_lock`, so that a
-    lock file the command created goes too (its descriptor is closed first).
+    What was there before is left as it was (a command that overwrites a file does so
+    atomically, :func:`bnerr.io.atomic_write`), and so is everything when the lock is busy: the
+    files another process is writing are never touched.
+
+    Raises:
+        OutputBusyError: another live process holds the lock (nothing is removed).
     """
     path = Path(folder)
-    before = _entries(path)
+    folder_was = path.is_dir()
+    lock_was = (path / lock_name).exists()
+    locked = False
     try:
-        yield path
+        with output_lock(path, what, lock_name):
+            locked = True
+            before = _entries(path) or set()
+            try:
+                yield path
+            except BaseException:
+                after = (_entries(path) or set()) - before - {path / lock_name}
+                _remove(sorted(after, key=lambda p: len(p.parts), reverse=True))
+                raise
     except BaseException:
-        after = _entries(path) or set()
-        new = sorted(after - (before or set()), key=lambda p: len(p.parts), reverse=True)
-        for entry in new:  # deepest first: a folder is empty once its new files are gone
-            with contextlib.suppress(OSError):
-                if entry.is_dir() and not entry.is_symlink():
-                    entry.rmdir()
-                else:
-                    entry.unlink()
+        if locked:  # the lock released: its file, then the folder, if this call made them
+            _remove(([] if lock_was else [path / lock_name]) + ([] if folder_was else [path]))
         raise
+
+
+def _remove(paths: list[Path]) -> None:
+    """Remove each path (a folder only when empty), deepest first as given; errors skipped."""
+    for entry in paths:
+        with contextlib.suppress(OSError):
+            if entry.is_dir() and not entry.is_symlink():
+                entry.rmdir()
+            else:
+                entry.unlink()

@@ -34,7 +34,7 @@ from benchmarks.sweep.plan import Run
 from benchmarks.sweep.plugins import load_names
 from benchmarks.sweep.records import check_no_results
 from bnerr.errors import check_name, check_positive_int
-from bnerr.outputs import check_folder_path, output_lock, undo_on_failure
+from bnerr.outputs import check_folder_path, undo_on_failure
 
 __all__ = ["register", "run"]
 
@@ -92,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"bnerr eval: measuring {run.strategy}", file=sys.stderr)
 
-    with undo_on_failure(out), output_lock(out, "bnerr eval"):
+    with undo_on_failure(out, "bnerr eval"):  # its lock, and on failure nothing left behind
         if not args.overwrite:
             check_no_results(out, resumable=False)  # again: another run may have finished
         records = measure_evaluation(plan, out, on_run=say)

@@ -123,9 +123,9 @@ def test_a_named_lock_refuses_a_second_writer_of_that_name_only(tmp_path):
 def test_undo_on_failure_removes_what_the_block_created_and_keeps_the_rest(tmp_path):
     """Issue 54: a command that fails after it began writing leaves nothing half-written: new
     files, new folders, the lock file and the output folder itself (when it was new) go; what
-    was there before stays."""
+    was there before stays; a busy folder (another process writing) is not touched."""
     out = tmp_path / "out"
-    with pytest.raises(RuntimeError), undo_on_failure(out), output_lock(out, "test"):
+    with pytest.raises(RuntimeError), undo_on_failure(out, "test"):
         (out / "crops").mkdir()
         (out / "crops" / "a.npz").write_bytes(b"x")
         (out / "cells.jsonl").write_text("{}\n")
@@ -133,10 +133,15 @@ def test_undo_on_failure_removes_what_the_block_created_and_keeps_the_rest(tmp_p
     assert not out.exists()
     out.mkdir()
     (out / "mine.txt").write_text("kept")
-    with pytest.raises(KeyboardInterrupt), undo_on_failure(out), output_lock(out, "test"):
+    with pytest.raises(KeyboardInterrupt), undo_on_failure(out, "test"):
         (out / "cells.jsonl").write_text("{}\n")
         raise KeyboardInterrupt
     assert sorted(p.name for p in out.iterdir()) == ["mine.txt"]
-    with undo_on_failure(out), output_lock(out, "test"):  # success: everything stays
+    with undo_on_failure(out, "test"):  # success: everything stays
         (out / "cells.jsonl").write_text("{}\n")
     assert (out / "cells.jsonl").is_file() and (out / ".bnerr.lock").is_file()
+    with output_lock(out, "another"):  # busy: refused, and the other writer's files kept
+        (out / "theirs.npz").write_bytes(b"y")
+        with pytest.raises(OutputBusyError), undo_on_failure(out, "test"):
+            pass
+        assert (out / "theirs.npz").is_file() and (out / ".bnerr.lock").is_file()
