@@ -24,7 +24,8 @@ class CyclesOIDN(Denoiser):
     """Cycles' own OIDN output of the frame's samples (module docstring)."""
 
     name = "cycles_oidn"
-    kind = "reference"
+    kind = "renderer"  # the renderer's own output: not bnerr's OIDN ("reference"), whose report
+    # section reads the first denoiser of that kind
 
     def denoise(self, frame: Frame) -> torch.Tensor:
         image = frame.own_denoised.get(self.name)
