@@ -46,6 +46,7 @@ def _stand_in(tmp_path) -> str:
         "    target = os.path.join(out, f'{i}.exr') if os.path.isdir(out) else out\n"
         "    c = {n: np.ascontiguousarray(v, dtype=np.float32) for n, v in c.items()}\n"
         "    OpenEXR.File({'type': OpenEXR.scanlineimage}, c).write(target)\n"
+        "    if fault == 'cut': open(target, 'r+b').truncate(os.path.getsize(target) - 8)\n"
     )
     return "render.py"
 
@@ -187,3 +188,14 @@ def test_an_ldbn_sampler_is_described_by_its_exported_key_set_slice_and_offset(t
     st = make_strategy("ldbn_st", 16, 16, seed=1, spp=2).sampler(5)
     assert sampler_values(manifest, st)["ldbn_keys"] == "ldbn_st_64x4"
     assert sampler_values(manifest, st)["ldbn_slice"] == str(1 * 4 + 1)
+
+
+def test_a_truncated_frame_is_one_error_and_openexr_prints_nothing(tmp_path, capfd):
+    """Issue 54: OpenEXR's own lines (its C library's on stderr, its binding's on stdout) came
+    before bnerr's one line on a truncated frame; they are quoted in the error instead."""
+    renderer = ExternalRenderer(_manifest(tmp_path, "cut"))
+    capfd.readouterr()
+    with pytest.raises(ExternalProcessError, match="expected an OpenEXR frame") as err:
+        renderer.render(0, pixel_seeds(4, 6, 0), make_sampler("owen_sobol"), 1)
+    assert capfd.readouterr() == ("", "")
+    assert "OpenEXR said: " in str(err.value).splitlines()[0]
