@@ -25,9 +25,6 @@ MIRROR_EXEMPT = {
     "benchmarks/reports/__init__.py": (
         "tests/benchmarks/reports/test_table.py", "write_report writes the tables tested there"
     ),
-    "benchmarks/reports/decision.py": (
-        "tests/benchmarks/reports/test_table.py", "decision.md, from the same records"
-    ),
     **{
         f"benchmarks/speed/{name}.py": (
             "tests/benchmarks/speed/test_init.py",
@@ -35,10 +32,6 @@ MIRROR_EXEMPT = {
         )
         for name in ("copy", "formatting")
     },
-    "benchmarks/sweep/plugins.py": (
-        "tests/benchmarks/commands/test_bench_plugins.py",
-        "the plug-ins' identity in the records and the resume refusal, through bnerr bench",
-    ),
     "benchmarks/sweep/tuning.py": (
         "tests/benchmarks/sweep/test_measure.py", "the denoisers are tuned there with stand-ins"
     ),
@@ -56,9 +49,6 @@ MIRROR_EXEMPT = {
     ),
     "bnerr/sequences/white.py": (
         "tests/bnerr/sequences/test_init.py", "white and Owen-Sobol against one Python twin"
-    ),
-    "bnerr/strategies/registry.py": (
-        "tests/bnerr/strategies/test_base.py", "a subclass registers itself on definition"
     ),
     "denoisers/base.py": ("tests/denoisers/test_init.py", "the interface, through every denoiser"),
     "denoisers/native/__init__.py": (

@@ -8,13 +8,15 @@ from benchmarks.sweep.parts import known_names, real_parts, render_any, render_b
 from benchmarks.sweep.version import code_version
 from bnerr.errors import ValueRangeError
 from bnerr.strategies import STRATEGIES
+from renderers.cycles import CYCLES_STRATEGIES
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def test_known_names_are_the_registries():
     names = known_names()
-    assert names["known_strategies"] == tuple(STRATEGIES)
+    # bnerr's strategies, then Cycles' own patterns (they run on Cycles scenes only)
+    assert names["known_strategies"] == tuple(dict.fromkeys((*STRATEGIES, *CYCLES_STRATEGIES)))
     assert "direct" in names["known_scenes"] and "gaussian" in names["known_denoisers"]
 
 
