@@ -331,9 +331,11 @@ def _load_cycles(name_or_spec: str) -> str:
     """Register a ``.blend`` file (under its stem) or a built Cycles scene (under its name)."""
     cycles = _cycles()
     if name_or_spec in cycles.BUILT:
-        if plugins.loaded("bnerr.scenes", name_or_spec) is None:
-            builder = cycles.built_scene(name_or_spec)
-            SCENES.add(plugins.Plugin(name_or_spec, builder, None, ()))  # type: ignore[attr-defined]
+        # shipped with bnerr, not a plug-in: no plug-in identity in the records (whose resume
+        # check would then follow edits of renderers/cycles/scene.py); its content is its
+        # version, which keys its references (scene_version)
+        if not dict.__contains__(SCENES, name_or_spec):
+            dict.__setitem__(SCENES, name_or_spec, cycles.built_scene(name_or_spec))
         return name_or_spec
     path = Path(name_or_spec)
     known = plugins.loaded("bnerr.scenes", path.stem)
@@ -405,8 +407,10 @@ def scene_version(name: str) -> str:
     """What identifies the content of the registered scene ``name`` beyond the code: "" for a
     shipped scene (the code version covers it), a Mitsuba scene's ``version`` (Mitsuba's version
     and its files' hash), else the plug-in's fingerprint (a scene file's hash, a distribution's
-    version). Keys the sweep's cached references."""
+    version; a Cycles scene built by code its ``version``). Keys the sweep's cached references."""
     plugin = plugins.loaded("bnerr.scenes", name)
+    if name in _cycles().BUILT:
+        return str(get_scene(name).version)  # type: ignore[attr-defined]
     if plugin is None:
         return ""
     version = getattr(get_scene(name), "version", None)

@@ -105,3 +105,18 @@ def test_a_scene_file_loads_once_under_its_name_with_its_path_as_spec(tmp_path, 
     assert SCENES["cat_mine"] is builder
     assert plugins.loaded("bnerr.scenes", "cat_mine").spec == str(path)
     assert get_scene(str(path)).name == "cat_mine"
+
+
+def test_a_built_cycles_scene_is_shipped_not_a_plug_in_and_keyed_by_its_version():
+    """Its records carry no plug-in identity (a resume follows its version through the
+    references' key, not edits of renderers/cycles/scene.py); Blender is not started."""
+    from bnerr import plugins
+    from renderers.cycles import built_scene
+
+    try:
+        assert renderers.load_scene("cycles_outdoor") == "cycles_outdoor"
+        assert plugins.loaded("bnerr.scenes", "cycles_outdoor") is None
+        assert renderers.scene_version("cycles_outdoor") == built_scene("cycles_outdoor")().version
+        assert renderers.scene_version("direct") == ""
+    finally:
+        dict.pop(renderers.SCENES, "cycles_outdoor", None)
