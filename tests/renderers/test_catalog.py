@@ -110,13 +110,13 @@ def test_a_scene_file_loads_once_under_its_name_with_its_path_as_spec(tmp_path, 
 def test_a_built_cycles_scene_is_shipped_not_a_plug_in_and_keyed_by_its_version():
     """Its records carry no plug-in identity (a resume follows its version through the
     references' key, not edits of renderers/cycles/scene.py); Blender is not started."""
-    from bnerr import plugins
+    from renderers import scene_version
     from renderers.cycles import built_scene
 
     try:
-        assert renderers.load_scene("cycles_outdoor") == "cycles_outdoor"
+        assert load_scene("cycles_outdoor") == "cycles_outdoor"
         assert plugins.loaded("bnerr.scenes", "cycles_outdoor") is None
-        assert renderers.scene_version("cycles_outdoor") == built_scene("cycles_outdoor")().version
-        assert renderers.scene_version("direct") == ""
+        assert scene_version("cycles_outdoor") == built_scene("cycles_outdoor")().version
+        assert scene_version("direct") == ""
     finally:
-        dict.pop(renderers.SCENES, "cycles_outdoor", None)
+        dict.pop(SCENES, "cycles_outdoor", None)
