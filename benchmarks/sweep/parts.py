@@ -263,25 +263,7 @@ def real_parts(specs: tuple[tuple[str, str], ...] = (), device: str = "cpu") -> 
         name: str, scene: Scene, height: int, width: int, seed: int, sampler: str, spp: int
     ) -> Strategy:
         load_specs(specs)
-        if renderers.is_cycles(scene):  # Cycles takes one seed per frame: its own patterns only
-            return make_pattern_strategy(
-                name,
-                height,
-                width,
-                seed=seed,
-                scene=getattr(scene, "name", ""),
-                device=where,
-            )
-        return strategies.make_strategy(
-            name,
-            height,
-            width,
-            seed=seed,
-            sampler=sampler,
-            spp=spp,
-            dimensions=scene.dimensions,
-            device=where,
-        )
+        return _strategy_on(scene, name, (height, width), seed, sampler, spp, where)
 
     def scene_version(name: str) -> str:
         load_specs(specs)
@@ -305,6 +287,33 @@ def real_parts(specs: tuple[tuple[str, str], ...] = (), device: str = "cpu") -> 
         plugins=tuple(specs),
         scene_version=scene_version,
         device=where,
+    )
+
+
+def _strategy_on(
+    scene: Scene,
+    name: str,
+    size: tuple[int, int],
+    seed: int,
+    sampler: str,
+    spp: int,
+    device: str,
+) -> Strategy:
+    """Strategy ``name`` for ``scene`` at ``size`` (H, W): one of Cycles' own patterns on a Cycles
+    scene (Cycles takes one seed per frame, not per pixel), else bnerr's strategy."""
+    height, width = size
+    if renderers.is_cycles(scene):
+        where = getattr(scene, "name", "")
+        return make_pattern_strategy(name, height, width, seed=seed, scene=where, device=device)
+    return strategies.make_strategy(
+        name,
+        height,
+        width,
+        seed=seed,
+        sampler=sampler,
+        spp=spp,
+        dimensions=scene.dimensions,
+        device=device,
     )
 
 
