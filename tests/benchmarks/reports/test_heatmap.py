@@ -7,28 +7,11 @@ import re
 import pytest
 
 from benchmarks.reports.heatmap import decision_heatmap, jod_heatmap, ratio_colour
+from tests._records import table_row
 
 
 def _row(strategy, spp, mse, *, den="gaussian", half=0.03, jod=None, scene="direct"):
-    row = {
-        "scene": scene,
-        "motion": 1,
-        "depth": None,
-        "region": "all",
-        "sampler": "owen_sobol",
-        "strategy": strategy,
-        "spp": spp,
-        "denoiser": den,
-        "frames": 3,
-        "seed_sets": 4,
-        "den_mse": mse,
-        "den_mse_ratio": None if strategy == "white" else mse,
-        "den_mse_ratio_lo": None if strategy == "white" else mse * (1 - half),
-        "den_mse_ratio_hi": None if strategy == "white" else mse * (1 + half),
-    }
-    if jod is not None:
-        row.update(den_cvvdp_diff=jod, den_cvvdp_diff_lo=jod - 0.1, den_cvvdp_diff_hi=jod + 0.1)
-    return row
+    return table_row(strategy, spp, mse, jod=jod, mse_half=half, den=den, scene=scene)
 
 
 def _cells(text):

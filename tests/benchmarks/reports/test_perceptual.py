@@ -8,34 +8,25 @@ import pytest
 from benchmarks.reports import decision, perceptual
 from benchmarks.reports.perceptual import JOD_MARGIN, JUDGES, judge_cells, perceptual_report
 from bnerr.metrics import Estimate, t_quantile
+from tests._records import table_row
 
 
 def _row(strategy, spp, jod=None, mse=1.0, *, half=0.2, seed_sets=4, looks=None, den="gaussian"):
     """A table.csv row: its MSE ratio to white (``mse``, a tight interval) and its JOD difference
     to white (``jod``, +- ``half`` at 95 %)."""
-    row = {
-        "scene": "direct",
-        "motion": 1,
-        "depth": None,
-        "region": "all",
-        "sampler": "owen_sobol",
-        "strategy": strategy,
-        "spp": spp,
-        "denoiser": den,
-        "frames": 3,
-        "seed_sets": seed_sets,
-        "den_mse": mse,
-        "den_mse_ratio": None if strategy == "white" else mse,
-        "den_mse_ratio_lo": None if strategy == "white" else mse * 0.97,
-        "den_mse_ratio_hi": None if strategy == "white" else mse * 1.03,
-        "render_ms": 10.0,
-        "perm_ms": 1.0,
-    }
-    if jod is not None:
-        row.update(den_cvvdp_diff=jod, den_cvvdp_diff_lo=jod - half, den_cvvdp_diff_hi=jod + half)
-    if looks:
-        row["looks"] = looks
-    return row
+    extra = {"looks": looks} if looks else {}
+    return table_row(
+        strategy,
+        spp,
+        mse,
+        jod=jod,
+        jod_half=half,
+        den=den,
+        seed_sets=seed_sets,
+        render_ms=10.0,
+        perm_ms=1.0,
+        **extra,
+    )
 
 
 _JOD = JUDGES[0]
