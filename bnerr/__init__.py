@@ -9,7 +9,13 @@ LDBN key optimizer (:mod:`bnerr.ldbn`), image I/O (:mod:`bnerr.io`) and the
 :class:`~bnerr.frame.Frame`.
 
 Import the submodules you need (``from bnerr.permutation.permute import sort_pass``); importing
-:mod:`bnerr` itself loads nothing heavy.
+:mod:`bnerr` itself loads nothing heavy. The paths of the modules that moved into those families
+(``bnerr.permute``, ``bnerr.stbn``, ...) still import, with a :class:`DeprecationWarning` naming
+the new one, until the next release (:mod:`bnerr._moved`).
 """
+
+from bnerr import _moved
+
+_moved.install()
 
 __all__: list[str] = []
