@@ -553,7 +553,7 @@ def sort_pass(
         groups: ``[H, W]`` integer labels on ``seeds``' device (e.g.
             :func:`bnerr.permutation.sortkeys.group_labels`), or None (one group per block, the
             paper's). Only equality matters. Costs: two more row sorts on the torch path; on the CPU
-            the native kernel's scalar code (see ``benchmarks/speed_permute.py``).
+            the native kernel's scalar code (see ``benchmarks/speed/permute.py``).
         grid_offset: ``(oy, ox)`` in ``[0, B)^2``: pixel (y, x) lies in block
             ``((y + oy) // B, (x + ox) // B)``. None: the plan's (a :class:`SortPlan` carries
             its own), or ``(0, 0)`` for a mask tensor. Independent of the mask's toroidal offset;
