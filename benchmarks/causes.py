@@ -108,8 +108,8 @@ def diagnose(name: str, spp: int, *, size: int = 64, K: int = 8, ref_spp: int = 
     import renderers
     from bnerr.masks import load_mask, tile_mask
     from bnerr.metrics import blurred_mse, coherent_mask
-    from bnerr.permute import histogram_select
-    from bnerr.vertical import vertical_select
+    from bnerr.permutation.permute import histogram_select
+    from bnerr.permutation.vertical import vertical_select
 
     scene = renderers.get_scene(name, animated=True)
     ref, prev = (_render(scene, t, 90_000 + t, size, ref_spp) for t in (6, 5))

@@ -86,7 +86,7 @@ def mean_move(seeds_t: torch.Tensor, seeds_u: torch.Tensor) -> float:
 
 
 def _field(mask: torch.Tensor, radius: int) -> torch.Tensor:
-    from bnerr.retarget import load_retarget, optimize_retarget
+    from bnerr.permutation.retarget import load_retarget, optimize_retarget
 
     if radius == 6:
         return load_retarget(mask.shape[-1])  # the shipped field: exact at radius 6
@@ -104,7 +104,7 @@ def measure_field(
     from benchmarks.training_data import pixel_seeds
     from bnerr.masks import load_mask
     from bnerr.metrics import blurred_mse, coherent_mask
-    from bnerr.retarget import retarget_energy
+    from bnerr.permutation.retarget import retarget_energy
     from bnerr.sequences import make_sampler
     from bnerr.strategies.temporal import TemporalStrategy
     from bnerr.strategies.variants import TemporalOptions

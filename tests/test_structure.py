@@ -295,15 +295,20 @@ def test_the_cycle_finder_finds_cycles():
 
 
 def test_imports_are_resolved_to_submodules_relative_and_function_level_ones_included():
-    assert _resolve("bnerr.masks", ast.ImportFrom(module="errors", names=[], level=1)) == (
+    assert _resolve("bnerr.io", ast.ImportFrom(module="errors", names=[], level=1)) == (
         "bnerr.errors"
     )
     assert _resolve("bnerr", ast.ImportFrom(module="masks", names=[], level=1)) == "bnerr.masks"
-    assert _resolve("bnerr.masks", ast.ImportFrom(module=None, names=[], level=2)) == ""
+    assert _resolve("bnerr.masks", ast.ImportFrom(module="stbn", names=[], level=1)) == (
+        "bnerr.masks.stbn"
+    )  # a package's __init__ resolves inside itself
+    assert _resolve("bnerr.masks.fast", ast.ImportFrom(module=None, names=[], level=2)) == "bnerr"
+    assert _resolve("bnerr.io", ast.ImportFrom(module=None, names=[], level=2)) == ""
     assert _project_module("bnerr.errors.check_shape") == "bnerr.errors"
     assert _project_module("numpy.linalg") is None
     graph = import_graph()
-    assert {"bnerr.errors", "bnerr.resources"} <= graph["bnerr.masks"]
+    assert {"bnerr.errors", "bnerr.resources"} <= graph["bnerr.masks.spatial"]
+    assert graph["bnerr.masks"] == {"bnerr.masks.spatial"}
     assert all(m in MODULES for targets in graph.values() for m in targets)
     source = "def f():\n    from bnerr import errors\n    import renderers.tracer as t\n"
     tree = ast.parse(source)

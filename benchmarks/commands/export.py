@@ -71,12 +71,12 @@ def _load(args: argparse.Namespace) -> tuple[str, np.ndarray, bool]:
         name = ldbn_file_name(kind, args.size, frames).removesuffix(".npy")
         return name, torch.stack(slices).numpy(), True
     if args.stbn is not None:
-        from bnerr.stbn import load_stbn
+        from bnerr.masks.stbn import load_stbn
 
         mask = load_stbn(args.stbn, args.size, 32).numpy()
         array = mask[..., None] if mask.ndim == 3 else mask.transpose(0, 2, 3, 1)
         return f"stbn_{args.stbn}_{args.size}x32", array, False
-    from bnerr.fast import load_fast_mask
+    from bnerr.masks.fast import load_fast_mask
 
     return f"fast_gauss_{args.size}", load_fast_mask(args.size).numpy()[None, ..., None], False
 

@@ -27,12 +27,17 @@ import torch
 from benchmarks.commands._args import positive_float, positive_int, seed_int
 from benchmarks.commands._mask_ldbn import add_ldbn_arguments, run_ldbn
 from bnerr.errors import FileFormatError, ValueRangeError, check_positive_int
-from bnerr.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
 from bnerr.io import IMAGE_SUFFIXES, atomic_write, image_format, write_exr, write_png
 from bnerr.masks import vector_mask, void_and_cluster
+from bnerr.masks.fast import DEFAULT_ITERATIONS, fast_energy, fast_mask
+from bnerr.masks.stbn import (
+    DEFAULT_SIGMA,
+    stbn_scalar,
+    stbn_vector,
+    temporal_low_frequency_fraction,
+)
+from bnerr.metrics.spectrum import low_frequency_fraction
 from bnerr.outputs import check_output
-from bnerr.spectrum import low_frequency_fraction
-from bnerr.stbn import DEFAULT_SIGMA, stbn_scalar, stbn_vector, temporal_low_frequency_fraction
 
 __all__ = ["register", "run", "write_mask"]
 

@@ -23,7 +23,7 @@ import torch
 from benchmarks.commands._args import finite_float, nonnegative_int, positive_int, seed_int
 from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.masks import load_mask, r2_step
-from bnerr.retarget import (
+from bnerr.permutation.retarget import (
     MAX_DISPLACEMENT,
     METHODS,
     optimize_retarget,

@@ -23,7 +23,7 @@ from typing import Any
 from benchmarks.reports.markdown import table_lines
 from benchmarks.speed.formatting import fmt, get, ratio
 from bnerr.masks import vector_mask, void_and_cluster
-from bnerr.spectrum import low_frequency_fraction
+from bnerr.metrics.spectrum import low_frequency_fraction
 
 #: White noise's low-frequency fraction at the masks' cutoff of 0.125 cycles per pixel: the area
 #: of the disc of that radius in the unit frequency square, pi / 64.

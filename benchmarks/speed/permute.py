@@ -36,10 +36,10 @@ from benchmarks.speed.copy import JOB_BYTES, PASS_JOBS
 from benchmarks.speed.formatting import DASH, fmt, get, number, ratio
 from bnerr import native
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import SortPlan, luminance, plan_sort, sort_pass, sort_torch
-from bnerr.reproject import reproject_seeds
-from bnerr.retarget import Retarget, load_retarget, retarget_sources
-from bnerr.sortkeys import group_labels, sort_key
+from bnerr.permutation.permute import SortPlan, luminance, plan_sort, sort_pass, sort_torch
+from bnerr.permutation.reproject import reproject_seeds
+from bnerr.permutation.retarget import Retarget, load_retarget, retarget_sources
+from bnerr.permutation.sortkeys import group_labels, sort_key
 from bnerr.timing import sync
 
 __all__ = ["table", "argsort_sort_pass", "main", "measure"]

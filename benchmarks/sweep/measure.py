@@ -57,7 +57,7 @@ from bnerr.metrics import (
     light_mask,
     temporal_correlation,
 )
-from bnerr.spectrum import radial_power_spectrum
+from bnerr.metrics.spectrum import radial_power_spectrum
 from bnerr.strategies import first_frame, play
 from bnerr.timing import Stopwatch
 

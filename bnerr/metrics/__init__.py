@@ -23,8 +23,7 @@ One module per concern (docs/METHODS.md, section 6):
 - :mod:`bnerr.metrics.coverage`: the coverage study behind the choice of interval and of the
   adaptive design, and the gap shares' (``python -m bnerr.metrics.coverage [--sequential TRIALS |
   --shares TRIALS]``);
-- :mod:`bnerr.metrics.spectrum`: radially averaged power spectra and the low-frequency fraction
-  (also importable as :mod:`bnerr.spectrum`).
+- :mod:`bnerr.metrics.spectrum`: radially averaged power spectra and the low-frequency fraction.
 
 Every name of the former single module ``bnerr.metrics`` is importable from here as before.
 """

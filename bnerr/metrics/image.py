@@ -23,7 +23,8 @@ What the benchmark measures (docs/METHODS.md, section 6): for a rendered (or den
 - ``flip``: mean HDR-FLIP (Andersson et al. 2021, "Visualizing Errors in Rendered High Dynamic Range
   Images"), through the optional package ``flip-evaluator``;
 - ``lowfreq``: the fraction of the error's power below 0.125 cycles/pixel
-  (:func:`bnerr.spectrum.low_frequency_fraction`): about 0.05 for white noise, near 0 for blue.
+  (:func:`bnerr.metrics.spectrum.low_frequency_fraction`): about 0.05 for white noise, near 0 for
+  blue.
 
 Every metric may be restricted to a boolean pixel ``mask [H, W]`` (for example the pixels near
 object edges, :func:`edge_mask`): the blur is applied to the whole error image first, and only the
@@ -603,9 +604,9 @@ def flip(pred: torch.Tensor, ref: torch.Tensor, mask: torch.Tensor | None = None
 def lowfreq(pred: torch.Tensor, ref: torch.Tensor, tile: int = 64, cutoff: float = 0.125) -> float:
     """Fraction of the error's power below ``cutoff`` cycles/pixel on ``tile x tile`` tiles.
 
-    :func:`bnerr.spectrum.low_frequency_fraction` of ``pred - ref``: about 0.047 (64x64 tiles) for
-    white noise, near 0 for blue noise. Shapes as in :func:`mse`; no mask (a spectrum needs whole
-    tiles).
+    :func:`bnerr.metrics.spectrum.low_frequency_fraction` of ``pred - ref``: about 0.047 (64x64
+    tiles) for white noise, near 0 for blue noise. Shapes as in :func:`mse`; no mask (a spectrum
+    needs whole tiles).
     """
     _check_pair(pred, ref)
     return low_frequency_fraction(

@@ -2,8 +2,8 @@
 
 A leaf package: it imports nothing from bnerr but :mod:`bnerr.errors`, and every constant (the
 luminance weights, the block size, the thread count) comes in as an argument. The ops that use it,
-:func:`bnerr.permute.sort_pass` and :func:`bnerr.retarget.retarget`, own their dispatch and check
-the kernels once against their torch paths before trusting them.
+:func:`bnerr.permutation.permute.sort_pass` and :func:`bnerr.permutation.retarget.retarget`, own
+their dispatch and check the kernels once against their torch paths before trusting them.
 
 Why a C kernel: the sorting pass is a few integer operations per pixel, so its cost is memory
 traffic and per-op overhead. Eager torch needs about ten full passes over the image (keys, block
@@ -292,7 +292,7 @@ def native_sort_blocks(
     groups: torch.Tensor | None = None,
     grid_offset: tuple[int, int] = (0, 0),
 ) -> torch.Tensor | None:
-    """The block sorting pass in C (the rule of :func:`bnerr.permute.sort_pass`).
+    """The block sorting pass in C (the rule of :func:`bnerr.permutation.permute.sort_pass`).
 
     Args:
         kernels: from :func:`load`.
@@ -300,12 +300,14 @@ def native_sort_blocks(
         values: ``[H, W]`` float32 sort keys, or ``[3, H, W]`` float32 planes whose luminance
             ``(w0 * R + w1 * G) + w2 * B`` (float32, in that order) is the key.
         order: ``[ceil((H + oy) / B) * ceil((W + ox) / B), B * B]`` uint8, each block's positions
-            in mask order (:class:`bnerr.permute.SortPlan` for the same ``grid_offset``).
+            in mask order (:class:`bnerr.permutation.permute.SortPlan` for the same
+            ``grid_offset``).
         block: B in 2..8.
         weights: ``(w0, w1, w2)``, used for ``[3, H, W]`` values (rounded to float32).
         threads: worker threads (split by block rows; the result does not depend on it).
         groups: ``[H, W]`` int64 labels or None; with labels, each block sorts each group of equal
-            labels among its own pixels (scalar code, no SIMD: see :func:`bnerr.permute.sort_pass`).
+            labels among its own pixels (scalar code, no SIMD: see
+            :func:`bnerr.permutation.permute.sort_pass`).
         grid_offset: ``(oy, ox)`` in ``[0, B)^2``: pixel (y, x) is in block
             ``((y + oy) // B, (x + ox) // B)``.
 
@@ -358,7 +360,8 @@ class RetargetField:
 
 def retarget_field(displacement: torch.Tensor, inverse: torch.Tensor) -> RetargetField:
     """The kernel's form of ``displacement [2, T, T]`` (an integer field, a permutation of the
-    tile, checked by the caller) and of ``inverse`` (its :func:`bnerr.retarget.inverse_field`)."""
+    tile, checked by the caller) and of ``inverse`` (its
+    :func:`bnerr.permutation.retarget.inverse_field`)."""
     field = displacement.to("cpu", torch.int32).contiguous()
     back = inverse.to("cpu", torch.int32).contiguous()
     return RetargetField(field, back, field.shape[-1], int(field.abs().max()))
@@ -371,7 +374,7 @@ def native_retarget_gather(
     offset: tuple[int, int],
     threads: int = 1,
 ) -> torch.Tensor | None:
-    """The retargeting pass in C (the rule of :func:`bnerr.retarget.retarget`).
+    """The retargeting pass in C (the rule of :func:`bnerr.permutation.retarget.retarget`).
 
     Args:
         kernels: from :func:`load`.

@@ -21,7 +21,7 @@ sections 3, 4, 5, 7 and 8):
   their variants ``temporal+option...`` (``variants``);
 - ``oracle``: ``oracle``, K renders per frame, the a-posteriori bound.
 - ``vertical``: ``vertical``, the oracle's K renders chosen per pixel for the whole image's
-  sigma-2 blurred error (a second bound, :mod:`bnerr.vertical`).
+  sigma-2 blurred error (a second bound, :mod:`bnerr.permutation.vertical`).
 
 **Which sampler renders.** Every strategy has ``sampler_name``, the sampler its renders use.
 ``white``, ``temporal``, ``temporal_sort`` and ``oracle`` take the per-pixel sampler they are

@@ -4,7 +4,7 @@
   sequence per frame, Cranley-Patterson rotated per pixel by the vector mask at the frame's R2
   offset (``make_sampler("bnds", ...)``); dimensions beyond the mask's fall back to per-pixel
   white noise keyed by white's seeds.
-- ``bnds_st``: ``bnds`` with spatiotemporal blue-noise slices (:func:`bnerr.stbn.load_stbn`,
+- ``bnds_st``: ``bnds`` with spatiotemporal blue-noise slices (:func:`bnerr.masks.stbn.load_stbn`,
   vector, 64x64x32, D = 2 per slice) instead of one mask shifted by the R2 step: frame t rotates
   dimension pair k (dimensions 2k, 2k + 1) by slice ``(t + k * F // P) mod F`` of the STBN mask,
   ``P`` the number of pairs and F = 32 its slices, unshifted. Each pair thus gets its own slice
@@ -24,8 +24,8 @@ from bnerr.errors import ShapeError, ValueRangeError, check_positive_int, check_
 from bnerr.frame import Frame
 from bnerr.hashing import lowbias32_host
 from bnerr.masks import frame_offset, load_mask, shipped_masks
+from bnerr.masks.stbn import load_stbn, stbn_frame
 from bnerr.sequences import make_sampler
-from bnerr.stbn import load_stbn, stbn_frame
 from bnerr.strategies.base import BuildOptions, RenderFn, Strategy, pixel_seeds, stream_key
 from bnerr.strategies.variants import TemporalOptions
 
@@ -109,7 +109,8 @@ class BNDSSTStrategy(Strategy):
     mask's are fresh every frame. Memory as white's (34 bytes per pixel measured).
 
     Args:
-        stbn: ``[F, 2, T, T]`` float32 vector STBN mask in [0, 1) (:func:`bnerr.stbn.load_stbn`).
+        stbn: ``[F, 2, T, T]`` float32 vector STBN mask in [0, 1)
+            (:func:`bnerr.masks.stbn.load_stbn`).
         channels: rotated dimensions, even, >= 2 (pairs of slices).
     """
 

@@ -13,7 +13,7 @@ from bnerr.color import luminance
 from bnerr.errors import check_positive_int
 from bnerr.frame import Frame
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import histogram_select
+from bnerr.permutation.permute import histogram_select
 from bnerr.strategies.base import (
     FRAME_BYTES,
     BuildOptions,

@@ -1,8 +1,9 @@
 """Heitz & Belcour 2019's temporal algorithm and its variants: seeds permuted from frame to frame.
 
 - ``temporal``: render with the seed image S_t, then
-  ``S_t+1 = retarget(sort_pass(S_t, lum(I_t), M_t), o_t)`` (:mod:`bnerr.permute`,
-  :mod:`bnerr.retarget`); S_0 is distinct hashed seeds, and S_t stays a permutation of S_0.
+  ``S_t+1 = retarget(sort_pass(S_t, lum(I_t), M_t), o_t)`` (:mod:`bnerr.permutation.permute`,
+  :mod:`bnerr.permutation.retarget`); S_0 is distinct hashed seeds, and S_t stays a permutation of
+  S_0.
 - ``temporal_sort``: the sorting pass only (no retargeting): seeds never leave their block. The
   mask still moves by the R2 step each frame, as in ``temporal``, so the two differ only by the
   retargeting pass.
@@ -30,13 +31,14 @@ import math
 import torch
 
 from bnerr.errors import DtypeError, ValueRangeError, check_positive_int
-from bnerr.fast import load_fast_mask, load_fast_retarget
 from bnerr.frame import Frame
 from bnerr.ldbn.keys import load_ldbn_keys
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import SortPass, SortPlan, plan_sort
-from bnerr.reproject import collision_depth, reproject_seeds
-from bnerr.retarget import Retarget, load_retarget
+from bnerr.masks.fast import load_fast_mask, load_fast_retarget
+from bnerr.permutation.permute import SortPass, SortPlan, plan_sort
+from bnerr.permutation.reproject import collision_depth, reproject_seeds
+from bnerr.permutation.retarget import Retarget, load_retarget
+from bnerr.permutation.sortkeys import group_labels, sort_key
 from bnerr.sequences import (
     LDBNKeyedSampler,
     LDBNKeys,
@@ -45,7 +47,6 @@ from bnerr.sequences import (
     make_sampler,
     zsobol_keys,
 )
-from bnerr.sortkeys import group_labels, sort_key
 from bnerr.strategies.base import (
     BuildOptions,
     RenderFn,
@@ -88,9 +89,9 @@ class TemporalStrategy(Strategy):
     would never hit). At 1920x1080 with T = 64 the plans are cached and the indices are not.
 
     With ``options`` (docs/METHODS.md, section 8), per frame: the sort key is
-    :func:`bnerr.sortkeys.sort_key` of the frame (``key``, ``demodulate``; the smoothing guided by
-    the object id and normal where the frame has them), the sort runs per group of
-    :func:`bnerr.sortkeys.group_labels` (``groups``) on the block grid shifted by
+    :func:`bnerr.permutation.sortkeys.sort_key` of the frame (``key``, ``demodulate``; the smoothing
+    guided by the object id and normal where the frame has them), the sort runs per group of
+    :func:`bnerr.permutation.sortkeys.group_labels` (``groups``) on the block grid shifted by
     :meth:`TemporalOptions.grid_offset` (``shift``; the plans are then cached per (mask offset,
     grid offset) over their common period), the retargeting pass is unchanged (it takes the mask
     offset whatever the grid), and with ``reproject`` the seeds then move along the frame's motion

@@ -2,8 +2,9 @@
 
 Base ``temporal`` or ``temporal_zsobol``, options in this order, at most one of each group:
 
-- sort key: ``residual`` or ``relative`` (:func:`bnerr.sortkeys.sort_key`; default luminance),
-  and ``demod`` (radiance divided by albedo first; alone, it demodulates the luminance key);
+- sort key: ``residual`` or ``relative`` (:func:`bnerr.permutation.sortkeys.sort_key`; default
+  luminance), and ``demod`` (radiance divided by albedo first; alone, it demodulates the luminance
+  key);
 - groups: ``groups`` (object id), ``groups_normal`` (and the normal's dominant axis) or
   ``groups_depth`` (and a depth bin): each block sorts each group on its own;
 - grid shift: ``shift`` ((B/2, B/2) on odd frames) or ``shift_r2`` (an R2 point in [0, B)^2,
@@ -11,9 +12,9 @@ Base ``temporal`` or ``temporal_zsobol``, options in this order, at most one of 
 - ``reproject``: after sorting and retargeting, each seed moves along the frame's motion buffer
   (forward prediction: the renderer is bound to frame t by the caller, so the next frame's motion
   is not reachable; a constant-velocity guess from frame t's own t-1 -> t motion);
-- ``fast``: sort against the shipped FAST mask (:func:`bnerr.fast.load_fast_mask`, optimized for
-  the Gaussian denoiser's tuned sigma) instead of the void-and-cluster mask, and retarget with the
-  field optimized for it (:func:`bnerr.fast.load_fast_retarget`).
+- ``fast``: sort against the shipped FAST mask (:func:`bnerr.masks.fast.load_fast_mask`, optimized
+  for the Gaussian denoiser's tuned sigma) instead of the void-and-cluster mask, and retarget with
+  the field optimized for it (:func:`bnerr.masks.fast.load_fast_retarget`).
 
 e.g. ``temporal+relative+demod+groups``. :func:`bnerr.strategies.make_strategy` builds any
 well-formed one (:func:`parse_variant`, :class:`TemporalOptions`); :data:`VARIANTS` lists those
@@ -88,19 +89,19 @@ class TemporalOptions:
 
     Attributes:
         key: the sort key, ``"luminance"``, ``"residual"`` or ``"relative"``
-            (:func:`bnerr.sortkeys.sort_key`; the smoothing is guided by the group labels of the
-            object id and normal where the frame has them).
+            (:func:`bnerr.permutation.sortkeys.sort_key`; the smoothing is guided by the group
+            labels of the object id and normal where the frame has them).
         demodulate: divide the radiance by the albedo before taking the key.
         groups: None, or sort only among pixels sharing ``"object"`` (the object id),
             ``"normal"`` (and the normal's dominant axis) or ``"depth"`` (and a depth bin):
-            :func:`bnerr.sortkeys.group_labels`.
+            :func:`bnerr.permutation.sortkeys.group_labels`.
         shift: None, or the block grid's per-frame offset: ``"half"`` (B/2, B/2) on odd frames,
             (0, 0) on even ones; ``"r2"`` the R2 sequence's point ``t mod B^2`` scaled to
             ``[0, B)^2`` (so that the offsets cycle with period B^2).
         reproject: after the sort and retarget passes, move each seed along the frame's motion
             (forward prediction: frame t's motion t-1 -> t stands for t -> t + 1;
-            :func:`bnerr.reproject.reproject_seeds`, collisions resolved by depth).
-        fast: sort against the FAST mask (:mod:`bnerr.fast`) and retarget with its field
+            :func:`bnerr.permutation.reproject.reproject_seeds`, collisions resolved by depth).
+        fast: sort against the FAST mask (:mod:`bnerr.masks.fast`) and retarget with its field
             instead of the void-and-cluster mask's; make_strategy loads both.
     """
 

@@ -2,8 +2,8 @@
 
 The histogram oracle (:mod:`bnerr.strategies.oracle`) ranks each pixel's K candidates and keeps
 the one at the blue-noise mask's rank: a choice pixel by pixel. ``vertical`` starts from that
-choice and lets :func:`bnerr.vertical.vertical_select` move each pixel to the candidate that most
-lowers the sigma-2 blurred error of the whole image (after Chizhov et al. 2022), with no
+choice and lets :func:`bnerr.permutation.vertical.vertical_select` move each pixel to the candidate
+that most lowers the sigma-2 blurred error of the whole image (after Chizhov et al. 2022), with no
 permutation constraint. A strategy does not see the reference, so the target is the best estimate
 the K renders hold: their mean (K times the spp). The target's own error is then a floor of about
 ``1 / K`` of one candidate's blurred error that no choice removes; with the reference as target
@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import torch
 
+from bnerr.permutation.vertical import vertical_select
 from bnerr.strategies.oracle import OracleStrategy
-from bnerr.vertical import vertical_select
 
 __all__ = ["VerticalStrategy"]
 

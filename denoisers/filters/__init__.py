@@ -20,11 +20,12 @@ are only reasonable starting points for a 4 spp frame.
 Borders are padded by replication everywhere, so every filter works on any image size (a
 reflection pad must be narrower than the image).
 
-Native kernels: each filter's file owns their dispatch and checks, as :mod:`bnerr.permute` owns
-its kernel's. CPU float32 inputs of the a-trous, (joint) bilateral and guided filters go to the C
-kernels of :mod:`denoisers.native` once each kernel has matched its torch path
-(:func:`atrous_torch`, :func:`bilateral_torch`, :func:`guided_torch`) on a self-check, run once
-per loaded library; CUDA, float64, a missing compiler or ``BNERR_NATIVE=0`` run the torch paths.
+Native kernels: each filter's file owns their dispatch and checks, as
+:mod:`bnerr.permutation.permute` owns its kernel's. CPU float32 inputs of the a-trous, (joint)
+bilateral and guided filters go to the C kernels of :mod:`denoisers.native` once each kernel has
+matched its torch path (:func:`atrous_torch`, :func:`bilateral_torch`, :func:`guided_torch`) on a
+self-check, run once per loaded library; CUDA, float64, a missing compiler or ``BNERR_NATIVE=0`` run
+the torch paths.
 
 What these filters are not: production denoisers. They are the range of classical behaviours the
 benchmark needs, from a linear low-pass (which removes most of a blue-noise error and little of a

@@ -15,8 +15,8 @@ them off), reading them by package and file name, so the library ships no denois
   ``compiler_output()``); :func:`eligible` and :func:`threads_for`: which tensors the kernels
   take and how many threads they get.
 
-What stays with the caller, :mod:`denoisers.filters` (as :mod:`bnerr.permute` keeps its own):
-the dispatch (CPU float32 only; CUDA, float64 and the firefly float64 switch keep the torch
+What stays with the caller, :mod:`denoisers.filters` (as :mod:`bnerr.permutation.permute` keeps its
+own): the dispatch (CPU float32 only; CUDA, float64 and the firefly float64 switch keep the torch
 path), the a-trous constants, the self-check of each kernel against its torch path
 (:class:`bnerr.native.SelfCheckedKernels`) and the fallback. Nothing here imports
 :mod:`denoisers.filters`, so the check can live there without an import circle.

@@ -9,8 +9,8 @@ import pytest
 
 from benchmarks.cli import main
 from benchmarks.commands.export import export_array
-from bnerr.fast import load_fast_mask
 from bnerr.io import read_exr
+from bnerr.masks.fast import load_fast_mask
 
 
 def _keys() -> np.ndarray:

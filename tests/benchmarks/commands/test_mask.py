@@ -52,7 +52,7 @@ def test_bad_arguments_exit_2_with_a_message(tmp_path, capsys, argv, message):
 
 
 def test_fast_anneals_the_void_and_cluster_mask_and_reports_both_energies(tmp_path, capsys):
-    from bnerr.fast import fast_mask
+    from bnerr.masks.fast import fast_mask
 
     out = tmp_path / "f.npy"
     argv = ["mask", "--size", "16", "--seed", "2", "--fast", "0.5", "--iterations", "4"]
@@ -68,7 +68,7 @@ def test_fast_anneals_the_void_and_cluster_mask_and_reports_both_energies(tmp_pa
 
 
 def test_frames_writes_the_scalar_stbn_and_reports_both_fractions(tmp_path, capsys):
-    from bnerr.stbn import stbn_scalar
+    from bnerr.masks.stbn import stbn_scalar
 
     out = tmp_path / "st.npy"
     argv = ["mask", "--size", "8", "--frames", "3", "--seed", "2", "--threads", "1"]
@@ -82,7 +82,7 @@ def test_frames_writes_the_scalar_stbn_and_reports_both_fractions(tmp_path, caps
 
 
 def test_frames_with_dims_writes_the_vector_stbn(tmp_path):
-    from bnerr.stbn import stbn_vector
+    from bnerr.masks.stbn import stbn_vector
 
     out = tmp_path / "v.npy"
     argv = ["mask", "--size", "12", "--frames", "2", "--dims", "2", "--iterations", "1"]

@@ -8,7 +8,7 @@ import torch
 from benchmarks.cli import main as cli_main
 from benchmarks.commands.retarget import _identity_energy, _mask
 from bnerr.errors import FileFormatError, ValueRangeError
-from bnerr.retarget import check_displacement
+from bnerr.permutation.retarget import check_displacement
 
 
 def test_command_writes_a_valid_field_and_refuses_bad_files(tmp_path, capsys):

@@ -27,7 +27,7 @@ from bnerr.metrics import (
     ssim,
     temporal_correlation,
 )
-from bnerr.spectrum import low_frequency_fraction
+from bnerr.metrics.spectrum import low_frequency_fraction
 from tests._images import noisy_pair as _pair
 
 # -- per-image metrics -----------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""Tests of bnerr.metrics.spectrum (public as bnerr.spectrum): periodograms, sinusoids, checks."""
+"""Tests of bnerr.metrics.spectrum: periodograms, sinusoids, checks."""
 
 from __future__ import annotations
 
@@ -7,7 +7,6 @@ import math
 import pytest
 import torch
 
-import bnerr.spectrum
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, ValueRangeError
 from bnerr.metrics.spectrum import low_frequency_fraction, radial_power_spectrum
 
@@ -129,9 +128,3 @@ def test_bad_input():
         radial_power_spectrum(torch.zeros(8, 8), tile=1)
     with pytest.raises(ValueRangeError, match=r"cutoff: expected a value in \[0.0, 0.707"):
         low_frequency_fraction(torch.zeros(8, 8), cutoff=0.9)
-
-
-def test_bnerr_spectrum_is_still_the_public_name_of_the_same_functions():
-    assert bnerr.spectrum.__all__ == ["low_frequency_fraction", "radial_power_spectrum"]
-    assert bnerr.spectrum.low_frequency_fraction is low_frequency_fraction
-    assert bnerr.spectrum.radial_power_spectrum is radial_power_spectrum

@@ -25,8 +25,8 @@ from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import ValueRangeError
 from bnerr.native import build as native_build
-from bnerr.permute import luminance, plan_sort, sort_pass, sort_pass_reference
-from bnerr.retarget import inverse_field, optimize_retarget, retarget_sources
+from bnerr.permutation.permute import luminance, plan_sort, sort_pass, sort_pass_reference
+from bnerr.permutation.retarget import inverse_field, optimize_retarget, retarget_sources
 
 needs_cc = pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler (cc)")
 

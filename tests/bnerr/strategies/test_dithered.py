@@ -5,8 +5,8 @@ import torch
 
 from bnerr import strategies
 from bnerr.masks import frame_offset
+from bnerr.masks.stbn import load_stbn
 from bnerr.sequences import BNDSSampler
-from bnerr.stbn import load_stbn
 from bnerr.strategies import (
     BNDSStrategy,
     dithered,

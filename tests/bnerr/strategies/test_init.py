@@ -15,8 +15,8 @@ from bnerr.errors import (
 )
 from bnerr.frame import Frame
 from bnerr.hashing import lowbias32_host
+from bnerr.masks.stbn import load_stbn
 from bnerr.metrics import not_worse
-from bnerr.stbn import load_stbn
 from bnerr.strategies import (
     OWN_SAMPLERS,
     STRATEGIES,

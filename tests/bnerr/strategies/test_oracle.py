@@ -8,7 +8,7 @@ from bnerr.errors import (
     DtypeError,
 )
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import histogram_select, luminance
+from bnerr.permutation.permute import histogram_select, luminance
 from bnerr.strategies import (
     OracleStrategy,
 )

@@ -16,7 +16,7 @@ from bnerr.errors import (
 )
 from bnerr.masks import load_mask
 from bnerr.metrics import blurred_mse, equivalent
-from bnerr.retarget import load_retarget
+from bnerr.permutation.retarget import load_retarget
 from bnerr.sequences import ldbn_key_image, zsobol_keys
 from bnerr.strategies import (
     BNDSStrategy,

@@ -14,8 +14,8 @@ from bnerr.errors import (
 from bnerr.frame import Frame
 from bnerr.masks import frame_offset, load_mask, tile_mask
 from bnerr.metrics import equivalent, not_worse
-from bnerr.permute import sort_pass_reference
-from bnerr.retarget import load_retarget
+from bnerr.permutation.permute import sort_pass_reference
+from bnerr.permutation.retarget import load_retarget
 from bnerr.strategies import (
     VARIANTS,
     TemporalOptions,
@@ -155,9 +155,9 @@ def test_variant_frame_equals_the_slow_twins_composition():
     # One frame of temporal+residual+groups+shift+reproject, rebuilt from the slow twins: the
     # sort_pass reference with the key, labels and grid offset, the retargeting field, and the
     # reprojection reference along the frame's motion with the collision depth.
-    from bnerr.reproject import collision_depth, reproject_seeds_reference
-    from bnerr.retarget import load_retarget, retarget
-    from bnerr.sortkeys import group_labels, sort_key
+    from bnerr.permutation.reproject import collision_depth, reproject_seeds_reference
+    from bnerr.permutation.retarget import load_retarget, retarget
+    from bnerr.permutation.sortkeys import group_labels, sort_key
 
     h, w, t = 19, 26, 3
     strategy = make_strategy("temporal+residual+groups+shift+reproject", h, w, seed=5)
@@ -177,9 +177,9 @@ def test_variant_frame_equals_the_slow_twins_composition():
 def test_fast_sorts_against_the_fast_mask_and_retargets_with_its_field():
     # One frame of temporal+relative+demod+groups+fast, rebuilt from the slow twins with the FAST
     # mask and its retargeting field in place of the void-and-cluster mask's.
-    from bnerr.fast import load_fast_mask, load_fast_retarget
-    from bnerr.retarget import retarget
-    from bnerr.sortkeys import group_labels, sort_key
+    from bnerr.masks.fast import load_fast_mask, load_fast_retarget
+    from bnerr.permutation.retarget import retarget
+    from bnerr.permutation.sortkeys import group_labels, sort_key
 
     name = "temporal+relative+demod+groups+fast"
     assert parse_variant(name)[1] == TemporalOptions("relative", True, "object", fast=True)

@@ -10,7 +10,7 @@ from tests.bnerr.strategies._renders import hash_render
 
 
 def test_vertical_picks_among_the_oracles_candidates_for_a_lower_blurred_error():
-    from bnerr.vertical import blurred_objective
+    from bnerr.permutation.vertical import blurred_objective
 
     oracle_seeds: list = []
     vertical_seeds: list = []

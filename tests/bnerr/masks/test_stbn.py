@@ -1,5 +1,5 @@
-"""Tests of bnerr.stbn: the shipped spatiotemporal masks (blue per slice and along t, every rank
-once per slice), the generators (ranks, determinism, device), the energies against their slow
+"""Tests of bnerr.masks.stbn: the shipped spatiotemporal masks (blue per slice and along t, every
+rank once per slice), the generators (ranks, determinism, device), the energies against their slow
 twins, the swap gain against the energy difference, and the input checks."""
 
 from __future__ import annotations
@@ -18,8 +18,7 @@ from bnerr.errors import (
     UnknownNameError,
     ValueRangeError,
 )
-from bnerr.spectrum import low_frequency_fraction
-from bnerr.stbn import (
+from bnerr.masks.stbn import (
     _candidates,
     _independent,
     _initial_pattern,
@@ -37,6 +36,7 @@ from bnerr.stbn import (
     stbn_vector_energy_reference,
     temporal_low_frequency_fraction,
 )
+from bnerr.metrics.spectrum import low_frequency_fraction
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 
@@ -320,8 +320,8 @@ def test_bad_input_raises_typed_errors(call, error, message):
 
 
 def test_a_foreign_shipped_file_is_a_file_format_error(monkeypatch, tmp_path):
+    import bnerr.masks.stbn as stbn
     import bnerr.resources as resources
-    import bnerr.stbn as stbn
 
     np.save(tmp_path / "stbn_scalar_8x2.npy", np.zeros((2, 8, 9), dtype=np.float32))
     monkeypatch.setattr(resources, "data_dir", lambda: tmp_path)

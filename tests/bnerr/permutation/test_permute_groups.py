@@ -1,16 +1,18 @@
-"""Tests for bnerr.permute's grouped and offset sort pass (docs/METHODS.md, section 8): groups and
-grid offsets agree on every path (native, torch, slow twin), the plain pass is the paper's bit for
-bit, each group sorts against its own mask values, typed errors, CUDA against the CPU."""
+"""Tests for bnerr.permutation.permute's grouped and offset sort pass (docs/METHODS.md, section 8):
+groups and grid offsets agree on every path (native, torch, slow twin), the plain pass is the
+paper's bit for bit, each group sorts against its own mask values, typed errors, CUDA against the
+CPU."""
 
 import pytest
 import torch
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from bnerr import native, permute
+from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import DtypeError, ShapeError, ValueRangeError
-from bnerr.permute import (
+from bnerr.permutation import permute
+from bnerr.permutation.permute import (
     SortPass,
     SortPlan,
     luminance,
@@ -19,7 +21,7 @@ from bnerr.permute import (
     sort_pass_reference,
     sort_torch,
 )
-from tests.bnerr._permute_cases import permute_case
+from tests.bnerr.permutation._permute_cases import permute_case
 
 
 def _groups(gen: torch.Generator, h: int, w: int, kind: str) -> torch.Tensor | None:

@@ -1,6 +1,6 @@
-"""Tests for bnerr.retarget: the optimizer, the shipped fields, the op that applies a field (native,
-torch and loop paths bit for bit; the torch op) and its file (the ``bnerr retarget`` command is
-tested in tests/benchmarks/commands/test_retarget.py)."""
+"""Tests for bnerr.permutation.retarget: the optimizer, the shipped fields, the op that applies a
+field (native, torch and loop paths bit for bit; the torch op) and its file (the ``bnerr retarget``
+command is tested in tests/benchmarks/commands/test_retarget.py)."""
 
 import importlib.util
 
@@ -11,10 +11,10 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from bnerr import native
-from bnerr import retarget as retarget_module
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.masks import frame_offset, load_mask, r2_step
-from bnerr.retarget import (
+from bnerr.permutation import retarget as retarget_module
+from bnerr.permutation.retarget import (
     MAX_DISPLACEMENT,
     Retarget,
     check_displacement,

@@ -63,9 +63,9 @@ from bnerr.errors import (
     check_tensor,
 )
 from bnerr.hashing import MASK32, lowbias32, lowbias32_host, signed32
-from bnerr.masks import void_and_cluster
+from bnerr.masks.spatial import void_and_cluster
+from bnerr.permutation.retarget import read_shipped_field
 from bnerr.resources import load_array, shipped_files
-from bnerr.retarget import read_shipped_field
 
 __all__ = [
     "DEFAULT_ITERATIONS",
@@ -419,7 +419,7 @@ def load_fast_mask(size: int = 64) -> torch.Tensor:
 
 def load_fast_retarget(size: int = 64) -> torch.Tensor:
     """The retargeting field of the shipped FAST mask (``retarget_fast_<T>.npy``): the field of
-    :mod:`bnerr.retarget` optimized for ``load_fast_mask(T)`` and the R2 step of T.
+    :mod:`bnerr.permutation.retarget` optimized for ``load_fast_mask(T)`` and the R2 step of T.
 
     Returns:
         ``[2, T, T]`` int64 on the CPU, checked (a permutation of the tile, ``|d| <= 6``).

@@ -28,8 +28,8 @@ the input seeds.
 **Non-finite input.** NaN in either motion component: the pixel does not move (both components
 read as 0). Infinite motion: off screen, to the pool. NaN depth: farther than every number (after
 ``+inf``), so it loses every collision against a real depth. Depth order is the float32 order of
-:mod:`bnerr.permute` (``-0.0 == +0.0``). The Frame's depth holds 0 where the ray escaped (the
-background would win every collision): pass :func:`collision_depth` instead, which puts the
+:mod:`bnerr.permutation.permute` (``-0.0 == +0.0``). The Frame's depth holds 0 where the ray escaped
+(the background would win every collision): pass :func:`collision_depth` instead, which puts the
 background at ``+inf``.
 
 **Where a strategy calls it.** Per frame t: render S_t, sort against M_t, retarget at o_t (the
@@ -60,7 +60,7 @@ from bnerr.errors import (
     check_shape,
     check_tensor,
 )
-from bnerr.permute import ordered_keys  # the float32 order of the sorting pass, one copy
+from bnerr.permutation.permute import ordered_keys  # the sorting pass's float32 order, one copy
 
 __all__ = [
     "DIRECTIONS",

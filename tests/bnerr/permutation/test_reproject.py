@@ -1,6 +1,7 @@
-"""Tests for bnerr.reproject: the bijective reprojection against its slow twin (ties, NaN, motion
-off screen, disocclusions), a 200-frame run that stays a permutation of the initial seeds, the
-temporal pipeline with every option (groups, grid offsets, retargeting, reprojection), errors."""
+"""Tests for bnerr.permutation.reproject: the bijective reprojection against its slow twin (ties,
+NaN, motion off screen, disocclusions), a 200-frame run that stays a permutation of the initial
+seeds, the temporal pipeline with every option (groups, grid offsets, retargeting, reprojection),
+errors."""
 
 import math
 
@@ -11,14 +12,14 @@ from hypothesis import strategies as st
 
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError
 from bnerr.masks import frame_offset, load_mask, tile_mask
-from bnerr.permute import sort_pass
-from bnerr.reproject import (
+from bnerr.permutation.permute import sort_pass
+from bnerr.permutation.reproject import (
     collision_depth,
     reproject_seeds,
     reproject_seeds_reference,
     reproject_sources,
 )
-from bnerr.retarget import load_retarget, retarget
+from bnerr.permutation.retarget import load_retarget, retarget
 
 
 def _motion(gen: torch.Generator, h: int, w: int, scale: float, special: float) -> torch.Tensor:

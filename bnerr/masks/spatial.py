@@ -1,4 +1,4 @@
-"""Blue-noise masks: void-and-cluster scalar masks, Georgiev-Fajardo vector masks, R2 offsets.
+"""Spatial blue-noise masks: void-and-cluster scalar and Georgiev-Fajardo vector masks, R2 offsets.
 
 A mask is a ``T x T`` tile repeated toroidally over the screen (docs/METHODS.md, section 2):
 
@@ -18,7 +18,7 @@ come from a counter-based hash (splitmix64) keyed by the seed, so the same seed 
 on every platform and numpy version.
 
 Not for: generating masks per frame at run time (a 128x128 scalar mask takes about a second; ship
-or cache them), nor spatio-temporal masks (Wolfe et al. 2022), which this module does not build.
+or cache them), nor spatio-temporal masks (Wolfe et al. 2022): :mod:`bnerr.masks.stbn` builds those.
 """
 
 from __future__ import annotations

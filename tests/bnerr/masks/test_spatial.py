@@ -1,5 +1,5 @@
-"""Tests of bnerr.masks: rank and permutation properties, blueness against white controls, R2
-offsets, tiling, determinism, the shipped masks and the input checks."""
+"""Tests of bnerr.masks.spatial: rank and permutation properties, blueness against white controls,
+R2 offsets, tiling, determinism, the shipped masks and the input checks."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
-from bnerr.masks import (
+from bnerr.masks.spatial import (
     PLASTIC_NUMBER,
     _gf_window,
     _swap_gain,
@@ -25,7 +25,7 @@ from bnerr.masks import (
     vector_mask_energy,
     void_and_cluster,
 )
-from bnerr.spectrum import low_frequency_fraction
+from bnerr.metrics.spectrum import low_frequency_fraction
 
 SHIPPED_VECTOR_DIMS = (2, 4, 8)
 

@@ -1,5 +1,5 @@
-"""The vertical bound (bnerr.vertical): greedy choice of one candidate per pixel against the
-exact minimum of an exhaustive search on tiny frames."""
+"""The vertical bound (bnerr.permutation.vertical): greedy choice of one candidate per pixel against
+the exact minimum of an exhaustive search on tiny frames."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import pytest
 import torch
 
 from bnerr.errors import ShapeError, ValueRangeError
-from bnerr.vertical import blurred_objective, exhaustive_select, vertical_select
+from bnerr.permutation.vertical import blurred_objective, exhaustive_select, vertical_select
 
 pytestmark = pytest.mark.usefixtures("one_thread")
 

@@ -1,11 +1,11 @@
-"""bnerr.fast: FAST masks are permutations of their start, lower its energy, are deterministic; the
-shipped mask and its retargeting field load and belong together; bad input raises typed errors."""
+"""bnerr.masks.fast: FAST masks are permutations of their start, lower its energy, are
+deterministic; the shipped mask and its retargeting field load and belong together; bad input raises
+typed errors."""
 
 import numpy as np
 import pytest
 import torch
 
-from bnerr import fast, retarget
 from bnerr.errors import (
     DtypeError,
     FileFormatError,
@@ -14,7 +14,8 @@ from bnerr.errors import (
     UnknownNameError,
     ValueRangeError,
 )
-from bnerr.fast import (
+from bnerr.masks import fast, load_mask, r2_step, void_and_cluster
+from bnerr.masks.fast import (
     SHIPPED_SIGMA,
     fast_energy,
     fast_mask,
@@ -22,9 +23,9 @@ from bnerr.fast import (
     load_fast_retarget,
     shipped_fast_masks,
 )
-from bnerr.masks import load_mask, r2_step, void_and_cluster
-from bnerr.retarget import load_retarget, retarget_energy
-from bnerr.spectrum import low_frequency_fraction
+from bnerr.metrics.spectrum import low_frequency_fraction
+from bnerr.permutation import retarget
+from bnerr.permutation.retarget import load_retarget, retarget_energy
 
 
 def _white(size: int, seed: int) -> torch.Tensor:

@@ -42,8 +42,8 @@ at), whatever block-grid offset (``sort_pass(..., grid_offset=g_t)``) or groups 
 used. After a sort, the seed at p is ranked like ``M(p + o_t)`` among its block's (or group's)
 pixels, however the blocks were cut, and the field moves it to where ``M(. + o_t + s)`` wants
 that rank; the grid offset only changes which seeds competed. Reprojection along motion
-(:func:`bnerr.reproject.reproject_seeds`) comes after this pass, carrying the retargeted seed image
-from frame t's screen to frame t + 1's.
+(:func:`bnerr.permutation.reproject.reproject_seeds`) comes after this pass, carrying the retargeted
+seed image from frame t's screen to frame t + 1's.
 
 Not for: masks other than the one a field was optimized for (run :func:`optimize_retarget` on
 yours), or a step that changes between frames.
@@ -525,7 +525,7 @@ def _self_check(kernels: native.Kernels) -> bool:
 
 #: The native kernels if they load and pass :func:`_self_check` (run once per library).
 _native_kernels = native.SelfCheckedKernels(
-    _self_check, "bnerr.retarget: the native retargeting kernel"
+    _self_check, "bnerr.permutation.retarget: the native retargeting kernel"
 )
 
 

@@ -51,8 +51,9 @@ a few tens of ms at 1080p on CPU, fast on CUDA). All paths give bit-identical ou
 :func:`luminance` is :func:`bnerr.color.luminance`, re-exported here.
 
 Not for: sorting by anything but one scalar per pixel (pass your own key as ``values [H, W]``,
-e.g. :func:`bnerr.sortkeys.sort_key`), or permutations that cross the blocks of one frame (that
-is :mod:`bnerr.retarget`, and :mod:`bnerr.reproject` along motion).
+e.g. :func:`bnerr.permutation.sortkeys.sort_key`), or permutations that cross the blocks of one
+frame (that is :mod:`bnerr.permutation.retarget`, and :mod:`bnerr.permutation.reproject` along
+motion).
 """
 
 from __future__ import annotations
@@ -389,7 +390,9 @@ def _self_check(kernels: native.Kernels) -> bool:
 
 
 #: The native kernels if they load and pass :func:`_self_check` (run once per library).
-_native_kernels = native.SelfCheckedKernels(_self_check, "bnerr.permute: the native sort kernel")
+_native_kernels = native.SelfCheckedKernels(
+    _self_check, "bnerr.permutation.permute: the native sort kernel"
+)
 
 
 # The op, registered with the low-level torch.library API: its dispatch costs a few microseconds
@@ -540,7 +543,7 @@ def sort_pass(
     Args:
         seeds: ``[H, W]`` int64, the seed image that rendered ``values``.
         values: ``[H, W]`` floating point (the sort key, e.g. luminance or a
-            :func:`bnerr.sortkeys.sort_key`), or ``[3, H, W]`` linear RGB (its Rec. 709
+            :func:`bnerr.permutation.sortkeys.sort_key`), or ``[3, H, W]`` linear RGB (its Rec. 709
             :func:`luminance` is taken), or ``[1, H, W]``. Compared as float32; NaN and infinities
             are allowed (see the module docstring for the order).
         mask: ``[H, W]`` floating point, the frame's mask values already tiled and offset; or a
@@ -548,9 +551,9 @@ def sort_pass(
             same tensor object is passed unchanged.
         block: block size B, an integer in 2..8 (the paper uses 4).
         groups: ``[H, W]`` integer labels on ``seeds``' device (e.g.
-            :func:`bnerr.sortkeys.group_labels`), or None (one group per block, the paper's).
-            Only equality matters. Costs: two more row sorts on the torch path; on the CPU the
-            native kernel's scalar code (see ``benchmarks/speed_permute.py``).
+            :func:`bnerr.permutation.sortkeys.group_labels`), or None (one group per block, the
+            paper's). Only equality matters. Costs: two more row sorts on the torch path; on the CPU
+            the native kernel's scalar code (see ``benchmarks/speed/permute.py``).
         grid_offset: ``(oy, ox)`` in ``[0, B)^2``: pixel (y, x) lies in block
             ``((y + oy) // B, (x + ox) // B)``. None: the plan's (a :class:`SortPlan` carries
             its own), or ``(0, 0)`` for a mask tensor. Independent of the mask's toroidal offset;

@@ -1,6 +1,6 @@
-"""Tests for bnerr.sortkeys: the keys (luminance bit for bit the sorting pass's own, residual,
-relative, demodulated), the label-guided smoothing against its slow twin, group labels against
-theirs, and typed errors."""
+"""Tests for bnerr.permutation.sortkeys: the keys (luminance bit for bit the sorting pass's own,
+residual, relative, demodulated), the label-guided smoothing against its slow twin, group labels
+against theirs, and typed errors."""
 
 import math
 
@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 from bnerr.color import luminance
 from bnerr.errors import DtypeError, ShapeError, UnknownNameError, ValueRangeError
 from bnerr.frame import Frame
-from bnerr.permute import plan_sort, sort_pass
-from bnerr.sortkeys import (
+from bnerr.permutation.permute import plan_sort, sort_pass
+from bnerr.permutation.sortkeys import (
     KINDS,
     demodulated,
     frame_sort_key,

@@ -1,6 +1,6 @@
-"""Tests for bnerr.permute: the sorting pass against its reference twin (native, torch and slow
-paths bit for bit), the torch op, its properties (groups and grid offsets: test_permute_groups.py),
-histogram sampling, and typed errors."""
+"""Tests for bnerr.permutation.permute: the sorting pass against its reference twin (native, torch
+and slow paths bit for bit), the torch op, its properties (groups and grid offsets:
+test_permute_groups.py), histogram sampling, and typed errors."""
 
 import math
 
@@ -9,10 +9,11 @@ import torch
 from hypothesis import example, given
 from hypothesis import strategies as st
 
-from bnerr import native, permute
+from bnerr import native
 from bnerr.color import LUMINANCE_WEIGHTS
 from bnerr.errors import DtypeError, NonFiniteError, ShapeError, ValueRangeError
-from bnerr.permute import (
+from bnerr.permutation import permute
+from bnerr.permutation.permute import (
     SortPass,
     SortPlan,
     histogram_select,
@@ -24,7 +25,7 @@ from bnerr.permute import (
 )
 from tests._images import block_multisets
 from tests._twins import REC709
-from tests.bnerr._permute_cases import adversarial_values, permute_case
+from tests.bnerr.permutation._permute_cases import adversarial_values, permute_case
 
 
 @given(

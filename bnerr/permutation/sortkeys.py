@@ -5,8 +5,8 @@ block has the same expected value, so that a difference in value is a difference
 Texture, shading gradients and edges break that. The keys here estimate each pixel's *error*
 instead; the group labels restrict a block's sort to pixels that look alike.
 
-**Keys** (:func:`sort_key`, ``[H, W]`` float32, passed to :func:`bnerr.permute.sort_pass` as
-its ``values``):
+**Keys** (:func:`sort_key`, ``[H, W]`` float32, passed to
+:func:`bnerr.permutation.permute.sort_pass` as its ``values``):
 
 - ``"luminance"``: ``lum(I)``, Rec. 709 (:func:`bnerr.color.luminance`), bit for bit the key
   the sorting pass takes from an RGB frame: Heitz & Belcour's.
@@ -32,7 +32,7 @@ distances) was tried first and cost several times as much per tap (1080p, one lo
 1.6 to 4.6 s against 0.27 s) for an estimate that only differs near feature edges. The block
 is 4 x 4, so a 3 x 3 or 5 x 5 window is the scale the sort compares at.
 
-**Groups** (:func:`group_labels`, ``[H, W]`` int64, :func:`bnerr.permute.sort_pass`'s
+**Groups** (:func:`group_labels`, ``[H, W]`` int64, :func:`bnerr.permutation.permute.sort_pass`'s
 ``groups``): the object id, optionally with the normal's dominant axis and sign (6 bins) and a
 logarithmic depth bin folded in.
 
@@ -287,7 +287,7 @@ def group_labels(
     *,
     depth_bins_per_octave: int = 4,
 ) -> torch.Tensor:
-    """Group labels for :func:`bnerr.permute.sort_pass`: object id, normal bin, depth bin.
+    """Group labels for :func:`bnerr.permutation.permute.sort_pass`: object id, normal, depth bin.
 
     Args:
         object_id: ``[1, H, W]`` floating (the Frame's: -1 background), rounded to an integer;
