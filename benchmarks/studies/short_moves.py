@@ -18,9 +18,13 @@ sort and the retargeting move seeds):
 - :func:`mean_move`: how far seeds move per frame (px), the sorting pass's moves included;
 - the outcome: the sigma-2 blurred MSE over the coherent pixels, as a fraction of white's.
 
-``python -m benchmarks.moves`` prints the table for ``direct`` and ``indirect`` at 16 spp on
-64 x 64 frames, fields of radius 1, 2, 3 and the shipped 6, with the luminance and the residual
-sort key (a diagnosis, not a benchmark: nothing is written under ``results/``).
+``python -m benchmarks.studies.short_moves`` prints the table for ``direct`` and ``indirect``
+at 16 spp on 64 x 64 frames, fields of radius 1, 2, 3 and the shipped 6, with the luminance and
+the residual sort key (a diagnosis, not a benchmark: nothing is written under ``results/``).
+
+The finding it measures: docs/FINDINGS.md, "How much of the gap to the oracle the temporal variants
+close" (a seed's error does not carry over to the pixel it is moved to, and shorter moves keep
+little more of it while matching the mask worse); the table is in docs/METHODS.md, section 11.
 
 Not for: optimizing fields to ship (``bnerr retarget``).
 """
@@ -82,7 +86,7 @@ def mean_move(seeds_t: torch.Tensor, seeds_u: torch.Tensor) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# The measurement (python -m benchmarks.moves)
+# The measurement (python -m benchmarks.studies.short_moves)
 
 
 def _field(mask: torch.Tensor, radius: int) -> torch.Tensor:
