@@ -1,20 +1,21 @@
 """The trade of short moves (issue 26, item 4): a seed's error carried over against the mask.
 
-The retargeting pass (:mod:`bnerr.retarget`) moves every seed after the sort so that the mask
-value it was ranked like is close to the value the next frame's (shifted) mask wants at its new
+The retargeting pass (:mod:`bnerr.permutation.retarget`) moves every seed after the sort so that the
+mask value it was ranked like is close to the value the next frame's (shifted) mask wants at its new
 pixel. The shipped field lets a seed move up to 6 px per axis. The method only works if the seed's
 error moves with it: a seed moved far lands on a pixel whose integrand differs, and its error
 there is a new draw. A field with shorter moves (at most ``r`` px per axis, optimized the same
-way, :func:`bnerr.retarget.optimize_retarget` with ``method="exact"``) keeps more of the error,
-but matches the next frame's mask worse. Two measures of each side, on a static camera (only the
-sort and the retargeting move seeds):
+way, :func:`bnerr.permutation.retarget.optimize_retarget` with ``method="exact"``) keeps more of the
+error, but matches the next frame's mask worse. Two measures of each side, on a static camera (only
+the sort and the retargeting move seeds):
 
 - :func:`seed_carryover`: the Pearson correlation, over seeds, of a seed's error (luminance) at
   frame t with its error at frame t + 1 at the pixel it moved to; 1 when the error travels with
   the seed, 0 when it is a fresh draw;
-- the field's energy :func:`bnerr.retarget.retarget_energy`, ``mean |M(q + d(q)) - M(q + s)|``,
-  as a fraction of the identity field's (no retargeting): how far the mask a seed was ranked for
-  is from the mask it meets (0: the mask moves with the seeds; 1: as if not retargeted);
+- the field's energy :func:`bnerr.permutation.retarget.retarget_energy`,
+  ``mean |M(q + d(q)) - M(q + s)|``, as a fraction of the identity field's (no retargeting): how far
+  the mask a seed was ranked for is from the mask it meets (0: the mask moves with the seeds; 1: as
+  if not retargeted);
 - :func:`mean_move`: how far seeds move per frame (px), the sorting pass's moves included;
 - the outcome: the sigma-2 blurred MSE over the coherent pixels, as a fraction of white's.
 
