@@ -67,6 +67,24 @@ def as_denoiser(
     label = _declared(fn, "name", name, getattr(fn, "__name__", type(fn).__name__.lower()))
     if not isinstance(label, str) or not label:
         raise DtypeError(f"as_denoiser: name: expected a non-empty str, got {label!r}")
+    table = _grid_table(fn, grid, label)
+    attributes = {
+        "name": label,
+        "kind": _declared(fn, "kind", kind, "learned" if module else "filter"),
+        "grid": table,
+        "stateful": bool(getattr(fn, "stateful", False)),
+        "requires": frozenset(getattr(fn, "requires", ())),
+        "plugin_source": fn,
+        **_methods(fn, label, table),
+        "__doc__": inspect.getdoc(fn) or f"The denoiser {label!r} (a wrapped callable).",
+    }
+    return type(f"Wrapped_{label}", (Denoiser,), attributes)
+
+
+def _grid_table(
+    fn: object, grid: Mapping[str, Sequence[object]] | None, label: str
+) -> dict[str, Sequence[object]]:
+    """The tuning grid ``grid`` (else ``fn.grid``, else none) as a dict, every entry with values."""
     table = dict(_declared(fn, "grid", grid, {}))
     empty = [key for key, values in table.items() if not values]
     if empty:
@@ -74,6 +92,16 @@ def as_denoiser(
             f"as_denoiser {label!r}: grid: expected values for every parameter, got none for "
             f"{', '.join(empty)}"
         )
+    return table
+
+
+def _methods(
+    fn: Callable[..., torch.Tensor], label: str, table: Mapping[str, Sequence[object]]
+) -> dict[str, Callable[..., Any]]:
+    """``__init__`` (the grid's keywords, each defaulting to its first value), ``denoise`` (``fn``
+    under ``torch.no_grad()``, a module in eval mode, its output checked and made float32) and
+    ``params`` of the wrapped class."""
+    module = isinstance(fn, torch.nn.Module)
 
     def __init__(self: Any, **params: object) -> None:
         self._params = {key: params.get(key, values[0]) for key, values in table.items()}
@@ -97,16 +125,4 @@ def as_denoiser(
     def params(self: Any) -> dict[str, Any]:
         return dict(self._params)
 
-    attributes = {
-        "name": label,
-        "kind": _declared(fn, "kind", kind, "learned" if module else "filter"),
-        "grid": table,
-        "stateful": bool(getattr(fn, "stateful", False)),
-        "requires": frozenset(getattr(fn, "requires", ())),
-        "plugin_source": fn,
-        "__init__": __init__,
-        "denoise": denoise,
-        "params": params,
-        "__doc__": inspect.getdoc(fn) or f"The denoiser {label!r} (a wrapped callable).",
-    }
-    return type(f"Wrapped_{label}", (Denoiser,), attributes)
+    return {"__init__": __init__, "denoise": denoise, "params": params}

@@ -1,5 +1,6 @@
-"""Tests for the shape of the code base: short functions, no import cycle, imports point one way,
-and no file that refers to a document outside the repository.
+"""Tests for the shape of the code base: short functions, no import cycle, imports point one way
+(the studies apart from the framework), and no file that refers to a document outside the
+repository.
 
 These read the sources with :mod:`ast` (nothing is imported), so they are fast and see function-
 level imports as well as module-level ones.
@@ -52,44 +53,24 @@ def parse(path: Path) -> ast.Module:
     return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
 
 
-def _docstring_lines(node: ast.AST) -> set[int]:
-    """Line numbers of the docstrings of ``node`` and of every function and class inside it."""
-    lines: set[int] = set()
-    for inner in ast.walk(node):
-        kinds = (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)
-        if not isinstance(inner, kinds) or not inner.body:
-            continue
-        first = inner.body[0]
-        if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
-            if isinstance(first.value.value, str):
-                lines.update(range(first.lineno, first.end_lineno + 1))
-    return lines
+def span(node: ast.FunctionDef | ast.AsyncFunctionDef) -> tuple[int, int]:
+    """``(first line, lines)`` of a function: from its first decorator (else its ``def``) to the
+    end of its body, every line counted: docstrings, comments and blank lines are read too."""
+    first = min([node.lineno, *(d.lineno for d in node.decorator_list)])
+    end = node.end_lineno if node.end_lineno is not None else node.lineno
+    return first, end - first + 1
 
 
-def code_lines(node: ast.FunctionDef | ast.AsyncFunctionDef, source: list[str]) -> int:
-    """Lines of code of a function, from its ``def`` to the end of its body: docstrings (its own
-    and its nested functions'), blank lines and comment-only lines are not code, so that
-    documentation is never trimmed to meet the limit; decorators are not counted either."""
-    docs = _docstring_lines(node)
-    count = 0
-    for line in range(node.lineno, node.end_lineno + 1):
-        text = source[line - 1].strip()
-        if line not in docs and text and not text.startswith("#"):
-            count += 1
-    return count
-
-
-def function_lengths(tree: ast.Module, source: str) -> list[tuple[str, int, int]]:
-    """``(qualified name, first line, code lines)`` of every function and method, nested ones
-    too (:func:`code_lines`)."""
+def function_lengths(tree: ast.Module) -> list[tuple[str, int, int]]:
+    """``(qualified name, first line, lines)`` of every function and method, nested ones too
+    (:func:`span`; a nested function's lines count in its parent's as well)."""
     found = []
-    lines = source.splitlines()
 
     def visit(node: ast.AST, prefix: str) -> None:
         for child in ast.iter_child_nodes(node):
             if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)):
                 name = f"{prefix}{child.name}"
-                found.append((name, child.lineno, code_lines(child, lines)))
+                found.append((name, *span(child)))
                 visit(child, f"{name}.")
             elif isinstance(child, ast.ClassDef):
                 visit(child, f"{prefix}{child.name}.")
@@ -225,24 +206,23 @@ def _cycle_in(graph: dict[str, set[str]], component: set[str], start: str) -> li
 def test_no_function_is_longer_than_60_lines():
     too_long = []
     for path in MODULES.values():
-        source = path.read_text(encoding="utf-8")
-        for name, line, length in function_lengths(ast.parse(source), source):
+        for name, line, length in function_lengths(parse(path)):
             if length > MAX_FUNCTION_LINES:
                 too_long.append(f"{path.relative_to(ROOT)}:{line} {name} ({length} lines)")
     assert not too_long, "functions over 60 lines:\n" + "\n".join(too_long)
 
 
-def test_function_length_counts_code_not_docstrings_comments_blanks_or_decorators():
+def test_function_length_counts_every_line_from_the_first_decorator():
     source = (
         '@decorator\n@other(1)\ndef f(x):\n    """Doc\n    string."""\n\n    # why\n'
         "    y = (x,\n         'not a docstring')\n    return y\n"
     )
-    assert function_lengths(ast.parse(source), source) == [("f", 3, 4)]
+    assert function_lengths(ast.parse(source)) == [("f", 1, 10)]
     nested = (
         "class A:\n    def m(self):\n        def inner():\n            '''Doc.'''\n"
         "            pass\n        return 1\n"
     )
-    assert function_lengths(ast.parse(nested), nested) == [("A.m", 2, 4), ("A.m.inner", 3, 2)]
+    assert function_lengths(ast.parse(nested)) == [("A.m", 2, 5), ("A.m.inner", 3, 3)]
 
 
 def test_no_import_cycle():
@@ -325,6 +305,83 @@ def test_imports_point_one_way():
             if other != package and other not in ALLOWED_IMPORTS[package]:
                 wrong.append(f"{module} imports {target}")
     assert not wrong, "imports against the layering:\n" + "\n".join(wrong)
+
+
+# The studies (benchmarks/studies/): each the measurement behind one finding, run once by hand.
+STUDIES = "benchmarks.studies"
+
+
+def is_study(module: str) -> bool:
+    return module == STUDIES or module.startswith(f"{STUDIES}.")
+
+
+def import_closure(roots: list[str], graph: dict[str, set[str]]) -> set[str]:
+    """Every module that importing ``roots`` can load: the roots and, transitively, what they
+    import (function-level and type-only imports included, as in ``graph``)."""
+    seen: set[str] = set()
+    stack = list(roots)
+    while stack:
+        module = stack.pop()
+        if module not in seen:
+            seen.add(module)
+            stack.extend(graph.get(module, ()))
+    return seen
+
+
+def test_the_import_closure_follows_imports_transitively():
+    graph = {"a": {"b"}, "b": {"c"}, "c": set(), "d": {"a"}}
+    assert import_closure(["a"], graph) == {"a", "b", "c"}
+    assert import_closure(["d", "c"], graph) == {"a", "b", "c", "d"}
+    assert is_study("benchmarks.studies.x") and is_study(STUDIES)
+    assert not is_study("benchmarks.studies_x") and not is_study("benchmarks.suites")
+
+
+def test_no_module_outside_the_studies_imports_a_study():
+    """A study answers a question once; the library, the renderers, the denoisers and the
+    benchmark framework never need one (a helper two of them share moves into the framework)."""
+    wrong = [
+        f"{module} imports {target}"
+        for module, targets in import_graph(runtime_only=False).items()
+        if not is_study(module)
+        for target in sorted(targets)
+        if is_study(target)
+    ]
+    assert not wrong, "studies imported from outside benchmarks/studies:\n" + "\n".join(wrong)
+
+
+def test_the_bench_never_loads_a_study():
+    """``bnerr``'s commands (``benchmarks.cli`` and every module of ``benchmarks.commands``, which
+    the CLI discovers by name, not by an import statement) and the suites load no study: a module
+    the bench needs does not sit among the studies."""
+    graph = import_graph(runtime_only=False)
+    commands = [m for m in MODULES if m.startswith("benchmarks.commands.")]
+    loaded = import_closure(["benchmarks.cli", "benchmarks.suites", *commands], graph)
+    assert {"benchmarks.sweep.runner", "benchmarks.evaluate"} <= loaded  # the closure is deep
+    studies = sorted(m for m in loaded if is_study(m))
+    assert not studies, "studies the bench loads (framework modules?): " + ", ".join(studies)
+
+
+def test_every_study_runs_as_a_module_and_names_its_command_and_finding():
+    """Each study runs as ``python -m benchmarks.studies.NAME``, its docstring quotes that command
+    and names the finding it measures in docs/FINDINGS.md, and FINDINGS quotes the command."""
+    findings = " ".join((ROOT / "docs" / "FINDINGS.md").read_text(encoding="utf-8").split())
+    studies = [m for m, path in MODULES.items() if is_study(m) and path.name != "__init__.py"]
+    assert len(studies) >= 8
+    wrong = []
+    for module in studies:
+        tree = parse(MODULES[module])
+        doc = " ".join((ast.get_docstring(tree) or "").split())
+        command = f"python -m {module}"
+        runs = any(
+            isinstance(node, ast.If) and "__main__" in ast.unparse(node.test) for node in tree.body
+        )
+        if not runs:
+            wrong.append(f'{module}: no `if __name__ == "__main__":`')
+        if command not in doc or "docs/FINDINGS.md" not in doc:
+            wrong.append(f"{module}: its docstring quotes no `{command}` or no docs/FINDINGS.md")
+        if command not in findings:
+            wrong.append(f"{module}: docs/FINDINGS.md quotes no `{command}`")
+    assert not wrong, "studies:\n" + "\n".join(wrong)
 
 
 # Files that could refer to a document: sources, docs, configuration, the Makefile and CI.

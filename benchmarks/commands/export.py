@@ -1,8 +1,8 @@
 """``bnerr export``: write a shipped key set or mask as textures an engine loads.
 
 One of ``--ldbn KIND`` (``screen``, ``fast``, ``st``: the LDBN key sets, bnerr.ldbn), ``--stbn
-KIND`` (``scalar``, ``vector``: the spatiotemporal masks, bnerr.stbn) or ``--fast`` (the FAST mask,
-bnerr.fast), in ``--format``:
+KIND`` (``scalar``, ``vector``: the spatiotemporal masks, bnerr.masks.stbn) or ``--fast`` (the
+FAST mask, bnerr.masks.fast), in ``--format``:
 
 - ``npy``: the array as shipped, one file ``<name>.npy``;
 - ``exr``: one float32 EXR per slice, ``<name>_<slice>.exr``, channels ``c.0 .. c.<C-1>``; the LDBN

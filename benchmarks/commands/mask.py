@@ -1,13 +1,13 @@
 """``bnerr mask``: generate a blue-noise mask and write it as NPY, EXR or PNG.
 
 ``--dims 1`` (the default) makes a void-and-cluster scalar mask ``[T, T]``; ``--dims D`` with
-D >= 2 a Georgiev-Fajardo vector mask ``[D, T, T]`` (bnerr.masks). With ``--frames F`` it makes a
-spatiotemporal blue-noise mask instead (bnerr.stbn): scalar ``[F, T, T]`` or vector
+D >= 2 a Georgiev-Fajardo vector mask ``[D, T, T]`` (bnerr.masks.spatial). With ``--frames F`` it
+makes a spatiotemporal blue-noise mask instead (bnerr.masks.stbn): scalar ``[F, T, T]`` or vector
 ``[F, D, T, T]``, written as ``.npy`` only. The command prints the mask's low-frequency energy
-fraction (bnerr.spectrum; white noise measures about 0.049; for a spatiotemporal mask the largest
-and the mean over slices, and the fraction of each pixel's series over t) and the time the
+fraction (bnerr.metrics.spectrum; white noise measures about 0.049; for a spatiotemporal mask the
+largest and the mean over slices, and the fraction of each pixel's series over t) and the time the
 generation took. With ``--fast SIGMA`` the scalar void-and-cluster mask it would make is then
-annealed into a FAST mask for a Gaussian filter of SIGMA pixels (bnerr.fast: same values,
+annealed into a FAST mask for a Gaussian filter of SIGMA pixels (bnerr.masks.fast: same values,
 rearranged for that filter), and the FAST energy before and after is printed too. With ``--ldbn`` it
 optimizes LDBN key tiles instead (bnerr.ldbn; ``--spp``, ``--dims``, ``--size``, ``--frames`` for
 the spatiotemporal set, ``--fast SIGMA`` for the filter-adapted set; resumable from
@@ -60,7 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--frames",
         type=positive_int,
         default=None,
-        help="F: make a spatiotemporal mask of F slices (bnerr.stbn; .npy output only)",
+        help="F: make a spatiotemporal mask of F slices (bnerr.masks.stbn; .npy output only)",
     )
     parser.add_argument(
         "--sigma",

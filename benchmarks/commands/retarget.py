@@ -2,9 +2,9 @@
 
 Heitz & Belcour 2019's retargeting pass moves every seed by at most 6 pixels so that the seed
 ranked like ``M(q)`` in frame t lands where frame t + 1's mask (shifted by the constant R2 step)
-wants that rank (bnerr.retarget). The command optimizes the displacement field for the shipped
-scalar mask of size T (or for ``--mask FILE.npy``), writes it as an int8 ``[2, T, T]`` (dy, dx)
-array, and prints the energy ``mean |M(q + d(q)) - M(q + step)|`` of the result next to the
+wants that rank (bnerr.permutation.retarget). The command optimizes the displacement field for the
+shipped scalar mask of size T (or for ``--mask FILE.npy``), writes it as an int8 ``[2, T, T]``
+(dy, dx) array, and prints the energy ``mean |M(q + d(q)) - M(q + step)|`` of the result next to the
 identity's. A constant mask (every field scores 0, so no ratio exists) is refused before any
 work or output. ``--method exact`` (sparse minimum-cost matching, scipy) finds the optimum;
 ``--method anneal`` is the paper's simulated annealing. The shipped ``bnerr/data/retarget_<T>.npy``

@@ -11,10 +11,10 @@ threads and 0.60 ms on an RTX 2080 for their 1080p sort):
 - the plan (mask side, once per mask offset) and the retargeting pass (every frame), with the
   native gather and with torch gather indices (uncached);
 - the options of docs/METHODS.md, section 8 (``gap``): the sort pass with groups and with a
-  shifted block grid (native kernel and torch path), the sort keys (``bnerr.sortkeys``: residual,
-  relative, demodulated), the group labels, and the bijective reprojection (``bnerr.reproject``,
-  forward and backward), on synthetic buffers (objects of a few hundred pixels, a pan with
-  jitter, random depths).
+  shifted block grid (native kernel and torch path), the sort keys (``bnerr.permutation.sortkeys``:
+  residual, relative, demodulated), the group labels, and the bijective reprojection
+  (``bnerr.permutation.reproject``, forward and backward), on synthetic buffers (objects of a few
+  hundred pixels, a pan with jitter, random depths).
 
 Each figure is the median of ``repeats`` runs after one warm-up, with ``threads`` torch threads
 (the native kernel uses as many threads). Timings depend on the machine and on what else runs on

@@ -41,7 +41,7 @@ import numpy as np
 import torch
 
 from benchmarks.sweep.parts import BoundRender, Denoiser, Parts, Scene, StatefulDenoiser
-from benchmarks.sweep.plan import Run
+from benchmarks.sweep.plan import Cell, Run
 from benchmarks.sweep.records import MetricPairs, Record, ReferenceInfo, Spectrum, Timings
 from benchmarks.sweep.reuse import extend
 from bnerr.color import preview_u8
@@ -363,11 +363,22 @@ def merge_seed_sets(
             f"merge_seed_sets {run.label}: expected seed sets {run.reuse}..{run.seed_sets - 1}, "
             f"got {[r.group for r in ordered]}"
         )
-    first, last = ordered[0], ordered[-1]
     floors = [f for r in ordered for f in r.floors]
     reference = ReferenceInfo(
         spp=run.reference_spp, floor=float(np.mean(floors)) if floors else None, version=version
     )
+    return [_cell_record(run, cell, ordered, reference, crop_file) for cell in run.cells()]
+
+
+def _cell_record(
+    run: Run,
+    cell: Cell,
+    ordered: list[SeedSetResult],
+    reference: ReferenceInfo,
+    crop_file: str | None,
+) -> Record:
+    """The record of one of ``run``'s cells from its seed sets' results, in seed-set order."""
+    first, last = ordered[0], ordered[-1]
 
     def stacked(tables: list[dict[str, torch.Tensor]]) -> MetricPairs:
         """Per metric, the seed sets' ``[F, 2]`` pairs stacked in seed-set order."""
@@ -379,35 +390,30 @@ def merge_seed_sets(
     def spectrum(kind: str) -> Spectrum:
         return _mean_spectrum(first.freq, [p for r in ordered for p in r.power.get(kind, [])])
 
-    return [
-        Record(
-            cell=cell,
-            dimensions=first.dimensions,
-            t=list(first.measured_t),
-            raw=stacked([r.raw[cell.region] for r in ordered]),
-            den=stacked([r.den[(cell.denoiser, cell.region)] for r in ordered]),
-            denoiser_params=dict(last.denoiser_params[cell.denoiser]),
-            timings=Timings(
-                render_ms=series("render_ms"),
-                perm_ms=series("perm_ms"),
-                denoise_ms=series(f"denoise_ms/{cell.denoiser}"),
-            ),
-            reference=reference,
-            spectrum={
-                "raw": spectrum("raw"),
-                "den": spectrum(cell.denoiser),
-                **({"coherent": spectrum("coherent")} if "coherent" in run.regions else {}),
-            },
-            crop=crop_file,
-            render_sampler=last.render_sampler,
-            tcorr=[list(r.tcorr) for r in ordered],
-            coverage=(
-                [list(r.coverage[cell.region]) for r in ordered] if cell.region != "all" else None
-            ),
-            looks=list(run.looks) or None,
-        )
-        for cell in run.cells()
-    ]
+    return Record(
+        cell=cell,
+        dimensions=first.dimensions,
+        t=list(first.measured_t),
+        raw=stacked([r.raw[cell.region] for r in ordered]),
+        den=stacked([r.den[(cell.denoiser, cell.region)] for r in ordered]),
+        denoiser_params=dict(last.denoiser_params[cell.denoiser]),
+        timings=Timings(
+            render_ms=series("render_ms"),
+            perm_ms=series("perm_ms"),
+            denoise_ms=series(f"denoise_ms/{cell.denoiser}"),
+        ),
+        reference=reference,
+        spectrum={
+            "raw": spectrum("raw"),
+            "den": spectrum(cell.denoiser),
+            **({"coherent": spectrum("coherent")} if "coherent" in run.regions else {}),
+        },
+        crop=crop_file,
+        render_sampler=last.render_sampler,
+        tcorr=[list(r.tcorr) for r in ordered],
+        coverage=[list(r.coverage[cell.region]) for r in ordered] if cell.region != "all" else None,
+        looks=list(run.looks) or None,
+    )
 
 
 def _previous_reference(run: Run, scene: Scene, references: References, t: int) -> Frame | None:

@@ -348,6 +348,19 @@ def _handle(ray: ModuleType, scheduler: _Scheduler, ref: Any) -> None:
         ) from None
 
 
+def _drain(ray: ModuleType, scheduler: _Scheduler, *, progress: bool) -> None:
+    """Submit the sweep's tasks and handle each as it finishes (:func:`_handle`, which submits
+    what it unblocks) until none is in flight, with a progress bar over every task."""
+    total = _task_count(scheduler.sweep)
+    with tqdm(total=total, unit="task", disable=not progress, dynamic_ncols=True) as bar:
+        scheduler.submit_all()
+        while scheduler.inflight:
+            ready, _ = ray.wait(list(scheduler.inflight), num_returns=1, fetch_local=False)
+            for ref in ready:
+                _handle(ray, scheduler, ref)
+                bar.update(1)
+
+
 def run_suite_ray(
     suite: Suite,
     out_dir: str | Path,
@@ -379,7 +392,6 @@ def run_suite_ray(
             finished runs' cells are kept for ``--resume``.
         Any error of a task, on the driver, after the others are cancelled.
     """
-
     if parts is not None and parts.device != "cpu":
         raise ValueRangeError(
             f"run_suite_ray: expected parts on the CPU (its tasks ask Ray for CPUs only), got "
@@ -395,14 +407,7 @@ def run_suite_ray(
     started = _connect(ray, address)
     scheduler = _Scheduler(ray, sweep, str(Path(cache_dir).resolve()), cpus)
     try:
-        total = _task_count(sweep)
-        with tqdm(total=total, unit="task", disable=not progress, dynamic_ncols=True) as bar:
-            scheduler.submit_all()
-            while scheduler.inflight:
-                ready, _ = ray.wait(list(scheduler.inflight), num_returns=1, fetch_local=False)
-                for ref in ready:
-                    _handle(ray, scheduler, ref)
-                    bar.update(1)
+        _drain(ray, scheduler, progress=progress)
     finally:
         scheduler.cancel()
         if started:

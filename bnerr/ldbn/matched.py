@@ -1,9 +1,9 @@
 """``python -m bnerr.ldbn.matched``: LDBN keys optimized for a measured denoiser kernel.
 
-FAST's lesson (Donnelly et al. 2024) is that a mask optimized for the filter actually applied
-beats a generic one. ``benchmarks.kernels`` measures the effective kernel of our denoisers and
-writes its autocorrelation (``<denoiser>_<spp>_autocorr.npy``, ``[K, K]``, centred); this command
-optimizes a key set whose energy weighs exactly that autocorrelation
+FAST's lesson (Donnelly et al. 2024) is that a mask optimized for the filter actually applied beats
+a generic one. ``benchmarks.studies.denoiser_kernels`` measures the effective kernel of our
+denoisers and writes its autocorrelation (``<denoiser>_<spp>_autocorr.npy``, ``[K, K]``, centred);
+this command optimizes a key set whose energy weighs exactly that autocorrelation
 (:func:`bnerr.ldbn.swaps.measured_kernel`, ``KeyOptions.kernel``) and writes it in the shipped
 layout (:func:`bnerr.ldbn.keys.write_keys`). It imports only torch and numpy (and bnerr's
 torch-only modules), so it runs on a bare GPU machine::

@@ -122,10 +122,10 @@ def measured_kernel(
     """The toroidal kernel ``w [F, T, T]`` of a measured filter's autocorrelation.
 
     Args:
-        autocorrelation: ``[K, K]``, K odd, centred (entry ``[K // 2 + dy, K // 2 + dx]`` the
-            weight at offset ``(dy, dx)``), e.g. ``benchmarks.kernels``' ``*_autocorr.npy``; it
-            is symmetrized (``w(d) = w(-d)``, as the energy needs), scaled to 1 at its centre and
-            wrapped onto the T x T torus (offsets that meet there add up).
+        autocorrelation: ``[K, K]``, K odd, centred (entry ``[K // 2 + dy, K // 2 + dx]`` the weight
+            at offset ``(dy, dx)``), e.g. ``benchmarks.studies.denoiser_kernels``'
+            ``*_autocorr.npy``; it is symmetrized (``w(d) = w(-d)``, as the energy needs), scaled to
+            1 at its centre and wrapped onto the T x T torus (offsets that meet there add up).
         size, frames, sigma_t: as :func:`energy_kernel` (the temporal part is the same).
 
     Raises:

@@ -10,7 +10,7 @@ scrambling keys optimized offline (:class:`bnerr.sequences.LDBNSampler`, :mod:`b
 - ``ldbn_fast``: the key set optimized against the Gaussian denoiser's kernel (``ldbn_fast_64``,
   sigma 0.75, the tuned sigma at 4 spp), read like ``ldbn``;
 - ``ldbn_atrous``: the key set optimized against the a-trous filter's kernel as measured on the
-  scenes' own buffers at 4 spp (``ldbn_atrous_64``; ``benchmarks.kernels``,
+  scenes' own buffers at 4 spp (``ldbn_atrous_64``; ``benchmarks.studies.denoiser_kernels``,
   ``python -m bnerr.ldbn.matched``), read like ``ldbn``.
 
 - ``ldbn128``: the 128 x 128 screen set to 64 spp over D = 12, every dimension pair of the first

@@ -7,8 +7,8 @@ that most lowers the sigma-2 blurred error of the whole image (after Chizhov et 
 permutation constraint. A strategy does not see the reference, so the target is the best estimate
 the K renders hold: their mean (K times the spp). The target's own error is then a floor of about
 ``1 / K`` of one candidate's blurred error that no choice removes; with the reference as target
-(:mod:`benchmarks.causes`) the bound is lower still. K renders per frame and a greedy search
-(seconds at 128x128, K = 32): a bound to read next to the oracle, not a strategy to adopt.
+(:mod:`benchmarks.studies.coherent_fade`) the bound is lower still. K renders per frame and a greedy
+search (seconds at 128x128, K = 32): a bound to read next to the oracle, not a strategy to adopt.
 """
 
 from __future__ import annotations

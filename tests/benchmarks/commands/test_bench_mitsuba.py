@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from benchmarks.kernels import available_denoisers
+from benchmarks.studies.denoiser_kernels import available_denoisers
 from renderers import mitsuba_render as mr
 from tests._paths import ROOT
 

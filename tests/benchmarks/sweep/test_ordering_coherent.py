@@ -28,7 +28,8 @@ _COHERENT_LEVEL = 1 - 0.05 / 2
 _COHERENT_FAILURE = (
     "In coherent regions of direct at 16 spp the sort key ranks the shading, not the error: inside "
     "coherent 4x4 blocks the reference's spread is 7.5x the error's and the key's rank "
-    "correlation with the error 0.05 (python -m benchmarks.causes; docs/METHODS.md, section 11). "
+    "correlation with the error 0.05 (python -m benchmarks.studies.coherent_fade; "
+    "docs/METHODS.md, section 11). "
     "Measured with this test's own run (64x64, 8 seed sets x 3 frames, t-interval at 1 - 0.05/2): "
     "temporal / white after a sigma-2 blur 1.103 [0.688, 1.768], against the oracle's 0.214 "
     "[0.150, 0.305]."

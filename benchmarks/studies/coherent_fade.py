@@ -12,9 +12,14 @@ coherent region (:func:`bnerr.metrics.coherent_mask`):
 - :func:`key_error_correlation`: the mean Spearman rank correlation, inside those blocks, of the
   sort key (the frame's luminance) with the error's luminance: 1 when the key ranks the error.
 
-``python -m benchmarks.causes`` prints both, with the oracle and the vertical bound's blurred
-MSE over the coherent pixels (as fractions of white's), for ``direct`` and ``indirect`` at 4, 16
-and 64 spp on small frames (a diagnosis, not a benchmark: nothing is written under ``results/``).
+``python -m benchmarks.studies.coherent_fade`` prints both, with the oracle and the vertical
+bound's blurred MSE over the coherent pixels (as fractions of white's), for ``direct`` and
+``indirect`` at 4, 16 and 64 spp on small frames (a diagnosis, not a benchmark: nothing is written
+under ``results/``).
+
+The finding it measures: docs/FINDINGS.md, "How much of the gap to the oracle the temporal variants
+close", "The seed's claim, in coherent regions" (the measured cause on ``direct``: the sort key
+ranks the shading, not the error); the table is in docs/METHODS.md, section 11.
 
 Not for: the benchmark's tables (:mod:`benchmarks.reports`).
 """
@@ -87,7 +92,7 @@ def key_error_correlation(
 
 
 # --------------------------------------------------------------------------------------------------
-# The diagnosis (python -m benchmarks.causes)
+# The diagnosis (python -m benchmarks.studies.coherent_fade)
 
 
 def _render(

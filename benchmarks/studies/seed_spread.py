@@ -12,8 +12,12 @@ the reference's first hit is a light, grown by ``grow`` pixels) and the rest:
 - ``spread``: the standard deviation over seed sets of ``log(rival MSE / white MSE)``, over every
   pixel and over the rest (what the verdict's interval is made of, :mod:`bnerr.metrics.power`).
 
-``python -m benchmarks.seed_spread --scene cornell --spp 4 --rival cycles_blue --seed-sets 16``
-prints both per denoiser (a diagnosis: nothing is written under ``results/``).
+``python -m benchmarks.studies.seed_spread`` (its defaults: ``--scene cornell --spp 4 --rival
+cycles_blue --seed-sets 16``) prints both per denoiser (a diagnosis: nothing is written under
+``results/``).
+
+The finding it measures: docs/FINDINGS.md, "Which strategy to use", "Why the Cornell box's seed
+sets disagree: its light's silhouette".
 
 Not for: the verdicts themselves (:mod:`benchmarks.reports.decision`) or a scene without a
 directly visible light (then the light's pixels are empty and the rest is every pixel).

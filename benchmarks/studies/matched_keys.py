@@ -1,12 +1,16 @@
 """Do LDBN keys matched to a denoiser's measured kernel beat the generic ones after it?
 
-``python -m benchmarks.matched_keys --out DIR`` renders the static ``direct`` and ``indirect``
-scenes at 128 x 128 and 4 spp with ``white``, ``ldbn``, ``ldbn_fast`` and ``ldbn_atrous`` (and
-any key set given with ``--keys NAME=PATH``, read like ``ldbn``), ``seeds`` seed sets x ``frames``
-frames each, denoises every frame with the tuned a-trous filter, the U-Net and OIDN (when
-``pyoidn`` is installed), and writes ``DIR/matched.json`` and ``DIR/matched.md``: each
-strategy's MSE to a ``ref_spp`` reference after each denoiser (and raw), as a paired ratio
+``python -m benchmarks.studies.matched_keys --out DIR`` renders the static ``direct`` and
+``indirect`` scenes at 128 x 128 and 4 spp with ``white``, ``ldbn``, ``ldbn_fast`` and
+``ldbn_atrous`` (and any key set given with ``--keys NAME=PATH``, read like ``ldbn``), ``seeds``
+seed sets x ``frames`` frames each, denoises every frame with the tuned a-trous filter, the U-Net
+and OIDN (when ``pyoidn`` is installed), and writes ``DIR/matched.json`` and ``DIR/matched.md``:
+each strategy's MSE to a ``ref_spp`` reference after each denoiser (and raw), as a paired ratio
 (:func:`bnerr.metrics.paired_ratio`, paired by seed set) to white's and to ``ldbn``'s.
+
+The finding it measures: docs/FINDINGS.md, "Flicker, matched keys, larger keys, the GPU",
+"Keys matched to our denoisers do not beat generic ones" (the kernels themselves:
+:mod:`benchmarks.studies.denoiser_kernels`); the tables are in docs/METHODS.md, section 10.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ import numpy as np
 import torch
 
 import renderers
-from benchmarks.kernels import available_denoisers, tuned_denoise
+from benchmarks.studies.denoiser_kernels import available_denoisers, tuned_denoise
 from benchmarks.training_data import pixel_seeds
 from bnerr.io import atomic_write
 from bnerr.ldbn.keys import keys_from_array
@@ -107,7 +111,9 @@ def _markdown(rows: list[dict]) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.matched_keys", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.studies.matched_keys", description=__doc__
+    )
     parser.add_argument("--scenes", nargs="+", default=["direct", "indirect"])
     parser.add_argument("--denoisers", nargs="+", default=["atrous", "unet", "oidn"])
     parser.add_argument("--keys", nargs="*", default=[], help="NAME=PATH: a key set read like ldbn")

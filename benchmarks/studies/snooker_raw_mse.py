@@ -14,9 +14,12 @@ reads that off the sampler's values; :func:`measure` renders each variant of :da
 gives its per-pixel variance across seed sets, its raw MSE and its MSE after a sigma-2 blur, each
 as a ratio to white's, with the share of pixels in each class and the MSE of the two classes.
 
-``python -m benchmarks.light_pairing`` prints the table for ``snooker_plain``, ``snooker`` and
-``direct`` at 64x64, 4 spp, 12 seed sets, frame 6 (a diagnosis: nothing is written under
-``results/``).
+``python -m benchmarks.studies.snooker_raw_mse`` prints the table for ``snooker_plain``,
+``snooker`` and ``direct`` at 64x64, 4 spp, 12 seed sets, frame 6 (a diagnosis: nothing is written
+under ``results/``).
+
+The finding it measures: docs/FINDINGS.md, "Which strategy to use" (LDBN's low raw MSE on the
+snooker tables is a lucky pairing of the light choice with the light's position, not blue noise).
 
 Not for: the benchmark's tables (:mod:`benchmarks.reports`).
 """
@@ -369,7 +372,7 @@ def _table(scene: str, rows: list[Row]) -> list[str]:
 def main(argv: list[str] | None = None) -> None:
     """Print the table (markdown) for the scenes asked (default: both snooker tables and
     ``direct``)."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.light_pairing")
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.studies.snooker_raw_mse")
     parser.add_argument("--scenes", nargs="+", default=["snooker_plain", "snooker", "direct"])
     parser.add_argument("--size", type=int, default=64)
     parser.add_argument("--spp", type=int, default=4)

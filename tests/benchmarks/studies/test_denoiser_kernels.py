@@ -1,5 +1,6 @@
-"""Tests of benchmarks.kernels: a Gaussian denoiser's measured kernel is its analytic Gaussian,
-and the width, noise width, radial profile and autocorrelation say what they should."""
+"""Tests of benchmarks.studies.denoiser_kernels: a Gaussian denoiser's measured kernel is its
+analytic Gaussian, and the width, noise width, radial profile and autocorrelation say what they
+should."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from benchmarks.kernels import (
+from benchmarks.studies.denoiser_kernels import (
     autocorrelation,
     impulse_kernel,
     kernel_width,

@@ -1,14 +1,15 @@
 """Why blue noise fades past 4 spp in the a-priori keys: the tracer's own integrands, measured.
 
-With the pixel jitter pinned at the pixel centre (:class:`benchmarks.fixed_jitter.FixedJitter`'s
-rule), a pixel of ``direct`` integrates one 2D function, its light integrand ``f_p(u, v)``: the
-luminance of the path through the point ``(u, v)`` of the light's square (dimensions 2-3).
-:func:`pair_integrands` tabulates it at the centres of a ``G x G`` grid for every pixel, by
-``G^2`` renders at one sample (:class:`GridPair` pins every dimension), so that any key tile's
-error can then be computed without render noise: a texel's points read ``f_p`` at the cell they
-fall in, against the mean over the cells (:func:`keyed_errors`). On deeper scenes the same
-tabulates one pair with the others pinned at their midpoint (``indirect``: the light sample or
-the bounce direction at the first hit), a slice of the path space.
+With the pixel jitter pinned at the pixel centre
+(:class:`benchmarks.studies.jitter_loss.FixedJitter`'s rule), a pixel of ``direct`` integrates one
+2D function, its light integrand ``f_p(u, v)``: the luminance of the path through the point
+``(u, v)`` of the light's square (dimensions 2-3). :func:`pair_integrands` tabulates it at the
+centres of a ``G x G`` grid for every pixel, by ``G^2`` renders at one sample (:class:`GridPair`
+pins every dimension), so that any key tile's error can then be computed without render noise: a
+texel's points read ``f_p`` at the cell they fall in, against the mean over the cells
+(:func:`keyed_errors`). On deeper scenes the same tabulates one pair with the others pinned at
+their midpoint (``indirect``: the light sample or the bounce direction at the first hit), a slice
+of the path space.
 
 Three measurements, each over many tile offsets:
 
@@ -26,11 +27,15 @@ Three measurements, each over many tile offsets:
 - :func:`carried_correlation`: how much of a point set's error carries over to the neighbour's
   function.
 
-``python -m benchmarks.light_integrands`` prints the tables for ``direct``'s frame 6 at
+``python -m benchmarks.studies.integrand_motion`` prints the tables for ``direct``'s frame 6 at
 128 x 128 with a 64 x 64 grid and the shipped Z-ordered and per-pixel keys (about a minute;
 ``--scene indirect --pair 2`` for the bounce direction; ``--fit FRAMES`` fits the light pair's
 keys on other frames' integrands and measures them on this one). A diagnosis: nothing is written
 under ``results/``; docs/METHODS.md, section 10, has the figures.
+
+The finding it measures: docs/FINDINGS.md, "Flicker, matched keys, larger keys, the GPU",
+"Keys over a Z-ordered global sequence" (the shadow edge moves 2-4/64 of the light's square per
+pixel, and the keys' arrangement survives less of that change the more samples it has).
 
 Not for: the benchmark's tables.
 """
@@ -500,7 +505,7 @@ def _print_fit(f: torch.Tensor, args: argparse.Namespace) -> None:
 def main(argv: list[str] | None = None) -> None:
     """Print the edge motion and the arrangement ratios (markdown) for the key sets asked;
     with ``--fit FRAMES``, fit the light pair on those frames instead and compare."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.light_integrands")
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.studies.integrand_motion")
     parser.add_argument("--scene", default="direct")
     parser.add_argument("--frame", type=int, default=6)
     parser.add_argument("--size", type=int, default=128)

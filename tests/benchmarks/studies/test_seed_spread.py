@@ -1,4 +1,4 @@
-"""The pieces of benchmarks.seed_spread on inputs whose answer is known by construction."""
+"""The pieces of benchmarks.studies.seed_spread on inputs whose answer is known by construction."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import pytest
 import torch
 
-from benchmarks.seed_spread import log_ratio_spread, seed_set_errors
+from benchmarks.studies.seed_spread import log_ratio_spread, seed_set_errors
 from bnerr.errors import ValueRangeError
 
 

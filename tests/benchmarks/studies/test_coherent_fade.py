@@ -1,11 +1,12 @@
-"""The cause measures of benchmarks.causes on images whose answer is known by construction."""
+"""The cause measures of benchmarks.studies.coherent_fade on images whose answer is known by
+construction."""
 
 from __future__ import annotations
 
 import pytest
 import torch
 
-from benchmarks.causes import block_spread, coherent_blocks, key_error_correlation
+from benchmarks.studies.coherent_fade import block_spread, coherent_blocks, key_error_correlation
 from bnerr.errors import ShapeError
 
 

@@ -1,4 +1,4 @@
-"""benchmarks.light_integrands: the grid pins every dimension, its cells average to
+"""benchmarks.studies.integrand_motion: the grid pins every dimension, its cells average to
 the jitter-pinned render, the edge motion reads a known edge's speed, and the arrangement
 ratios behave as their definitions say on integrands built by hand."""
 
@@ -9,8 +9,7 @@ import pytest
 import torch
 
 import renderers
-from benchmarks.fixed_jitter import FixedJitter
-from benchmarks.light_integrands import (
+from benchmarks.studies.integrand_motion import (
     GridPair,
     arrangement_ratio,
     carried_correlation,
@@ -24,6 +23,7 @@ from benchmarks.light_integrands import (
     window_error,
     windows,
 )
+from benchmarks.studies.jitter_loss import FixedJitter
 from bnerr.color import luminance
 from bnerr.errors import ShapeError, ValueRangeError
 from bnerr.resources import load_array

@@ -1,11 +1,12 @@
-"""The short-moves measures of benchmarks.moves, on seed images whose answer is known."""
+"""The short-moves measures of benchmarks.studies.short_moves, on seed images whose answer is
+known."""
 
 from __future__ import annotations
 
 import pytest
 import torch
 
-from benchmarks.moves import mean_move, measure_field, seed_carryover
+from benchmarks.studies.short_moves import mean_move, measure_field, seed_carryover
 from bnerr.errors import ShapeError
 
 

@@ -1,26 +1,31 @@
 """The trade of short moves (issue 26, item 4): a seed's error carried over against the mask.
 
-The retargeting pass (:mod:`bnerr.retarget`) moves every seed after the sort so that the mask
-value it was ranked like is close to the value the next frame's (shifted) mask wants at its new
+The retargeting pass (:mod:`bnerr.permutation.retarget`) moves every seed after the sort so that the
+mask value it was ranked like is close to the value the next frame's (shifted) mask wants at its new
 pixel. The shipped field lets a seed move up to 6 px per axis. The method only works if the seed's
 error moves with it: a seed moved far lands on a pixel whose integrand differs, and its error
 there is a new draw. A field with shorter moves (at most ``r`` px per axis, optimized the same
-way, :func:`bnerr.retarget.optimize_retarget` with ``method="exact"``) keeps more of the error,
-but matches the next frame's mask worse. Two measures of each side, on a static camera (only the
-sort and the retargeting move seeds):
+way, :func:`bnerr.permutation.retarget.optimize_retarget` with ``method="exact"``) keeps more of the
+error, but matches the next frame's mask worse. Two measures of each side, on a static camera (only
+the sort and the retargeting move seeds):
 
 - :func:`seed_carryover`: the Pearson correlation, over seeds, of a seed's error (luminance) at
   frame t with its error at frame t + 1 at the pixel it moved to; 1 when the error travels with
   the seed, 0 when it is a fresh draw;
-- the field's energy :func:`bnerr.retarget.retarget_energy`, ``mean |M(q + d(q)) - M(q + s)|``,
-  as a fraction of the identity field's (no retargeting): how far the mask a seed was ranked for
-  is from the mask it meets (0: the mask moves with the seeds; 1: as if not retargeted);
+- the field's energy :func:`bnerr.permutation.retarget.retarget_energy`,
+  ``mean |M(q + d(q)) - M(q + s)|``, as a fraction of the identity field's (no retargeting): how far
+  the mask a seed was ranked for is from the mask it meets (0: the mask moves with the seeds; 1: as
+  if not retargeted);
 - :func:`mean_move`: how far seeds move per frame (px), the sorting pass's moves included;
 - the outcome: the sigma-2 blurred MSE over the coherent pixels, as a fraction of white's.
 
-``python -m benchmarks.moves`` prints the table for ``direct`` and ``indirect`` at 16 spp on
-64 x 64 frames, fields of radius 1, 2, 3 and the shipped 6, with the luminance and the residual
-sort key (a diagnosis, not a benchmark: nothing is written under ``results/``).
+``python -m benchmarks.studies.short_moves`` prints the table for ``direct`` and ``indirect``
+at 16 spp on 64 x 64 frames, fields of radius 1, 2, 3 and the shipped 6, with the luminance and
+the residual sort key (a diagnosis, not a benchmark: nothing is written under ``results/``).
+
+The finding it measures: docs/FINDINGS.md, "How much of the gap to the oracle the temporal variants
+close" (a seed's error does not carry over to the pixel it is moved to, and shorter moves keep
+little more of it while matching the mask worse); the table is in docs/METHODS.md, section 11.
 
 Not for: optimizing fields to ship (``bnerr retarget``).
 """
@@ -82,7 +87,7 @@ def mean_move(seeds_t: torch.Tensor, seeds_u: torch.Tensor) -> float:
 
 
 # --------------------------------------------------------------------------------------------------
-# The measurement (python -m benchmarks.moves)
+# The measurement (python -m benchmarks.studies.short_moves)
 
 
 def _field(mask: torch.Tensor, radius: int) -> torch.Tensor:

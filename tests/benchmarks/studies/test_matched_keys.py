@@ -1,12 +1,12 @@
-"""Tests of benchmarks.matched_keys: a tiny comparison runs (a key set given by file is read like
-ldbn), and the paired ratios are the pooled means' ratios with an interval around them."""
+"""Tests of benchmarks.studies.matched_keys: a tiny comparison runs (a key set given by file is read
+like ldbn), and the paired ratios are the pooled means' ratios with an interval around them."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from benchmarks.matched_keys import compare, ratio_table
+from benchmarks.studies.matched_keys import compare, ratio_table
 from bnerr.ldbn.keys import load_ldbn_keys
 
 

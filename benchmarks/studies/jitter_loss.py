@@ -10,9 +10,13 @@ rule) and gives the raw MSE and the MSE after a sigma-2 blur as ratios to white'
 95 % paired t-interval over the seed sets (:func:`bnerr.metrics.paired_ratio`). If the jitter
 were what the keys lose at high spp, the blurred ratio would fall with the jitter fixed.
 
-``python -m benchmarks.fixed_jitter`` prints the table for ``direct`` and ``indirect`` at
+``python -m benchmarks.studies.jitter_loss`` prints the table for ``direct`` and ``indirect`` at
 128 x 128, 4 / 16 / 64 spp, 8 seed sets, frame 6 (a diagnosis: nothing is written under
 ``results/``).
+
+The finding it measures: docs/FINDINGS.md, "Flicker, matched keys, larger keys, the GPU",
+"Keys over a Z-ordered global sequence" (on ``direct`` pinning the jitter gains nothing at 16-64
+spp); the table is in docs/METHODS.md, section 10.
 
 Not for: the benchmark's tables (:mod:`benchmarks.reports`).
 """
@@ -26,7 +30,7 @@ from dataclasses import dataclass
 import torch
 
 import renderers
-from benchmarks.light_pairing import Context, Draw, capture
+from benchmarks.studies.snooker_raw_mse import Context, Draw, capture
 from bnerr.color import luminance
 from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.metrics import Estimate, blurred_mse, paired_ratio
@@ -141,7 +145,7 @@ def measure(
 
 def main(argv: list[str] | None = None) -> None:
     """Print the table (markdown) for the scenes asked."""
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.fixed_jitter")
+    parser = argparse.ArgumentParser(prog="python -m benchmarks.studies.jitter_loss")
     parser.add_argument("--scenes", nargs="+", default=["direct", "indirect"])
     parser.add_argument("--strategies", nargs="+", default=list(STRATEGIES))
     parser.add_argument("--spp", nargs="+", type=int, default=[4, 16, 64])

@@ -1,4 +1,4 @@
-"""The snooker raw-MSE puzzle's measurement (benchmarks.light_pairing): the stratification
+"""The snooker raw-MSE puzzle's measurement (benchmarks.studies.snooker_raw_mse): the stratification
 reader on values whose answer is known by construction, the pairing each sampler makes on the
 snooker tables' layout, and the qualitative finding at 32x32 with intervals from the seed sets."""
 
@@ -10,7 +10,7 @@ import pytest
 import torch
 
 import renderers
-from benchmarks.light_pairing import (
+from benchmarks.studies.snooker_raw_mse import (
     ReusedChoice,
     draw,
     lane_values,

@@ -11,17 +11,22 @@ of error at p. Its autocorrelation (:func:`autocorrelation`) is what the LDBN en
 (docs/METHODS.md, "The optimizer": with ``w = k * k~`` the energy plus a constant is the error the
 kernel leaves), and what ``python -m bnerr.ldbn.matched --kernel`` optimizes keys for.
 
-``python -m benchmarks.kernels --out DIR`` measures a-trous (its tuned parameters per scene and
-spp, ``results/quality/tuned_params.json``), the U-Net and OIDN (when ``pyoidn`` is installed) on
-``direct`` and ``indirect`` at 1, 4 and 16 spp, and writes per (denoiser, spp) the kernel averaged
-over the scenes and its autocorrelation (``<denoiser>_<spp>.npy``,
+``python -m benchmarks.studies.denoiser_kernels --out DIR`` measures a-trous (its tuned parameters
+per scene and spp, ``results/quality/tuned_params.json``), the U-Net and OIDN (when ``pyoidn`` is
+installed) on ``direct`` and ``indirect`` at 1, 4 and 16 spp, and writes per (denoiser, spp) the
+kernel averaged over the scenes and its autocorrelation (``<denoiser>_<spp>.npy``,
 ``<denoiser>_<spp>_autocorr.npy``, the latter scaled to 1 at its centre), per scene the kernel
-(``<denoiser>_<scene>_<spp>.npy``), and ``summary.json`` / ``summary.md``: each kernel's sum,
-width (the sigma of the Gaussian with its second moment, :func:`kernel_width`), noise width (the
-sigma of the Gaussian that keeps the same share of white noise, :func:`noise_width`) and radial
-profiles of the kernel and its autocorrelation. With impulses 32 pixels apart a kernel wider
-than that (a-trous with 5 iterations reaches 62 pixels) sees its neighbours' tails: small, but
-not zero. Measured: docs/METHODS.md, section 10 (about 80 s for all 27 kernels on one core).
+(``<denoiser>_<scene>_<spp>.npy``), and ``summary.json`` / ``summary.md``: each kernel's sum, width
+(the sigma of the Gaussian with its second moment, :func:`kernel_width`), noise width (the sigma of
+the Gaussian that keeps the same share of white noise, :func:`noise_width`) and radial profiles of
+the kernel and its autocorrelation. With impulses 32 pixels apart a kernel wider than that (a-trous
+with 5 iterations reaches 62 pixels) sees its neighbours' tails: small, but not zero. Measured:
+docs/METHODS.md, section 10 (about 80 s for all 27 kernels on one core).
+
+The finding it measures: docs/FINDINGS.md, "Flicker, matched keys, larger keys, the GPU", "Keys
+matched to our denoisers do not beat generic ones" (its measured cause: the filters leave 22-44 %
+of each pixel's own error in place, and the a-trous kernel differs between scenes); the keys
+matched to these kernels are compared by :mod:`benchmarks.studies.matched_keys`.
 """
 
 from __future__ import annotations
@@ -197,7 +202,7 @@ def _save(path: Path, array: np.ndarray) -> None:
 
 def _summary_md(rows: list[dict]) -> str:
     lines = [
-        "# Effective denoiser kernels (benchmarks.kernels)",
+        "# Effective denoiser kernels (benchmarks.studies.denoiser_kernels)",
         "",
         "| denoiser | scene | spp | sum | width | noise width | radial profile r = 0..5 "
         "| autocorrelation r = 0..5 |",
@@ -263,7 +268,9 @@ def available_denoisers(names: Sequence[str]) -> list[str]:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m benchmarks.kernels", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="python -m benchmarks.studies.denoiser_kernels", description=__doc__
+    )
     parser.add_argument("--denoisers", nargs="+", default=["atrous", "unet", "oidn"])
     parser.add_argument("--scenes", nargs="+", default=["direct", "indirect"])
     parser.add_argument("--spp", nargs="+", type=int, default=[1, 4, 16])

@@ -1,4 +1,4 @@
-"""benchmarks.fixed_jitter: the wrapper pins exactly the jitter's dimensions, and the
+"""benchmarks.studies.jitter_loss: the wrapper pins exactly the jitter's dimensions, and the
 measurement runs end to end at a tiny size with its ratios to white."""
 
 from __future__ import annotations
@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 import torch
 
-from benchmarks.fixed_jitter import FixedJitter, main, measure
+from benchmarks.studies.jitter_loss import FixedJitter, main, measure
 from bnerr.errors import ValueRangeError
 from bnerr.sequences import make_sampler
 
