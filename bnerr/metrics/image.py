@@ -57,6 +57,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from bnerr.color import luminance
 from bnerr.errors import (
     FLOAT_DTYPES,
     MissingExtraError,
@@ -80,6 +81,8 @@ __all__ = [
     "edge_mask",
     "flip",
     "flip_available",
+    "DISPLAY_WHITE_OVER_MEAN",
+    "highlight_mask",
     "light_mask",
     "lowfreq",
     "masked_sum",
@@ -717,3 +720,34 @@ def light_mask(
     for light in lights:
         hit |= rounded == int(light)
     return _grown(hit, radius)
+
+
+#: Scene-linear white over mid-grey of Blender's Filmic and AgX view transforms (16.29 / 0.18):
+#: exposed so that the frame's mean sits at mid-grey, a pixel this many times brighter than the
+#: mean is clipped to the display's white.
+DISPLAY_WHITE_OVER_MEAN = 16.29 / 0.18
+
+
+def highlight_mask(
+    reference: torch.Tensor, over_mean: float = DISPLAY_WHITE_OVER_MEAN, radius: int = 1
+) -> torch.Tensor:
+    """Pixels within ``radius`` pixels (Chebyshev) of one that a display clips: ``[H, W]`` bool.
+
+    A pixel is a highlight when its reference luminance exceeds ``over_mean`` times the frame's
+    mean luminance (default :data:`DISPLAY_WHITE_OVER_MEAN`: brighter than Filmic's or AgX's
+    white with the mean exposed as mid-grey). A mirror image of a small light or a caustic is
+    such a pixel: whether a path finds it is a rare event, its error is a firefly, and under HDR
+    MSE a handful of them can hold nearly all of a frame's error although the display shows
+    each as plain white (docs/FINDINGS.md, Cycles' product shot).
+
+    Args:
+        reference: ``[3, H, W]`` linear RGB (or ``[1, H, W]`` / ``[H, W]`` luminance).
+        over_mean: the threshold as a multiple of the mean luminance, > 0.
+        radius: dilation radius in pixels, >= 0.
+    """
+    check_tensor(reference, "reference")
+    check_positive_int(radius, "radius", minimum=0)
+    if not math.isfinite(over_mean) or over_mean <= 0:
+        raise ValueRangeError(f"over_mean: expected a finite number > 0, got {over_mean!r}")
+    lum = luminance(reference, dtype=torch.float64)
+    return _grown(lum > over_mean * lum.mean(), radius)

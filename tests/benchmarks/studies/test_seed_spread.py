@@ -7,22 +7,40 @@ import math
 import pytest
 import torch
 
-from benchmarks.studies.seed_spread import log_ratio_spread, seed_set_errors
+from benchmarks.studies.seed_spread import log_ratio_spread, seed_set_errors, top_share
 from bnerr.errors import ValueRangeError
 
 
-def test_seed_set_errors_pool_every_pixel_and_the_rest():
+def test_seed_set_errors_pool_every_pixel_the_rest_and_the_regions_share():
     mask = torch.zeros(2, 2, dtype=torch.bool)
     mask[0, 0] = True
+    moved = torch.zeros(2, 2, dtype=torch.bool)
+    moved[1, 1] = True  # the next frame's region moved with the camera
     err = torch.ones(3, 2, 2, dtype=torch.float64)
-    err[:, 0, 0] = 9.0  # the masked pixel
-    total, rest = seed_set_errors([err, err], mask)
+    err[:, 0, 0] = 9.0
+    later = torch.ones(3, 2, 2, dtype=torch.float64)
+    later[:, 1, 1] = 9.0
+    total, rest, share = seed_set_errors([err, later], [mask, moved])
     assert total == pytest.approx((9 + 1 + 1 + 1) / 4)
     assert rest == pytest.approx(1.0)
+    assert share == pytest.approx(9 / 12)
+    with pytest.raises(ValueRangeError, match="one mask per frame"):
+        seed_set_errors([], [])
+    with pytest.raises(ValueRangeError, match="one mask per frame"):
+        seed_set_errors([err, err], [mask])
+    with pytest.raises(ValueRangeError, match="outside them"):
+        seed_set_errors([err], [torch.ones(2, 2, dtype=torch.bool)])
+
+
+def test_top_share_ranks_the_pixels_of_every_frame_together():
+    err = torch.ones(3, 2, 2, dtype=torch.float64)
+    err[:, 0, 0] = 5.0  # the worst pixel: 15 of the frame's 24
+    calm = torch.ones(3, 2, 2, dtype=torch.float64)  # 12
+    assert top_share([err, calm], 1) == pytest.approx(15 / 36)
+    assert top_share([err, calm], 100) == pytest.approx(1.0)  # more than the pixels: all
+    assert top_share([torch.zeros(3, 2, 2)], 1) == 0.0
     with pytest.raises(ValueRangeError):
-        seed_set_errors([], mask)
-    with pytest.raises(ValueRangeError):
-        seed_set_errors([err], torch.ones(2, 2, dtype=torch.bool))
+        top_share([err], 0)
 
 
 def test_the_spread_is_the_sd_of_the_log_ratios():

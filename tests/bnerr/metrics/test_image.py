@@ -18,6 +18,7 @@ from bnerr.metrics import (
     edge_mask,
     flip,
     image,
+    highlight_mask,
     light_mask,
     lowfreq,
     mse,
@@ -393,3 +394,18 @@ def test_the_blur_is_the_one_methods_md_states_in_scipys_words():
             assert ours == pytest.approx(float(np.mean(scipy**2)), rel=1e-12)
             default = float(np.mean(gaussian_filter(err.numpy(), (0, sigma, sigma)) ** 2))
             assert abs(default / ours - 1) > 1e-3  # the defaults are another blur
+
+
+def test_highlight_mask_marks_pixels_brighter_than_display_white_grown():
+    ref = torch.full((3, 32, 32), 0.5, dtype=torch.float64)
+    ref[:, 3, 4] = 500.0  # a mirror image of a light: > 90.5x the mean (1.01) -> clipped
+    ref[:, 0, 0] = 20.0  # bright but below the display's white
+    got = highlight_mask(ref, radius=1)
+    want = torch.zeros(32, 32, dtype=torch.bool)
+    want[2:5, 3:6] = True
+    assert torch.equal(got, want)
+    assert torch.equal(highlight_mask(ref, radius=0), want & (ref[0] == 500.0))
+    assert not highlight_mask(torch.ones(3, 4, 4)).any()  # a flat frame has no highlight
+    assert highlight_mask(ref, over_mean=2.0, radius=0)[0, 0]  # a lower white clips it too
+    with pytest.raises(ValueRangeError):
+        highlight_mask(ref, over_mean=0.0)
