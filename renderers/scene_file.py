@@ -27,10 +27,9 @@ describe; Mitsuba XML scenes (:mod:`renderers.mitsuba_render` renders those).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
-import stat
-import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any, cast
@@ -38,12 +37,12 @@ from typing import Any, cast
 import numpy as np
 from pydantic import TypeAdapter
 
-from bnerr.errors import BnerrError, DtypeError, SceneFileError, toml_reason
+from bnerr.errors import BnerrError, DtypeError, SceneFileError
 from bnerr.io import atomic_write
 from bnerr.schemas import camera as camera_schema
 from bnerr.schemas import scene as schema
+from bnerr.schemas.documents import dump_toml, format_of, parse, read
 from bnerr.schemas.errors import validate
-from bnerr.schemas.fields import NAME_PATTERN
 from bnerr.schemas.scene import (
     FORMAT_VERSION,
     MAX_COORDINATE,
@@ -93,7 +92,6 @@ __all__ = [
 #: Frames over which the camera must keep a valid pose (origin != target, up not parallel).
 CAMERA_CHECK_FRAMES = 1024
 
-_SUFFIXES = {".toml": "toml", ".json": "json"}
 _STEM = "name (none given, so the file's name without suffix)"
 _NAME: TypeAdapter[str] = TypeAdapter(schema.Name)
 
@@ -102,16 +100,18 @@ _NAME: TypeAdapter[str] = TypeAdapter(schema.Name)
 # Building the scene of a checked document (bnerr.schemas.scene checked everything but geometry)
 
 
-def _motion(motion: object) -> Motion:
-    """The motion of a bare ``[x, y, z]`` or a fixed, linear or orbit table."""
-    if isinstance(motion, tuple):
-        return Fixed(motion)
-    if isinstance(motion, schema.FixedMotion):
-        return Fixed(motion.value)
-    if isinstance(motion, schema.LinearMotion):
-        return Linear(motion.start, motion.velocity)
-    assert isinstance(motion, schema.OrbitMotion)
-    return Orbit(motion.center, motion.radius, motion.height, motion.angle, motion.step)
+#: The dataclass of each kind of motion and texture; its fields are named as the table's keys.
+_KINDS: dict[str, Any] = {
+    "fixed": Fixed, "linear": Linear, "orbit": Orbit, "checker": Checker, "felt": Felt
+}  # fmt: skip
+
+
+def _built(t: Any) -> Any:
+    """The motion of a bare ``[x, y, z]`` or of a motion table, or the texture of a texture
+    table, as its :mod:`renderers.scene` dataclass."""
+    if isinstance(t, tuple):
+        return Fixed(t)
+    return _KINDS[t.type](**{key: value for key, value in t if key != "type"})
 
 
 def _check_pose(origin_motion: Motion, target_motion: Motion, up_vector: Vec3) -> None:
@@ -139,15 +139,9 @@ def _check_pose(origin_motion: Motion, target_motion: Motion, up_vector: Vec3) -
 
 
 def _camera(c: schema.Camera) -> Camera:
-    camera = Camera(_motion(c.origin), _motion(c.target), c.up, c.fov, c.fov_axis)
+    camera = Camera(_built(c.origin), _built(c.target), c.up, c.fov, c.fov_axis)
     _check_pose(camera.origin, camera.target, camera.up)
     return camera
-
-
-def _texture(t: schema.Checker | schema.Felt) -> Checker | Felt:
-    if isinstance(t, schema.Checker):
-        return Checker(t.color0, t.color1, t.cells_u, t.cells_v)
-    return Felt(t.base, t.cells_u, t.cells_v, t.grain, t.nap, t.bands, t.seed)
 
 
 def _material(t: Any, textures: Mapping, materials: Mapping) -> Diffuse:
@@ -209,16 +203,10 @@ def _box(t: schema.Box, at: str, material: Diffuse) -> Box:
 def _shape(t: Any, at: str, textures: Mapping, materials: Mapping) -> Sphere | Rectangle | Box:
     material = _material(t, textures, materials)
     if isinstance(t, schema.Sphere):
-        return Sphere(t.name, _motion(t.center), t.radius, material)
+        return Sphere(t.name, _built(t.center), t.radius, material)
     if isinstance(t, schema.Rectangle):
         return _rectangle(t, at, material)
     return _box(t, at, material)
-
-
-def _medium(m: schema.Medium | None) -> HomogeneousMedium | None:
-    if m is None:
-        return None
-    return HomogeneousMedium(m.bounds_min, m.bounds_max, m.sigma_t, m.albedo)
 
 
 def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
@@ -233,7 +221,7 @@ def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
     """
     doc = validate(schema.SceneDocument, document, SceneFileError, "scene")
     name = doc.name or validate(_NAME, default_name, SceneFileError, _STEM)
-    textures = {key: _texture(t) for key, t in doc.textures.items()}
+    textures = {key: _built(t) for key, t in doc.textures.items()}
     materials = {key: _material(m, textures, {}) for key, m in doc.materials.items()}
     try:
         scene = Scene(
@@ -244,7 +232,7 @@ def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
                 _shape(s, f"shapes[{i}]", textures, materials) for i, s in enumerate(doc.shapes)
             ),
             max_depth=doc.max_depth,
-            medium=_medium(doc.medium),
+            medium=HomogeneousMedium(**dict(doc.medium)) if doc.medium is not None else None,
         )
     except SceneFileError:
         raise
@@ -255,43 +243,6 @@ def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
 
 # --------------------------------------------------------------------------------------------
 # Files and text
-
-
-def _no_duplicates(pairs: list[tuple[str, object]]) -> dict:
-    """JSON object hook: a key given twice is an error (TOML refuses it too)."""
-    out: dict = {}
-    for key, value in pairs:
-        if key in out:
-            raise ValueError(f"key {key!r} given twice")
-        out[key] = value
-    return out
-
-
-def _parse(data: bytes | str, fmt: str, source: str) -> object:
-    """The document of a TOML or JSON text; syntax errors name the line."""
-    if isinstance(data, str):
-        data = data.encode("utf-8", "surrogatepass")
-    if len(data) > MAX_FILE_BYTES:
-        raise SceneFileError(f"{source}: expected at most {MAX_FILE_BYTES} bytes, got {len(data)}")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = data[: err.start].count(b"\n") + 1
-        raise SceneFileError(
-            f"{source}: line {line}: expected UTF-8 text, got byte {data[err.start]:#04x}"
-        ) from None
-    try:
-        if fmt == "toml":
-            return tomllib.loads(text)
-        return json.loads(text, object_pairs_hook=_no_duplicates)
-    except json.JSONDecodeError as err:
-        raise SceneFileError(
-            f"{source}: line {err.lineno}, column {err.colno}: expected JSON, got {err.msg}"
-        ) from None
-    except tomllib.TOMLDecodeError as err:
-        raise SceneFileError(f"{source}: expected TOML, got {toml_reason(err, text)}") from None
-    except (ValueError, RecursionError) as err:  # a duplicate JSON key, 5000-digit integers, ...
-        raise SceneFileError(f"{source}: expected a {fmt.upper()} document, got {err}") from None
 
 
 def loads_scene(
@@ -307,42 +258,11 @@ def loads_scene(
         raise SceneFileError(f"{source}: expected format toml or json, got {format!r}")
     if not isinstance(data, (bytes, str)):
         raise DtypeError(f"{source}: expected bytes or str, got {type(data).__name__}")
-    document = _parse(data, format, source)
+    document = parse(data, format, source, SceneFileError, MAX_FILE_BYTES)
     try:
         return scene_from_dict(document, default_name)
     except SceneFileError as err:
         raise SceneFileError(f"{source}: {err}") from None
-
-
-def _read_limited(path: Path) -> bytes:
-    """The bytes of the regular file ``path``, refused over :data:`MAX_FILE_BYTES` unread."""
-    try:
-        info = path.stat()
-        if not stat.S_ISREG(info.st_mode):
-            raise SceneFileError(f"{path}: expected a regular file, got another kind of file")
-        if info.st_size > MAX_FILE_BYTES:
-            raise SceneFileError(
-                f"{path}: expected at most {MAX_FILE_BYTES} bytes, got {info.st_size}"
-            )
-        with path.open("rb") as f:
-            data = f.read(MAX_FILE_BYTES + 1)  # the file may have grown since stat
-    except OSError as err:
-        if isinstance(err, BnerrError):
-            raise
-        raise SceneFileError(
-            f"{path}: expected a readable file, got {err.strerror or err}"
-        ) from None
-    if len(data) > MAX_FILE_BYTES:
-        raise SceneFileError(f"{path}: expected at most {MAX_FILE_BYTES} bytes, got more")
-    return data
-
-
-def _format_of(path: Path) -> str:
-    """``"toml"`` or ``"json"``, from the suffix of ``path``."""
-    fmt = _SUFFIXES.get(path.suffix.lower())
-    if fmt is None:
-        raise SceneFileError(f"{path}: expected a suffix .toml or .json, got {path.suffix!r}")
-    return fmt
 
 
 def load_scene_file(path: str | os.PathLike) -> Callable[[], Scene]:
@@ -361,8 +281,8 @@ def load_scene_file(path: str | os.PathLike) -> Callable[[], Scene]:
     if not isinstance(path, (str, os.PathLike)):
         raise DtypeError(f"path: expected a str or os.PathLike, got {type(path).__name__}")
     path = Path(path)
-    fmt = _format_of(path)
-    scene = loads_scene(_read_limited(path), fmt, str(path), path.stem)
+    fmt = format_of(path, SceneFileError)
+    scene = loads_scene(read(path, SceneFileError, MAX_FILE_BYTES), fmt, str(path), path.stem)
 
     def build() -> Scene:
         return scene
@@ -384,10 +304,11 @@ def load_camera_path(path: str | os.PathLike) -> tuple[Motion, Motion, Vec3]:
             :data:`CAMERA_CHECK_FRAMES` frames.
     """
     path = Path(path)
-    document = _parse(_read_limited(path), "toml", str(path))
+    data = read(path, SceneFileError, MAX_FILE_BYTES)
+    document = parse(data, "toml", str(path), SceneFileError)
     try:
         c = validate(camera_schema.CameraPath, document, SceneFileError, "camera path")
-        origin, target = _motion(c.origin), _motion(c.target)
+        origin, target = _built(c.origin), _built(c.target)
         _check_pose(origin, target, c.up)
     except SceneFileError as err:
         raise SceneFileError(f"{path}: {err}") from None
@@ -402,44 +323,20 @@ def _floats(values: Iterable[float]) -> list[float]:
     return [float(v) for v in values]
 
 
+def _fields(obj: Any, kind: str | None = None) -> dict:
+    """A dataclass of :mod:`renderers.scene` (a motion, a texture, the medium) as a table, with
+    ``type = kind`` first where given: its int fields as ints, its other numbers as floats."""
+    out: dict = {} if kind is None else {"type": kind}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        out[f.name] = {"int": int, "float": float}.get(str(f.type), _floats)(value)
+    return out
+
+
 def _motion_dict(motion: Motion) -> list[float] | dict:
     if isinstance(motion, Fixed):
         return _floats(motion.value)
-    if isinstance(motion, Linear):
-        return {
-            "type": "linear",
-            "start": _floats(motion.start),
-            "velocity": _floats(motion.velocity),
-        }
-    return {
-        "type": "orbit",
-        "center": _floats(motion.center),
-        "radius": float(motion.radius),
-        "height": float(motion.height),
-        "angle": float(motion.angle),
-        "step": float(motion.step),
-    }
-
-
-def _texture_dict(texture: Checker | Felt) -> dict:
-    if isinstance(texture, Checker):
-        colors = {"color0": _floats(texture.color0), "color1": _floats(texture.color1)}
-        return {
-            "type": "checker",
-            **colors,
-            "cells_u": int(texture.cells_u),
-            "cells_v": int(texture.cells_v),
-        }
-    return {
-        "type": "felt",
-        "base": _floats(texture.base),
-        "cells_u": int(texture.cells_u),
-        "cells_v": int(texture.cells_v),
-        "grain": float(texture.grain),
-        "nap": float(texture.nap),
-        "bands": int(texture.bands),
-        "seed": int(texture.seed),
-    }
+    return _fields(motion, type(motion).__name__.lower())
 
 
 def _shape_dict(shape: Sphere | Rectangle | Box, texture_name: str | None) -> dict:
@@ -480,7 +377,8 @@ def scene_dict(scene: Scene) -> dict:
     for shape in scene.shapes:
         name = None
         if shape.material.textured:
-            tex = _texture_dict(cast(Texture, shape.material.albedo))
+            texture = cast(Texture, shape.material.albedo)
+            tex = _fields(texture, type(texture).__name__.lower())
             name = next((k for k, v in textures.items() if v == tex), None)
             if name is None:
                 name = shape.name if shape.name not in textures else f"{shape.name}-{len(textures)}"
@@ -489,55 +387,9 @@ def scene_dict(scene: Scene) -> dict:
     if textures:
         out["textures"] = textures
     if scene.medium is not None:
-        m = scene.medium
-        out["medium"] = {
-            "bounds_min": _floats(m.bounds_min),
-            "bounds_max": _floats(m.bounds_max),
-            "sigma_t": float(m.sigma_t),
-            "albedo": _floats(m.albedo),
-        }
+        out["medium"] = _fields(scene.medium)
     out["shapes"] = shapes
     return out
-
-
-def _toml_key(key: str) -> str:
-    return key if NAME_PATTERN.fullmatch(key) else json.dumps(key, ensure_ascii=False)
-
-
-def _toml_value(value: object) -> str:
-    """One TOML value; tables inline. Floats in Python's shortest round-trip form."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in cast(dict, value).items())
-    return "{ " + items + " }"
-
-
-def _toml_table(path: str, table: dict, lines: list[str]) -> None:
-    """``[path]`` with its plain values, then its sub-tables as ``[path.key]`` sections."""
-    if path and (not table or not all(_section(v) for v in table.values())):
-        lines += ["", f"[{path}]"]  # TOML implies a header that holds only sub-tables
-    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items() if not _section(v)]
-    for k, v in table.items():
-        if isinstance(v, dict):
-            _toml_table(f"{path}.{_toml_key(k)}" if path else _toml_key(k), v, lines)
-    for k, v in table.items():
-        if _section(v) and isinstance(v, list):
-            for item in v:
-                lines += ["", f"[[{_toml_key(k)}]]"]
-                lines += [f"{_toml_key(ik)} = {_toml_value(iv)}" for ik, iv in item.items()]
-
-
-def _section(value: object) -> bool:
-    """Whether ``value`` is written as its own section: a table or an array of tables."""
-    return isinstance(value, dict) or (
-        isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
-    )
 
 
 _HEADER = (
@@ -569,9 +421,7 @@ def dump_scene(scene: Scene, format: str = "toml") -> str:
         ) from None
     if format == "json":
         return json.dumps(document, indent=2, ensure_ascii=False) + "\n"
-    lines: list[str] = []
-    _toml_table("", document, lines)
-    return _HEADER + "\n".join(lines) + "\n"
+    return _HEADER + dump_toml(document)
 
 
 def write_scene_file(scene: Scene, path: str | os.PathLike) -> Path:
@@ -581,7 +431,7 @@ def write_scene_file(scene: Scene, path: str | os.PathLike) -> Path:
         SceneFileError: the suffix is neither ``.toml`` nor ``.json`` (or see :func:`dump_scene`).
     """
     path = Path(path)
-    text = dump_scene(scene, _format_of(path))
+    text = dump_scene(scene, format_of(path, SceneFileError))
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return path
