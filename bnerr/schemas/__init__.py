@@ -34,6 +34,7 @@ __all__ = ["FORMATS", "json_schema"]
 FORMATS: dict[str, tuple[str, str]] = {
     "scene": ("scene", "SceneDocument"),
     "camera": ("camera", "CameraPath"),
+    "eval": ("eval", "EvalManifest"),
 }
 
 

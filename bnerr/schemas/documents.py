@@ -63,9 +63,16 @@ def _no_duplicates(pairs: list[tuple[str, object]]) -> dict:
 
 
 def parse(
-    data: bytes | str, fmt: str, source: str, error: type[BnerrError], limit: int | None = None
+    data: bytes | str,
+    fmt: str,
+    source: str,
+    error: type[BnerrError],
+    limit: int | None = None,
+    what: str = "",
 ) -> object:
-    """The document of a TOML (``fmt`` ``"toml"``) or JSON text; syntax errors name the line."""
+    """The document of a TOML (``fmt`` ``"toml"``) or JSON text; syntax errors name the line.
+    ``what`` names the document in a syntax error's "expected ..." (default: the format)."""
+    what = what or fmt.upper()
     if isinstance(data, str):
         data = data.encode("utf-8", "surrogatepass")
     if limit is not None and len(data) > limit:
@@ -83,10 +90,10 @@ def parse(
         return json.loads(text, object_pairs_hook=_no_duplicates)
     except json.JSONDecodeError as err:
         raise error(
-            f"{source}: line {err.lineno}, column {err.colno}: expected JSON, got {err.msg}"
+            f"{source}: line {err.lineno}, column {err.colno}: expected {what}, got {err.msg}"
         ) from None
     except tomllib.TOMLDecodeError as err:
-        raise error(f"{source}: expected TOML, got {toml_reason(err, text)}") from None
+        raise error(f"{source}: expected {what}, got {toml_reason(err, text)}") from None
     except (ValueError, RecursionError) as err:  # a duplicate JSON key, 5000-digit integers, ...
         raise error(f"{source}: expected a {fmt.upper()} document, got {err}") from None
 

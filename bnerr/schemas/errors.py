@@ -9,7 +9,7 @@ it (``a.b[3].c``); the tags pydantic puts into its locations for a union's branc
 
 from __future__ import annotations
 
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from pydantic import BaseModel, TypeAdapter, ValidationError
 
@@ -42,13 +42,14 @@ def message(err: ValidationError, document: object, root: str) -> tuple[str, str
     first = err.errors(include_url=False)[0]
     loc, ctx = tuple(first["loc"]), first.get("ctx") or {}
     if first["type"] == "missing":
-        return f"{_path(loc[:-1], document, root)}: expected key {loc[-1]!r}, got none", ""
-    if "message" in ctx:
-        at = ctx.get("at") or _path(loc, document, root)
+        at, text, kind = _path(loc[:-1], document, root), f"expected key {loc[-1]!r}, got none", ""
+    elif "message" in ctx:
+        at, text, kind = ctx.get("at") or _path(loc, document, root), ctx["message"], first["type"]
         at = f"{at}.{ctx['key']}" if ctx.get("key") else at
-        return f"{at}: {ctx['message']}", first["type"]
-    what = first["msg"][0].lower() + first["msg"][1:]
-    return f"{_path(loc, document, root)}: {what}, got {describe(first['input'])}", ""
+    else:
+        what = first["msg"][0].lower() + first["msg"][1:]
+        at, text, kind = _path(loc, document, root), f"{what}, got {describe(first['input'])}", ""
+    return (f"{at}: {text}" if at else text), kind
 
 
 def validate(
@@ -56,21 +57,22 @@ def validate(
     document: object,
     error: type[errors.BnerrError],
     root: str,
-    context: dict[str, Any] | None = None,
+    source: str = "",
 ) -> M:
     """``document`` validated as ``model`` (a model class or a TypeAdapter).
 
     Raises:
         error (or the :mod:`bnerr.errors` class the failed check names): the first problem, as
-            :func:`message` writes it; ``root`` names the document itself.
+            :func:`message` writes it (``root`` names the document itself; "" for nothing),
+            after ``source: `` where ``source`` is given (the file).
     """
     try:
         if isinstance(model, TypeAdapter):
-            return model.validate_python(document, context=context)
+            return model.validate_python(document)
         assert issubclass(model, BaseModel)
-        return model.model_validate(document, context=context)
+        return model.model_validate(document)
     except ValidationError as err:
         text, name = message(err, document, root)
         kind = getattr(errors, name, None) if name else None
         cls = kind if isinstance(kind, type) and issubclass(kind, errors.BnerrError) else error
-        raise cls(text) from None
+        raise cls(f"{source}: {text}" if source else text) from None

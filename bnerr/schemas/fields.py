@@ -70,20 +70,26 @@ def expected(what: str, value: object, error: str = "") -> PydanticCustomError:
 
 class Table(BaseModel):
     """A table whose keys are all known (the fields' names); anything else is refused with the
-    list of the known keys. ``table_expected`` is how a message names a non-table value."""
+    list of the known keys (:meth:`check_keys`, which a format may word its own way).
+    ``table_expected`` is how a message names a value that is not a table."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=False)
+    model_config = ConfigDict(extra="forbid", frozen=True)
     table_expected: ClassVar[str] = "a table"
+
+    @classmethod
+    def check_keys(cls, data: dict) -> None:
+        """Refuse the first key of ``data`` that is not a field."""
+        unknown = [k for k in data if k not in cls.model_fields]
+        if unknown:
+            known = ", ".join(cls.model_fields)
+            raise problem(f"unknown key {unknown[0]!r}, expected one of {known}")
 
     @model_validator(mode="before")
     @classmethod
     def _known_keys(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             raise expected(cls.table_expected, data)
-        unknown = [k for k in data if k not in cls.model_fields]
-        if unknown:
-            known = ", ".join(cls.model_fields)
-            raise problem(f"unknown key {unknown[0]!r}, expected one of {known}")
+        cls.check_keys(data)
         return data
 
 
