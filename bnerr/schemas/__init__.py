@@ -35,6 +35,8 @@ FORMATS: dict[str, tuple[str, str]] = {
     "scene": ("scene", "SceneDocument"),
     "camera": ("camera", "CameraPath"),
     "eval": ("eval", "EvalManifest"),
+    "renderer": ("renderer", "RendererManifestDocument"),
+    "denoiser": ("denoiser", "DenoiserManifestDocument"),
 }
 
 

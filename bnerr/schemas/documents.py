@@ -90,7 +90,7 @@ def parse(
         return json.loads(text, object_pairs_hook=_no_duplicates)
     except json.JSONDecodeError as err:
         raise error(
-            f"{source}: line {err.lineno}, column {err.colno}: expected {what}, got {err.msg}"
+            f"{source}: expected {what}, got {err.msg} (at line {err.lineno}, column {err.colno})"
         ) from None
     except tomllib.TOMLDecodeError as err:
         raise error(f"{source}: expected {what}, got {toml_reason(err, text)}") from None
