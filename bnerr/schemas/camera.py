@@ -8,6 +8,8 @@ pose stays valid over the frames is checked where the motions are built.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 from bnerr.schemas.fields import Table
 from bnerr.schemas.scene import Direction, Motion
 
@@ -16,6 +18,8 @@ __all__ = ["CameraPath"]
 
 class CameraPath(Table):
     """A camera path: where the camera is and looks at each frame, and which way is up."""
+
+    whole_file: ClassVar[bool] = True
 
     origin: Motion
     target: Motion

@@ -10,7 +10,7 @@ parameter's type; an int is taken for a float), whether it is temporal, and its 
 from __future__ import annotations
 
 import re
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import AfterValidator, Field, model_validator
 
@@ -91,6 +91,8 @@ def coerce(value: object, default: Value, what: str) -> Value:
 
 class DenoiserManifestDocument(ProgramManifest):
     """An executable denoiser's manifest (:mod:`denoisers.external`)."""
+
+    whole_file: ClassVar[bool] = True
 
     name: Name = Field(description="the registry name: a letter, then [A-Za-z0-9_.-]")
     command: Command = Field(description="argv with {placeholders}, run in the manifest's folder")

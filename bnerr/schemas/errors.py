@@ -45,7 +45,8 @@ def message(err: ValidationError, document: object, root: str) -> tuple[str, str
         at, text, kind = _path(loc[:-1], document, root), f"expected key {loc[-1]!r}, got none", ""
     elif "message" in ctx:
         at, text, kind = ctx.get("at") or _path(loc, document, root), ctx["message"], first["type"]
-        at = f"{at}.{ctx['key']}" if ctx.get("key") else at
+        if ctx.get("key"):  # one of the value's keys: after its path, or alone at the top
+            at = f"{at}.{ctx['key']}" if loc or ctx.get("at") else ctx["key"]
     else:
         what = first["msg"][0].lower() + first["msg"][1:]
         at, text, kind = _path(loc, document, root), f"{what}, got {describe(first['input'])}", ""

@@ -12,7 +12,7 @@ must have the buffers it is computed from. An unknown key, buffer or region is a
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Annotated, Any, ClassVar
 
 from pydantic import AfterValidator, Field, model_validator
 
@@ -129,6 +129,8 @@ Count = Annotated[int, _integer(0)]
 
 class EvalManifest(Table):
     """A frame folder's ``manifest.toml``: what its layout cannot say (docs/EVAL.md)."""
+
+    whole_file: ClassVar[bool] = True
 
     scene: Annotated[str, Check(_text)] = Field(description="the scene's name (tables and pages)")
     spp: Annotated[int, _integer(1)] = Field(description="samples per pixel of the noisy frames")

@@ -75,6 +75,9 @@ class Table(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     table_expected: ClassVar[str] = "a table"
+    #: A whole file's table: it may name its JSON Schema in a key ``$schema`` (a string, for
+    #: an editor; the loader ignores it).
+    whole_file: ClassVar[bool] = False
 
     @classmethod
     def check_keys(cls, data: dict) -> None:
@@ -89,8 +92,23 @@ class Table(BaseModel):
     def _known_keys(cls, data: Any) -> Any:
         if not isinstance(data, dict):
             raise expected(cls.table_expected, data)
+        if cls.whole_file and "$schema" in data:
+            if not isinstance(data["$schema"], str):
+                raise problem(f"expected a string, got {describe(data['$schema'])}", key="$schema")
+            data = {k: v for k, v in data.items() if k != "$schema"}
         cls.check_keys(data)
         return data
+
+    @classmethod
+    def __get_pydantic_json_schema__(
+        cls, schema: core_schema.CoreSchema, handler: GetJsonSchemaHandler
+    ) -> dict[str, Any]:
+        out = handler(schema)
+        if cls.whole_file:
+            out = handler.resolve_ref_schema(out)
+            described = {"type": "string", "description": "the JSON Schema of this file"}
+            out["properties"] = {"$schema": described, **out.get("properties", {})}
+        return out
 
 
 class Check:

@@ -8,7 +8,7 @@ how many sampler dimensions one path takes, and whether one run renders all K ca
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, ClassVar
 
 from pydantic import AfterValidator, Field, model_validator
 
@@ -39,6 +39,8 @@ def _with_color(buffers: tuple[str, ...]) -> tuple[str, ...]:
 
 class RendererManifestDocument(ProgramManifest):
     """A renderer manifest (docs/RENDERER_PROTOCOL.md)."""
+
+    whole_file: ClassVar[bool] = True
 
     name: Name = Field(description="the scene's name in the records and the reference cache")
     command: Command = Field(description="argv with {placeholders}, run in the manifest's folder")

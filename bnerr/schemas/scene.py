@@ -12,7 +12,7 @@ rectangle with an area, a box with a volume) is checked where the scene is built
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 from pydantic import AfterValidator, BeforeValidator, Discriminator, Field, Tag, model_validator
 
@@ -378,6 +378,8 @@ def _distinct_and_lit(shapes: list[Sphere | Rectangle | Box]) -> list[Sphere | R
 class SceneDocument(Table):
     """A scene file: its top-level keys (docs/SCENE_FILES.md lists each, its unit and default).
     A file without ``name`` takes its file's name without suffix."""
+
+    whole_file: ClassVar[bool] = True
 
     format: Annotated[int, integer(1, FORMAT_VERSION)] = FORMAT_VERSION
     name: Name = None  # type: ignore[assignment]

@@ -77,7 +77,7 @@ def test_kinds_name_the_kinds_and_accept_a_plain_value():
 
     either = Annotated[A | B | tuple[int], Kinds(A, B, plain=tuple[int])]
     assert validate(TypeAdapter(either), [3], SceneFileError, "x") == (3,)
-    assert _message(either, {"type": "c"}) == "x.type: expected one of a, b, got str 'c'"
+    assert _message(either, {"type": "c"}) == "type: expected one of a, b, got str 'c'"
     assert _message(either, {}) == "x: expected key 'type' (one of a, b), got none"
     assert (
         _message(either, {"type": "a", "n": 10}) == "n: expected an integer in [0, 9], got int 10"

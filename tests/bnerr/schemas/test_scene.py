@@ -63,3 +63,15 @@ def test_a_bad_scene_file_fails_the_json_schema(case, validator):
 def test_the_field_of_view_axes_are_the_renderers():
     schema = Camera.model_json_schema()
     assert tuple(schema["properties"]["fov_axis"]["enum"]) == FOV_AXES
+
+
+def test_a_file_may_name_its_schema_for_an_editor():
+    from bnerr.errors import SceneFileError
+    from renderers.scene_file import loads_scene
+
+    document = tomllib.loads((ROOT / "examples" / "scenes" / "direct.toml").read_text())
+    named = {"$schema": "./scene.schema.json", **document}
+    assert loads_scene(json.dumps(named), "json") == loads_scene(json.dumps(document), "json")
+    assert "$schema" in json_schema("scene")["properties"]
+    with pytest.raises(SceneFileError, match=r"^s\.json: \$schema: expected a string, got int 3$"):
+        loads_scene(json.dumps({**document, "$schema": 3}), "json", "s.json")
