@@ -20,6 +20,8 @@ over :data:`MAX_FILE_BYTES` is refused before it is parsed, more than :data:`MAX
 and within :data:`MAX_COORDINATE`, and every key must be known. Whatever the bytes, loading either
 returns a scene or raises :class:`bnerr.errors.SceneFileError` naming the file and the line (syntax)
 or the key (meaning), what was expected and what came.
+The format's keys and values are the model :mod:`bnerr.schemas.scene` (``bnerr schema scene``
+prints its JSON Schema); this module adds the checks that need the geometry.
 
 Not for: meshes, materials other than Lambertian, or anything :mod:`renderers.scene` cannot
 describe; Mitsuba XML scenes (:mod:`renderers.mitsuba_render` renders those).
