@@ -29,10 +29,9 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import torch
 
@@ -40,14 +39,15 @@ from bnerr.errors import (
     FileFormatError,
     NonFiniteError,
     ShapeError,
-    UnknownNameError,
     ValueRangeError,
     check_finite,
-    toml_reason,
 )
-from bnerr.frame import BUFFERS, Frame
+from bnerr.frame import Frame
 from bnerr.io import exr_size, read_exr, read_frame
 from bnerr.metrics.regions import REGION_BUFFERS
+from bnerr.schemas.documents import parse, read
+from bnerr.schemas.errors import validate
+from bnerr.schemas.eval import AUX_BUFFERS, MAX_PIXELS, EvalManifest
 
 __all__ = [
     "AUX_BUFFERS",
@@ -68,30 +68,12 @@ __all__ = [
 MANIFEST = "manifest.toml"
 #: The folder of the reference frames.
 REFERENCE = "reference"
-#: The auxiliary buffers a frame may carry, and their channel counts.
-AUX_BUFFERS: dict[str, int] = {**{k: v for k, v in BUFFERS.items() if k != "color"}, "variance": 3}
-#: The largest frame the manifest may declare (``width * height``): 64 megapixels.
-MAX_PIXELS = 1 << 26
-#: The manifest's keys: name -> (required, what it holds).
+#: The manifest's keys: name -> (required, what it holds); the model's, as docs/EVAL.md lists.
 MANIFEST_KEYS: dict[str, tuple[bool, str]] = {
-    "scene": (True, "the scene's name (tables and pages)"),
-    "spp": (True, "samples per pixel of the noisy frames"),
-    "resolution": (True, "[width, height] of every frame"),
-    "methods": (True, "the method folders, white (the baseline) among them"),
-    "seed_sets": (True, "the seed-set folder names, the same under every method"),
-    "frames": (True, "measured frames per seed set"),
-    "warmup": (False, "frames before the measured ones (default 0)"),
-    "buffers": (False, "auxiliary buffers of every frame (default none)"),
-    "regions": (False, "pixel regions (default all, plus coherent where the buffers allow)"),
-    "static": (False, "true: one reference, reference/0000.exr, serves every frame"),
-    "reference_spp": (False, "samples per pixel of the references (default 0: unknown)"),
-    "sampler": (False, "the per-pixel sampler, a label (default owen_sobol)"),
-    "dimensions": (False, "sampler dimensions one path uses (default 0: unknown)"),
-    "tuning_seed_set": (False, "a held-out seed-set folder the denoisers are tuned on"),
+    key: (field.is_required(), field.description or "")
+    for key, field in EvalManifest.model_fields.items()
 }
-_RESERVED = (REFERENCE, "results")  # the reference folder, and the default --out
-_COHERENT_NEEDS = REGION_BUFFERS["coherent"]
-_REGION_NEEDS = {k: v for k, v in REGION_BUFFERS.items() if k in ("all", "edges", "coherent")}
+_MAX_MANIFEST_BYTES = 1 << 20
 _PLAIN = {3: (("R", "G", "B"),), 2: (("R", "G"), ("X", "Y"), ("U", "V"))}
 
 
@@ -121,171 +103,21 @@ class Manifest:
     tuning_seed_set: str | None = None
 
 
-def _int(data: dict, key: str, default: int, minimum: int) -> int:
-    value = data.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueRangeError(f"{MANIFEST}: {key}: expected an integer >= {minimum}, got {value!r}")
-    return value
-
-
-def _name(value: object, key: str) -> str:
-    """A folder name: one plain path component (no separator, not ``.``/``..``, not hidden)."""
-    if (
-        not isinstance(value, str)
-        or not value
-        or value.startswith(".")
-        or "/" in value
-        or "\\" in value
-        or value != value.strip()
-        or not value.isprintable()
-    ):
-        raise ValueRangeError(
-            f"{MANIFEST}: {key}: expected plain folder names inside the folder (no '/', '..', "
-            f"absolute, hidden names or control characters), got {value!r}"
-        )
-    return value
-
-
-def _names(data: dict, key: str, default: tuple[str, ...] | None = None) -> tuple[str, ...]:
-    value = data.get(key, default)
-    if not isinstance(value, (list, tuple)) or (default is None and not value):
-        raise ValueRangeError(
-            f"{MANIFEST}: {key}: expected a non-empty list of names, got {value!r}"
-        )
-    names = tuple(_name(v, key) for v in value)
-    if len(set(names)) != len(names):
-        raise ValueRangeError(f"{MANIFEST}: {key}: expected distinct names, got {list(names)}")
-    return names
-
-
-def _resolution(data: dict) -> tuple[int, int]:
-    value = data.get("resolution")
-    if not (
-        isinstance(value, list)
-        and len(value) == 2
-        and all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in value)
-    ):
-        raise ValueRangeError(f"{MANIFEST}: resolution: expected [width, height], got {value!r}")
-    width, height = value
-    if width * height > MAX_PIXELS:
-        raise ValueRangeError(
-            f"{MANIFEST}: resolution: expected at most {MAX_PIXELS} pixels, got {width} x {height}"
-        )
-    return width, height
-
-
-def _regions(data: dict, buffers: tuple[str, ...], before: bool) -> tuple[str, ...]:
-    """The manifest's regions (each checked against the buffers), or all plus coherent where the
-    buffers allow (``before``: a reference precedes the first measured frame, or none is
-    needed)."""
-    if "regions" not in data:
-        allowed = before and all(b in buffers for b in _COHERENT_NEEDS)
-        return ("all", "coherent") if allowed else ("all",)
-    regions = _names(data, "regions")
-    if "coherent" in regions and not before:
-        raise ValueRangeError(
-            f"{MANIFEST}: region 'coherent': expected warmup >= 1 or static = true (its "
-            "disocclusion test reads the reference of the frame before the first measured one), "
-            "got warmup 0"
-        )
-    for region in regions:
-        if region not in _REGION_NEEDS:
-            raise UnknownNameError(
-                f"{MANIFEST}: regions: expected names from {', '.join(_REGION_NEEDS)}, got "
-                f"{region!r}"
-            )
-        missing = [b for b in _REGION_NEEDS[region] if b not in buffers]
-        if missing:
-            raise ValueRangeError(
-                f"{MANIFEST}: region {region!r}: expected buffers {', '.join(missing)} in "
-                f"buffers, got {list(buffers)}"
-            )
-    return regions
-
-
-def _check_keys(data: dict) -> None:
-    unknown = sorted(set(data) - set(MANIFEST_KEYS))
-    if unknown:
-        raise UnknownNameError(
-            f"{MANIFEST}: unknown keys {', '.join(unknown)}; expected keys from "
-            f"{', '.join(MANIFEST_KEYS)}"
-        )
-    missing = [k for k, (required, _) in MANIFEST_KEYS.items() if required and k not in data]
-    if missing:
-        raise ValueRangeError(f"{MANIFEST}: expected the keys {', '.join(missing)}, got none")
-
-
-def _buffers(data: dict) -> tuple[str, ...]:
-    buffers = _names(data, "buffers", ())
-    for name in buffers:
-        if name not in AUX_BUFFERS:
-            raise UnknownNameError(
-                f"{MANIFEST}: buffers: expected names from {', '.join(AUX_BUFFERS)}, got {name!r}"
-            )
-    return buffers
-
-
-def _methods(data: dict) -> tuple[str, ...]:
-    methods = _names(data, "methods")
-    if "white" not in methods:
-        raise ValueRangeError(
-            f"{MANIFEST}: methods: expected the white baseline (a method named 'white'; every "
-            f"ratio is to it), got {list(methods)}"
-        )
-    reserved = [m for m in methods if m in _RESERVED]
-    if reserved:
-        raise ValueRangeError(
-            f"{MANIFEST}: methods: expected names other than {', '.join(_RESERVED)} (reserved), "
-            f"got {', '.join(reserved)}"
-        )
-    return methods
-
-
-def _text(data: dict, key: str, default: str) -> str:
-    value = data.get(key, default)
-    if not isinstance(value, str) or not value:
-        raise ValueRangeError(f"{MANIFEST}: {key}: expected a non-empty string, got {value!r}")
-    return value
-
-
 def parse_manifest(data: dict[str, Any]) -> Manifest:
-    """The :class:`Manifest` of a parsed TOML table.
+    """The :class:`Manifest` of a parsed TOML table (:class:`bnerr.schemas.eval.EvalManifest`);
+    without ``regions``, all plus coherent where the buffers and a reference before the first
+    measured frame allow.
 
     Raises:
         UnknownNameError: an unknown key (the message lists the known ones), buffer or region.
         ValueRangeError: a missing or bad value, or no method named ``white``.
     """
-    _check_keys(data)
-    width, height = _resolution(data)
-    buffers = _buffers(data)
-    seed_sets = _names(data, "seed_sets")
-    tuning = data.get("tuning_seed_set")
-    if tuning is not None and _name(tuning, "tuning_seed_set") in seed_sets:
-        raise ValueRangeError(
-            f"{MANIFEST}: tuning_seed_set: expected a folder apart from the measured seed sets "
-            f"{list(seed_sets)}, got {tuning!r}"
-        )
-    static = data.get("static", False)
-    if not isinstance(static, bool):
-        raise ValueRangeError(f"{MANIFEST}: static: expected true or false, got {static!r}")
-    warmup = _int(data, "warmup", 0, 0)
-    return Manifest(
-        scene=_text(data, "scene", ""),
-        spp=_int(data, "spp", 0, 1),
-        width=width,
-        height=height,
-        methods=_methods(data),
-        seed_sets=seed_sets,
-        frames=_int(data, "frames", 0, 1),
-        warmup=warmup,
-        buffers=buffers,
-        regions=_regions(data, buffers, static or warmup >= 1),
-        static=static,
-        reference_spp=_int(data, "reference_spp", 0, 0),
-        sampler=_text(data, "sampler", "owen_sobol"),
-        dimensions=_int(data, "dimensions", 0, 0),
-        tuning_seed_set=tuning,
-    )
+    m = validate(EvalManifest, data, ValueRangeError, "", source=MANIFEST)
+    values = {key: value for key, value in m if key != "resolution"}
+    if m.regions is None:
+        coherent = (m.static or m.warmup >= 1) and set(REGION_BUFFERS["coherent"]) <= set(m.buffers)
+        values["regions"] = ("all", "coherent") if coherent else ("all",)
+    return Manifest(width=m.resolution[0], height=m.resolution[1], **values)
 
 
 def load_manifest(folder: str | Path) -> Manifest:
@@ -297,18 +129,9 @@ def load_manifest(folder: str | Path) -> Manifest:
     path = Path(folder) / MANIFEST
     if not path.is_file():
         raise FileFormatError(f"{path}: expected the frame folder's manifest, got no such file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise FileFormatError(f"{path}: expected a TOML manifest in UTF-8, got {err}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        reason = toml_reason(err, text)
-        raise FileFormatError(f"{path}: expected a TOML manifest, got {reason}") from None
-    except (ValueError, RecursionError) as err:  # 5000-digit integers, deep nesting
-        raise FileFormatError(f"{path}: expected a TOML manifest, got {err}") from None
-    return parse_manifest(data)
+    data = read(path, FileFormatError, _MAX_MANIFEST_BYTES)
+    document = parse(data, "toml", str(path), FileFormatError, what="a TOML manifest")
+    return parse_manifest(cast(dict, document))
 
 
 class FrameFolder:

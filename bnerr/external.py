@@ -5,10 +5,11 @@
 A manifest is a TOML (``*.toml``, read with :mod:`tomllib`) or JSON (``*.json``) table whose
 ``command`` is a list of arguments (argv, never a shell string) with ``{placeholders}``:
 
-- :func:`read_manifest` parses the file and refuses unknown keys (listing the known ones) and
-  missing required ones; a malformed file is reported with its line;
-- :func:`expect` checks one value's type; :func:`command_placeholders` the placeholders of the
-  command (an unknown one, or a format spec, is refused; ``{{`` and ``}}`` are literal braces);
+- :func:`read_manifest` parses the file and validates it against its model in
+  :mod:`bnerr.schemas` (unknown keys refused listing the known ones, missing required ones, every
+  value's type); a malformed file is reported with its line;
+- :func:`command_placeholders` checks the placeholders of the command (an unknown one, or a
+  format spec, is refused; ``{{`` and ``}}`` are literal braces);
 - :func:`resolve_program` checks the program's own file (``command[0]``, or ``command[1]`` when
   ``command[0]`` is ``{python}``): given as a relative path it must exist and lie inside the
   manifest's folder once ``..`` and symlinks are resolved, and is made absolute; an absolute path
@@ -24,7 +25,6 @@ A manifest is a TOML (``*.toml``, read with :mod:`tomllib`) or JSON (``*.json``)
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import shlex
 import shutil
@@ -32,18 +32,18 @@ import signal
 import string
 import subprocess
 import time
-import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
-from bnerr.errors import ExternalProcessError, FileFormatError, toml_reason
+from bnerr.errors import ExternalProcessError, FileFormatError
+from bnerr.schemas.documents import parse, read
+from bnerr.schemas.errors import validate
 
 __all__ = [
+    "MAX_MANIFEST_BYTES",
     "ManifestError",
     "command_placeholders",
-    "describe_value",
-    "expect",
     "log_tail",
     "program_error",
     "read_manifest",
@@ -53,6 +53,9 @@ __all__ = [
 
 #: How many of the program's last stderr (else stdout) lines an error quotes.
 STDERR_LINES = 20
+#: Largest manifest read, in bytes.
+MAX_MANIFEST_BYTES = 1 << 20
+M = TypeVar("M")
 
 
 class ManifestError(FileFormatError):
@@ -65,55 +68,21 @@ class ManifestError(FileFormatError):
 # Reading a manifest
 
 
-def read_manifest(path: Path, keys: Mapping[str, object], what: str) -> dict:
-    """The manifest file ``path`` as a dict with every key of ``keys`` (its default filled in;
-    a default of ``...`` marks a required key); ``what`` names the kind in the messages.
+def read_manifest(path: Path, model: type[M], what: str) -> M:
+    """The manifest file ``path`` validated as ``model`` (a :mod:`bnerr.schemas` manifest:
+    its defaults filled in); ``what`` names the kind in the messages.
 
     Raises:
-        ManifestError: not ``*.toml`` / ``*.json``, unreadable, malformed (with the line), not a
-            table, an unknown key or a missing required one.
+        ManifestError: not ``*.toml`` / ``*.json``, unreadable, over 1 MiB, malformed (with the
+            line), not a table, an unknown key, a missing required one or a bad value.
     """
     suffix = path.suffix.lower()
     if suffix not in (".toml", ".json"):
         raise ManifestError(f"{path}: expected a {what} named *.toml or *.json, got {suffix!r}")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        reason = getattr(err, "strerror", None) or str(err)
-        raise ManifestError(f"{path}: expected a readable UTF-8 {what}, got {reason}") from None
-    try:
-        raw = tomllib.loads(text) if suffix == ".toml" else json.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise ManifestError(f"{path}: expected valid TOML, got {toml_reason(err, text)}") from None
-    except json.JSONDecodeError as err:
-        raise ManifestError(
-            f"{path}: expected valid JSON, got {err.msg} at line {err.lineno}, column {err.colno}"
-        ) from None
-    except (ValueError, RecursionError) as err:  # 5000-digit integers, arrays nested 1000 deep
-        raise ManifestError(f"{path}: expected a {what} the parser can read, got {err}") from None
-    if not isinstance(raw, dict):
-        raise ManifestError(f"{path}: expected a table of keys, got a JSON {type(raw).__name__}")
-    unknown = sorted(set(raw) - set(keys))
-    if unknown:
-        raise ManifestError(
-            f"{path}: unknown key(s) {', '.join(unknown)}: expected only {', '.join(keys)}"
-        )
-    missing = [key for key, default in keys.items() if default is ... and key not in raw]
-    if missing:
-        raise ManifestError(f"{path}: expected the key(s) {', '.join(missing)}, got none")
-    return {key: raw.get(key, default) for key, default in keys.items()}
-
-
-def describe_value(value: object) -> str:
-    """``value`` for a message: its type and its first 60 characters of repr."""
-    return f"{type(value).__name__} {value!r:.60}"
-
-
-def expect(path: Path, key: str, value: object, types: tuple[type, ...], what: str) -> Any:
-    """``value`` if it is one of ``types`` (a bool is never a number); else a ManifestError."""
-    if isinstance(value, bool) and bool not in types or not isinstance(value, types):
-        raise ManifestError(f"{path}: {key}: expected {what}, got {describe_value(value)}")
-    return value
+    fmt = suffix[1:]
+    data = read(path, ManifestError, MAX_MANIFEST_BYTES)
+    document = parse(data, fmt, str(path), ManifestError, what=f"valid {fmt.upper()}")
+    return validate(model, document, ManifestError, "", source=str(path))
 
 
 def command_placeholders(path: Path, command: Sequence[str], known: set[str]) -> set[str]:

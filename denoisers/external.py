@@ -82,7 +82,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import torch
@@ -91,16 +91,17 @@ from bnerr.errors import DtypeError, ExternalProcessError, UnknownNameError
 from bnerr.external import (
     ManifestError,
     command_placeholders,
-    describe_value,
-    expect,
     log_tail,
     program_error,
     read_manifest,
     resolve_program,
     run_program,
 )
-from bnerr.frame import BUFFERS, Frame
+from bnerr.frame import Frame
 from bnerr.io import openexr_quiet, write_exr
+from bnerr.schemas.denoiser import FIXED_PLACEHOLDERS, coerce
+from bnerr.schemas.denoiser import DenoiserManifestDocument as Document
+from bnerr.schemas.manifest import FRAME_BUFFERS
 from denoisers.base import Denoiser
 from denoisers.temporal import check_continues
 
@@ -117,25 +118,14 @@ __all__ = [
 ]
 
 #: Buffers a manifest may list in ``inputs`` (and use as placeholders).
-BUFFER_INPUTS: tuple[str, ...] = (*BUFFERS, "variance")
+BUFFER_INPUTS: tuple[str, ...] = FRAME_BUFFERS
 
 #: Every key a manifest may hold, with its default (``...``: required; ``kind`` None: "temporal"
 #: for a temporal manifest, else "filter").
 MANIFEST_KEYS: dict[str, object] = {
-    "name": ...,
-    "command": ...,
-    "inputs": ["color"],
-    "params": {},
-    "grid": {},
-    "temporal": False,
-    "timeout_s": 300.0,
-    "kind": None,
-    "description": "",
+    key: ... if field.is_required() else field.default
+    for key, field in Document.model_fields.items()
 }
-
-_FIXED_PLACEHOLDERS = ("python", "output", "frame")
-_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
-_IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 _SIZE_FACTOR = 4
 _SIZE_SLACK = 64 * 1024
 
@@ -166,110 +156,22 @@ class Manifest:
 # Reading the manifest
 
 
-def _parse(path: Path) -> dict:
-    """The manifest file as a dict; malformed TOML or JSON is reported with its line."""
-    return read_manifest(path, MANIFEST_KEYS, "manifest")
-
-
-def _values(path: Path, raw: dict) -> dict[str, Any]:
-    """The scalar keys checked: name, temporal, timeout_s, kind, description."""
-    name = expect(path, "name", raw["name"], (str,), "a string")
-    if not _NAME.fullmatch(name):
-        raise ManifestError(
-            f"{path}: name: expected a letter then letters, digits, '_', '.' or '-', got {name!r}"
-        )
-    temporal = expect(path, "temporal", raw["temporal"], (bool,), "true or false")
-    timeout = expect(path, "timeout_s", raw["timeout_s"], (int, float), "a number of seconds")
-    if not 0 < timeout < float("inf"):
-        raise ManifestError(f"{path}: timeout_s: expected a number > 0, got {timeout}")
-    kind = raw["kind"] if raw["kind"] is not None else ("temporal" if temporal else "filter")
-    if not _IDENTIFIER.fullmatch(expect(path, "kind", kind, (str,), "a string")):
-        raise ManifestError(
-            f"{path}: kind: expected a word such as filter or learned, got {kind!r}"
-        )
-    description = expect(path, "description", raw["description"], (str,), "a string")
-    return dict(
-        name=name, temporal=temporal, timeout_s=float(timeout), kind=kind, description=description
-    )
-
-
-def _inputs(path: Path, raw: object) -> tuple[str, ...]:
-    inputs = expect(path, "inputs", raw, (list,), "a list of buffer names")
-    for item in inputs:
-        if not isinstance(item, str) or item not in BUFFER_INPUTS:
-            raise ManifestError(
-                f"{path}: inputs: expected buffer names among {', '.join(BUFFER_INPUTS)}, "
-                f"got {item!r}"
-            )
-    if "color" not in inputs or len(set(inputs)) != len(inputs):
-        raise ManifestError(
-            f"{path}: inputs: expected 'color' and no name twice, got {', '.join(inputs) or '[]'}"
-        )
-    return tuple(inputs)
-
-
-def _params(path: Path, raw: object) -> dict[str, int | float | str]:
-    params = expect(path, "params", raw, (dict,), "a table of name = default")
-    reserved = (*_FIXED_PLACEHOLDERS, "previous_output", *BUFFER_INPUTS)
-    for key, value in params.items():
-        if not _IDENTIFIER.fullmatch(key) or key in reserved:
-            raise ManifestError(
-                f"{path}: params: expected identifiers other than {', '.join(reserved)}, "
-                f"got {key!r}"
-            )
-        expect(path, f"params.{key}", value, (int, float, str), "an int, a float or a string")
-    return dict(params)
-
-
-def _coerce(value: object, default: int | float | str, what: str) -> int | float | str:
-    """``value`` with the type of ``default`` (an int is accepted for a float); else DtypeError."""
-    kind = type(default)
-    allowed = (int, float) if kind is float else (kind,)
-    if isinstance(value, bool) or not isinstance(value, allowed):
-        raise DtypeError(f"{what}: expected {kind.__name__} like its default, got {value!r:.60}")
-    return kind(value)
-
-
-def _grid(path: Path, raw: object, params: Mapping[str, int | float | str]) -> dict[str, tuple]:
-    grid = expect(path, "grid", raw, (dict,), "a table of name = [values]")
-    checked = {}
-    for key, values in grid.items():
-        if key not in params:
-            raise ManifestError(
-                f"{path}: grid.{key}: expected a parameter of [params] "
-                f"({', '.join(params) or 'none declared'}), got {key!r}"
-            )
-        if not isinstance(values, list) or not values:
-            raise ManifestError(
-                f"{path}: grid.{key}: expected a non-empty list, got {describe_value(values)}"
-            )
-        try:
-            checked[key] = tuple(_coerce(v, params[key], f"grid.{key}") for v in values)
-        except DtypeError as err:
-            raise ManifestError(f"{path}: {err}") from None
-    return checked
-
-
-def _command(path: Path, raw: object, values: dict, inputs: tuple, params: dict) -> list[str]:
-    command = expect(path, "command", raw, (list,), "a list of arguments (argv)")
-    if not command or not all(isinstance(a, str) and a for a in command):
-        raise ManifestError(
-            f"{path}: command: expected a non-empty list of non-empty strings (argv, no shell), "
-            f"got {command!r:.80}"
-        )
-    known = {*_FIXED_PLACEHOLDERS, *BUFFER_INPUTS, *params}
-    if values["temporal"]:
+def _command(path: Path, doc: Document) -> list[str]:
+    """The command with its placeholders checked (each input's buffer, ``{output}``, the
+    parameters; ``{previous_output}`` when temporal) and its program's path resolved."""
+    known = {*FIXED_PLACEHOLDERS, *BUFFER_INPUTS, *doc.params}
+    if doc.temporal:
         known.add("previous_output")
-    used = command_placeholders(path, command, known)
+    used = command_placeholders(path, doc.command, known)
     if "output" not in used:
         raise ManifestError(f"{path}: command: expected an {{output}} placeholder, got none")
     buffers = used & set(BUFFER_INPUTS)
-    if buffers != set(inputs):
+    if buffers != set(doc.inputs):
         raise ManifestError(
             f"{path}: command: expected a placeholder for each of inputs = "
-            f"{', '.join(inputs)} and no other buffer, got {', '.join(sorted(buffers))}"
+            f"{', '.join(doc.inputs)} and no other buffer, got {', '.join(sorted(buffers))}"
         )
-    return resolve_program(path, command)
+    return resolve_program(path, list(doc.command))
 
 
 def load_manifest(manifest_path: str | os.PathLike) -> Manifest:
@@ -287,19 +189,19 @@ def load_manifest(manifest_path: str | os.PathLike) -> Manifest:
     path = Path(manifest_path).absolute()
     if not path.is_file():
         raise ManifestError(f"{path}: expected a denoiser manifest file, got no such file")
-    raw = _parse(path)
-    values = _values(path, raw)
-    inputs = _inputs(path, raw["inputs"])
-    params = _params(path, raw["params"])
-    grid = _grid(path, raw["grid"], params)
-    command = _command(path, raw["command"], values, inputs, params)
+    doc = read_manifest(path, Document, "manifest")
+    grid = {k: tuple(coerce(v, doc.params[k], "") for v in vs) for k, vs in doc.grid.items()}
     return Manifest(
         path=path,
-        command=tuple(command),
-        inputs=inputs,
-        params=MappingProxyType(params),
+        name=doc.name,
+        command=tuple(_command(path, doc)),
+        inputs=doc.inputs,
+        params=MappingProxyType(dict(doc.params)),
         grid=MappingProxyType(grid),
-        **values,
+        temporal=doc.temporal,
+        timeout_s=doc.timeout_s,
+        kind=doc.kind if doc.kind is not None else ("temporal" if doc.temporal else "filter"),
+        description=doc.description,
     )
 
 
@@ -466,7 +368,7 @@ class ExternalDenoiser(Denoiser):
                 f"one of {', '.join(defaults) or '(none)'}"
             )
         self._params = {
-            key: _coerce(params.get(key, default), default, f"denoiser {self.name!r}: {key}")
+            key: coerce(params.get(key, default), default, f"denoiser {self.name!r}: {key}")
             for key, default in defaults.items()
         }
         self.reset()

@@ -93,16 +93,19 @@ from bnerr.errors import (
 from bnerr.external import (
     ManifestError,
     command_placeholders,
-    expect,
     log_tail,
     program_error,
     read_manifest,
     resolve_program,
     run_program,
 )
-from bnerr.frame import BUFFERS, Frame
+from bnerr.frame import Frame
 from bnerr.hashing import MASK32
 from bnerr.io import atomic_write, read_frame
+from bnerr.schemas.errors import validate
+from bnerr.schemas.manifest import FRAME_BUFFERS
+from bnerr.schemas.renderer import SAMPLERS
+from bnerr.schemas.renderer import RendererManifestDocument as Document
 
 __all__ = [
     "PLACEHOLDERS",
@@ -124,17 +127,9 @@ _MAGIC, _VERSION, _UINT32 = b"BNSD", 1, 1
 
 #: Every key a renderer manifest may hold, with its default (``...``: required).
 RENDERER_KEYS: dict[str, object] = {
-    "name": ...,
-    "command": ...,
-    "buffers": ["color"],
-    "samplers": ["owen_sobol"],
-    "dimensions": 8,
-    "timeout_s": 300.0,
-    "batch": False,
-    "description": "",
+    key: ... if field.is_required() else field.default
+    for key, field in Document.model_fields.items()
 }
-#: The samplers the protocol can describe to a renderer (``{sampler}``).
-SAMPLERS: tuple[str, ...] = ("owen_sobol", "ldbn")
 _LDBN_PLACEHOLDERS = ("ldbn_keys", "ldbn_slice", "ldbn_offset_y", "ldbn_offset_x")
 #: Every placeholder a command may use.
 PLACEHOLDERS: tuple[str, ...] = (
@@ -142,8 +137,6 @@ PLACEHOLDERS: tuple[str, ...] = (
     *_LDBN_PLACEHOLDERS,
 )
 _REQUIRED = ("seeds", "out", "spp")
-_FRAME_BUFFERS = (*BUFFERS, "variance")
-_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_.-]*")
 _SIZE_FACTOR, _SIZE_SLACK, _MAX_CHANNELS = 4, 64 * 1024, 16
 
 
@@ -231,64 +224,24 @@ class RendererManifest:
         return f"renderer {self.name!r} ({where})"
 
 
-def _names(path: Path, key: str, raw: object, known: tuple[str, ...]) -> tuple[str, ...]:
-    values = expect(path, key, raw, (list,), "a list of names")
-    if not values or any(v not in known for v in values) or len(set(values)) != len(values):
-        raise ManifestError(
-            f"{path}: {key}: expected distinct names among {', '.join(known)}, got {values!r:.80}"
-        )
-    return tuple(values)
-
-
-def _command(path: Path, raw: object, samplers: tuple[str, ...]) -> tuple[str, ...]:
-    command = expect(path, "command", raw, (list,), "a list of arguments (argv)")
-    if not command or not all(isinstance(a, str) and a for a in command):
-        raise ManifestError(
-            f"{path}: command: expected a non-empty list of non-empty strings (argv, no shell), "
-            f"got {command!r:.80}"
-        )
-    used = command_placeholders(path, command, set(PLACEHOLDERS))
-    need = [*_REQUIRED, *(("sampler", *_LDBN_PLACEHOLDERS) if "ldbn" in samplers else ())]
-    if len(samplers) > 1 and "sampler" not in need:
+def _manifest(path: Path, folder: Path, source: str, doc: Document) -> RendererManifest:
+    """The manifest of the checked document ``doc``, its command's placeholders and program
+    checked too."""
+    used = command_placeholders(path, doc.command, set(PLACEHOLDERS))
+    need = [*_REQUIRED, *(("sampler", *_LDBN_PLACEHOLDERS) if "ldbn" in doc.samplers else ())]
+    if len(doc.samplers) > 1 and "sampler" not in need:
         need.append("sampler")
     missing = [p for p in need if p not in used]
     if missing:
         raise ManifestError(
             f"{path}: command: expected the placeholder(s) {', '.join('{' + p + '}' for p in need)}"
-            f" (samplers {', '.join(samplers)}), got none for {', '.join(missing)}"
-        )
-    return tuple(resolve_program(path, list(command)))
-
-
-def _manifest(path: Path, folder: Path, source: str, raw: dict) -> RendererManifest:
-    """The manifest of the raw table ``raw`` (every key of :data:`RENDERER_KEYS`), checked."""
-    name = expect(path, "name", raw["name"], (str,), "a string")
-    if not _NAME.fullmatch(name):
-        raise ManifestError(
-            f"{path}: name: expected a letter then letters, digits, '_', '.' or '-', got {name!r}"
-        )
-    buffers = _names(path, "buffers", raw["buffers"], _FRAME_BUFFERS)
-    if "color" not in buffers:
-        raise ManifestError(f"{path}: buffers: expected 'color' among them, got {buffers}")
-    samplers = _names(path, "samplers", raw["samplers"], SAMPLERS)
-    dimensions = expect(path, "dimensions", raw["dimensions"], (int,), "an integer")
-    timeout = expect(path, "timeout_s", raw["timeout_s"], (int, float), "a number of seconds")
-    if dimensions < 1 or not 0 < timeout < float("inf"):
-        raise ManifestError(
-            f"{path}: expected dimensions >= 1 and timeout_s > 0, got {dimensions} and {timeout}"
+            f" (samplers {', '.join(doc.samplers)}), got none for {', '.join(missing)}"
         )
     return RendererManifest(
         path=path if path.name != "--renderer-cmd" else None,
         folder=folder,
         source=source,
-        name=name,
-        command=_command(path, raw["command"], samplers),
-        buffers=buffers,
-        samplers=samplers,
-        dimensions=dimensions,
-        timeout_s=float(timeout),
-        batch=expect(path, "batch", raw["batch"], (bool,), "true or false"),
-        description=expect(path, "description", raw["description"], (str,), "a string"),
+        **dict(doc, command=tuple(resolve_program(path, list(doc.command)))),
     )
 
 
@@ -307,8 +260,8 @@ def load_renderer_manifest(manifest_path: str | os.PathLike) -> RendererManifest
     path = Path(manifest_path).absolute()
     if not path.is_file():
         raise ManifestError(f"{path}: expected a renderer manifest file, got no such file")
-    raw = read_manifest(path, RENDERER_KEYS, "renderer manifest")
-    return _manifest(path, path.parent, path.read_text(encoding="utf-8"), raw)
+    doc = read_manifest(path, Document, "renderer manifest")
+    return _manifest(path, path.parent, path.read_text(encoding="utf-8"), doc)
 
 
 #: Programs that run another one named after them (``python3 render.py``): the scene of a
@@ -365,12 +318,12 @@ def command_manifest(
     program = _program_of(argv)
     stem = re.sub(r"[^A-Za-z0-9_.-]", "_", Path(program).stem) or "renderer"
     raw = dict(
-        RENDERER_KEYS,
         name=name if name is not None else (stem if stem[0].isalpha() else f"r{stem}"),
         command=argv,
         samplers=list(SAMPLERS if ldbn else SAMPLERS[:1]),
     )
-    return _manifest(pseudo, where, template, raw)
+    doc = validate(Document, raw, ManifestError, "", source=str(pseudo))
+    return _manifest(pseudo, where, template, doc)
 
 
 # ------------------------------------------------------------------------------------------------
@@ -471,7 +424,7 @@ def _read(
             "no " + ", ".join(missing),
             work,
         )
-    for name in _FRAME_BUFFERS:
+    for name in FRAME_BUFFERS:
         value = getattr(frame, name)
         if value is not None:
             try:
@@ -568,5 +521,5 @@ class ExternalRenderer:
 def _on(frame: Frame, device: torch.device) -> Frame:
     if device.type == "cpu":
         return frame
-    moved = {n: getattr(frame, n) for n in _FRAME_BUFFERS if getattr(frame, n) is not None}
+    moved = {n: getattr(frame, n) for n in FRAME_BUFFERS if getattr(frame, n) is not None}
     return Frame(**{n: v.to(device) for n, v in moved.items()}, timings=frame.timings)

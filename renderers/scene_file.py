@@ -20,6 +20,8 @@ over :data:`MAX_FILE_BYTES` is refused before it is parsed, more than :data:`MAX
 and within :data:`MAX_COORDINATE`, and every key must be known. Whatever the bytes, loading either
 returns a scene or raises :class:`bnerr.errors.SceneFileError` naming the file and the line (syntax)
 or the key (meaning), what was expected and what came.
+The format's keys and values are the model :mod:`bnerr.schemas.scene` (``bnerr schema scene``
+prints its JSON Schema); this module adds the checks that need the geometry.
 
 Not for: meshes, materials other than Lambertian, or anything :mod:`renderers.scene` cannot
 describe; Mitsuba XML scenes (:mod:`renderers.mitsuba_render` renders those).
@@ -27,22 +29,32 @@ describe; Mitsuba XML scenes (:mod:`renderers.mitsuba_render` renders those).
 
 from __future__ import annotations
 
+import dataclasses
 import json
-import math
 import os
-import re
-import stat
-import tomllib
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any, cast
 
 import numpy as np
+from pydantic import TypeAdapter
 
-from bnerr.errors import BnerrError, DtypeError, SceneFileError, toml_reason
+from bnerr.errors import BnerrError, DtypeError, SceneFileError
 from bnerr.io import atomic_write
+from bnerr.schemas import camera as camera_schema
+from bnerr.schemas import scene as schema
+from bnerr.schemas.documents import dump_toml, format_of, parse, read
+from bnerr.schemas.errors import validate
+from bnerr.schemas.scene import (
+    FORMAT_VERSION,
+    MAX_COORDINATE,
+    MAX_DEPTH,
+    MAX_FILE_BYTES,
+    MAX_SHAPES,
+    MAX_TEXTURE_CELLS,
+    MIN_LENGTH,
+)
 from renderers.scene import (
-    FOV_AXES,
     Affine,
     Box,
     Camera,
@@ -79,204 +91,35 @@ __all__ = [
     "write_scene_file",
 ]
 
-#: The version this module reads and writes (top-level key ``format``).
-FORMAT_VERSION = 1
-#: Largest scene file read, in bytes (checked before parsing).
-MAX_FILE_BYTES = 1 << 20
-#: Most shapes in one scene: the tracer tests every ray against every primitive.
-MAX_SHAPES = 256
-#: Most cells in all textures of a scene together (12 bytes of float32 albedo each).
-MAX_TEXTURE_CELLS = 1 << 22
-#: Largest ``max_depth`` (D grows by 5 per vertex; the medium scene's 9 makes D = 40).
-MAX_DEPTH = 64
-#: Largest magnitude of any number in a scene file: keeps every packed float32 finite.
-MAX_COORDINATE = 1e6
-#: Shortest length (radius, half edge, transform column) and smallest sine between two edges.
-MIN_LENGTH = 1e-6
 #: Frames over which the camera must keep a valid pose (origin != target, up not parallel).
 CAMERA_CHECK_FRAMES = 1024
 
-_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_-]{0,63}")
-#: Keys of the Mitsuba dictionary (renderers.mitsuba) that a shape's name must not take.
-_RESERVED_NAMES = frozenset({"type", "integrator", "sensor", "medium-box"})
-_MAX_DESCRIPTION = 1000
-_SUFFIXES = {".toml": "toml", ".json": "json"}
 _STEM = "name (none given, so the file's name without suffix)"
-
-_TOP_KEYS = ("format", "name", "description", "max_depth", "animated", "camera")
-_TOP_TABLES = ("textures", "materials", "medium", "shapes")
-_MATERIAL_KEYS = ("albedo", "texture", "material")
-_SHAPE_KEYS = {
-    "sphere": ("type", "name", "center", "radius", *_MATERIAL_KEYS),
-    "rectangle": (
-        "type",
-        "name",
-        "center",
-        "u",
-        "v",
-        "to_world",
-        "transform",
-        *_MATERIAL_KEYS,
-        "emission",
-    ),
-    "box": ("type", "name", "to_world", "transform", *_MATERIAL_KEYS),
-}
-_MOTION_KEYS = {
-    "fixed": ("type", "value"),
-    "linear": ("type", "start", "velocity"),
-    "orbit": ("type", "center", "radius", "height", "angle", "step"),
-}
-_TEXTURE_KEYS = {
-    "checker": ("type", "color0", "color1", "cells_u", "cells_v"),
-    "felt": ("type", "base", "cells_u", "cells_v", "grain", "nap", "bands", "seed"),
-}
+_NAME: TypeAdapter[str] = TypeAdapter(schema.Name)
 
 
 # --------------------------------------------------------------------------------------------
-# Reading values: every reader takes the key path ``at`` for its error message
+# Building the scene of a checked document (bnerr.schemas.scene checked everything but geometry)
 
 
-class _Missing:
-    """Marks a key without default (required)."""
+#: The dataclass of each kind of motion and texture; its fields are named as the table's keys.
+_KINDS: dict[str, Any] = {
+    "fixed": Fixed, "linear": Linear, "orbit": Orbit, "checker": Checker, "felt": Felt
+}  # fmt: skip
 
 
-_REQUIRED = _Missing()
-
-
-def _describe(value: object) -> str:
-    text = repr(value)
-    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
-
-
-def _fail(at: str, expected: str, value: object) -> SceneFileError:
-    return SceneFileError(f"{at}: expected {expected}, got {_describe(value)}")
-
-
-def _table(value: object, at: str, known: tuple[str, ...]) -> dict:
-    """``value`` as a table whose keys are all in ``known``."""
-    if not isinstance(value, dict):
-        raise _fail(at, "a table", value)
-    unknown = [k for k in value if k not in known]
-    if unknown:
-        raise SceneFileError(
-            f"{at}: unknown key {unknown[0]!r}, expected one of {', '.join(known)}"
-        )
-    return value
-
-
-def _get(table: dict, key: str, at: str, default: object) -> object:
-    if key in table:
-        return table[key]
-    if default is _REQUIRED:
-        raise SceneFileError(f"{at}: expected key {key!r}, got none")
-    return default
-
-
-def _number(
-    value: object, at: str, lo: float = -MAX_COORDINATE, hi: float = MAX_COORDINATE
-) -> float:
-    """A finite int or float in [lo, hi], as a float (bools are refused)."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise _fail(at, "a number", value)
-    if isinstance(value, int) and abs(value) > 2 * MAX_COORDINATE:
-        raise _fail(at, f"a number in [{lo}, {hi}]", value)
-    x = float(value)
-    if not math.isfinite(x) or not lo <= x <= hi:
-        raise _fail(at, f"a finite number in [{lo}, {hi}]", value)
-    return x
-
-
-def _integer(value: object, at: str, lo: int, hi: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise _fail(at, "an integer", value)
-    if not lo <= value <= hi:
-        raise _fail(at, f"an integer in [{lo}, {hi}]", value)
-    return value
-
-
-def _vector(
-    value: object, at: str, n: int = 3, lo: float = -MAX_COORDINATE, hi: float = MAX_COORDINATE
-) -> Any:
-    """A list of ``n`` numbers in [lo, hi], as a tuple of floats."""
-    if not isinstance(value, list) or len(value) != n:
-        raise _fail(at, f"an array of {n} numbers", value)
-    return tuple(_number(v, f"{at}[{i}]", lo, hi) for i, v in enumerate(value))
-
-
-def _color(value: object, at: str) -> tuple[float, float, float]:
-    return _vector(value, at, 3, 0.0, 1.0)
-
-
-def _name(value: object, at: str) -> str:
-    if not isinstance(value, str) or not _NAME.fullmatch(value):
-        raise _fail(at, "a name of 1 to 64 letters, digits, '_' or '-' (not first)", value)
-    return value
-
-
-def _string(value: object, at: str) -> str:
-    if not isinstance(value, str) or len(value) > _MAX_DESCRIPTION or not value.isprintable():
-        raise _fail(at, f"a printable string of at most {_MAX_DESCRIPTION} characters", value)
-    return value
-
-
-def _kind(table: object, at: str, kinds: Mapping[str, tuple[str, ...]]) -> tuple[str, dict]:
-    """The ``type`` of a table and the table checked against that type's keys."""
-    if not isinstance(table, dict):
-        raise _fail(at, "a table", table)
-    kind = table.get("type", _REQUIRED)
-    if kind is _REQUIRED:
-        raise SceneFileError(f"{at}: expected key 'type' (one of {', '.join(kinds)}), got none")
-    if not isinstance(kind, str) or kind not in kinds:
-        raise _fail(f"{at}.type", f"one of {', '.join(kinds)}", kind)
-    return kind, _table(table, at, kinds[kind])
-
-
-# --------------------------------------------------------------------------------------------
-# Reading the parts of a scene
-
-
-def _motion(value: object, at: str) -> Motion:
-    """``[x, y, z]`` (fixed) or a table of type fixed, linear or orbit."""
-    if isinstance(value, list):
-        return Fixed(_vector(value, at))
-    kind, t = _kind(value, at, _MOTION_KEYS)
-    if kind == "fixed":
-        return Fixed(_vector(_get(t, "value", at, _REQUIRED), f"{at}.value"))
-    if kind == "linear":
-        start = _vector(_get(t, "start", at, _REQUIRED), f"{at}.start")
-        velocity = _vector(_get(t, "velocity", at, [0.0, 0.0, 0.0]), f"{at}.velocity")
-        return Linear(start, velocity)
-    return Orbit(
-        _vector(_get(t, "center", at, [0.0, 0.0, 0.0]), f"{at}.center"),
-        _number(_get(t, "radius", at, _REQUIRED), f"{at}.radius", 0.0),
-        _number(_get(t, "height", at, 0.0), f"{at}.height"),
-        _number(_get(t, "angle", at, 0.0), f"{at}.angle"),
-        _number(_get(t, "step", at, 0.0), f"{at}.step"),
-    )
-
-
-def _camera(value: object) -> Camera:
-    t = _table(value, "camera", ("origin", "target", "up", "fov", "fov_axis"))
-    fov_axis = _get(t, "fov_axis", "camera", "x")
-    if fov_axis not in FOV_AXES:
-        raise _fail("camera.fov_axis", f"one of {', '.join(FOV_AXES)}", fov_axis)
-    camera = Camera(
-        _motion(_get(t, "origin", "camera", _REQUIRED), "camera.origin"),
-        _motion(_get(t, "target", "camera", _REQUIRED), "camera.target"),
-        _vector(_get(t, "up", "camera", [0.0, 1.0, 0.0]), "camera.up"),
-        _number(_get(t, "fov", "camera", _REQUIRED), "camera.fov", 1e-3, 179.0),
-        fov_axis,
-    )
-    _check_pose(camera.origin, camera.target, camera.up)
-    return camera
+def _built(t: Any) -> Any:
+    """The motion of a bare ``[x, y, z]`` or of a motion table, or the texture of a texture
+    table, as its :mod:`renderers.scene` dataclass."""
+    if isinstance(t, tuple):
+        return Fixed(t)
+    return _KINDS[t.type](**{key: value for key, value in t if key != "type"})
 
 
 def _check_pose(origin_motion: Motion, target_motion: Motion, up_vector: Vec3) -> None:
     """Refuse a camera whose pose degenerates in the first :data:`CAMERA_CHECK_FRAMES` frames:
     origin on the target, or up parallel to the viewing direction (no image plane)."""
     up = np.asarray(up_vector)
-    if np.linalg.norm(up) < MIN_LENGTH:
-        raise _fail("camera.up", f"a vector longer than {MIN_LENGTH}", list(up_vector))
     moving = not (isinstance(origin_motion, Fixed) and isinstance(target_motion, Fixed))
     frames = range(CAMERA_CHECK_FRAMES if moving else 1)
     origin = np.array([origin_motion.at(t) for t in frames])
@@ -297,113 +140,29 @@ def _check_pose(origin_motion: Motion, target_motion: Motion, up_vector: Vec3) -
         )
 
 
-def _texture(value: object, at: str) -> Checker | Felt:
-    kind, t = _kind(value, at, _TEXTURE_KEYS)
-    cells = 1 << 16
-    cells_u = _integer(_get(t, "cells_u", at, _REQUIRED), f"{at}.cells_u", 1, cells)
-    cells_v = _integer(_get(t, "cells_v", at, _REQUIRED), f"{at}.cells_v", 1, cells)
-    if kind == "checker":
-        color0 = _color(_get(t, "color0", at, _REQUIRED), f"{at}.color0")
-        return Checker(
-            color0, _color(_get(t, "color1", at, _REQUIRED), f"{at}.color1"), cells_u, cells_v
-        )
-    return Felt(
-        _color(_get(t, "base", at, _REQUIRED), f"{at}.base"),
-        cells_u,
-        cells_v,
-        _number(_get(t, "grain", at, 0.25), f"{at}.grain"),
-        _number(_get(t, "nap", at, 0.1), f"{at}.nap"),
-        _integer(_get(t, "bands", at, 6), f"{at}.bands", -cells, cells),
-        _integer(_get(t, "seed", at, 0), f"{at}.seed", 0, (1 << 32) - 1),
-    )
+def _camera(c: schema.Camera) -> Camera:
+    camera = Camera(_built(c.origin), _built(c.target), c.up, c.fov, c.fov_axis)
+    _check_pose(camera.origin, camera.target, camera.up)
+    return camera
 
 
-def _textures(value: object) -> dict[str, Checker | Felt]:
-    if not isinstance(value, dict):
-        raise _fail("textures", "a table of named textures", value)
-    out, cells = {}, 0
-    for key, table in value.items():
-        at = f"textures.{_name(key, 'textures (a texture name)')}"
-        texture = _texture(table, at)
-        cells += texture.cells_u * texture.cells_v
-        if cells > MAX_TEXTURE_CELLS:
-            raise SceneFileError(
-                f"{at}: expected at most {MAX_TEXTURE_CELLS} texture cells in all, got {cells}"
-            )
-        out[key] = texture
-    return out
+def _material(t: Any, textures: Mapping, materials: Mapping) -> Diffuse:
+    """The material of a shape or a ``[materials.name]`` table (its references checked)."""
+    if "albedo" in t.model_fields_set:
+        return Diffuse(t.albedo)
+    if "texture" in t.model_fields_set:
+        return Diffuse(textures[t.texture])
+    return materials[t.material]
 
 
-def _material(t: dict, at: str, textures: Mapping, materials: Mapping, textured: bool) -> Diffuse:
-    """The material of a shape or of a ``[materials.name]`` table: exactly one of ``albedo``
-    (RGB), ``texture`` (a texture's name; rectangles only) or ``material`` (a material's name)."""
-    given = [k for k in _MATERIAL_KEYS if k in t]
-    if len(given) != 1:
-        raise SceneFileError(
-            f"{at}: expected exactly one of {', '.join(_MATERIAL_KEYS)}, got "
-            f"{', '.join(given) or 'none'}"
-        )
-    key = given[0]
-    if key == "albedo":
-        return Diffuse(_color(t[key], f"{at}.albedo"))
-    known = textures if key == "texture" else materials
-    if not isinstance(t[key], str) or t[key] not in known:
-        raise _fail(
-            f"{at}.{key}", f"the name of a {key} ({', '.join(known) or 'none defined'})", t[key]
-        )
-    if key == "texture":
-        if not textured:
-            raise SceneFileError(f"{at}.texture: expected textures on rectangles only, got one")
-        return Diffuse(textures[t[key]])
-    material = materials[t[key]]
-    if material.textured and not textured:
-        raise SceneFileError(f"{at}.material: expected an untextured material, got {t[key]!r}")
-    return material
-
-
-def _materials(value: object, textures: Mapping) -> dict[str, Diffuse]:
-    if not isinstance(value, dict):
-        raise _fail("materials", "a table of named materials", value)
-    out: dict[str, Diffuse] = {}
-    for key, table in value.items():
-        at = f"materials.{_name(key, 'materials (a material name)')}"
-        t = _table(table, at, ("albedo", "texture"))
-        out[key] = _material(t, at, textures, {}, True)
-    return out
-
-
-def _matrix(value: object, at: str) -> Affine:
-    """A 3 x 4 affine matrix: three rows of four numbers (linear part | translation)."""
-    if not isinstance(value, list) or len(value) != 3:
-        raise _fail(at, "3 rows of 4 numbers", value)
-    return tuple(_vector(row, f"{at}[{i}]", 4) for i, row in enumerate(value))
-
-
-def _transform(value: object, at: str) -> Affine:
-    """``{translate, rotate = {axis, degrees}, scale}``, composed as Mitsuba does (T * R * S)."""
-    t = _table(value, at, ("translate", "rotate", "scale"))
-    translate = _vector(_get(t, "translate", at, [0.0, 0.0, 0.0]), f"{at}.translate")
-    rotate = None
-    if "rotate" in t:
-        r = _table(t["rotate"], f"{at}.rotate", ("axis", "degrees"))
-        axis = _vector(_get(r, "axis", f"{at}.rotate", _REQUIRED), f"{at}.rotate.axis")
-        if np.linalg.norm(axis) < MIN_LENGTH:
-            raise _fail(f"{at}.rotate.axis", f"a vector longer than {MIN_LENGTH}", list(axis))
-        rotate = (
-            axis,
-            _number(_get(r, "degrees", f"{at}.rotate", _REQUIRED), f"{at}.rotate.degrees"),
-        )
-    scale = _get(t, "scale", at, 1.0)
-    factors = (
-        _vector(scale, f"{at}.scale") if isinstance(scale, list) else _number(scale, f"{at}.scale")
-    )
-    return affine(translate, rotate, factors)
-
-
-def _placed(t: dict, key: str, at: str) -> Affine:
-    """The 3 x 4 matrix of a shape's ``to_world`` or ``transform`` (``key``)."""
-    reader = _matrix if key == "to_world" else _transform
-    return reader(t[key], f"{at}.{key}")
+def _placed(t: schema.Rectangle | schema.Box) -> tuple[str, Affine]:
+    """The key of a shape's placement (``to_world`` or ``transform``) and its 3 x 4 matrix;
+    a transform is composed as Mitsuba does (T * R * S)."""
+    if t.to_world is not None:
+        return "to_world", t.to_world
+    r = t.transform.rotate
+    rotate = (r.axis, r.degrees) if r is not None else None
+    return "transform", affine(t.transform.translate, rotate, t.transform.scale)
 
 
 def _check_edges(u: np.ndarray, v: np.ndarray, at: str) -> None:
@@ -416,46 +175,23 @@ def _check_edges(u: np.ndarray, v: np.ndarray, at: str) -> None:
         )
 
 
-def _placement(t: dict, at: str, keys: tuple[str, ...]) -> str:
-    """Which of the mutually exclusive placements ``keys`` the shape table ``t`` uses."""
-    given = [k for k in keys if k in t]
-    if len(given) != 1:
-        raise SceneFileError(
-            f"{at}: expected exactly one of {', '.join(keys)}, got {', '.join(given) or 'none'}"
-        )
-    return given[0]
-
-
-def _rectangle(t: dict, at: str, name: str, material: Diffuse) -> Rectangle:
-    emission = None
-    if "emission" in t:
-        emission = _vector(t["emission"], f"{at}.emission", 3, 0.0)
-        if max(emission) <= 0:
-            raise _fail(f"{at}.emission", "a radiance above 0 (leave emission out)", t["emission"])
-    if _placement(t, at, ("center", "to_world", "transform")) == "center":
-        missing = [k for k in ("u", "v") if k not in t]
-        if missing:
-            raise SceneFileError(f"{at}: expected key {missing[0]!r} with center, got none")
-        center, u, v = (_vector(t[k], f"{at}.{k}") for k in ("center", "u", "v"))
-        _check_edges(np.asarray(u), np.asarray(v), at)
-        return Rectangle(name, center, u, v, material, emission)
-    for k in ("u", "v"):
-        if k in t:
-            raise SceneFileError(f"{at}: expected {k} only with center, got it with a transform")
-    key = "to_world" if "to_world" in t else "transform"
-    m = np.asarray(_placed(t, key, at))
+def _rectangle(t: schema.Rectangle, at: str, material: Diffuse) -> Rectangle:
+    if t.center is not None:
+        _check_edges(np.asarray(t.u), np.asarray(t.v), at)
+        return Rectangle(t.name, t.center, t.u, t.v, material, t.emission)
+    key, placed = _placed(t)
+    m = np.asarray(placed)
     _check_edges(m[:, 0], m[:, 1], at)
     if np.linalg.det(m[:, :3]) <= 0:
         raise SceneFileError(
             f"{at}.{key}: expected a linear part with determinant > 0 (front side u x v), got "
             f"{np.linalg.det(m[:, :3])}"
         )
-    return Rectangle.from_transform(name, m.tolist(), material, emission)
+    return Rectangle.from_transform(t.name, m.tolist(), material, t.emission)
 
 
-def _box(t: dict, at: str, name: str, material: Diffuse) -> Box:
-    key = _placement(t, at, ("to_world", "transform"))
-    m = _placed(t, key, at)
+def _box(t: schema.Box, at: str, material: Diffuse) -> Box:
+    key, m = _placed(t)
     linear = np.asarray(m)[:, :3]
     norms = np.linalg.norm(linear, axis=0)
     if norms.min() < MIN_LENGTH or abs(np.linalg.det(linear)) < MIN_LENGTH * norms.prod():
@@ -463,54 +199,16 @@ def _box(t: dict, at: str, name: str, material: Diffuse) -> Box:
             f"{at}.{key}: expected an invertible linear part with columns longer than "
             f"{MIN_LENGTH} (a box with a volume), got {linear.tolist()}"
         )
-    return Box(name, m, material)
+    return Box(t.name, m, material)
 
 
-def _shape(
-    value: object, at: str, textures: Mapping, materials: Mapping
-) -> Sphere | Rectangle | Box:
-    kind, t = _kind(value, at, _SHAPE_KEYS)
-    name = _name(_get(t, "name", at, _REQUIRED), f"{at}.name")
-    if name in _RESERVED_NAMES:
-        raise _fail(f"{at}.name", f"a name other than {', '.join(sorted(_RESERVED_NAMES))}", name)
-    material = _material(t, at, textures, materials, kind == "rectangle")
-    if kind == "sphere":
-        center = _motion(_get(t, "center", at, _REQUIRED), f"{at}.center")
-        radius = _number(_get(t, "radius", at, _REQUIRED), f"{at}.radius", MIN_LENGTH)
-        return Sphere(name, center, radius, material)
-    if kind == "rectangle":
-        return _rectangle(t, at, name, material)
-    return _box(t, at, name, material)
-
-
-def _shapes(value: object, textures: Mapping, materials: Mapping) -> tuple:
-    if not isinstance(value, list) or not value:
-        raise _fail("shapes", "a non-empty array of tables ([[shapes]])", value)
-    if len(value) > MAX_SHAPES:
-        raise SceneFileError(f"shapes: expected at most {MAX_SHAPES} shapes, got {len(value)}")
-    shapes, names = [], set()
-    for i, table in enumerate(value):
-        shape = _shape(table, f"shapes[{i}]", textures, materials)
-        if shape.name in names:
-            raise _fail(f"shapes[{i}].name", "a name no other shape has", shape.name)
-        names.add(shape.name)
-        shapes.append(shape)
-    if not any(isinstance(s, Rectangle) and s.emission is not None for s in shapes):
-        raise SceneFileError("shapes: expected at least one rectangle with emission, got none")
-    return tuple(shapes)
-
-
-def _medium(value: object) -> HomogeneousMedium:
-    t = _table(value, "medium", ("bounds_min", "bounds_max", "sigma_t", "albedo"))
-    lo = _vector(_get(t, "bounds_min", "medium", _REQUIRED), "medium.bounds_min")
-    hi = _vector(_get(t, "bounds_max", "medium", _REQUIRED), "medium.bounds_max")
-    if not all(b - a >= MIN_LENGTH for a, b in zip(lo, hi)):
-        raise SceneFileError(
-            f"medium: expected bounds_min < bounds_max on every axis, got {lo} and {hi}"
-        )
-    sigma_t = _number(_get(t, "sigma_t", "medium", _REQUIRED), "medium.sigma_t", MIN_LENGTH)
-    albedo = _color(_get(t, "albedo", "medium", _REQUIRED), "medium.albedo")
-    return HomogeneousMedium(lo, hi, sigma_t, albedo)
+def _shape(t: Any, at: str, textures: Mapping, materials: Mapping) -> Sphere | Rectangle | Box:
+    material = _material(t, textures, materials)
+    if isinstance(t, schema.Sphere):
+        return Sphere(t.name, _built(t.center), t.radius, material)
+    if isinstance(t, schema.Rectangle):
+        return _rectangle(t, at, material)
+    return _box(t, at, material)
 
 
 def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
@@ -523,69 +221,30 @@ def scene_from_dict(document: object, default_name: str = "scene") -> Scene:
     Raises:
         SceneFileError: the document breaks the schema; the message names the key.
     """
-    top = _table(document, "scene", _TOP_KEYS + _TOP_TABLES)
-    _integer(_get(top, "format", "scene", FORMAT_VERSION), "format", 1, FORMAT_VERSION)
-    max_depth = _integer(_get(top, "max_depth", "scene", _REQUIRED), "max_depth", 2, MAX_DEPTH)
-    animated = _get(top, "animated", "scene", True)
-    if not isinstance(animated, bool):
-        raise _fail("animated", "true or false", animated)
-    textures = _textures(top.get("textures", {}))
-    materials = _materials(top.get("materials", {}), textures)
+    doc = validate(schema.SceneDocument, document, SceneFileError, "scene")
+    name = doc.name or validate(_NAME, default_name, SceneFileError, _STEM)
+    textures = {key: _built(t) for key, t in doc.textures.items()}
+    materials = {key: _material(m, textures, {}) for key, m in doc.materials.items()}
     try:
         scene = Scene(
-            name=_name(top.get("name", default_name), "name" if "name" in top else _STEM),
-            description=_string(_get(top, "description", "scene", ""), "description"),
-            camera=_camera(_get(top, "camera", "scene", _REQUIRED)),
-            shapes=_shapes(_get(top, "shapes", "scene", _REQUIRED), textures, materials),
-            max_depth=max_depth,
-            medium=_medium(top["medium"]) if "medium" in top else None,
+            name=name,
+            description=doc.description,
+            camera=_camera(doc.camera),
+            shapes=tuple(
+                _shape(s, f"shapes[{i}]", textures, materials) for i, s in enumerate(doc.shapes)
+            ),
+            max_depth=doc.max_depth,
+            medium=HomogeneousMedium(**dict(doc.medium)) if doc.medium is not None else None,
         )
     except SceneFileError:
         raise
     except BnerrError as err:  # a check of renderers.scene that the ones above did not foresee
         raise SceneFileError(str(err)) from err
-    return scene if animated else scene.static()
+    return scene if doc.animated else scene.static()
 
 
 # --------------------------------------------------------------------------------------------
 # Files and text
-
-
-def _no_duplicates(pairs: list[tuple[str, object]]) -> dict:
-    """JSON object hook: a key given twice is an error (TOML refuses it too)."""
-    out: dict = {}
-    for key, value in pairs:
-        if key in out:
-            raise ValueError(f"key {key!r} given twice")
-        out[key] = value
-    return out
-
-
-def _parse(data: bytes | str, fmt: str, source: str) -> object:
-    """The document of a TOML or JSON text; syntax errors name the line."""
-    if isinstance(data, str):
-        data = data.encode("utf-8", "surrogatepass")
-    if len(data) > MAX_FILE_BYTES:
-        raise SceneFileError(f"{source}: expected at most {MAX_FILE_BYTES} bytes, got {len(data)}")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = data[: err.start].count(b"\n") + 1
-        raise SceneFileError(
-            f"{source}: line {line}: expected UTF-8 text, got byte {data[err.start]:#04x}"
-        ) from None
-    try:
-        if fmt == "toml":
-            return tomllib.loads(text)
-        return json.loads(text, object_pairs_hook=_no_duplicates)
-    except json.JSONDecodeError as err:
-        raise SceneFileError(
-            f"{source}: line {err.lineno}, column {err.colno}: expected JSON, got {err.msg}"
-        ) from None
-    except tomllib.TOMLDecodeError as err:
-        raise SceneFileError(f"{source}: expected TOML, got {toml_reason(err, text)}") from None
-    except (ValueError, RecursionError) as err:  # a duplicate JSON key, 5000-digit integers, ...
-        raise SceneFileError(f"{source}: expected a {fmt.upper()} document, got {err}") from None
 
 
 def loads_scene(
@@ -601,42 +260,11 @@ def loads_scene(
         raise SceneFileError(f"{source}: expected format toml or json, got {format!r}")
     if not isinstance(data, (bytes, str)):
         raise DtypeError(f"{source}: expected bytes or str, got {type(data).__name__}")
-    document = _parse(data, format, source)
+    document = parse(data, format, source, SceneFileError, MAX_FILE_BYTES)
     try:
         return scene_from_dict(document, default_name)
     except SceneFileError as err:
         raise SceneFileError(f"{source}: {err}") from None
-
-
-def _read_limited(path: Path) -> bytes:
-    """The bytes of the regular file ``path``, refused over :data:`MAX_FILE_BYTES` unread."""
-    try:
-        info = path.stat()
-        if not stat.S_ISREG(info.st_mode):
-            raise SceneFileError(f"{path}: expected a regular file, got another kind of file")
-        if info.st_size > MAX_FILE_BYTES:
-            raise SceneFileError(
-                f"{path}: expected at most {MAX_FILE_BYTES} bytes, got {info.st_size}"
-            )
-        with path.open("rb") as f:
-            data = f.read(MAX_FILE_BYTES + 1)  # the file may have grown since stat
-    except OSError as err:
-        if isinstance(err, BnerrError):
-            raise
-        raise SceneFileError(
-            f"{path}: expected a readable file, got {err.strerror or err}"
-        ) from None
-    if len(data) > MAX_FILE_BYTES:
-        raise SceneFileError(f"{path}: expected at most {MAX_FILE_BYTES} bytes, got more")
-    return data
-
-
-def _format_of(path: Path) -> str:
-    """``"toml"`` or ``"json"``, from the suffix of ``path``."""
-    fmt = _SUFFIXES.get(path.suffix.lower())
-    if fmt is None:
-        raise SceneFileError(f"{path}: expected a suffix .toml or .json, got {path.suffix!r}")
-    return fmt
 
 
 def load_scene_file(path: str | os.PathLike) -> Callable[[], Scene]:
@@ -655,8 +283,8 @@ def load_scene_file(path: str | os.PathLike) -> Callable[[], Scene]:
     if not isinstance(path, (str, os.PathLike)):
         raise DtypeError(f"path: expected a str or os.PathLike, got {type(path).__name__}")
     path = Path(path)
-    fmt = _format_of(path)
-    scene = loads_scene(_read_limited(path), fmt, str(path), path.stem)
+    fmt = format_of(path, SceneFileError)
+    scene = loads_scene(read(path, SceneFileError, MAX_FILE_BYTES), fmt, str(path), path.stem)
 
     def build() -> Scene:
         return scene
@@ -678,16 +306,15 @@ def load_camera_path(path: str | os.PathLike) -> tuple[Motion, Motion, Vec3]:
             :data:`CAMERA_CHECK_FRAMES` frames.
     """
     path = Path(path)
-    document = _parse(_read_limited(path), "toml", str(path))
+    data = read(path, SceneFileError, MAX_FILE_BYTES)
+    document = parse(data, "toml", str(path), SceneFileError)
     try:
-        t = _table(document, "camera path", ("origin", "target", "up"))
-        origin = _motion(_get(t, "origin", "camera path", _REQUIRED), "origin")
-        target = _motion(_get(t, "target", "camera path", _REQUIRED), "target")
-        up = _vector(_get(t, "up", "camera path", [0.0, 1.0, 0.0]), "up")
-        _check_pose(origin, target, up)
+        c = validate(camera_schema.CameraPath, document, SceneFileError, "camera path")
+        origin, target = _built(c.origin), _built(c.target)
+        _check_pose(origin, target, c.up)
     except SceneFileError as err:
         raise SceneFileError(f"{path}: {err}") from None
-    return origin, target, up
+    return origin, target, c.up
 
 
 # --------------------------------------------------------------------------------------------
@@ -698,44 +325,20 @@ def _floats(values: Iterable[float]) -> list[float]:
     return [float(v) for v in values]
 
 
+def _fields(obj: Any, kind: str | None = None) -> dict:
+    """A dataclass of :mod:`renderers.scene` (a motion, a texture, the medium) as a table, with
+    ``type = kind`` first where given: its int fields as ints, its other numbers as floats."""
+    out: dict = {} if kind is None else {"type": kind}
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        out[f.name] = {"int": int, "float": float}.get(str(f.type), _floats)(value)
+    return out
+
+
 def _motion_dict(motion: Motion) -> list[float] | dict:
     if isinstance(motion, Fixed):
         return _floats(motion.value)
-    if isinstance(motion, Linear):
-        return {
-            "type": "linear",
-            "start": _floats(motion.start),
-            "velocity": _floats(motion.velocity),
-        }
-    return {
-        "type": "orbit",
-        "center": _floats(motion.center),
-        "radius": float(motion.radius),
-        "height": float(motion.height),
-        "angle": float(motion.angle),
-        "step": float(motion.step),
-    }
-
-
-def _texture_dict(texture: Checker | Felt) -> dict:
-    if isinstance(texture, Checker):
-        colors = {"color0": _floats(texture.color0), "color1": _floats(texture.color1)}
-        return {
-            "type": "checker",
-            **colors,
-            "cells_u": int(texture.cells_u),
-            "cells_v": int(texture.cells_v),
-        }
-    return {
-        "type": "felt",
-        "base": _floats(texture.base),
-        "cells_u": int(texture.cells_u),
-        "cells_v": int(texture.cells_v),
-        "grain": float(texture.grain),
-        "nap": float(texture.nap),
-        "bands": int(texture.bands),
-        "seed": int(texture.seed),
-    }
+    return _fields(motion, type(motion).__name__.lower())
 
 
 def _shape_dict(shape: Sphere | Rectangle | Box, texture_name: str | None) -> dict:
@@ -776,7 +379,8 @@ def scene_dict(scene: Scene) -> dict:
     for shape in scene.shapes:
         name = None
         if shape.material.textured:
-            tex = _texture_dict(cast(Texture, shape.material.albedo))
+            texture = cast(Texture, shape.material.albedo)
+            tex = _fields(texture, type(texture).__name__.lower())
             name = next((k for k, v in textures.items() if v == tex), None)
             if name is None:
                 name = shape.name if shape.name not in textures else f"{shape.name}-{len(textures)}"
@@ -785,55 +389,9 @@ def scene_dict(scene: Scene) -> dict:
     if textures:
         out["textures"] = textures
     if scene.medium is not None:
-        m = scene.medium
-        out["medium"] = {
-            "bounds_min": _floats(m.bounds_min),
-            "bounds_max": _floats(m.bounds_max),
-            "sigma_t": float(m.sigma_t),
-            "albedo": _floats(m.albedo),
-        }
+        out["medium"] = _fields(scene.medium)
     out["shapes"] = shapes
     return out
-
-
-def _toml_key(key: str) -> str:
-    return key if _NAME.fullmatch(key) else json.dumps(key, ensure_ascii=False)
-
-
-def _toml_value(value: object) -> str:
-    """One TOML value; tables inline. Floats in Python's shortest round-trip form."""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, (int, float)):
-        return repr(value)
-    if isinstance(value, str):
-        return json.dumps(value, ensure_ascii=False)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in cast(dict, value).items())
-    return "{ " + items + " }"
-
-
-def _toml_table(path: str, table: dict, lines: list[str]) -> None:
-    """``[path]`` with its plain values, then its sub-tables as ``[path.key]`` sections."""
-    if path and (not table or not all(_section(v) for v in table.values())):
-        lines += ["", f"[{path}]"]  # TOML implies a header that holds only sub-tables
-    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in table.items() if not _section(v)]
-    for k, v in table.items():
-        if isinstance(v, dict):
-            _toml_table(f"{path}.{_toml_key(k)}" if path else _toml_key(k), v, lines)
-    for k, v in table.items():
-        if _section(v) and isinstance(v, list):
-            for item in v:
-                lines += ["", f"[[{_toml_key(k)}]]"]
-                lines += [f"{_toml_key(ik)} = {_toml_value(iv)}" for ik, iv in item.items()]
-
-
-def _section(value: object) -> bool:
-    """Whether ``value`` is written as its own section: a table or an array of tables."""
-    return isinstance(value, dict) or (
-        isinstance(value, list) and bool(value) and all(isinstance(v, dict) for v in value)
-    )
 
 
 _HEADER = (
@@ -865,9 +423,7 @@ def dump_scene(scene: Scene, format: str = "toml") -> str:
         ) from None
     if format == "json":
         return json.dumps(document, indent=2, ensure_ascii=False) + "\n"
-    lines: list[str] = []
-    _toml_table("", document, lines)
-    return _HEADER + "\n".join(lines) + "\n"
+    return _HEADER + dump_toml(document)
 
 
 def write_scene_file(scene: Scene, path: str | os.PathLike) -> Path:
@@ -877,7 +433,7 @@ def write_scene_file(scene: Scene, path: str | os.PathLike) -> Path:
         SceneFileError: the suffix is neither ``.toml`` nor ``.json`` (or see :func:`dump_scene`).
     """
     path = Path(path)
-    text = dump_scene(scene, _format_of(path))
+    text = dump_scene(scene, format_of(path, SceneFileError))
     with atomic_write(path) as tmp:
         tmp.write_text(text, encoding="utf-8")
     return path

@@ -10,6 +10,7 @@ covered here, so a new subcommand fails this file until it has its run.
 
 from __future__ import annotations
 
+import json
 import signal
 import subprocess
 import urllib.request
@@ -33,6 +34,7 @@ COVERED = (
     "render",
     "retarget",
     "scenes",
+    "schema",
     "train",
     "view",
 )
@@ -67,6 +69,11 @@ def test_help_lists_every_subcommand_and_each_is_run_here(work):
 def test_scenes_lists_the_named_scenes(work):
     out = bnerr(work, "scenes").stdout
     assert "direct" in out and "cornell" in out and "what it models" in out
+
+
+def test_schema_prints_the_scene_files_json_schema(work):
+    schema = json.loads(bnerr(work, "schema", "scene").stdout)
+    assert schema["type"] == "object" and "shapes" in schema["required"]
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,15 @@ from bnerr.external import (
     resolve_program,
     run_program,
 )
+from bnerr.schemas.manifest import Command, Name, ProgramManifest, Seconds
 
-KEYS = {"name": ..., "command": ..., "timeout_s": 5.0}
+
+class _Manifest(ProgramManifest):
+    """A program manifest of three keys, as a renderer's or a denoiser's model declares them."""
+
+    name: Name
+    command: Command
+    timeout_s: Seconds = 5.0
 
 
 def _run(tmp_path, code: str, timeout_s: float = 30.0) -> float:
@@ -81,20 +88,17 @@ def test_the_log_tail_falls_back_to_stdout_and_is_empty_without_output(tmp_path)
 def test_a_manifest_gets_its_defaults_and_refuses_unknown_or_missing_keys(tmp_path):
     path = tmp_path / "m.toml"
     path.write_text('name = "a"\ncommand = ["x"]\n')
-    assert read_manifest(path, KEYS, "manifest") == {
-        "name": "a",
-        "command": ["x"],
-        "timeout_s": 5.0,
-    }
+    manifest = read_manifest(path, _Manifest, "manifest")
+    assert (manifest.name, manifest.command, manifest.timeout_s) == ("a", ("x",), 5.0)
     path.write_text('name = "a"\ncommand = ["x"]\nextra = 1\n')
     with pytest.raises(ManifestError, match="unknown key.s. extra: expected only name"):
-        read_manifest(path, KEYS, "manifest")
+        read_manifest(path, _Manifest, "manifest")
     path.write_text('name = "a"\n')
     with pytest.raises(ManifestError, match="expected the key.s. command, got none"):
-        read_manifest(path, KEYS, "manifest")
+        read_manifest(path, _Manifest, "manifest")
     path.write_text('name = "a\n')
     with pytest.raises(ManifestError, match="expected valid TOML, got .*line 1"):
-        read_manifest(path, KEYS, "manifest")
+        read_manifest(path, _Manifest, "manifest")
 
 
 def test_placeholders_are_checked_and_programs_kept_inside_the_manifest_folder(tmp_path):

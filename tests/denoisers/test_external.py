@@ -369,7 +369,7 @@ def test_a_bad_manifest_is_refused_in_one_line_naming_the_file(tmp_path, changes
         ("m.toml", 'name = "x"\ncommand = [1,,]\nkind = 2\n', "(at line 2, column"),
         ("m.json", '{"name": "x",\n "command": [}', "expected valid JSON, got"),
         ("m.json", '{"name": "x",\n "command": [}', "at line 2, column"),
-        ("m.json", "[1, 2]", "expected a table of keys, got a JSON list"),
+        ("m.json", "[1, 2]", "expected a table of keys, got list [1, 2]"),
         ("m.yaml", "name: x", "expected a manifest named *.toml or *.json, got '.yaml'"),
     ],
 )
