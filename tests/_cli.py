@@ -1,6 +1,6 @@
-"""``bnerr`` command lines run in the test process, as a fresh ``bnerr`` process would run them:
-the doc-page tests (tests/benchmarks/commands/test_bench_docs.py, test_eval_docs.py) run every
-command of a page this way but one, which they run through a shell and the console script.
+"""``bnerr`` command lines run in the test process, as a fresh ``bnerr`` process would run them: the
+doc-page tests (tests/benchmarks/commands/test_bench_docs.py and eval/test_command_docs.py) run
+every command of a page this way but one, which they run through a shell and the console script.
 
 A ``bnerr`` process pays about 4.7 s of CPU importing torch, kornia and scipy before it starts;
 the pages' commands themselves take a fraction of that at their tiny sizes. In the test process

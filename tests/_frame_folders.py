@@ -1,6 +1,7 @@
-"""Frame folders for ``bnerr eval`` (:mod:`benchmarks.frame_folder`), rendered by bnerr's tracer
-called directly through a strategy's :func:`bnerr.strategies.play`, not through ``bnerr bench``:
-the same frames and references a bench run of the same settings renders, written in the layout."""
+"""Frame folders for ``bnerr eval`` (:mod:`benchmarks.commands.eval.frame_folder`), rendered by
+bnerr's tracer called directly through a strategy's :func:`bnerr.strategies.play`, not through
+``bnerr bench``: the same frames and references a bench run of the same settings renders, written in
+the layout."""
 
 from __future__ import annotations
 
@@ -10,7 +11,7 @@ from pathlib import Path
 import torch
 
 import renderers
-from benchmarks.frame_folder import MANIFEST, frame_name
+from benchmarks.commands.eval.frame_folder import MANIFEST, frame_name
 from benchmarks.sweep.references import reference_seeds
 from benchmarks.sweep.tuning import TUNING_SEED_SET
 from bnerr import sequences, strategies

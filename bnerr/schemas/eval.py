@@ -1,5 +1,5 @@
 """The model of a frame folder's ``manifest.toml``, what ``bnerr eval`` reads (docs/EVAL.md;
-:mod:`benchmarks.frame_folder` reads the folder).
+:mod:`benchmarks.commands.eval.frame_folder` reads the folder).
 
 It says what the folder's layout cannot: the scene, the resolution, the method and seed-set
 folders, how many frames, which auxiliary buffers each frame holds and which pixel regions to

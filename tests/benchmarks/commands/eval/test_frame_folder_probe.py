@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from benchmarks.frame_folder import MANIFEST, frame_name
+from benchmarks.commands.eval.frame_folder import MANIFEST, frame_name
 from bnerr.io import write_exr
 from tests._frame_folders import SYNTHETIC, synthetic_folder, toml_text
 from tests._probes import refused_on_the_command_line

@@ -1,6 +1,6 @@
-"""Tests of ``bnerr eval DIR`` (benchmarks.commands.eval): on frames of bnerr's tracer rendered
-outside ``bnerr bench`` (a strategy's ``play`` calling the tracer) it gives bench's metrics for
-the same frames; the tables, charts and page are written; every problem with the folder is one
+"""Tests of ``bnerr eval DIR`` (benchmarks.commands.eval.command): on frames of bnerr's tracer
+rendered outside ``bnerr bench`` (a strategy's ``play`` calling the tracer) it gives bench's metrics
+for the same frames; the tables, charts and page are written; every problem with the folder is one
 line; finished results are not overwritten silently; a plug-in denoiser runs."""
 
 import os
@@ -13,7 +13,7 @@ import pytest
 import torch
 
 from benchmarks.cli import main
-from benchmarks.frame_folder import MANIFEST, frame_name
+from benchmarks.commands.eval.frame_folder import MANIFEST, frame_name
 from benchmarks.sweep.records import load_records
 from bnerr.io import write_exr
 from tests._frame_folders import SYNTHETIC, render_folder, synthetic_folder, toml_text

@@ -6,9 +6,10 @@ Examples::
     bnerr eval frames/ --denoisers gaussian atrous --out /tmp/eval
     bnerr eval frames/ --denoisers my_denoiser.py:Denoiser --metrics my_metric.py:score
 
-``DIR`` is a frame folder (docs/EVAL.md, :mod:`benchmarks.frame_folder`): ``manifest.toml``,
-``reference/<tttt>.exr`` and ``<method>/<seed_set>/<tttt>.exr``, white among the methods. Every
-method is measured as ``bnerr bench`` measures a strategy (:mod:`benchmarks.evaluate`), and
+``DIR`` is a frame folder (docs/EVAL.md, :mod:`benchmarks.commands.eval.frame_folder`):
+``manifest.toml``, ``reference/<tttt>.exr`` and ``<method>/<seed_set>/<tttt>.exr``, white among
+the methods. Every method is measured as ``bnerr bench`` measures a strategy
+(:mod:`benchmarks.commands.eval.evaluate`), and
 ``--out`` (default ``DIR/results``) gets ``cells.jsonl``, ``table.csv``, ``table.md``,
 ``decision.md``, the charts and ``index.html``. A folder that already holds finished cells is
 refused unless ``--overwrite``; the command holds ``--out``'s write lock while it runs. Any
@@ -26,8 +27,8 @@ from pathlib import Path
 import torch
 
 from benchmarks.commands._args import names, positive_int
-from benchmarks.evaluate import measure_evaluation, plan_evaluation
-from benchmarks.frame_folder import FrameFolder
+from benchmarks.commands.eval.evaluate import measure_evaluation, plan_evaluation
+from benchmarks.commands.eval.frame_folder import FrameFolder
 from benchmarks.reports import write_report
 from benchmarks.sweep.parts import known_names
 from benchmarks.sweep.plan import Run

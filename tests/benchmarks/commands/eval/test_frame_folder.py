@@ -1,7 +1,7 @@
-"""Tests of the frame folder ``bnerr eval`` reads (benchmarks.frame_folder): the manifest's keys
-and values, the files it implies checked before any pixel is read (missing, outside the folder,
-another size, however large the header claims), non-finite pixels, and the auxiliary buffers read
-from layers or sibling files."""
+"""Tests of the frame folder ``bnerr eval`` reads (benchmarks.commands.eval.frame_folder): the
+manifest's keys and values, the files it implies checked before any pixel is read (missing, outside
+the folder, another size, however large the header claims), non-finite pixels, and the auxiliary
+buffers read from layers or sibling files."""
 
 import os
 import struct
@@ -9,7 +9,7 @@ import struct
 import pytest
 import torch
 
-from benchmarks.frame_folder import (
+from benchmarks.commands.eval.frame_folder import (
     MANIFEST_KEYS,
     FrameFolder,
     check_folder,

@@ -1,13 +1,13 @@
-"""Tests of ``bnerr eval``'s measuring (benchmarks.evaluate) on synthetic frame folders: the
-records are the sweep's (white first, every denoiser x region), frames are read and never
-rendered, a stateful denoiser sees the warmup frames, the denoisers are tuned on the held-out
+"""Tests of ``bnerr eval``'s measuring (benchmarks.commands.eval.evaluate) on synthetic frame
+folders: the records are the sweep's (white first, every denoiser x region), frames are read and
+never rendered, a stateful denoiser sees the warmup frames, the denoisers are tuned on the held-out
 seed set when there is one, and the notes (one seed set, default parameters). The agreement with
-``bnerr bench`` on frames of bnerr's tracer: tests/benchmarks/commands/test_eval.py."""
+``bnerr bench`` on frames of bnerr's tracer: tests/benchmarks/commands/eval/test_command.py."""
 
 import pytest
 import torch
 
-from benchmarks.evaluate import (
+from benchmarks.commands.eval.evaluate import (
     FolderReferences,
     FolderStrategy,
     default_metrics,
@@ -15,7 +15,7 @@ from benchmarks.evaluate import (
     folder_parts,
     folder_runs,
 )
-from benchmarks.frame_folder import FrameFolder, frame_name
+from benchmarks.commands.eval.frame_folder import FrameFolder, frame_name
 from benchmarks.sweep.records import load_records
 from benchmarks.sweep.tuning import TUNING_SEED_SET
 from bnerr.errors import FileFormatError, ValueRangeError

@@ -29,7 +29,7 @@ def _blocks(language: str) -> list[str]:
 def test_the_page_has_its_layout_keys_and_commands():
     text = DOC.read_text()
     assert text.startswith("# Evaluate frames from your renderer")
-    from benchmarks.frame_folder import MANIFEST_KEYS
+    from benchmarks.commands.eval.frame_folder import MANIFEST_KEYS
 
     assert all(f"| `{key}` |" in text for key in MANIFEST_KEYS)
     assert len(_blocks("python")) == 1 and _blocks("sh")

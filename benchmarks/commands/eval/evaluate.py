@@ -1,10 +1,10 @@
 """``bnerr eval``: measure frames rendered anywhere, exactly as ``bnerr bench`` measures its own.
 
-A frame folder (:mod:`benchmarks.frame_folder`, docs/EVAL.md) holds, per method and seed set, the
-noisy frames a renderer wrote, and the references. :func:`evaluate` turns each method into a
-:class:`benchmarks.sweep.plan.Run` (one scene, spp and condition, every seed set) and measures it
-with the sweep's own code (:func:`benchmarks.sweep.measure.measure_run`: every metric of the
-metric table raw and after each denoiser, the blurred-error ratios, the spectra, the coherent
+A frame folder (:mod:`benchmarks.commands.eval.frame_folder`, docs/EVAL.md) holds, per method and
+seed set, the noisy frames a renderer wrote, and the references. :func:`evaluate` turns each method
+into a :class:`benchmarks.sweep.plan.Run` (one scene, spp and condition, every seed set) and
+measures it with the sweep's own code (:func:`benchmarks.sweep.measure.measure_run`: every metric of
+the metric table raw and after each denoiser, the blurred-error ratios, the spectra, the coherent
 region where the buffers allow it, the crops), through parts that read instead of render:
 
 - the **strategy** of a method and seed set is a stand-in whose ``frame(t, render)`` reads frame
@@ -22,7 +22,8 @@ identity), so ``cells.jsonl`` and the tables, charts and page
 (:func:`benchmarks.reports.write_report`) are those of ``bnerr bench``; for the same frames and
 references the metrics are the same, bit for bit.
 
-Not for: rendering (``bnerr bench``), or reading the folder (:mod:`benchmarks.frame_folder`).
+Not for: rendering (``bnerr bench``), or reading the folder
+(:mod:`benchmarks.commands.eval.frame_folder`).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, cast
 
-from benchmarks.frame_folder import FrameFolder, Manifest, check_folder
+from benchmarks.commands.eval.frame_folder import FrameFolder, Manifest, check_folder
 from benchmarks.sweep.measure import measure_run
 from benchmarks.sweep.parts import Denoiser, Parts, Scene, real_parts
 from benchmarks.sweep.plan import Run
@@ -240,7 +241,7 @@ def plan_evaluation(
 
     Raises:
         FileFormatError, ShapeError, NonFiniteError, UnknownNameError, ValueRangeError: the
-            folder's (see :mod:`benchmarks.frame_folder`).
+            folder's (see :mod:`benchmarks.commands.eval.frame_folder`).
     """
     folder = root if isinstance(root, FrameFolder) else FrameFolder(root)
     m = folder.manifest
@@ -298,7 +299,7 @@ def evaluate(
 
     Raises:
         FileFormatError, ShapeError, NonFiniteError, UnknownNameError, ValueRangeError: the
-            folder's (see :mod:`benchmarks.frame_folder`), before anything is written.
+            folder's (see :mod:`benchmarks.commands.eval.frame_folder`), before anything is written.
     """
     plan = plan_evaluation(root, denoisers=denoisers, metrics=metrics, specs=specs)
     return measure_evaluation(plan, out, on_run), list(plan.notes)

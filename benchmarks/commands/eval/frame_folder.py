@@ -22,7 +22,7 @@ symbolic link) and declares the manifest's resolution in its header (a file clai
 size, however large, is refused before it is read). Reading a frame (:meth:`FrameFolder.frame`)
 then refuses non-finite pixels. Each refusal is one typed error naming the file.
 
-Not for: measuring (:mod:`benchmarks.evaluate`).
+Not for: measuring (:mod:`benchmarks.commands.eval.evaluate`).
 """
 
 from __future__ import annotations

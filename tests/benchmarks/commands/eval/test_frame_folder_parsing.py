@@ -1,6 +1,6 @@
-"""Property tests of benchmarks.frame_folder's parsers (issue 41): whatever bytes or TOML a
-``manifest.toml`` holds, whatever names a layout path is asked for and whatever bytes a frame file
-holds, the folder either reads or refuses with one of the project's typed errors and a message
+"""Property tests of benchmarks.commands.eval.frame_folder's parsers (issue 41): whatever bytes or
+TOML a ``manifest.toml`` holds, whatever names a layout path is asked for and whatever bytes a frame
+file holds, the folder either reads or refuses with one of the project's typed errors and a message
 naming the file; a valid manifest reads back the values it was written with."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from benchmarks.frame_folder import (
+from benchmarks.commands.eval.frame_folder import (
     AUX_BUFFERS,
     MANIFEST,
     MANIFEST_KEYS,

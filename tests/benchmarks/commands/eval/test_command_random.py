@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from benchmarks.cli import main
-from benchmarks.frame_folder import frame_name
+from benchmarks.commands.eval.frame_folder import frame_name
 from bnerr.io import write_exr
 from tests._frame_folders import synthetic_folder
 

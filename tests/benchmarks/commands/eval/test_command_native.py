@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.frame_folder import FrameFolder
+from benchmarks.commands.eval.frame_folder import FrameFolder
 from benchmarks.sweep.records import load_records
 from bnerr.metrics import better, paired_ratio
 from tests._native import BUILD_LINES, EVAL_DOC, PROTOCOL_DOC, doc_commands, run_line
