@@ -15,8 +15,9 @@ The four suites (issue 6):
 
 - ``quick``: two scenes, the strategies that bracket the method (white, temporal, oracle), with
   OpenQMC's two blue-noise samplers beside it (a production renderer's a-priori blue noise), and
-  two cheap denoisers at 128x128; at most 5 minutes on the 2-core development machine (on one
-  thread when the machine is shared: ``--threads 1``); ``make run``.
+  two cheap denoisers at 128x128, with the perceptual metrics (FLIP and ColorVideoVDP) beside
+  the MSE; at most 5 minutes on the 2-core development machine (on one thread when the machine
+  is shared: ``--threads 1``); ``make run``.
 - ``quality``: every scene, the strategies a renderer could adopt (:data:`_QUALITY_STRATEGIES`:
   white, the mask, the permutation and its variants on hashed seeds and ZSobol keys, ZSobol,
   Cycles' pattern, LDBN on 64- and 128-pixel tiles, OpenQMC's two blue-noise samplers; not the
@@ -410,6 +411,9 @@ SUITES: dict[str, Suite] = {
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
                 reference_spp=512,
+                # what a viewer sees beside the MSE: FLIP per frame, ColorVideoVDP per sequence
+                # (the perceptual decision table, perceptual.md)
+                metrics=(*Sweep.metrics, "flip", "cvvdp"),
                 **_SETS,
             ),
         ),

@@ -184,14 +184,20 @@ def test_the_page_opens_with_the_decision_heatmap(browser, site):
         "() => [...document.querySelectorAll('figure.hm, table')].map(e => e.className)[0]"
     )
     assert first == "hm"  # before decision.md's sortable table
-    cells = page.eval_on_selector_all(
-        "table.heatmap td.hm-cell",
-        """els => els.map(e => [e.dataset.verdict, e.dataset.value, e.title, e.innerText,
-            getComputedStyle(e).backgroundColor, e.getBoundingClientRect().width])""",
+    figures = page.evaluate(
+        """() => [...document.querySelectorAll('figure.hm')].map(f => [
+            f.querySelector('figcaption').innerText,
+            [...f.querySelectorAll('td.hm-cell')].map(e => [e.dataset.verdict, e.dataset.value,
+                e.title, e.innerText, getComputedStyle(e).backgroundColor,
+                e.getBoundingClientRect().width])])"""
     )
+    # the MSE decision first; the quick suite measures cvvdp, so its JOD judgement follows
+    assert [caption.split(" (")[0] for caption, _ in figures][:1] == ["The decision"]
+    cells = figures[0][1]
     rows = summarize([r for r in final_records(load_records(site / "quick")) if r.has_pixels])
     verdicts = cell_verdicts(rows)
     assert len(cells) == len(verdicts)  # every cell of the decision, one colour each
+    assert [len(f[1]) for f in figures[1:]] == [len(verdicts)] * (len(figures) - 1)
     assert sorted(c[0] for c in cells) == sorted(v for v, _ in verdicts.values())
     for said, value, title, text, colour, width in cells:
         assert re.search(r"\[\d\.\d{3}, \d\.\d{3}\]", title) and said in title  # the interval
