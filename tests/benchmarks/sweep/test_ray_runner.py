@@ -233,6 +233,9 @@ def test_bench_ray_on_the_command_line_matches_the_serial_command(local_ray, tmp
             "--spp", "1", "--denoisers", "gaussian", "--frames", "1", "--warmup", "1",
             "--res", "16x12", "--reference-spp", "8", "--seed-sets", "2", "--out", str(out),
             "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts", *extra,
+            # the default metrics: not the quick suite's FLIP and ColorVideoVDP, whose models
+            # each Ray worker would load again (12 s here)
+            "--metrics", *Sweep.metrics,
         ]  # fmt: skip
 
     assert main(args(tmp_path / "serial")) == 0
