@@ -14,6 +14,7 @@ import torch
 
 from benchmarks.cli import main
 from benchmarks.commands.eval.frame_folder import MANIFEST, frame_name
+from benchmarks.suites import get_suite
 from benchmarks.sweep.records import load_records
 from bnerr.io import write_exr
 from tests._frame_folders import SYNTHETIC, render_folder, synthetic_folder, toml_text
@@ -34,7 +35,9 @@ def test_eval_gives_the_metrics_bench_gives_for_the_same_frames(tmp_path, capsys
         "--out", str(tmp_path / "bench"), "--cache", str(tmp_path / "cache"), "--no-charts",
     ]  # fmt: skip
     assert main(bench) == 0
-    assert main(["eval", str(frames), "--quiet"]) == 0
+    # the quick suite's metrics, its perceptual ones included: eval measures them as bench does
+    metrics = get_suite("quick").sweeps[0].metrics
+    assert main(["eval", str(frames), "--quiet", "--metrics", *metrics]) == 0
     assert f"results written to {frames / 'results'}" in capsys.readouterr().out
     got = {r.key: r for r in load_records(frames / "results")}
     want = {r.key: r for r in load_records(tmp_path / "bench")}
