@@ -390,6 +390,11 @@ _SAME_SCENE_DENOISERS = ("oidn", "gaussian", "unet", "taa")
 #: Cycles with seeds no strategy uses.
 _CYCLES_SETS = _GapSets(seed_sets=4, frames=3, warmup=2, res=(128, 128), reference_spp=1024)
 
+#: The default metrics and what a viewer sees beside them: FLIP per frame, ColorVideoVDP per
+#: sequence (the perceptual decision table, perceptual.md). The suites cheap enough to carry them
+#: (quick, seed) do; the quality suite's 120,384 sequences would take about 2.3 CPU-hours more.
+_PERCEPTUAL = (*Sweep.metrics, "flip", "cvvdp")
+
 SUITES: dict[str, Suite] = {
     "quick": Suite(
         name="quick",
@@ -411,9 +416,7 @@ SUITES: dict[str, Suite] = {
                 denoisers=_CHEAP_DENOISERS,
                 res=(128, 128),
                 reference_spp=512,
-                # what a viewer sees beside the MSE: FLIP per frame, ColorVideoVDP per sequence
-                # (the perceptual decision table, perceptual.md)
-                metrics=(*Sweep.metrics, "flip", "cvvdp"),
+                metrics=_PERCEPTUAL,
                 **_SETS,
             ),
         ),
@@ -546,6 +549,7 @@ SUITES: dict[str, Suite] = {
                 reference_spp=1024,
                 conditions=(Condition(motion=0), Condition(motion=1)),
                 seed_sets=3,
+                metrics=_PERCEPTUAL,
                 frames=2,
                 warmup=6,
             ),
@@ -562,6 +566,7 @@ SUITES: dict[str, Suite] = {
                 reference_spp=1024,
                 conditions=(Condition(motion=1),),
                 seed_sets=3,
+                metrics=_PERCEPTUAL,
                 frames=2,
                 warmup=6,
             ),
@@ -575,6 +580,7 @@ SUITES: dict[str, Suite] = {
                 reference_spp=1024,
                 conditions=(Condition(motion=1, sampler="white"),),
                 seed_sets=3,
+                metrics=_PERCEPTUAL,
                 frames=2,
                 warmup=6,
             ),
@@ -587,6 +593,7 @@ SUITES: dict[str, Suite] = {
                 res=(64, 64),
                 reference_spp=1024,
                 seed_sets=3,
+                metrics=_PERCEPTUAL,
                 frames=2,
                 warmup=6,
             ),
