@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 from benchmarks.cli import command_names
+from benchmarks.suites import Sweep
 from tests._frame_folders import synthetic_folder
 from tests._processes import bnerr_command, child_env
 
@@ -123,6 +124,9 @@ def benched(work) -> Path:
     args = ["--scenes", "direct", "--strategies", "white", "--spp", "1", "--denoisers", "gaussian"]
     args += ["--frames", "1", "--warmup", "0", "--seed-sets", "1", "--reference-spp", "4"]
     args += ["--res", "8x8", "--out", "results/quick", "--cache", "refs", "--threads", "1"]
+    # the default metrics: ColorVideoVDP's import alone costs a process 6.5 s (torchvision), and
+    # eval/test_command.py measures it through bench and eval
+    args += ["--metrics", *Sweep.metrics]
     done = bnerr(work, "bench", "--suite", "quick", *args, "--no-charts")
     assert "| spp | denoiser | white |" in done.stdout and "results written to" in done.stdout
     return work / "results"

@@ -139,7 +139,7 @@ def test_a_strategy_in_one_new_file_runs_through_bnerr_bench(toy, tmp_path):
         "bench", "--suite", "quick", "--scenes", "direct", "--strategies", "white,toy",
         "--spp", "1", "--denoisers", "gaussian", "--frames", "1", "--warmup", "0",
         "--res", "8x8", "--reference-spp", "4", "--seed-sets", "1", "--out", str(out),
-        "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts",
+        "--cache", str(tmp_path / "cache"), "--quiet", "--no-charts", "--metrics", "mse",
     ]  # fmt: skip
     assert main(args) == 0
     records = {r.cell.strategy: r for r in load_records(out)}
