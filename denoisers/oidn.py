@@ -12,6 +12,7 @@ CPU machine: about 1.4 s for 1920 x 1080.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Sequence
 from types import ModuleType
 
 import torch
@@ -20,7 +21,7 @@ from bnerr.errors import MissingExtraError, check_name
 from bnerr.frame import Frame
 from denoisers.base import Denoiser, required
 
-__all__ = ["OIDN", "load_pyoidn", "oidn_denoise"]
+__all__ = ["OIDN", "available_denoisers", "load_pyoidn", "oidn_denoise"]
 
 
 def load_pyoidn() -> ModuleType:
@@ -31,6 +32,15 @@ def load_pyoidn() -> ModuleType:
         raise MissingExtraError(
             "oidn", "reference", "pyoidn", f"{type(err).__name__}: {err}"
         ) from None
+
+
+def available_denoisers(names: Sequence[str]) -> list[str]:
+    """``names`` without ``oidn`` when its optional extra is missing (:func:`load_pyoidn`)."""
+    try:
+        load_pyoidn()
+    except MissingExtraError:
+        return [n for n in names if n != "oidn"]
+    return list(names)
 
 
 def oidn_denoise(

@@ -42,16 +42,15 @@ import torch
 
 import renderers
 from benchmarks.training_data import pixel_seeds
-from bnerr.errors import MissingExtraError, ValueRangeError, check_positive_int
+from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.frame import Frame
 from bnerr.io import atomic_write
 from bnerr.sequences import make_sampler
-from denoisers.oidn import load_pyoidn
+from denoisers.oidn import available_denoisers
 from denoisers.tuning import ParamStore, tuned_denoiser
 
 __all__ = [
     "autocorrelation",
-    "available_denoisers",
     "impulse_kernel",
     "kernel_width",
     "main",
@@ -256,15 +255,6 @@ def run(args: argparse.Namespace) -> list[dict]:
         with atomic_write(path) as tmp:
             Path(tmp).write_text(text)
     return rows
-
-
-def available_denoisers(names: Sequence[str]) -> list[str]:
-    """``names`` without ``oidn`` when its optional extra is missing (:func:`load_pyoidn`)."""
-    try:
-        load_pyoidn()
-    except MissingExtraError:
-        return [n for n in names if n != "oidn"]
-    return list(names)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -24,7 +24,7 @@ import numpy as np
 import torch
 
 import renderers
-from benchmarks.studies.denoiser_kernels import available_denoisers, tuned_denoise
+from benchmarks.studies.denoiser_kernels import tuned_denoise
 from benchmarks.training_data import pixel_seeds
 from bnerr.io import atomic_write
 from bnerr.ldbn.keys import keys_from_array
@@ -33,6 +33,7 @@ from bnerr.sequences import make_sampler
 from bnerr.strategies import make_strategy
 from bnerr.strategies.base import Strategy
 from bnerr.strategies.ldbn import LDBNStrategy
+from denoisers.oidn import available_denoisers
 
 __all__ = ["compare", "main", "ratio_table"]
 

@@ -9,7 +9,7 @@ import denoisers.oidn as oidn_module
 from bnerr.errors import MissingExtraError
 from bnerr.frame import Frame
 from denoisers import get_denoiser
-from denoisers.oidn import oidn_denoise
+from denoisers.oidn import available_denoisers, oidn_denoise
 from tests._scene_renders import SCENES, mse, scene_renders
 
 pyoidn = pytest.importorskip("pyoidn", reason="needs the optional extra 'reference'")
@@ -55,6 +55,12 @@ def test_missing_extra_names_it(monkeypatch):
     ):
         get_denoiser("oidn")
     assert issubclass(MissingExtraError, ImportError)
+    # a study or test that lists oidn among its denoisers drops it where the extra is missing
+    assert available_denoisers(["atrous", "oidn", "unet"]) == ["atrous", "unet"]
+
+
+def test_available_denoisers_keeps_oidn_where_the_extra_is_installed():
+    assert available_denoisers(["oidn", "atrous"]) == ["oidn", "atrous"]
 
 
 @pytest.mark.parametrize("scene", SCENES)

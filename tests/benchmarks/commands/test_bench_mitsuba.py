@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from benchmarks.studies.denoiser_kernels import available_denoisers
+from denoisers.oidn import available_denoisers
 from renderers import mitsuba_render as mr
 from tests._paths import ROOT
 
