@@ -101,6 +101,7 @@ def _errors(
     refs: References,
     denoisers: dict[str, Denoiser],
     group: int,
+    scene: Scene,
     region: Callable[[Frame], torch.Tensor],
 ) -> tuple[dict[str, list[torch.Tensor]], list[torch.Tensor]]:
     """Per denoiser (and ``raw``): the squared error of each measured frame of seed set
@@ -111,13 +112,11 @@ def _errors(
         feed_stateful,
         is_stateful,
         reset_stateful,
-        scene_for,
         t_reference,
     )
     from benchmarks.sweep.parts import BoundRender
     from bnerr.strategies import play
 
-    scene = scene_for(run, parts)
     strategy = parts.make_strategy(
         run.strategy, scene, run.height, run.width, group, run.sampler, run.spp
     )
@@ -184,14 +183,15 @@ def _measure(args: argparse.Namespace) -> None:
     parts = real_parts()
     refs = ReferenceCache(args.cache, parts)
     store = load_params(Path(args.results or f"results/{args.suite}") / TUNED_PARAMS_FILE)
-    region = _region(args, scene_for(runs["white"], parts))
+    scenes = {name: scene_for(run, parts) for name, run in runs.items()}
+    region = _region(args, scenes["white"])
     per: dict[str, dict[str, list[tuple[float, float, float, float]]]] = {}
     pixels: list[int] = []
     for name, run in runs.items():
         tuned = tune_denoisers(run, parts, refs, store)
         denoisers = {k: v for k, v in tuned.items() if k in args.denoisers}
         for group in range(args.seed_sets):
-            errors, masks = _errors(run, parts, refs, denoisers, group, region)
+            errors, masks = _errors(run, parts, refs, denoisers, group, scenes[name], region)
             pixels = [int(m.sum()) for m in masks]
             for den, errs in errors.items():
                 row = (*seed_set_errors(errs, masks), top_share(errs, args.top))

@@ -9,14 +9,11 @@ from bnerr.errors import UnknownNameError, ValueRangeError
 from bnerr.schemas import json_schema
 from bnerr.schemas.errors import validate
 from bnerr.schemas.eval import EvalManifest
+from tests._frame_folders import SYNTHETIC
 
+#: The tests' synthetic frame folder's manifest with every optional key set.
 GOOD = {
-    "scene": "gradient",
-    "spp": 1,
-    "resolution": [8, 8],
-    "methods": ["white", "mine"],
-    "seed_sets": ["0", "1"],
-    "frames": 2,
+    **SYNTHETIC,
     "buffers": ["albedo", "normal", "depth", "object_id"],
     "regions": ["all", "edges", "coherent"],
     "warmup": 1,
