@@ -392,7 +392,8 @@ _CYCLES_SETS = _GapSets(seed_sets=4, frames=3, warmup=2, res=(128, 128), referen
 
 #: The default metrics and what a viewer sees beside them: FLIP per frame, ColorVideoVDP per
 #: sequence (the perceptual decision table, perceptual.md). The suites cheap enough to carry them
-#: (quick, seed) do; the quality suite's 120,384 sequences would take about 2.3 CPU-hours more.
+#: (quick, seed, cycles: Blender's render dwarfs the metric) do; the quality suite's 120,384
+#: sequences would take about 2.3 CPU-hours more.
 _PERCEPTUAL = (*Sweep.metrics, "flip", "cvvdp")
 
 SUITES: dict[str, Suite] = {
@@ -707,6 +708,7 @@ SUITES: dict[str, Suite] = {
                 strategies=("white", "blue_noise"),
                 spp=(1, 4, 16, 64),
                 denoisers=_CYCLES_DENOISERS,
+                metrics=_PERCEPTUAL,
                 **_CYCLES_SETS,
             ),
             # The options that change how Cycles spreads its error over the screen.
@@ -720,6 +722,7 @@ SUITES: dict[str, Suite] = {
                 ),
                 spp=(4, 16),
                 denoisers=("cycles_oidn", "gaussian"),
+                metrics=_PERCEPTUAL,
                 **_CYCLES_SETS,
             ),
             # The same scenes in both renderers: Cycles' own pattern against bnerr's
@@ -729,6 +732,7 @@ SUITES: dict[str, Suite] = {
                 strategies=("white", "blue_noise"),
                 spp=(1, 4),
                 denoisers=("cycles_oidn", *_SAME_SCENE_DENOISERS),
+                metrics=_PERCEPTUAL,
                 **_CYCLES_SETS,
             ),
             Sweep(
@@ -736,6 +740,7 @@ SUITES: dict[str, Suite] = {
                 strategies=("white", "cycles_blue"),
                 spp=(1, 4),
                 denoisers=_SAME_SCENE_DENOISERS,
+                metrics=_PERCEPTUAL,
                 **_CYCLES_SETS,
             ),
         ),
