@@ -10,7 +10,9 @@ report can be rebuilt without rendering anything (``python -m benchmarks.reports
 - ``decision.md`` (:mod:`~benchmarks.reports.decision`): the strategy to use per scene,
   condition, spp and denoiser;
 - ``perceptual.md`` (:mod:`~benchmarks.reports.perceptual`): the same cells judged in JOD
-  (ColorVideoVDP) and by FLIP, when the records hold them (else no file);
+  (ColorVideoVDP) and by FLIP, when the records hold them (else no file), with the pictures of
+  the cells where the eye and the MSE disagree (:mod:`~benchmarks.reports.disagreement`,
+  ``disagree_<metric>.png``);
 - ``gap.md`` and ``gap.csv`` (:mod:`~benchmarks.reports.gap`): each strategy's share of the
   white-to-oracle distance, when the records hold white and the oracle;
 - ``denoisers.md`` (:mod:`~benchmarks.reports.denoisers`): how each denoiser responds to each
@@ -41,6 +43,7 @@ from pathlib import Path
 from benchmarks.reports.charts import write_charts
 from benchmarks.reports.decision import decision_table
 from benchmarks.reports.denoisers import write_denoise_tables
+from benchmarks.reports.disagreement import write_disagreements
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.page import write_suite_page
 from benchmarks.reports.perceptual import perceptual_report
@@ -84,7 +87,7 @@ def write_report(
         Path(tmp).write_text(text)
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
-    perceptual = perceptual_report(rows)
+    perceptual = perceptual_report(rows, pictures=write_disagreements(out, records, rows))
     if perceptual:
         with atomic_write(out / "perceptual.md") as tmp:
             Path(tmp).write_text(perceptual)

@@ -33,7 +33,7 @@ Not for: the per-cell values (``table.csv``: ``den_cvvdp``, its interval and dif
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from benchmarks.reports.decision import (
@@ -55,6 +55,7 @@ __all__ = [
     "Judge",
     "Judged",
     "agreement",
+    "disagreeing",
     "headline_agreement",
     "judge_cells",
     "judged",
@@ -188,6 +189,21 @@ def _cell(found: Judged | None, judge: Judge) -> str:
     return f"{text}{interval}{_MARKS[found.verdict]}{sets}"
 
 
+def disagreeing(
+    rows: Sequence[dict], judge: Judge, exclude: Sequence[str] | None = None
+) -> list[tuple[tuple, str, Judged]]:
+    """The cells where one of the MSE's verdict and the judge's is "better" and the other is not:
+    ``(key, MSE verdict, judge's Judged)`` in the report's order."""
+    mse = cell_verdicts(rows, exclude)
+    seen = judge_cells(rows, judge, exclude)
+    keys = sorted(set(mse) & set(seen), key=lambda k: (group_order(k[0]), k[1], k[2]))
+    return [
+        (k, mse[k][0], seen[k])
+        for k in keys
+        if (mse[k][0] == "better") != (seen[k].verdict == "better")
+    ]
+
+
 def agreement(
     rows: Sequence[dict], judge: Judge, exclude: Sequence[str] | None = None
 ) -> tuple[int, int, list[str]]:
@@ -195,13 +211,12 @@ def agreement(
     line per cell where one verdict is "better" and the other is not."""
     mse = cell_verdicts(rows, exclude)
     seen = judge_cells(rows, judge, exclude)
-    keys = sorted(set(mse) & set(seen), key=lambda k: (group_order(k[0]), k[1], k[2]))
+    keys = set(mse) & set(seen)
     agree = sum(mse[k][0] == seen[k].verdict for k in keys)
     lines = [
-        f"- {group_title(k[0])}, {k[1]} spp, {k[2]}: MSE says {mse[k][0]}, {judge.unit} says "
-        f"{seen[k].verdict} ({seen[k].row['strategy']} {_number(seen[k].estimate.value, judge)})"
-        for k in keys
-        if (mse[k][0] == "better") != (seen[k].verdict == "better")
+        f"- {group_title(k[0])}, {k[1]} spp, {k[2]}: MSE says {said}, {judge.unit} says "
+        f"{found.verdict} ({found.row['strategy']} {_number(found.estimate.value, judge)})"
+        for k, said, found in disagreeing(rows, judge, exclude)
     ]
     return agree, len(keys), lines
 
@@ -251,9 +266,13 @@ def _what(judge: Judge) -> str:
 
 
 def perceptual_table(
-    rows: Sequence[dict], judge: Judge, exclude: Sequence[str] | None = None
+    rows: Sequence[dict],
+    judge: Judge,
+    exclude: Sequence[str] | None = None,
+    picture: str | None = None,
 ) -> list[str]:
-    """The Markdown lines of one judge's table, its agreement count and disagreeing cells."""
+    """The Markdown lines of one judge's table, its agreement count and disagreeing cells, then
+    ``picture`` (:mod:`benchmarks.reports.disagreement`: those cells' frames and errors)."""
     cells = judge_cells(rows, judge, exclude)
     groups = sorted({k[0] for k in cells}, key=group_order)
     denoisers = sorted({k[2] for k in cells})
@@ -276,11 +295,25 @@ def perceptual_table(
         f"{len(differ)} where one says better and the other does not" + (":" if differ else "."),
         "",
         *([*differ, ""] if differ else []),
+        *(
+            [
+                f"![Where {judge.unit} and the MSE disagree: per cell the reference, white and "
+                f"the rivals after the denoiser, then their errors x4]({picture})",
+                "",
+            ]
+            if picture and differ
+            else []
+        ),
     ]
 
 
-def perceptual_report(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> str:
-    """``perceptual.md``: every judge the rows hold, one table each; ``""`` when they hold none
+def perceptual_report(
+    rows: Sequence[dict],
+    exclude: Sequence[str] | None = None,
+    pictures: Mapping[str, str] | None = None,
+) -> str:
+    """``perceptual.md``: every judge the rows hold, one table each (with its picture of the
+    disagreeing cells where ``pictures`` names one by metric); ``""`` when they hold none
     (results measured before the metric existed: no file)."""
     judges = [j for j in JUDGES if judged(rows, j)]
     if not judges:
@@ -299,5 +332,5 @@ def perceptual_report(rows: Sequence[dict], exclude: Sequence[str] | None = None
         "",
     ]
     for judge in judges:
-        lines += perceptual_table(rows, judge, exclude)
+        lines += perceptual_table(rows, judge, exclude, (pictures or {}).get(judge.metric))
     return "\n".join(lines)
