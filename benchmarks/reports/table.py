@@ -33,7 +33,7 @@ from benchmarks.reports.groups import group_key, group_title, strategy_order
 from benchmarks.reports.intervals import Intervals
 from benchmarks.reports.markdown import table_lines
 from benchmarks.sweep.plan import Cell
-from benchmarks.sweep.records import Record, collector_paused
+from benchmarks.sweep.records import Record, bare_key, collector_paused, earlier_look
 from bnerr import plugins
 from bnerr.metrics import METRIC_TABLE, Metric, check_bootstrap
 from bnerr.strategies import OWN_SAMPLERS, baseline, bounds, strategy_identity
@@ -220,16 +220,39 @@ def render_sampler(record: Record) -> str:
     return OWN_SAMPLERS.get(record.cell.strategy, record.cell.sampler)
 
 
+def _earlier_whites(records: Sequence[Record], white: str) -> dict[tuple, Record]:
+    """White's records at the earlier looks its rivals stopped at: where a rival's adaptive
+    record has fewer seed sets than white's record of the same cell (white went on for another
+    sweep's rival, or the run stopped between white's look and the rival's), white's first seed
+    sets (:func:`benchmarks.sweep.records.earlier_look`), keyed as :func:`_baseline_key`."""
+    latest: dict[str, Record] = {}
+    for r in records:
+        if r.cell.strategy == white and r.looks:
+            key = bare_key(r.cell)
+            if key not in latest or r.cell.seed_sets > latest[key].cell.seed_sets:
+                latest[key] = r
+    found = {}
+    for r in records:
+        w = latest.get(bare_key(dataclasses.replace(r.cell, strategy=white)))
+        n = r.cell.seed_sets
+        if w is not None and n < w.cell.seed_sets and n in w.looks and r.cell.strategy != white:
+            found[_baseline_key(r, white)] = earlier_look(w, n)
+    return found
+
+
 def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -> list[dict]:
     """One row per record: the columns of :func:`table_columns` (missing values as None).
 
     Ratios to white pair each record with the white record of the same cell (same scene, spp,
-    denoiser, condition, frames and seed sets); None when the suite has no such white record.
+    denoiser, condition, frames and seed sets), or with that record's first seed sets where
+    white went on to a later look (:func:`_earlier_whites`); None when the suite has no such
+    white record.
     """
     records = list(records)
     check_bootstrap(0.95, resamples)
     white = baseline()
     whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
+    whites = {**_earlier_whites(records, white), **whites}
     columns = table_columns()
     intervals = Intervals(resamples, seed)
     out = []

@@ -415,3 +415,30 @@ def test_an_installed_metric_the_records_lack_adds_no_columns(forget):
     header = csv_text(summarize(measured)).splitlines()[0].split(",")
     assert "raw_tab_plug" in header and "den_tab_plug" not in header
     assert "den_mse_ratio" in header  # a shipped metric's columns stay, filled or not
+
+
+def test_a_rival_stopped_at_an_earlier_look_pairs_with_whites_first_seed_sets():
+    """White went on to 4 seed sets (another sweep's rival still open) while temporal settled at
+    2: temporal's ratio pairs with white's first 2 seed sets, the records of white's look at 2
+    (issue 52: four Cycles cells showed no ratio), and equals the ratio against that look."""
+    from benchmarks.sweep.records import earlier_look
+    from tests._records import small_record
+
+    def rec(strategy, values):
+        pairs = metric_pairs(values)
+        r = small_record(
+            strategy, "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=2,
+            seed_sets=len(values),
+        )  # fmt: skip
+        return dataclasses.replace(r, looks=(2, 4))
+
+    white = rec("white", [[1.0, 1.2], [0.9, 1.1], [5.0, 6.0], [4.0, 3.0]])
+    rival = rec("temporal", [[0.8, 0.9], [0.7, 0.95]])
+    late = {r["strategy"]: r for r in summarize([white, rival])}
+    assert late["temporal"]["den_mse_ratio"] is not None
+    at_two = {r["strategy"]: r for r in summarize([earlier_look(white, 2), rival])}
+    for column in ("den_mse_ratio", "den_mse_ratio_lo", "den_mse_ratio_hi"):
+        assert late["temporal"][column] == at_two["temporal"][column]
+    assert late["white"]["seed_sets"] == 4  # white's own row is its last look's
+    beyond = rec("temporal", [[0.8, 0.9]] * 3)  # 3 is not a look of white's: no pairing
+    assert summarize([white, beyond])[1]["den_mse_ratio"] is None
