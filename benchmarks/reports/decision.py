@@ -13,11 +13,12 @@ the seed sets it rests on.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
-from bnerr.metrics import Estimate, relevel_ratio
+from bnerr.metrics import Estimate, relevel_ratio, seed_sets_to_settle, t_quantile
 from bnerr.metrics.sequential import Design, settle
 from bnerr.strategies import baseline, bounds, strategy_identity
 
@@ -34,6 +35,7 @@ __all__ = [
     "headline_summary",
     "headline_table",
     "rival_counts",
+    "to_settle",
     "verdict",
 ]
 
@@ -150,22 +152,49 @@ def cell_verdicts(
 _MARKS = {"better": "", "equal": " ≈", "worse": " worse", "open": " open"}
 
 
+def to_settle(row: dict, rivals: int) -> int | None:
+    """About how many seed sets would settle ``row``'s cell whatever its true ratio, at the
+    spread its seed sets show (:func:`bnerr.metrics.seed_sets_to_settle` at the verdict's
+    Bonferroni level; an adaptive design's looks would ask a few more): the spread is read back
+    from the row's 95 % interval (``value * exp(-+ t * sd / sqrt(S))``). None with fewer than 2
+    seed sets or an unbounded interval; 0 when even 100,000 would not."""
+    n, value, hi = row["seed_sets"], row["den_mse_ratio"], row["den_mse_ratio_hi"]
+    if n < 2 or not 0.0 < value < hi < math.inf:
+        return None
+    sd = math.log(hi / value) / t_quantile(LEVEL, n - 1) * math.sqrt(n)
+    if sd <= 0.0:
+        return None
+    found = seed_sets_to_settle(sd, EQUAL_MARGIN, 1.0 - (1.0 - LEVEL) / max(rivals, 1))
+    return 0 if found is None else found
+
+
+def _settle_note(row: dict, rivals: int) -> str:
+    """``", about N to settle"`` for an open cell (two significant digits)."""
+    n = to_settle(row, rivals)
+    if n is None:
+        return ""
+    if n == 0:
+        return ", over 100,000 to settle"
+    return f", about {float(f'{n:.2g}'):,.0f} to settle"
+
+
 def _decision_cell(row: dict, rivals: int, rival: dict | None = None) -> str:
-    """The best strategy with its corrected interval, verdict and seed sets, then its cost; for
-    white, the lowest rival's ratio and verdict after it (``rival``)."""
+    """The best strategy with its corrected interval, verdict and seed sets (for an open one,
+    about how many would settle it), then its cost; for white, the lowest rival's ratio and
+    verdict after it (``rival``)."""
     cost = f"{row['render_ms']:.0f} + {row['perm_ms']:.1f} ms"
-    sets = f", {row['seed_sets']} seed sets"
-    if row["strategy"] == baseline() or row.get("den_mse_ratio") is None:
-        if rival is None or rival.get("den_mse_ratio") is None:
-            return f"{row['strategy']} ({cost})"
-        est = corrected(rival, rivals)
-        said = verdict(est)
-        ratio = f"{est.value:.2f} [{est.lo:.2f}, {est.hi:.2f}]{_MARKS[said]}"
-        return f"{row['strategy']} ({cost}; {rival['strategy']} {ratio}{sets})"
-    est = corrected(row, rivals)
+    judged = rival if row["strategy"] == baseline() or row.get("den_mse_ratio") is None else row
+    if judged is None or judged.get("den_mse_ratio") is None:
+        return f"{row['strategy']} ({cost})"
+    est = corrected(judged, rivals)
     said = verdict(est)
-    name = f"**{row['strategy']}**" if said == "better" else row["strategy"]
+    sets = f", {judged['seed_sets']} seed sets"
+    if said == "open":
+        sets += _settle_note(judged, rivals)
     ratio = f"{est.value:.2f} [{est.lo:.2f}, {est.hi:.2f}]{_MARKS[said]}"
+    if judged is not row:
+        return f"{row['strategy']} ({cost}; {judged['strategy']} {ratio}{sets})"
+    name = f"**{row['strategy']}**" if said == "better" else row["strategy"]
     return f"{name} {ratio}{sets} ({cost})"
 
 
@@ -212,7 +241,9 @@ def decision_table(
         "below white beyond that interval (superiority); ≈: equal to white within "
         f"{EQUAL_MARGIN:.0%} (the whole interval inside 1 -+ {EQUAL_MARGIN}, equivalence); "
         "worse: above white beyond it; open: none of these at the seed sets given (the cap), "
-        "more would be needed. Each verdict gives the seed sets it rests on. White: no strategy "
+        "more would be needed (about how many: the seed sets whose interval, at the spread "
+        "measured, would settle the cell whatever its ratio). Each verdict gives the seed sets it "
+        "rests on. White: no strategy "
         "was lower (then the lowest rival's ratio and verdict follow its cost)."
         + _left_out([s for s in exclude if s in named]),
         "",

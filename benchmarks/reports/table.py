@@ -235,7 +235,12 @@ def _earlier_whites(records: Sequence[Record], white: str) -> dict[tuple, Record
     for r in records:
         w = latest.get(bare_key(dataclasses.replace(r.cell, strategy=white)))
         n = r.cell.seed_sets
-        if w is not None and n < w.cell.seed_sets and n in w.looks and r.cell.strategy != white:
+        if (
+            w is not None
+            and n < w.cell.seed_sets
+            and n in (w.looks or ())
+            and r.cell.strategy != white
+        ):
             found[_baseline_key(r, white)] = earlier_look(w, n)
     return found
 

@@ -52,7 +52,12 @@ from bnerr.metrics.image import (
     ssim,
     temporal_correlation,
 )
-from bnerr.metrics.power import resolve_power, seed_set_spread, seed_sets_needed
+from bnerr.metrics.power import (
+    resolve_power,
+    seed_set_spread,
+    seed_sets_needed,
+    seed_sets_to_settle,
+)
 from bnerr.metrics.regions import coherent_mask
 from bnerr.metrics.share import best_level, relevel_share, share_interval
 from bnerr.metrics.stats import (
@@ -87,6 +92,7 @@ __all__ = [
     "resolve_power",
     "seed_set_spread",
     "seed_sets_needed",
+    "seed_sets_to_settle",
     "BLUR_SIGMAS",
     "METHODS",
     "METRICS",

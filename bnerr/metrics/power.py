@@ -6,7 +6,8 @@ A suite resolves a strategy's ratio to white when the whole interval lies on one
 the chance that it lies below 0 is the upper tail of a noncentral t with S - 1 degrees of freedom
 and noncentrality ``-log(r) sqrt(S) / sd`` beyond the two-sided quantile (Cohen 1988, chapter 2,
 for the paired t-test; scipy's ``nctdtr``). :func:`resolve_power` gives that chance,
-:func:`seed_sets_needed` the fewest S that reach a wanted power.
+:func:`seed_sets_needed` the fewest S that reach a wanted power, and :func:`seed_sets_to_settle`
+the fewest S that give a cell a verdict whatever its true ratio (an open cell's "how many more").
 
 The spread ``sd`` is measured, not assumed: :func:`seed_set_spread` takes it from a cell's
 per-frame values (the standard deviation of its per-seed-set log ratios). On the committed
@@ -27,7 +28,7 @@ import torch
 from bnerr.errors import ValueRangeError, check_positive_int
 from bnerr.metrics.stats import as_stats, set_means, t_quantile
 
-__all__ = ["resolve_power", "seed_set_spread", "seed_sets_needed"]
+__all__ = ["resolve_power", "seed_set_spread", "seed_sets_needed", "seed_sets_to_settle"]
 
 
 def _check(effect: float, sd: float, level: float, power: float | None = None) -> None:
@@ -82,3 +83,34 @@ def seed_set_spread(
             f"and {list(b.shape)}"
         )
     return float(torch.log(set_means(a) / set_means(b)).std())
+
+
+def seed_sets_to_settle(
+    sd: float, margin: float = 0.05, level: float = 0.95, most: int = 100_000
+) -> int | None:
+    """The fewest seed sets (>= 2) whose interval at ``level`` settles a cell whatever its true
+    ratio, when the seed sets' log ratios scatter by ``sd``: the interval's half-width
+    ``t(level, S - 1) * sd / sqrt(S)`` at most ``log(1 + margin) / 2``. An interval that narrow
+    lies below 1, above 1, or inside ``1 -+ margin`` (better, worse or equal:
+    :func:`bnerr.metrics.sequential.settle`), wherever it is centred. None when even ``most`` do
+    not. With ``sd`` read from S seed sets it is an estimate, as good as that spread."""
+    if not sd > 0.0 or math.isinf(sd):
+        raise ValueRangeError(f"sd: expected a positive, finite spread, got {sd}")
+    if not 0.0 < margin < 1.0 or not 0.5 <= level < 1.0:
+        raise ValueRangeError(
+            f"margin, level: expected a margin in (0, 1) and a level in [0.5, 1), got {margin} "
+            f"and {level}"
+        )
+    most = check_positive_int(most, "most", minimum=2)
+    bound = math.log1p(margin) / 2.0
+
+    def narrow(seed_sets: int) -> bool:
+        return t_quantile(level, seed_sets - 1) * sd / math.sqrt(seed_sets) <= bound
+
+    if not narrow(most):
+        return None
+    lo, hi = 1, most  # narrow(hi) holds; the half-width falls as S grows
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if narrow(mid) else (mid, hi)
+    return max(hi, 2)

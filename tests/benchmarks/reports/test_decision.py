@@ -88,3 +88,30 @@ def test_the_coverage_study_through_the_verdicts_path(monkeypatch):
     )
     unspent = _misses(logs)
     assert unspent > band, f"a design spending no alpha per look missed only {unspent:.4f}"
+
+
+def test_an_open_cell_says_about_how_many_seed_sets_would_settle_it():
+    """An open verdict says how many seed sets would settle it at its measured spread
+    (bnerr.metrics.seed_sets_to_settle at the Bonferroni level of its m rivals); a settled one
+    says nothing more."""
+    from bnerr.metrics import seed_sets_to_settle
+    from tests._records import table_row
+
+    ms = {"render_ms": 10.0, "perm_ms": 1.0}
+    rows = [
+        table_row("white", 1, **ms),
+        table_row("ldbn", 1, 0.97, mse_half=0.05, seed_sets=8, **ms),
+    ]
+    (verdict_seen,) = decision.cell_verdicts(rows).values()
+    assert verdict_seen[0] == "open"
+    sd = math.log(rows[1]["den_mse_ratio_hi"] / 0.97) / t_quantile(0.95, 7) * math.sqrt(8)
+    want = seed_sets_to_settle(sd, decision.EQUAL_MARGIN, 0.95)
+    assert decision.to_settle(rows[1], 1) == want
+    text = decision.decision_table(rows)
+    assert f"8 seed sets, about {float(f'{want:.2g}'):,.0f} to settle (" in text
+    settled = [
+        table_row("white", 1, **ms),
+        table_row("ldbn", 1, 0.8, mse_half=0.02, seed_sets=8, **ms),
+    ]
+    assert "to settle" not in decision.decision_table(settled).split("| ldbn")[-1]
+    assert decision.to_settle(dict(rows[1], seed_sets=1), 1) is None

@@ -8,7 +8,12 @@ import torch
 
 from bnerr.errors import ValueRangeError
 from bnerr.metrics import paired_ratio
-from bnerr.metrics.power import resolve_power, seed_set_spread, seed_sets_needed
+from bnerr.metrics.power import (
+    resolve_power,
+    seed_set_spread,
+    seed_sets_needed,
+    seed_sets_to_settle,
+)
 
 
 @pytest.mark.parametrize(("effect", "sd", "seed_sets"), [(0.05, 0.04, 4), (0.05, 0.04, 8)])
@@ -60,3 +65,34 @@ def test_bad_arguments_are_refused(kwargs, message):
     args = {"effect": 0.05, "sd": 0.04, "seed_sets": 4, **kwargs}
     with pytest.raises(ValueRangeError, match=message):
         resolve_power(**args)
+
+
+@pytest.mark.parametrize(("sd", "level"), [(0.02, 0.95), (0.21, 0.95), (0.5, 1 - 0.05 / 4)])
+def test_the_seed_sets_to_settle_give_an_interval_that_settles_wherever_it_is_centred(sd, level):
+    from bnerr.metrics import Estimate, t_quantile
+    from bnerr.metrics.sequential import settle
+
+    n = seed_sets_to_settle(sd, 0.05, level)
+    assert n is not None
+
+    def half(s):
+        return t_quantile(level, s - 1) * sd / math.sqrt(s)
+
+    assert half(n) <= math.log1p(0.05) / 2 < half(n - 1)  # the fewest
+    for centre in torch.linspace(-0.2, 0.2, 401).tolist():
+        h = half(n)
+        est = Estimate(math.exp(centre), math.exp(centre - h), math.exp(centre + h), n)
+        assert settle(est, 0.05) != "open", centre
+
+
+def test_a_spread_no_count_settles_says_none_and_bad_input_is_refused():
+    assert seed_sets_to_settle(5.0, most=1000) is None
+    assert seed_sets_to_settle(0.5) > seed_sets_to_settle(0.2) > seed_sets_to_settle(0.05)
+    for bad in (
+        {"sd": 0.0},
+        {"sd": math.inf},
+        {"sd": 0.1, "margin": 0.0},
+        {"sd": 0.1, "level": 1.0},
+    ):
+        with pytest.raises(ValueRangeError):
+            seed_sets_to_settle(**bad)
