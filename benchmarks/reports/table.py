@@ -220,29 +220,50 @@ def render_sampler(record: Record) -> str:
     return OWN_SAMPLERS.get(record.cell.strategy, record.cell.sampler)
 
 
-def _earlier_whites(records: Sequence[Record], white: str) -> dict[tuple, Record]:
-    """White's records at the earlier looks its rivals stopped at: where a rival's adaptive
-    record has fewer seed sets than white's record of the same cell (white went on for another
-    sweep's rival, or the run stopped between white's look and the rival's), white's first seed
-    sets (:func:`benchmarks.sweep.records.earlier_look`), keyed as :func:`_baseline_key`."""
+def _latest_whites(records: Sequence[Record], white: str) -> dict[str, Record]:
+    """White's adaptive record with the most seed sets, by its cell's bare key."""
     latest: dict[str, Record] = {}
     for r in records:
         if r.cell.strategy == white and r.looks:
             key = bare_key(r.cell)
             if key not in latest or r.cell.seed_sets > latest[key].cell.seed_sets:
                 latest[key] = r
+    return latest
+
+
+def _white_of(record: Record, white: str, latest: dict[str, Record]) -> Record | None:
+    return latest.get(bare_key(dataclasses.replace(record.cell, strategy=white)))
+
+
+def _earlier_whites(
+    records: Sequence[Record], white: str, latest: dict[str, Record]
+) -> dict[tuple, Record]:
+    """White's records at the earlier looks its rivals stopped at: where a rival's adaptive
+    record has fewer seed sets than white's record of the same cell (white went on for another
+    sweep's rival, or the run stopped between white's look and the rival's), white's first seed
+    sets (:func:`benchmarks.sweep.records.earlier_look`), keyed as :func:`_baseline_key`."""
     found = {}
     for r in records:
-        w = latest.get(bare_key(dataclasses.replace(r.cell, strategy=white)))
-        n = r.cell.seed_sets
-        if (
-            w is not None
-            and n < w.cell.seed_sets
-            and n in (w.looks or ())
-            and r.cell.strategy != white
-        ):
-            found[_baseline_key(r, white)] = earlier_look(w, n)
+        w, n = _white_of(r, white, latest), r.cell.seed_sets
+        if w is not None and n < w.cell.seed_sets and n in (w.looks or ()):
+            if r.cell.strategy != white:
+                found[_baseline_key(r, white)] = earlier_look(w, n)
     return found
+
+
+def _at_whites_look(
+    records: Sequence[Record], white: str, latest: dict[str, Record]
+) -> list[Record]:
+    """``records`` with each rival that went a look past white's (a run stopped between the
+    rival's look and white's) taken back to white's look, where both were measured."""
+    out = []
+    for r in records:
+        w = _white_of(r, white, latest)
+        n = None if w is None else w.cell.seed_sets
+        if r.cell.strategy != white and n is not None and n < r.cell.seed_sets:
+            r = earlier_look(r, n) if n in (r.looks or ()) else r
+        out.append(r)
+    return out
 
 
 def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -> list[dict]:
@@ -250,14 +271,16 @@ def summarize(records: Iterable[Record], resamples: int = 2000, seed: int = 0) -
 
     Ratios to white pair each record with the white record of the same cell (same scene, spp,
     denoiser, condition, frames and seed sets), or with that record's first seed sets where
-    white went on to a later look (:func:`_earlier_whites`); None when the suite has no such
-    white record.
+    white went on to a later look (:func:`_earlier_whites`); a rival a look past white's is
+    shown at white's look (:func:`_at_whites_look`). None when the suite has no such white
+    record.
     """
-    records = list(records)
     check_bootstrap(0.95, resamples)
     white = baseline()
+    latest = _latest_whites(records := list(records), white)
+    records = _at_whites_look(records, white, latest)
     whites = {_baseline_key(r, white): r for r in records if r.cell.strategy == white}
-    whites = {**_earlier_whites(records, white), **whites}
+    whites = {**_earlier_whites(records, white, latest), **whites}
     columns = table_columns()
     intervals = Intervals(resamples, seed)
     out = []

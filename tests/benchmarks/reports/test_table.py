@@ -442,3 +442,25 @@ def test_a_rival_stopped_at_an_earlier_look_pairs_with_whites_first_seed_sets():
     assert late["white"]["seed_sets"] == 4  # white's own row is its last look's
     beyond = rec("temporal", [[0.8, 0.9]] * 3)  # 3 is not a look of white's: no pairing
     assert summarize([white, beyond])[1]["den_mse_ratio"] is None
+
+
+def test_a_rival_a_look_past_white_is_shown_at_whites_look():
+    """A run stopped after the rival's look at 4 and before white's: the rival's row is its
+    first 2 seed sets, paired with white's look at 2."""
+    from benchmarks.sweep.records import earlier_look
+    from tests._records import small_record
+
+    def rec(strategy, values):
+        pairs = metric_pairs(values)
+        r = small_record(
+            strategy, "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=2,
+            seed_sets=len(values),
+        )  # fmt: skip
+        return dataclasses.replace(r, looks=(2, 4))
+
+    white = rec("white", [[1.0, 1.2], [0.9, 1.1]])
+    rival = rec("temporal", [[0.8, 0.9], [0.7, 0.95], [3.0, 2.0], [0.1, 0.2]])
+    rows = {r["strategy"]: r for r in summarize([white, rival])}
+    want = {r["strategy"]: r for r in summarize([white, earlier_look(rival, 2)])}
+    assert rows["temporal"]["seed_sets"] == 2
+    assert rows["temporal"]["den_mse_ratio"] == want["temporal"]["den_mse_ratio"] is not None
