@@ -422,25 +422,16 @@ def test_a_rival_stopped_at_an_earlier_look_pairs_with_whites_first_seed_sets():
     2: temporal's ratio pairs with white's first 2 seed sets, the records of white's look at 2
     (issue 52: four Cycles cells showed no ratio), and equals the ratio against that look."""
     from benchmarks.sweep.records import earlier_look
-    from tests._records import small_record
 
-    def rec(strategy, values):
-        pairs = metric_pairs(values)
-        r = small_record(
-            strategy, "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=2,
-            seed_sets=len(values),
-        )  # fmt: skip
-        return dataclasses.replace(r, looks=(2, 4))
-
-    white = rec("white", [[1.0, 1.2], [0.9, 1.1], [5.0, 6.0], [4.0, 3.0]])
-    rival = rec("temporal", [[0.8, 0.9], [0.7, 0.95]])
+    white = _looked("white", [[1.0, 1.2], [0.9, 1.1], [5.0, 6.0], [4.0, 3.0]])
+    rival = _looked("temporal", [[0.8, 0.9], [0.7, 0.95]])
     late = {r["strategy"]: r for r in summarize([white, rival])}
     assert late["temporal"]["den_mse_ratio"] is not None
     at_two = {r["strategy"]: r for r in summarize([earlier_look(white, 2), rival])}
     for column in ("den_mse_ratio", "den_mse_ratio_lo", "den_mse_ratio_hi"):
         assert late["temporal"][column] == at_two["temporal"][column]
     assert late["white"]["seed_sets"] == 4  # white's own row is its last look's
-    beyond = rec("temporal", [[0.8, 0.9]] * 3)  # 3 is not a look of white's: no pairing
+    beyond = _looked("temporal", [[0.8, 0.9]] * 3)  # 3 is not a look of white's: no pairing
     assert summarize([white, beyond])[1]["den_mse_ratio"] is None
 
 
@@ -448,19 +439,22 @@ def test_a_rival_a_look_past_white_is_shown_at_whites_look():
     """A run stopped after the rival's look at 4 and before white's: the rival's row is its
     first 2 seed sets, paired with white's look at 2."""
     from benchmarks.sweep.records import earlier_look
-    from tests._records import small_record
 
-    def rec(strategy, values):
-        pairs = metric_pairs(values)
-        r = small_record(
-            strategy, "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=2,
-            seed_sets=len(values),
-        )  # fmt: skip
-        return dataclasses.replace(r, looks=(2, 4))
-
-    white = rec("white", [[1.0, 1.2], [0.9, 1.1]])
-    rival = rec("temporal", [[0.8, 0.9], [0.7, 0.95], [3.0, 2.0], [0.1, 0.2]])
+    white = _looked("white", [[1.0, 1.2], [0.9, 1.1]])
+    rival = _looked("temporal", [[0.8, 0.9], [0.7, 0.95], [3.0, 2.0], [0.1, 0.2]])
     rows = {r["strategy"]: r for r in summarize([white, rival])}
     want = {r["strategy"]: r for r in summarize([white, earlier_look(rival, 2)])}
     assert rows["temporal"]["seed_sets"] == 2
     assert rows["temporal"]["den_mse_ratio"] == want["temporal"]["den_mse_ratio"] is not None
+
+
+def _looked(strategy, values):
+    """A record of an adaptive run with looks at 2 and 4 seed sets: ``values`` [S][F] its MSE."""
+    from tests._records import small_record
+
+    pairs = metric_pairs(values)
+    r = small_record(
+        strategy, "gaussian", raw={"mse": pairs}, den={"mse": pairs}, frames=2,
+        seed_sets=len(values),
+    )  # fmt: skip
+    return dataclasses.replace(r, looks=(2, 4))
