@@ -161,9 +161,7 @@ def to_settle(row: dict, rivals: int) -> int | None:
     n, value, hi = row["seed_sets"], row["den_mse_ratio"], row["den_mse_ratio_hi"]
     if n < 2 or not 0.0 < value < hi < math.inf:
         return None
-    sd = math.log(hi / value) / t_quantile(LEVEL, n - 1) * math.sqrt(n)
-    if sd <= 0.0:
-        return None
+    sd = math.log(hi / value) / t_quantile(LEVEL, n - 1) * math.sqrt(n)  # > 0: value < hi
     found = seed_sets_to_settle(sd, EQUAL_MARGIN, 1.0 - (1.0 - LEVEL) / max(rivals, 1))
     return 0 if found is None else found
 

@@ -245,9 +245,9 @@ def _earlier_whites(
     found = {}
     for r in records:
         w, n = _white_of(r, white, latest), r.cell.seed_sets
-        if w is not None and n < w.cell.seed_sets and n in (w.looks or ()):
-            if r.cell.strategy != white:
-                found[_baseline_key(r, white)] = earlier_look(w, n)
+        rival = r.cell.strategy != white
+        if rival and w is not None and n < w.cell.seed_sets and n in (w.looks or ()):
+            found[_baseline_key(r, white)] = earlier_look(w, n)
     return found
 
 
