@@ -12,7 +12,10 @@ the residual, 1.53 without (the plain network blurred the light).
 Input, ``[9, H, W]``: transformed color, albedo, normal. The color transform is OIDN's recipe for
 HDR input: scale by an auto-exposure (so that a dark and a bright scene look alike to the network),
 then a log transform (``log1p``), which compresses fireflies. The network's output is mapped back
-by the inverse transform.
+by the inverse transform. The inputs are first sanitized as OIDN sanitizes its own
+(:func:`sanitized`: NaN to 0, color at least 0, albedo in [0, 1], normal in [-1, 1]): bnerr's
+tracer never leaves those ranges, but a renderer's denoising albedo may (Cycles' exceeds 1 on a few
+pixels of a glossy scene, up to 154), and the network, trained on [0, 1], then ran away.
 
 Much smaller than OIDN's (0.37 M parameters instead of about 0.9 M at the default widths;
 ``MAX_PARAMETERS`` is the project's cap): it has to train in minutes on two CPU cores. It is a
@@ -60,6 +63,7 @@ __all__ = [
     "network_input",
     "parameter_count",
     "parameter_count_reference",
+    "sanitized",
     "save_weights",
     "unet_denoise",
     "upsampled_transpose_kernel",
@@ -98,15 +102,30 @@ def auto_exposure(color: torch.Tensor) -> torch.Tensor:
     return _KEY / bins[lit].log().mean().exp()
 
 
+def sanitized(
+    color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor
+) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """The inputs in the ranges OIDN's input stage gives them (NaN to 0; color at least 0,
+    albedo in [0, 1], normal in [-1, 1]); new tensors, the arguments untouched.
+
+    Negative color is something an unbiased estimator never produces, but a filter upstream
+    might. A denoising albedo above 1 is what some renderers write where a glossy or emissive
+    surface is hit (Cycles); OIDN clamps it the same way.
+    """
+    return (
+        torch.nan_to_num(color, nan=0.0).clamp_min_(0.0),
+        torch.nan_to_num(albedo, nan=0.0).clamp_(0.0, 1.0),
+        torch.nan_to_num(normal, nan=0.0).clamp_(-1.0, 1.0),
+    )
+
+
 def network_input(
     color: torch.Tensor, albedo: torch.Tensor, normal: torch.Tensor, exposure: torch.Tensor
 ) -> torch.Tensor:
-    """The ``[9, H, W]`` network input: ``log1p(exposure * color)``, albedo, normal.
-
-    Negative color (which an unbiased estimator never produces, but a filter upstream might) is
-    clamped to 0 before the log.
-    """
-    return torch.cat([torch.log1p(color.clamp_min(0.0) * exposure), albedo, normal])
+    """The ``[9, H, W]`` network input: ``log1p(exposure * color)``, albedo, normal, each
+    :func:`sanitized` first."""
+    color, albedo, normal = sanitized(color, albedo, normal)
+    return torch.cat([torch.log1p(color * exposure), albedo, normal])
 
 
 def _conv(cin: int, cout: int) -> nn.Conv2d:
@@ -531,14 +550,15 @@ def unet_denoise(
 ) -> torch.Tensor:
     """Denoise ``color [3, H, W]`` with ``model``, guided by ``albedo`` and ``normal [3, H, W]``.
 
-    Applies the input transform, runs the network without gradients, and inverts the transform;
-    the result is clamped at 0 (radiance is never negative). ``model`` must already be on the
-    color's device. Returns ``[3, H, W]`` float32.
+    Sanitizes the inputs (:func:`sanitized`), applies the input transform, runs the network
+    without gradients, and inverts the transform; the result is clamped at 0 (radiance is never
+    negative). ``model`` must already be on the color's device. Returns ``[3, H, W]`` float32.
     """
+    color, albedo, normal = sanitized(color, albedo, normal)
     exposure = auto_exposure(color)
-    # network_input's arithmetic, in place on one new tensor; the FastUNet copies the three
+    # network_input's arithmetic, in place on the sanitized copy; the FastUNet copies the three
     # parts into its padded input buffer without a concatenation.
-    log_color = color.clamp_min(0.0).mul_(exposure).log1p_()
+    log_color = color.mul_(exposure).log1p_()
     with torch.no_grad():
         if isinstance(model, FastUNet):
             y = model.call_parts([log_color[None], albedo[None], normal[None]])[0]

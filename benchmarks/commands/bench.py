@@ -15,7 +15,10 @@ records to the precision runs keep, :meth:`benchmarks.sweep.records.Record.round
 the folder above gets ``index.html``, linking every suite's page.
 References are cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the
 results already in the output folder and measures only the missing cells; without it, a folder that
-already holds finished cells is refused unless ``--overwrite`` says to discard them. The command
+already holds finished cells is refused unless ``--overwrite`` says to discard them.
+``--remeasure DENOISER ..`` discards those denoisers' cells and tuned parameters only and then
+resumes: after a denoiser's code changed, its cells are measured again (their runs rendered again
+for it alone) and every other cell stays as measured. The command
 holds the output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a
 second ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
@@ -159,6 +162,14 @@ def _add_resume_options(parser: argparse.ArgumentParser) -> None:
         help="discard the finished cells already in --out (without it a fresh run into a folder "
         "with results refuses)",
     )
+    resume.add_argument(
+        "--remeasure",
+        nargs="+",
+        metavar="DENOISER",
+        help="discard these denoisers' cells (and tuned parameters) in --out and measure them "
+        "again, keeping every other cell: after a denoiser's code changed (an interrupted run "
+        "goes on with --resume)",
+    )
 
 
 def _add_renderer_options(parser: argparse.ArgumentParser) -> None:
@@ -296,7 +307,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def _run_speed(args: argparse.Namespace, suite: Suite, out: Path) -> str:
 
     given = [f"--{n.replace('_', '-')}" for n in _OVERRIDES if getattr(args, n) is not None]
-    given += [flag for flag in ("--resume", "--overwrite") if getattr(args, flag[2:])]
+    given += [
+        flag for flag in ("--resume", "--overwrite", "--remeasure") if getattr(args, flag[2:])
+    ]
     given += ["--ray"] if args.ray is not None else []
     given += ["--device"] if args.device != "cpu" else []
     if given:
@@ -404,6 +417,24 @@ def _for_renderer(suite: Suite, renderer: ExternalRenderer, named: bool) -> Suit
     return suite
 
 
+def _forget(denoisers: list[str], suite: Suite, out: Path) -> None:
+    """--remeasure: discard the cells of ``denoisers`` (each one of the suite's) from ``out``,
+    saying how many on stderr; the run then resumes and measures them again."""
+    known = list(dict.fromkeys(d for sweep in suite.sweeps for d in sweep.denoisers))
+    unknown = [d for d in denoisers if d not in known]
+    if unknown:
+        raise ValueRangeError(
+            f"--remeasure: expected denoisers of the suite ({', '.join(known)}), got "
+            f"{', '.join(unknown)}"
+        )
+    gone = runner.forget_denoisers(out, denoisers)
+    print(
+        f"bnerr bench: --remeasure: discarded {gone} cells of {', '.join(denoisers)} in {out}; "
+        "measuring them again",
+        file=sys.stderr,
+    )
+
+
 def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool) -> str:
     """Measure the suite's cells into ``out`` (or only report them), compress the cells if
     ``compress``, then write the report: last, so that the page links the file the folder holds."""
@@ -438,9 +469,11 @@ def _run_cells(args: argparse.Namespace, suite: Suite, out: Path, compress: bool
     if renderer is not None:
         suite = _for_renderer(suite, renderer, named=args.strategies is not None)
         parts = external_parts(renderer, tuple(specs))
+    if args.remeasure:
+        _forget(args.remeasure, suite, out)
     common = dict(
         cache_dir=args.cache,
-        resume=args.resume,
+        resume=args.resume or bool(args.remeasure),
         overwrite=args.overwrite,
         progress=not args.quiet,
         parts=parts,

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,7 +54,14 @@ from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.outputs import clean_stale_temporaries
 from denoisers.tuning import ParamStore
 
-__all__ = ["TUNED_PARAMS_FILE", "SweepState", "load_params", "run_suite", "start_sweep"]
+__all__ = [
+    "TUNED_PARAMS_FILE",
+    "SweepState",
+    "forget_denoisers",
+    "load_params",
+    "run_suite",
+    "start_sweep",
+]
 
 #: Name of the tuned denoiser parameters file inside the output folder.
 TUNED_PARAMS_FILE = "tuned_params.json"
@@ -137,6 +144,31 @@ def load_params(path: Path) -> ParamStore:
     except FileFormatError as err:
         warnings.warn(f"{err}; the denoisers are tuned again", stacklevel=3)
         return ParamStore()
+
+
+def forget_denoisers(out_dir: str | Path, denoisers: Collection[str]) -> int:
+    """Discard the cells of ``denoisers`` from ``out_dir``'s results, and their tuned parameters
+    (so that they are tuned again), keeping every other cell; return how many cells went.
+
+    What ``bnerr bench --remeasure`` does before it resumes: after a denoiser's code changed, its
+    cells are measured again (their runs rendered again for it alone) while the others stay as
+    they were measured. The results file is rewritten atomically (plain, as a resumed run appends
+    to it); a folder without results is left alone.
+
+    Raises:
+        FileFormatError: the folder's results file is not valid.
+    """
+    out = Path(out_dir)
+    records = load_records(out)
+    kept = [r for r in records if r.cell.denoiser not in denoisers]
+    if len(kept) != len(records):
+        write_records(out, kept)
+    params = out / TUNED_PARAMS_FILE
+    if params.exists():
+        store = load_params(params)
+        if any(store.entries.pop(name, None) is not None for name in list(denoisers)):
+            store.save(params)
+    return len(records) - len(kept)
 
 
 def _warn_unmeasured(records: dict[str, Record], runs: Sequence[Run]) -> None:

@@ -22,6 +22,7 @@ from denoisers.unet import (
     load_weights,
     network_input,
     parameter_count,
+    sanitized,
     save_weights,
     unet_denoise,
     upsampled_transpose_kernel,
@@ -64,6 +65,31 @@ def test_auto_exposure_makes_the_input_scale_invariant():
     b = network_input(bright.color, bright.albedo, bright.normal, e_bright)
     torch.testing.assert_close(a, b, rtol=1e-5, atol=1e-6)
     assert float(auto_exposure(torch.zeros(3, 4, 4))) == 1.0
+
+
+def test_inputs_out_of_range_are_sanitized_as_oidn_does():
+    # A renderer's denoising albedo can exceed 1 (Cycles' does on glossy highlights, up to 154)
+    # and a pass can hold NaN: the network sees what OIDN's input stage would give it.
+    torch.manual_seed(0)
+    net = UNet((4, 6, 8, 8)).eval()
+    frame = random_frame(20, 28)
+    albedo, normal, color = frame.albedo.clone(), frame.normal.clone(), frame.color.clone()
+    albedo[:, 3, 5], albedo[:, 7, 9] = 154.0, float("nan")
+    normal[:, 2, 2], color[:, 4, 4] = -3.0, float("nan")
+    before = (albedo.clone(), normal.clone(), color.clone())
+    clean = sanitized(color, albedo, normal)
+    assert float(clean[1].max()) <= 1.0 and float(clean[2].min()) >= -1.0
+    assert all(bool(t.isfinite().all()) for t in clean)
+    out = unet_denoise(net, color, albedo, normal)
+    assert bool(out.isfinite().all())
+    assert torch.equal(out, unet_denoise(net, *clean))
+    # in range, nothing changes; the caller's tensors are left as they were
+    assert torch.equal(
+        network_input(frame.color, frame.albedo, frame.normal, torch.tensor(2.0)),
+        torch.cat([torch.log1p(frame.color * 2.0), frame.albedo, frame.normal]),
+    )
+    for kept, now in zip(before, (albedo, normal, color), strict=True):
+        assert torch.equal(kept.nan_to_num(nan=-7.0), now.nan_to_num(nan=-7.0))
 
 
 def test_save_load_and_denoise_round_trip(tmp_path):

@@ -63,6 +63,49 @@ def test_bench_resume_keeps_the_results(tmp_path):
     assert (tmp_path / "out" / RESULTS_FILE).read_text() == before
 
 
+def _marked(records, denoiser, value):
+    """``records`` with every denoised metric of ``denoiser``'s cells set to ``value``."""
+    out = []
+    for r in records:
+        if r.cell.denoiser == denoiser:
+            den = {
+                m: [[[value, w] for _, w in frames] for frames in sets] for m, sets in r.den.items()
+            }
+            r = dataclasses.replace(r, den=den)
+        out.append(r)
+    return out
+
+
+def test_bench_remeasure_measures_one_denoiser_again_and_keeps_the_others(tmp_path, capsys):
+    run = _two_strategies(tmp_path, "--no-charts")
+    run[run.index("--denoisers") + 1] = "gaussian,atrous"
+    assert main(run) == 0
+    out = tmp_path / "out"
+    measured = {r.key: r for r in load_records(out)}
+    # stand-ins for cells measured by an older version of both denoisers
+    write_records(out, _marked(_marked(measured.values(), "atrous", 7.0), "gaussian", 9.0))
+    assert main([*run, "--remeasure", "atrous"]) == 0
+    assert "discarded 4 cells of atrous" in capsys.readouterr().err
+    again = {r.key: r for r in load_records(out)}
+    assert set(again) == set(measured)
+    for key, record in again.items():
+        if record.cell.denoiser == "atrous":  # measured again: what the first run measured
+            assert record.den == measured[key].den and record.raw == measured[key].raw
+        else:  # kept as they were
+            assert {v for frames in record.den["mse"] for v, _ in frames} == {9.0}
+
+
+def test_bench_remeasure_names_a_denoiser_of_the_suite(tmp_path, capsys):
+    assert main(_two_strategies(tmp_path, "--no-charts")) == 0
+    before = (tmp_path / "out" / RESULTS_FILE).read_bytes()
+    assert main(_two_strategies(tmp_path, "--no-charts", "--remeasure", "unet")) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        "bnerr bench: error: --remeasure: expected denoisers of the suite (gaussian), got unet"
+    )
+    assert (tmp_path / "out" / RESULTS_FILE).read_bytes() == before
+
+
 @pytest.mark.parametrize(
     ("flag", "value", "message"),
     [
@@ -133,8 +176,9 @@ def test_resume_from_garbage_gives_a_one_line_error(tmp_path, capsys, garbage, m
     assert "\n" not in err and "Traceback" not in err
 
 
-def test_resume_and_overwrite_exclude_each_other(tmp_path, capsys):
-    assert main(_args(tmp_path / "out", tmp_path / "cache", "--resume", "--overwrite")) == 2
+@pytest.mark.parametrize("other", [["--overwrite"], ["--remeasure", "gaussian"]])
+def test_resume_overwrite_and_remeasure_exclude_each_other(tmp_path, capsys, other):
+    assert main(_args(tmp_path / "out", tmp_path / "cache", "--resume", *other)) == 2
     assert "not allowed with argument" in capsys.readouterr().err
 
 

@@ -7,6 +7,7 @@ in seconds.
 
 import dataclasses
 import json
+import shutil
 
 import pytest
 import torch
@@ -103,6 +104,21 @@ def test_denoisers_are_tuned_once_on_white_noise_and_shared(tiny):
     for name in ("gaussian", "median"):
         params = stored[name][key]["1"]["params"]
         assert all(r.denoiser_params == params for r in records if r.cell.denoiser == name)
+
+
+def test_forget_denoisers_drops_their_cells_and_tuned_parameters_only(tiny, tmp_path):
+    out, _, records, _ = tiny
+    copy = tmp_path / "copy"
+    shutil.copytree(out, copy)
+    median = [r.key for r in records if r.cell.denoiser == "median"]
+    assert median and runner.forget_denoisers(copy, {"median"}) == len(median)
+    assert [r.key for r in load_records(copy)] == [
+        r.key for r in records if r.cell.denoiser != "median"
+    ]
+    stored = json.loads((copy / runner.TUNED_PARAMS_FILE).read_text())["entries"]
+    assert "median" not in stored and "gaussian" in stored
+    assert runner.forget_denoisers(copy, {"median"}) == 0
+    assert runner.forget_denoisers(tmp_path / "empty", {"median"}) == 0  # nothing there
 
 
 def test_references_are_cached_per_measured_frame(tiny):
