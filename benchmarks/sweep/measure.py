@@ -253,6 +253,9 @@ class _SeedSetMeasurement:
         self.crop: dict[str, np.ndarray] = {}
         self.tcorr: list[float] = []
         self.coverage: dict[str, list[float]] = {r: [] for r in regions if r != "all"}
+        # regions whose mask was every pixel in every frame so far (an unlit region where the
+        # camera sees no light): their pairs are the whole image's (see result)
+        self.whole = {r for r in regions if r != "all"} if "all" in regions else set()
         self._prev_err: torch.Tensor | None = None
 
     def _spectrum(self, kind: str, err: torch.Tensor) -> None:
@@ -287,6 +290,8 @@ class _SeedSetMeasurement:
         for region, mask in masks.items():
             if region in self.coverage:
                 self.coverage[region].append(1.0 if mask is None else float(mask.double().mean()))
+            if mask is not None:
+                self.whole.discard(region)
         self.timings["render_ms"].append(float(frame.timings.get("render", 0.0)))
         self.timings["perm_ms"].append(float(frame.timings.get("strategy", 0.0)))
         target = PreparedReference(ref.color)  # the reference's share of the metrics, once
@@ -313,9 +318,13 @@ class _SeedSetMeasurement:
             self.crop = {k: preview_u8(_center_crop(v, _CROP)) for k, v in images.items()}
 
     def result(self, dimensions: int, render_sampler: str) -> SeedSetResult:
+        """The seed set's measurements. A region that held every pixel in every frame takes the
+        whole image's pairs: the same numbers (the same images, no mask), without scoring its
+        sequence metrics a second time (ColorVideoVDP: 0.07 s a sequence)."""
         metrics = self.run.metrics
 
-        def pairs(acc: FrameMetrics) -> dict[str, torch.Tensor]:
+        def pairs(accs: Mapping[str, FrameMetrics], region: str) -> dict[str, torch.Tensor]:
+            acc = accs["all" if region in self.whole else region]
             return {m: acc.stats(m)[0] for m in metrics}
 
         return SeedSetResult(
@@ -323,8 +332,8 @@ class _SeedSetMeasurement:
             dimensions=dimensions,
             render_sampler=render_sampler,
             measured_t=list(self.measured_t),
-            raw={r: pairs(acc) for r, acc in self.raw.items()},
-            den={(d, r): pairs(acc) for d, accs in self.den.items() for r, acc in accs.items()},
+            raw={r: pairs(self.raw, r) for r in self.raw},
+            den={(d, r): pairs(accs, r) for d, accs in self.den.items() for r in accs},
             freq=self.freq,
             power=self.power,
             timings=self.timings,

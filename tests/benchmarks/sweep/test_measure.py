@@ -17,6 +17,7 @@ from benchmarks.sweep.tuning import TUNING_SEED_SET, tune_denoisers
 from bnerr import strategies
 from bnerr.color import preview_u8
 from bnerr.frame import Frame
+from bnerr.metrics import cvvdp as cvvdp_module
 from bnerr.sequences import make_sampler
 
 pytestmark = pytest.mark.usefixtures("one_thread")
@@ -137,15 +138,26 @@ def test_coherent_records_say_how_much_of_the_image_they_cover(tmp_path):
 
 
 @pytest.mark.parametrize("lights", [(1,), ()])
-def test_unlit_records_leave_out_the_pixels_next_to_a_visible_light(tmp_path, lights):
+def test_unlit_records_leave_out_the_pixels_next_to_a_visible_light(tmp_path, monkeypatch, lights):
     # object 1 (columns 7-9) is the light: grown by a pixel, columns 6-9 are left out; a scene
-    # whose lights are out of view measures every pixel, the whole image's records bit for bit
+    # whose lights are out of view measures every pixel, the whole image's records bit for bit,
+    # and its sequences are scored once (a stand-in for ColorVideoVDP counts them)
+    monkeypatch.setattr(cvvdp_module, "require_cvvdp", lambda: None)
+    scored = []
+
+    def jod(preds, refs, masks=None):
+        scored.append(masks)
+        shown = [p if m is None else torch.where(m, p, r) for p, r, m in zip(preds, refs, masks)]
+        return float(sum(float((p - r).abs().mean()) for p, r in zip(shown, refs, strict=True)))
+
+    monkeypatch.setattr(cvvdp_module, "sequence_jod", jod)
     render = _Render()
     parts = dataclasses.replace(
         _parts(render), get_scene=lambda name, animated: _Lit(lights=lights)
     )
     sweep = Sweep(scenes=("direct",), strategies=("white",), spp=(2,), denoisers=("gaussian",),
                   frames=2, warmup=3, res=(10, 8), reference_spp=4, seed_sets=2,
+                  metrics=("mse", "cvvdp"),
                   conditions=(Condition(), Condition(region="unlit")))  # fmt: skip
     (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=False))
     run = dataclasses.replace(run, denoisers=("plain",))
@@ -155,9 +167,12 @@ def test_unlit_records_leave_out_the_pixels_next_to_a_visible_light(tmp_path, li
     if lights:
         assert unlit.coverage == [[0.6, 0.6], [0.6, 0.6]]
         assert unlit.raw["mse"] != whole.raw["mse"]
+        assert unlit.raw["cvvdp"] != whole.raw["cvvdp"]
+        assert len(scored) == 2 * 2 * 2  # seed sets x (raw, plain) x regions
     else:
         assert unlit.coverage == [[1.0, 1.0], [1.0, 1.0]]
         assert unlit.raw == whole.raw and unlit.den == whole.den
+        assert len(scored) == 2 * 2 and all(m == [None, None] for m in scored)
 
 
 def test_records_hold_the_error_correlation_between_consecutive_measured_frames(tmp_path):
