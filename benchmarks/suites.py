@@ -73,6 +73,7 @@ from dataclasses import dataclass
 from typing import TypedDict, cast
 
 from bnerr.errors import ValueRangeError, check_name, check_positive_int
+from bnerr.metrics import METRIC_TABLE
 from bnerr.sequences import per_pixel_samplers
 from bnerr.strategies import check_strategy_name
 from renderers.catalog import SCENES
@@ -220,6 +221,9 @@ class Suite:
             (:func:`benchmarks.sweep.plan.plan`; the renders are shared, so it costs only the
             metrics). True for every named suite; False keeps a hand-built suite's cells as
             its sweeps' conditions say.
+        coherent_skips: metrics the coherent region leaves out although its sweep measures
+            them (:meth:`benchmarks.sweep.plan.Run.metrics_of`): the slow perceptual ones where
+            a suite's time is tight and the region is a diagnostic, not a verdict's.
         resolve: with ``bnerr bench --until-resolved``, the pixel regions whose open verdicts
             add seed sets (:func:`benchmarks.sweep.adaptive.run_until_resolved`); empty: every
             region's (``--resolve`` overrides it).
@@ -236,12 +240,15 @@ class Suite:
     crops: bool = True
     crops_every_spp: bool = False
     coherent: bool = False
+    coherent_skips: tuple[str, ...] = ()
     resolve: tuple[str, ...] = ()
     stop_settled: bool = False
 
     def __post_init__(self) -> None:
         for region in self.resolve:
             check_name(region, REGIONS, "resolve region")
+        for name in self.coherent_skips:
+            check_name(name, tuple(METRIC_TABLE), "coherent_skips metric")
 
 
 class _Sets(TypedDict):

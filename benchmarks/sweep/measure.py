@@ -236,10 +236,11 @@ class _SeedSetMeasurement:
         self, run: Run, group: int, denoisers: dict[str, Denoiser], lights: tuple[int, ...] = ()
     ) -> None:
         self.run, self.group, self.denoisers, self.lights = run, group, denoisers, lights
-        metrics, regions = run.metrics, run.regions
-        self.raw = {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions}
+        regions = run.regions
+        self.raw = {r: FrameMetrics(run.metrics_of(r), tile=_SPECTRUM_TILE) for r in regions}
         self.den = {
-            d: {r: FrameMetrics(metrics, tile=_SPECTRUM_TILE) for r in regions} for d in denoisers
+            d: {r: FrameMetrics(run.metrics_of(r), tile=_SPECTRUM_TILE) for r in regions}
+            for d in denoisers
         }
         self.freq: list[float] = []
         self.power: dict[str, list[torch.Tensor]] = {"raw": [], **{d: [] for d in denoisers}}
@@ -321,11 +322,10 @@ class _SeedSetMeasurement:
         """The seed set's measurements. A region that held every pixel in every frame takes the
         whole image's pairs: the same numbers (the same images, no mask), without scoring its
         sequence metrics a second time (ColorVideoVDP: 0.07 s a sequence)."""
-        metrics = self.run.metrics
 
         def pairs(accs: Mapping[str, FrameMetrics], region: str) -> dict[str, torch.Tensor]:
             acc = accs["all" if region in self.whole else region]
-            return {m: acc.stats(m)[0] for m in metrics}
+            return {m: acc.stats(m)[0] for m in self.run.metrics_of(region)}
 
         return SeedSetResult(
             group=self.group,
@@ -391,7 +391,8 @@ def _cell_record(
 
     def stacked(tables: list[dict[str, torch.Tensor]]) -> MetricPairs:
         """Per metric, the seed sets' ``[F, 2]`` pairs stacked in seed-set order."""
-        return {m: torch.stack([table[m] for table in tables]).tolist() for m in run.metrics}
+        names = run.metrics_of(cell.region)
+        return {m: torch.stack([table[m] for table in tables]).tolist() for m in names}
 
     def series(name: str) -> list[list[float]]:
         return [list(r.timings[name]) for r in ordered]

@@ -73,6 +73,8 @@ class Run(RunSpec):
     regions: tuple[str, ...]
     metrics: tuple[str, ...]
     crops: bool
+    #: Metrics the coherent region leaves out (``Suite.coherent_skips``): :meth:`metrics_of`.
+    coherent_skips: tuple[str, ...] = ()
     #: The seed-set counts of the group-sequential design the run's seed sets are added under
     #: (``bnerr bench --until-resolved``, :mod:`benchmarks.sweep.adaptive`); empty for a fixed
     #: number. Recorded with its cells (``Record.looks``), not part of their key.
@@ -86,6 +88,13 @@ class Run(RunSpec):
     def groups(self) -> range:
         """The seed sets the run measures: ``reuse .. seed_sets - 1``."""
         return range(self.reuse, self.seed_sets)
+
+    def metrics_of(self, region: str) -> tuple[str, ...]:
+        """The metrics a region's cells measure: the run's, less ``coherent_skips`` in the
+        coherent region."""
+        if region != ALWAYS_REGION:
+            return self.metrics
+        return tuple(m for m in self.metrics if m not in self.coherent_skips)
 
     def cells(self) -> list[Cell]:
         """Its cells: every denoiser x region, in that order."""
@@ -103,7 +112,8 @@ class Run(RunSpec):
         return f"{self.scene} {self.strategy} {self.spp}spp{extra}"
 
 
-def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool, every_spp: bool = False) -> list[Run]:
+def _sweep_runs(suite: Suite, sweep: Sweep) -> list[Run]:
+    crops, coherent, every_spp = suite.crops, suite.coherent, suite.crops_every_spp
     renders: dict[tuple[int, int | None, str], list[str]] = {}
     for cond in sweep.conditions:
         regions = renders.setdefault((cond.motion, cond.depth, cond.sampler), [])
@@ -135,6 +145,7 @@ def _sweep_runs(sweep: Sweep, crops: bool, coherent: bool, every_spp: bool = Fal
                             regions=tuple(regions),
                             metrics=sweep.metrics,
                             crops=crops and (every_spp or spp == min(sweep.spp)),
+                            coherent_skips=suite.coherent_skips,
                         )
                     )
     return runs
@@ -144,7 +155,7 @@ def plan(suite: Suite) -> list[Run]:
     """The runs of a suite, in order, with duplicate runs (same renders) merged."""
     merged: dict[tuple, Run] = {}
     for sweep in suite.sweeps:
-        for run in _sweep_runs(sweep, suite.crops, suite.coherent, suite.crops_every_spp):
+        for run in _sweep_runs(suite, sweep):
             bare = dataclasses.replace(run, denoisers=(), regions=(), crops=False)
             key = dataclasses.astuple(bare)
             old = merged.get(key)

@@ -182,7 +182,7 @@ def _warn_unmeasured(records: dict[str, Record], runs: Sequence[Run]) -> None:
             record = records.get(cell.key())
             if record is None:
                 continue
-            for name in run.metrics:
+            for name in run.metrics_of(cell.region):
                 if name not in record.den or name not in record.raw:
                     lacking[name] = lacking.get(name, 0) + 1
     if lacking:

@@ -12,6 +12,7 @@ from benchmarks.suites import (
     SAMPLERS,
     SUITES,
     Condition,
+    Suite,
     Sweep,
     get_suite,
     resolve,
@@ -158,6 +159,8 @@ def test_bad_configurations_raise_typed_errors():
         Condition(motion=-1)
     with pytest.raises(UnknownNameError, match="unknown per-pixel sampler 'sobol'"):
         Condition(sampler="sobol")
+    with pytest.raises(UnknownNameError, match="unknown coherent_skips metric 'jod'"):
+        Suite("s", "d", coherent_skips=("jod",))
 
 
 def test_runs_count_renders_not_denoisers_or_regions():

@@ -90,10 +90,11 @@ def _parts(render):
     )
 
 
-def _run(strategy, crops=True, coherent=False):
+def _run(strategy, crops=True, coherent=False, skips=()):
     sweep = Sweep(scenes=("direct",), strategies=(strategy,), spp=(2,), denoisers=("gaussian",),
                   frames=2, warmup=3, res=(10, 8), reference_spp=4, seed_sets=2)  # fmt: skip
-    (run,) = plan(Suite("t", "t", sweeps=(sweep,), crops=crops, coherent=coherent))
+    suite = Suite("t", "t", sweeps=(sweep,), crops=crops, coherent=coherent, coherent_skips=skips)
+    (run,) = plan(suite)
     return dataclasses.replace(run, denoisers=("half", "plain"))
 
 
@@ -135,6 +136,20 @@ def test_coherent_records_say_how_much_of_the_image_they_cover(tmp_path):
     spectra = [r.spectrum["coherent"] for r in records]
     assert spectra[0].freq == records[0].spectrum["raw"].freq and spectra.count(spectra[0]) == 4
     assert spectra[0].power != records[0].spectrum["raw"].power
+
+
+def test_the_coherent_region_measures_without_the_suites_skipped_metrics(tmp_path):
+    render = _Render()
+    parts = _parts(render)
+    run = _run("white", coherent=True, skips=("ssim",))
+    denoisers = {"half": parts.make_denoiser("half", {"scale": 0.5}), "plain": lambda f: f.color}
+    records = measure_run(run, parts, ReferenceCache(tmp_path, parts), denoisers)
+    full = _run("white", coherent=True)
+    again = measure_run(full, parts, ReferenceCache(tmp_path, parts), denoisers)
+    for rec, whole in zip(records, again, strict=True):
+        want = [m for m in run.metrics if rec.cell.region != "coherent" or m != "ssim"]
+        assert sorted(rec.raw) == sorted(rec.den) == sorted(want)
+        assert {m: rec.den[m] for m in want} == {m: whole.den[m] for m in want}  # the same
 
 
 @pytest.mark.parametrize("lights", [(1,), ()])

@@ -45,6 +45,14 @@ def test_a_coherent_suite_measures_the_coherent_region_in_every_run_after_its_ow
     assert all(r.regions[-1] == "coherent" for s in named for r in plan(s))
 
 
+def test_the_coherent_region_leaves_out_the_suites_skipped_metrics_only():
+    suite = dataclasses.replace(_suite(), coherent=True, coherent_skips=("ssim", "cvvdp"))
+    for run in plan(suite):
+        assert run.metrics_of("coherent") == tuple(m for m in run.metrics if m != "ssim")
+        assert run.metrics_of("all") == run.metrics_of("edges") == run.metrics
+    assert all(r.metrics_of("coherent") == r.metrics for r in plan(_suite()))
+
+
 def test_cell_key_is_its_fields_as_sorted_json():
     cell = plan(_suite())[0].cells()[0]
     assert json.loads(cell.key()) == dataclasses.asdict(cell)
