@@ -43,7 +43,7 @@ from pathlib import Path
 from benchmarks.reports.charts import write_charts
 from benchmarks.reports.decision import decision_table
 from benchmarks.reports.denoisers import write_denoise_tables
-from benchmarks.reports.disagreement import write_disagreements
+from benchmarks.reports.disagreement import shown_tiles, write_disagreements
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.page import write_suite_page
 from benchmarks.reports.perceptual import perceptual_report
@@ -88,6 +88,7 @@ def write_report(
     with atomic_write(out / "decision.md") as tmp:
         Path(tmp).write_text(decision_table(rows))
     perceptual = perceptual_report(rows, pictures=write_disagreements(out, records, rows))
+    kept = shown_tiles(out, records, rows)  # before the page strips the crops: kept in them
     if perceptual:
         with atomic_write(out / "perceptual.md") as tmp:
             Path(tmp).write_text(perceptual)
@@ -98,5 +99,5 @@ def write_report(
     if charts:
         write_charts(rows, records, out, shares)
         write_seed_report(out, records, shares)
-    write_suite_page(out, rows, records, title or f"bnerr bench: {out.name}")
+    write_suite_page(out, rows, records, title or f"bnerr bench: {out.name}", kept)
     return text

@@ -35,7 +35,7 @@ from benchmarks.sweep.records import Record
 from bnerr.io import atomic_write
 from bnerr.strategies import baseline
 
-__all__ = ["MAX_ROWS", "disagreement_rows", "picture_name", "write_disagreements"]
+__all__ = ["MAX_ROWS", "disagreement_rows", "picture_name", "shown_tiles", "write_disagreements"]
 
 #: The most cells one picture shows (the first in the report's order; the rest are listed).
 MAX_ROWS = 8
@@ -76,12 +76,17 @@ def _title(key: tuple, mse: str, mse_row: dict, rivals: int, judge: Judge, found
     )
 
 
+def _files(crops: dict[tuple, str], key: tuple, shown: dict[str, str]) -> list[str | None]:
+    """The crop file of each strategy ``shown`` in the cell ``key`` (None: its run has none)."""
+    (scene, motion, depth, _, sampler), spp, _ = key
+    return [crops.get((scene, motion, depth, sampler, s, spp)) for s in shown]
+
+
 def _tiles(out: Path, crops: dict[tuple, str], key: tuple, shown: dict[str, str]) -> Tiles:
     """The row's tiles (``shown``: strategy -> its label), or [] when a strategy's crop lacks
     the cell's denoiser."""
-    (scene, motion, depth, _, sampler), spp, den = key
-    found = [load_crop(out, crops.get((scene, motion, depth, sampler, s, spp))) for s in shown]
-    name = f"denoised/{den}"
+    found = [load_crop(out, f) for f in _files(crops, key, shown)]
+    name = f"denoised/{key[2]}"
     tiles = [t[name] for t in found if t is not None and name in t and "reference" in t]
     if len(tiles) < len(shown):
         return []
@@ -101,11 +106,11 @@ def _shown(white: str, mse: str, seen: str, unit: str) -> dict[str, str]:
     return shown
 
 
-def disagreement_rows(
+def _shown_cells(
     out: Path, records: Sequence[Record], rows: Sequence[dict], judge: Judge
-) -> list[tuple[str, Tiles]]:
+) -> list[tuple[str, Tiles, dict[str, str]]]:
     """Per disagreeing cell whose crops hold every strategy shown (at most :data:`MAX_ROWS`):
-    the row's title and its tiles."""
+    the row's title, its tiles, and the tile each crop file gave (crop file -> tile name)."""
     exclude = decision_excludes(r["strategy"] for r in rows)
     lowest = best_rows(rows, [*exclude, baseline()])
     rivals = rival_counts(rows, exclude)
@@ -116,8 +121,33 @@ def disagreement_rows(
         shown = _shown(baseline(), mse_row["strategy"], seen.row["strategy"], judge.unit)
         tiles = _tiles(out, crops, key, shown)
         if tiles:
-            found.append((_title(key, mse, mse_row, rivals.get(key, 1), judge, seen), tiles))
-    return found[:MAX_ROWS]
+            used = {f: f"denoised/{key[2]}" for f in _files(crops, key, shown) if f}
+            title = _title(key, mse, mse_row, rivals.get(key, 1), judge, seen)
+            found.append((title, tiles, used))
+        if len(found) == MAX_ROWS:
+            break
+    return found
+
+
+def disagreement_rows(
+    out: Path, records: Sequence[Record], rows: Sequence[dict], judge: Judge
+) -> list[tuple[str, Tiles]]:
+    """Per disagreeing cell whose crops hold every strategy shown (at most :data:`MAX_ROWS`):
+    the row's title and its tiles."""
+    return [(title, tiles) for title, tiles, _ in _shown_cells(out, records, rows, judge)]
+
+
+def shown_tiles(out: Path, records: Sequence[Record], rows: Sequence[dict]) -> dict[str, set[str]]:
+    """The tiles the pictures draw, by crop file (crop file -> tile names): the page's strips
+    keep them (:func:`benchmarks.reports.page.write_suite_page`), so that the pictures come out
+    the same when the report is written again from the strips (``--report-only``)."""
+    kept: dict[str, set[str]] = {}
+    for judge in JUDGES:
+        if judged(rows, judge):
+            for _, _, used in _shown_cells(out, records, rows, judge):
+                for crop, tile in used.items():
+                    kept.setdefault(crop, set()).add(tile)
+    return kept
 
 
 def write_disagreements(

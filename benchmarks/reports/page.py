@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import html
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 
 from benchmarks.reports.charts import key_denoisers
@@ -97,15 +97,20 @@ def _files(out: Path) -> str:
     )
 
 
-def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tuple[str, str]]:
+def _options(
+    out: Path, records: list[Record], denoisers: list[str], kept: Mapping[str, Collection[str]]
+) -> list[tuple[str, str]]:
     """(value, label) of every image a comparison offers: the reference once, then per strategy
     the raw frame and each key denoiser's, each also as an error map. A value is
-    ``strip|tile|tiles|reference tile`` (-1: not an error map) for the page script."""
+    ``strip|tile|tiles|reference tile`` (-1: not an error map) for the page script. A strip
+    written here keeps those tiles and the ones ``kept`` names for its crop file (the
+    disagreement pictures', so that ``--report-only`` draws them again from the strips)."""
     options: list[tuple[str, str]] = []
     order = strategy_order(r.cell.strategy for r in records)
     for rec in sorted(records, key=lambda r: order.index(r.cell.strategy)):
         shown = ["reference", "raw", *(f"denoised/{d}" for d in denoisers)]
-        found = crop_strip(out, rec.crop, keep=shown)
+        more = sorted(set(kept.get(rec.crop or "", ())) - set(shown))
+        found = crop_strip(out, rec.crop, keep=[*shown, *more])
         if found is None or "reference" not in found[1]:
             continue
         rel, names = found
@@ -120,9 +125,15 @@ def _options(out: Path, records: list[Record], denoisers: list[str]) -> list[tup
     return options
 
 
-def _comparison(out: Path, slug: str, records: list[Record], denoisers: list[str]) -> str:
+def _comparison(
+    out: Path,
+    slug: str,
+    records: list[Record],
+    denoisers: list[str],
+    kept: Mapping[str, Collection[str]],
+) -> str:
     """The comparison widget of one group's crops, or '' when it has none."""
-    options = _options(out, records, denoisers)
+    options = _options(out, records, denoisers, kept)
     if len(options) < 2:
         return ""
     spp = records[0].cell.spp
@@ -149,7 +160,13 @@ def _comparison(out: Path, slug: str, records: list[Record], denoisers: list[str
     )
 
 
-def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]) -> str:
+def _group_section(
+    out: Path,
+    slug: str,
+    rows: list[dict],
+    records: list[Record],
+    kept: Mapping[str, Collection[str]],
+) -> str:
     title = group_title(group_key(rows[0]))
     denoisers = key_denoisers(sorted({r["denoiser"] for r in rows}))
     svgs = "".join(
@@ -168,7 +185,7 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
         if r.crop:
             runs[r.cell.spp].setdefault(r.cell.strategy, r)
     images = "".join(
-        _comparison(out, f"{slug}-{spp}", list(runs[spp].values()), denoisers)
+        _comparison(out, f"{slug}-{spp}", list(runs[spp].values()), denoisers, kept)
         for spp in sorted(runs)
     )
     scene = rows[0]["scene"]
@@ -190,9 +207,15 @@ def _group_section(out: Path, slug: str, rows: list[dict], records: list[Record]
 
 
 def write_suite_page(
-    out_dir: str | Path, rows: Sequence[dict], records: Sequence[Record], title: str
+    out_dir: str | Path,
+    rows: Sequence[dict],
+    records: Sequence[Record],
+    title: str,
+    kept: Mapping[str, Collection[str]] | None = None,
 ) -> Path:
-    """Write ``<out_dir>/index.html`` (and the crops' strips it shows); return its path."""
+    """Write ``<out_dir>/index.html`` (and the crops' strips it shows, each also keeping the
+    tiles ``kept`` names for its crop file: crop file -> tile names); return its path."""
+    kept = {} if kept is None else kept
     out = Path(out_dir)
     by_slug: dict[str, list[dict]] = defaultdict(list)
     for row in rows:
@@ -209,7 +232,7 @@ def write_suite_page(
     for name in ("decision.md", _PERCEPTUAL):
         if (out / name).exists():
             parts.append(markdown_html((out / name).read_text(encoding="utf-8")))
-    parts += [_group_section(out, s, by_slug[s], recs[s]) for s in order]
+    parts += [_group_section(out, s, by_slug[s], recs[s], kept) for s in order]
     if (out / _CELL_REPORT).exists():
         parts.append(
             f'<p>Every cell, with its intervals: <a href="{_CELL_REPORT}">{_CELL_REPORT}</a>.</p>'

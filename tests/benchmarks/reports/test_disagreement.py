@@ -99,3 +99,22 @@ def test_perceptual_md_links_a_picture_only_where_cells_disagree(differ):
     rows = _rows() if differ else _rows()[:2]
     text = perceptual_report(rows, pictures={"cvvdp": "disagree_cvvdp.webp"})
     assert ("](disagree_cvvdp.webp)" in text) == differ
+
+
+def test_the_tiles_shown_are_kept_in_the_pages_strips_and_draw_the_same_picture_again(tmp_path):
+    # The page strips each crop to the tiles it shows (its key denoisers); a disagreeing cell's
+    # denoiser need not be one, and --report-only draws the pictures from the strips.
+    from benchmarks.reports import page
+
+    records = _crops(tmp_path)
+    first = disagreement.write_disagreements(tmp_path, records, _rows())
+    before = (tmp_path / first["cvvdp"]).read_bytes()
+    kept = disagreement.shown_tiles(tmp_path, records, _rows())
+    assert kept == {
+        "crops/direct_white_4spp.npz": {"denoised/gaussian"},
+        "crops/direct_ldbn_4spp.npz": {"denoised/gaussian"},
+    }
+    page._options(tmp_path, [r for r in records if r.cell.spp == 4], ["atrous"], kept)
+    assert not list((tmp_path / "crops").glob("*4spp.npz"))  # stripped
+    again = disagreement.write_disagreements(tmp_path, records, _rows())
+    assert again == first and (tmp_path / first["cvvdp"]).read_bytes() == before
