@@ -16,9 +16,10 @@ the folder above gets ``index.html``, linking every suite's page.
 References are cached under ``--cache`` (default ``cache/references``). ``--resume`` keeps the
 results already in the output folder and measures only the missing cells; without it, a folder that
 already holds finished cells is refused unless ``--overwrite`` says to discard them.
-``--remeasure DENOISER ..`` discards those denoisers' cells and tuned parameters only and then
-resumes: after a denoiser's code changed, its cells are measured again (their runs rendered again
-for it alone) and every other cell stays as measured. The command
+``--remeasure DENOISER ..`` discards those denoisers' cells of the suite as given (the overrides
+narrow it) and their tuned parameters, then resumes: after a denoiser's code changed, its cells
+are measured again (their runs rendered again for it alone) and every other cell stays as
+measured. The command
 holds the output folder's write lock (:func:`bnerr.outputs.output_lock`) for the whole run, so a
 second ``bnerr bench`` into the same ``--out`` refuses at once instead of losing cells.
 
@@ -84,6 +85,7 @@ from benchmarks.sweep import runner
 from benchmarks.sweep.adaptive import DEFAULT_CAP, run_until_resolved
 from benchmarks.sweep.external_renderer import external_parts, renderer_regions, renderer_suite
 from benchmarks.sweep.parts import known_names, real_parts
+from benchmarks.sweep.plan import plan
 from benchmarks.sweep.plugins import load_names, load_recorded
 from benchmarks.sweep.ray_runner import require_ray, run_suite_ray
 from benchmarks.sweep.records import (
@@ -166,9 +168,9 @@ def _add_resume_options(parser: argparse.ArgumentParser) -> None:
         "--remeasure",
         nargs="+",
         metavar="DENOISER",
-        help="discard these denoisers' cells (and tuned parameters) in --out and measure them "
-        "again, keeping every other cell: after a denoiser's code changed (an interrupted run "
-        "goes on with --resume)",
+        help="discard these denoisers' cells of the suite as given (and their tuned "
+        "parameters) in --out and measure them again, keeping every other cell: after a "
+        "denoiser's code changed (an interrupted run goes on with --resume)",
     )
 
 
@@ -418,8 +420,8 @@ def _for_renderer(suite: Suite, renderer: ExternalRenderer, named: bool) -> Suit
 
 
 def _forget(denoisers: list[str], suite: Suite, out: Path) -> None:
-    """--remeasure: discard the cells of ``denoisers`` (each one of the suite's) from ``out``,
-    saying how many on stderr; the run then resumes and measures them again."""
+    """--remeasure: discard the suite's cells of ``denoisers`` (each one of the suite's) from
+    ``out``, saying how many on stderr; the run then resumes and measures them again."""
     known = list(dict.fromkeys(d for sweep in suite.sweeps for d in sweep.denoisers))
     unknown = [d for d in denoisers if d not in known]
     if unknown:
@@ -427,7 +429,7 @@ def _forget(denoisers: list[str], suite: Suite, out: Path) -> None:
             f"--remeasure: expected denoisers of the suite ({', '.join(known)}), got "
             f"{', '.join(unknown)}"
         )
-    gone = runner.forget_denoisers(out, denoisers)
+    gone = runner.forget_cells(out, plan(suite), denoisers)
     print(
         f"bnerr bench: --remeasure: discarded {gone} cells of {', '.join(denoisers)} in {out}; "
         "measuring them again",

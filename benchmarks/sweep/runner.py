@@ -42,13 +42,14 @@ from benchmarks.sweep.records import (
     RESULTS_FILE,
     Record,
     append_records,
+    bare_key,
     check_no_results,
     load_records,
     write_records,
 )
 from benchmarks.sweep.references import ReferenceCache
 from benchmarks.sweep.reuse import with_reuse
-from benchmarks.sweep.tuning import TuningStore, tune_denoisers
+from benchmarks.sweep.tuning import TuningStore, store_key, tune_denoisers
 from benchmarks.sweep.version import device_info
 from bnerr.errors import FileFormatError, ValueRangeError
 from bnerr.outputs import clean_stale_temporaries
@@ -57,7 +58,7 @@ from denoisers.tuning import ParamStore
 __all__ = [
     "TUNED_PARAMS_FILE",
     "SweepState",
-    "forget_denoisers",
+    "forget_cells",
     "load_params",
     "run_suite",
     "start_sweep",
@@ -146,29 +147,43 @@ def load_params(path: Path) -> ParamStore:
         return ParamStore()
 
 
-def forget_denoisers(out_dir: str | Path, denoisers: Collection[str]) -> int:
-    """Discard the cells of ``denoisers`` from ``out_dir``'s results, and their tuned parameters
-    (so that they are tuned again), keeping every other cell; return how many cells went.
+def forget_cells(out_dir: str | Path, runs: Sequence[Run], denoisers: Collection[str]) -> int:
+    """Discard from ``out_dir``'s results the cells of ``runs`` whose denoiser is one of
+    ``denoisers``, at every look, and those denoisers' tuned parameters for the runs' scenes,
+    conditions and spp (so that they are tuned again), keeping every other cell; return how many
+    cells went.
 
     What ``bnerr bench --remeasure`` does before it resumes: after a denoiser's code changed, its
-    cells are measured again (their runs rendered again for it alone) while the others stay as
-    they were measured. The results file is rewritten atomically (plain, as a resumed run appends
-    to it); a folder without results is left alone.
+    cells of the suite as given (``--scenes`` and the other overrides narrow it) are measured
+    again, their runs rendered again for it alone, while every other cell stays as measured. The
+    results file is rewritten atomically (plain, as a resumed run appends to it); a folder
+    without results is left alone.
 
     Raises:
         FileFormatError: the folder's results file is not valid.
     """
     out = Path(out_dir)
+    planned = {bare_key(c) for run in runs for c in run.cells() if c.denoiser in denoisers}
     records = load_records(out)
-    kept = [r for r in records if r.cell.denoiser not in denoisers]
+    kept = [r for r in records if bare_key(r.cell) not in planned]
     if len(kept) != len(records):
         write_records(out, kept)
     params = out / TUNED_PARAMS_FILE
     if params.exists():
         store = load_params(params)
-        if any(store.entries.pop(name, None) is not None for name in list(denoisers)):
+        if _forget_params(store, runs, denoisers):
             store.save(params)
     return len(records) - len(kept)
+
+
+def _forget_params(store: ParamStore, runs: Sequence[Run], denoisers: Collection[str]) -> bool:
+    """Drop ``denoisers``' parameters for ``runs`` from ``store``; return whether any went."""
+    gone = False
+    for run in runs:
+        for name in set(run.denoisers) & set(denoisers):
+            by_spp = store.entries.get(name, {}).get(store_key(run, name), {})
+            gone |= by_spp.pop(str(run.spp), None) is not None
+    return gone
 
 
 def _warn_unmeasured(records: dict[str, Record], runs: Sequence[Run]) -> None:

@@ -30,6 +30,7 @@ __all__ = [
     "OWN_SUFFIX",
     "TUNING_SEED_SET",
     "TuningStore",
+    "store_key",
     "make_denoisers",
     "missing_tuning",
     "split_own",
@@ -82,7 +83,7 @@ def tuning_source(run: Run, name: str) -> str:
     return run.strategy if split_own(name)[1] else baseline()
 
 
-def _store_key(run: Run, name: str) -> str:
+def store_key(run: Run, name: str) -> str:
     """The store's key of ``name``'s parameters for ``run``: :func:`tuning_key`, plus the
     strategy for ``NAME:own`` (stored under its own name, ``gaussian:own``)."""
     key = tuning_key(run)
@@ -101,7 +102,7 @@ def missing_tuning(run: Run, store: TuningStore) -> dict[str, list[str]]:
     :func:`tuning_source` (those without a grid among them: they are never stored)."""
     missing: dict[str, list[str]] = {}
     for name in run.denoisers:
-        if stored_params(store, name, _store_key(run, name), run.spp) is None:
+        if stored_params(store, name, store_key(run, name), run.spp) is None:
             missing.setdefault(tuning_source(run, name), []).append(name)
     return missing
 
@@ -156,7 +157,7 @@ def store_tuned(run: Run, store: TuningStore, results: dict[str, Any], source: s
 def tuned_params(run: Run, store: TuningStore) -> dict[str, dict | None]:
     """Name -> the stored parameters of each of the run's denoisers (None: nothing to tune)."""
     return {
-        name: stored_params(store, name, _store_key(run, name), run.spp) for name in run.denoisers
+        name: stored_params(store, name, store_key(run, name), run.spp) for name in run.denoisers
     }
 
 

@@ -16,7 +16,7 @@ from benchmarks.reports.table import csv_text, summarize
 from benchmarks.suites import Condition
 from benchmarks.sweep import runner
 from benchmarks.sweep.parts import real_parts
-from benchmarks.sweep.plan import Cell
+from benchmarks.sweep.plan import Cell, plan
 from benchmarks.sweep.records import (
     RESULTS_FILE,
     Record,
@@ -106,19 +106,22 @@ def test_denoisers_are_tuned_once_on_white_noise_and_shared(tiny):
         assert all(r.denoiser_params == params for r in records if r.cell.denoiser == name)
 
 
-def test_forget_denoisers_drops_their_cells_and_tuned_parameters_only(tiny, tmp_path):
+def test_forget_cells_drops_the_runs_cells_of_the_denoisers_and_their_parameters_only(
+    tiny, tmp_path
+):
     out, _, records, _ = tiny
     copy = tmp_path / "copy"
     shutil.copytree(out, copy)
-    median = [r.key for r in records if r.cell.denoiser == "median"]
-    assert median and runner.forget_denoisers(copy, {"median"}) == len(median)
-    assert [r.key for r in load_records(copy)] == [
-        r.key for r in records if r.cell.denoiser != "median"
-    ]
+    white = plan(tiny_suite(strategies=("white",)))  # the suite narrowed by an override
+    gone = [r.key for r in records if r.cell.denoiser == "median" and r.cell.strategy == "white"]
+    assert gone and runner.forget_cells(copy, white, {"median"}) == len(gone)
+    assert [r.key for r in load_records(copy)] == [r.key for r in records if r.key not in gone]
     stored = json.loads((copy / runner.TUNED_PARAMS_FILE).read_text())["entries"]
-    assert "median" not in stored and "gaussian" in stored
-    assert runner.forget_denoisers(copy, {"median"}) == 0
-    assert runner.forget_denoisers(tmp_path / "empty", {"median"}) == 0  # nothing there
+    assert stored["median"] == {"direct/m1/owen_sobol/16x12": {}} and stored["gaussian"]
+    assert runner.forget_cells(copy, white, {"median"}) == 0
+    every = plan(tiny_suite())
+    assert runner.forget_cells(copy, every, {"median"}) == len(gone)  # temporal's, this time
+    assert runner.forget_cells(tmp_path / "empty", every, {"median"}) == 0  # nothing there
 
 
 def test_references_are_cached_per_measured_frame(tiny):
