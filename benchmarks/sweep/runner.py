@@ -181,8 +181,13 @@ def _forget_params(store: ParamStore, runs: Sequence[Run], denoisers: Collection
     gone = False
     for run in runs:
         for name in set(run.denoisers) & set(denoisers):
-            by_spp = store.entries.get(name, {}).get(store_key(run, name), {})
-            gone |= by_spp.pop(str(run.spp), None) is not None
+            by_key = store.entries.get(name, {})
+            key = store_key(run, name)
+            gone |= by_key.get(key, {}).pop(str(run.spp), None) is not None
+            if key in by_key and not by_key[key]:  # no spp left: no empty entries in the file
+                del by_key[key]
+            if name in store.entries and not by_key:
+                del store.entries[name]
     return gone
 
 

@@ -117,7 +117,7 @@ def test_forget_cells_drops_the_runs_cells_of_the_denoisers_and_their_parameters
     assert gone and runner.forget_cells(copy, white, {"median"}) == len(gone)
     assert [r.key for r in load_records(copy)] == [r.key for r in records if r.key not in gone]
     stored = json.loads((copy / runner.TUNED_PARAMS_FILE).read_text())["entries"]
-    assert stored["median"] == {"direct/m1/owen_sobol/16x12": {}} and stored["gaussian"]
+    assert "median" not in stored and stored["gaussian"]  # its one scene and spp went
     assert runner.forget_cells(copy, white, {"median"}) == 0
     every = plan(tiny_suite())
     assert runner.forget_cells(copy, every, {"median"}) == len(gone)  # temporal's, this time
