@@ -422,14 +422,15 @@ def _for_renderer(suite: Suite, renderer: ExternalRenderer, named: bool) -> Suit
 def _forget(denoisers: list[str], suite: Suite, out: Path) -> None:
     """--remeasure: discard the suite's cells of ``denoisers`` (each one of the suite's) from
     ``out``, saying how many on stderr; the run then resumes and measures them again."""
-    known = list(dict.fromkeys(d for sweep in suite.sweeps for d in sweep.denoisers))
+    runs = plan(suite)
+    known = list(dict.fromkeys(d for run in runs for d in run.denoisers))
     unknown = [d for d in denoisers if d not in known]
     if unknown:
         raise ValueRangeError(
             f"--remeasure: expected denoisers of the suite ({', '.join(known)}), got "
             f"{', '.join(unknown)}"
         )
-    gone = runner.forget_cells(out, plan(suite), denoisers)
+    gone = runner.forget_cells(out, runs, denoisers)
     print(
         f"bnerr bench: --remeasure: discarded {gone} cells of {', '.join(denoisers)} in {out}; "
         "measuring them again",

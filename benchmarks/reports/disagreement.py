@@ -82,11 +82,10 @@ def _files(crops: dict[tuple, str], key: tuple, shown: dict[str, str]) -> list[s
     return [crops.get((scene, motion, depth, sampler, s, spp)) for s in shown]
 
 
-def _tiles(out: Path, crops: dict[tuple, str], key: tuple, shown: dict[str, str]) -> Tiles:
-    """The row's tiles (``shown``: strategy -> its label), or [] when a strategy's crop lacks
-    the cell's denoiser."""
-    found = [load_crop(out, f) for f in _files(crops, key, shown)]
-    name = f"denoised/{key[2]}"
+def _tiles(out: Path, files: list[str | None], name: str, shown: dict[str, str]) -> Tiles:
+    """The row's tiles from the crop ``files`` of the strategies ``shown`` (strategy -> its
+    label), or [] when one lacks the tile ``name`` (the cell's denoiser's)."""
+    found = [load_crop(out, f) for f in files]
     tiles = [t[name] for t in found if t is not None and name in t and "reference" in t]
     if len(tiles) < len(shown):
         return []
@@ -119,9 +118,10 @@ def _shown_cells(
     for key, mse, seen in disagreeing(rows, judge, exclude):
         mse_row = lowest[key]
         shown = _shown(baseline(), mse_row["strategy"], seen.row["strategy"], judge.unit)
-        tiles = _tiles(out, crops, key, shown)
+        files, name = _files(crops, key, shown), f"denoised/{key[2]}"
+        tiles = _tiles(out, files, name, shown)
         if tiles:
-            used = {f: f"denoised/{key[2]}" for f in _files(crops, key, shown) if f}
+            used = {f: name for f in files if f}
             title = _title(key, mse, mse_row, rivals.get(key, 1), judge, seen)
             found.append((title, tiles, used))
         if len(found) == MAX_ROWS:

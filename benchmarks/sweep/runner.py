@@ -182,11 +182,14 @@ def _forget_params(store: ParamStore, runs: Sequence[Run], denoisers: Collection
     for run in runs:
         for name in set(run.denoisers) & set(denoisers):
             by_key = store.entries.get(name, {})
-            key = store_key(run, name)
-            gone |= by_key.get(key, {}).pop(str(run.spp), None) is not None
-            if key in by_key and not by_key[key]:  # no spp left: no empty entries in the file
+            key, spp = store_key(run, name), str(run.spp)
+            if spp not in by_key.get(key, {}):
+                continue
+            del by_key[key][spp]
+            gone = True
+            if not by_key[key]:  # no entries left empty in the file
                 del by_key[key]
-            if name in store.entries and not by_key:
+            if not by_key:
                 del store.entries[name]
     return gone
 
