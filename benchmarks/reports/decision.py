@@ -25,6 +25,7 @@ from bnerr.strategies import baseline, bounds, strategy_identity
 __all__ = [
     "EQUAL_MARGIN",
     "LEVEL",
+    "SAME_FRAMES",
     "best_rows",
     "cell_verdicts",
     "corrected",
@@ -34,6 +35,7 @@ __all__ = [
     "design_of",
     "headline_summary",
     "headline_table",
+    "renders_white",
     "rival_counts",
     "to_settle",
     "verdict",
@@ -54,15 +56,38 @@ def _excludes(rows: Sequence[dict], exclude: Sequence[str] | None) -> Sequence[s
     return decision_excludes(r["strategy"] for r in rows) if exclude is None else exclude
 
 
+#: How far from 1 a post-denoise ratio and its interval may lie in a cell where a rival rendered
+#: white's very frames (:func:`renders_white`): a denoiser that is not bit-reproducible (Cycles'
+#: OIDN, threaded reductions) moves the sixth digit, never the fourth.
+SAME_FRAMES = 1e-4
+
+
+def renders_white(row: dict) -> bool:
+    """Whether ``row``'s strategy rendered white noise's own frames in its cell: not the baseline,
+    its raw MSE ratio and interval exactly 1 (every seed set's frames identical) and its
+    post-denoise ones within :data:`SAME_FRAMES` of 1. Such a row is white again, not a rival
+    (Cycles' classic pattern under adaptive sampling that stops no pixel, for one): its
+    zero-width interval would call the cell "equal to white" and stop its seed sets, so the
+    decision leaves it out (:func:`best_rows`, :func:`rival_counts`)."""
+    if row["strategy"] == baseline() or row.get("raw_mse_ratio") is None:
+        return False
+    raw = (row["raw_mse_ratio"], row["raw_mse_ratio_lo"], row["raw_mse_ratio_hi"])
+    den = (row.get("den_mse_ratio"), row.get("den_mse_ratio_lo"), row.get("den_mse_ratio_hi"))
+    return all(v == 1.0 for v in raw) and all(
+        v is not None and abs(v - 1.0) <= SAME_FRAMES for v in den
+    )
+
+
 def best_rows(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> dict[tuple, dict]:
     """Per (group key, spp, denoiser): the row of the strategy with the lowest pooled post-denoise
-    MSE (the baseline included, ``exclude`` left out, by default :func:`decision_excludes`; ties
-    go to the earlier strategy in the report's order)."""
+    MSE (the baseline included, ``exclude`` left out, by default :func:`decision_excludes`, and
+    so are the rows that rendered white's own frames, :func:`renders_white`; ties go to the
+    earlier strategy in the report's order)."""
     exclude = _excludes(rows, exclude)
     best: dict[tuple, dict] = {}
     order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
     for row in rows:
-        if row.get("den_mse") is None or row["strategy"] in exclude:
+        if row.get("den_mse") is None or row["strategy"] in exclude or renders_white(row):
             continue
         key = (group_key(row), row["spp"], row["denoiser"])
         old = best.get(key)
@@ -78,6 +103,20 @@ def _left_out(exclude: Sequence[str]) -> str:
     return "".join(f" Left out: {s}" + (f" ({notes[s]})." if notes[s] else ".") for s in exclude)
 
 
+def _twins_note(rows: Sequence[dict]) -> str:
+    """The decision table's note on the strategies left out of some cells for rendering white's
+    own frames there (:func:`renders_white`); empty when none did."""
+    twins = strategy_order({r["strategy"] for r in rows if renders_white(r)})
+    if not twins:
+        return ""
+    return (
+        " Left out of the cells where it rendered white's own frames (raw MSE ratio exactly 1, "
+        f"post-denoise within {SAME_FRAMES:g} of 1; white again, not a rival): "
+        + ", ".join(twins)
+        + "."
+    )
+
+
 #: The level of the decision table's intervals before the correction for choosing the best.
 LEVEL = 0.95
 #: Equivalence margin: a best strategy whose corrected interval lies inside ``1 -+ EQUAL_MARGIN``
@@ -89,12 +128,14 @@ EQUAL_MARGIN = 0.05
 
 def rival_counts(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> dict[tuple, int]:
     """Per (group key, spp, denoiser): how many strategies other than the baseline compete for
-    the best (the m of the Bonferroni correction of :func:`verdict`); ``exclude`` as in
-    :func:`best_rows`."""
+    the best (the m of the Bonferroni correction of :func:`verdict`); ``exclude`` and the rows
+    that rendered white's own frames left out, as in :func:`best_rows`."""
     exclude = _excludes(rows, exclude)
     names: dict[tuple, set[str]] = {}
     for row in rows:
         if row.get("den_mse") is None or row["strategy"] in (*exclude, baseline()):
+            continue
+        if renders_white(row):
             continue
         names.setdefault((group_key(row), row["spp"], row["denoiser"]), set()).add(row["strategy"])
     return {key: len(v) for key, v in names.items()}
@@ -243,7 +284,8 @@ def decision_table(
         "measured, would settle the cell whatever its ratio). Each verdict gives the seed sets it "
         "rests on. White: no strategy "
         "was lower (then the lowest rival's ratio and verdict follow its cost)."
-        + _left_out([s for s in exclude if s in named]),
+        + _left_out([s for s in exclude if s in named])
+        + _twins_note(rows),
         "",
         *table_lines(["scene", "spp", *denoisers], body),
         "",

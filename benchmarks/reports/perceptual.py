@@ -42,6 +42,7 @@ from benchmarks.reports.decision import (
     cell_verdicts,
     decision_excludes,
     design_of,
+    renders_white,
 )
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
@@ -150,7 +151,8 @@ def judge_cells(
 ) -> dict[tuple, Judged]:
     """Per (group key, spp, denoiser): the verdict on the best rival of white by ``judge``
     (highest JOD difference, or lowest ratio; ties to the earlier strategy in the report's
-    order), ``exclude`` left out (by default the bounds)."""
+    order), ``exclude`` left out (by default the bounds), and so are the rows that rendered
+    white's own frames (:func:`benchmarks.reports.decision.renders_white`)."""
     if exclude is None:
         exclude = decision_excludes(r["strategy"] for r in rows)
     order = {s: i for i, s in enumerate(strategy_order(r["strategy"] for r in rows))}
@@ -159,6 +161,8 @@ def judge_cells(
     for row in rows:
         value = row.get(judge.column)
         if value is None or not math.isfinite(value) or row["strategy"] in (*exclude, baseline()):
+            continue
+        if renders_white(row):  # white again, not a rival (as in the MSE table)
             continue
         cells.setdefault((group_key(row), row["spp"], row["denoiser"]), []).append(row)
     out = {}

@@ -115,3 +115,58 @@ def test_an_open_cell_says_about_how_many_seed_sets_would_settle_it():
     ]
     assert "to settle" not in decision.decision_table(settled).split("| ldbn")[-1]
     assert decision.to_settle(dict(rows[1], seed_sets=1), 1) is None
+
+
+def _twin(strategy: str, den: float, **extra) -> dict:
+    """A rival that rendered white's own frames: raw ratio and interval exactly 1, post-denoise
+    ``den`` with a zero-width interval (a denoiser that is not bit-reproducible moves it)."""
+    from tests._records import table_row
+
+    return table_row(
+        strategy,
+        4,
+        den,
+        mse_half=0.0,
+        raw_mse_ratio=1.0,
+        raw_mse_ratio_lo=1.0,
+        raw_mse_ratio_hi=1.0,
+        render_ms=10.0,
+        perm_ms=1.0,
+        **extra,
+    )
+
+
+def test_a_rival_that_rendered_whites_own_frames_is_not_a_rival():
+    """Cycles' classic pattern under adaptive sampling that stops no pixel renders white's very
+    frames: its zero-width interval at 1.00 made a cell "equal to white" (and stopped its seed
+    sets, and took the best of the cell when the denoiser's last digit fell below white's). The
+    decision leaves such a row out, says so, and judges the real rival."""
+    from tests._records import table_row
+
+    ms = {"render_ms": 10.0, "perm_ms": 1.0, "raw_mse_ratio": 0.9}
+    real = table_row("ldbn", 4, 0.97, mse_half=0.08, seed_sets=8, **ms)
+    real.update(raw_mse_ratio_lo=0.85, raw_mse_ratio_hi=0.95)
+    twin = _twin("classic_adaptive", 1.0 - 5e-5)
+    rows = [table_row("white", 4, **ms), twin, real]
+    assert decision.renders_white(twin) and not decision.renders_white(real)
+    assert not decision.renders_white(rows[0])  # white itself
+    ((key, (said, sets)),) = decision.cell_verdicts(rows).items()
+    assert (said, sets) == ("open", 8)  # the real rival's, not the twin's "equal"
+    assert decision.rival_counts(rows) == {key: 1}
+    assert decision.best_rows(rows)[key]["strategy"] == "ldbn"
+    text = decision.decision_table(rows)
+    assert "classic_adaptive 1.00" not in text
+    assert "rendered white's own frames" in text and text.count("classic_adaptive") == 1
+    assert "rendered white's own frames" not in decision.decision_table([rows[0], real])
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"raw_mse_ratio_hi": 1.0 + 1e-9},  # the raw frames differ, however little
+        {"den_mse_ratio_lo": 1.0 - 2 * decision.SAME_FRAMES},  # the denoised ones beyond noise
+    ],
+)
+def test_a_rival_near_white_but_not_its_frames_stays_a_rival(change):
+    twin = dict(_twin("classic_adaptive", 1.0), **change)
+    assert not decision.renders_white(twin)

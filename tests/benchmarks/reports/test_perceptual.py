@@ -47,6 +47,16 @@ def test_the_best_rival_is_the_highest_jod_and_its_interval_is_corrected_for_m()
     assert found.verdict == "better"
 
 
+def test_a_rival_that_rendered_whites_own_frames_is_left_out_as_in_the_mse_table():
+    twin = _row("classic_adaptive", 1, 0.0, mse=1.0, half=0.0)
+    twin.update(den_mse_ratio_lo=1.0, den_mse_ratio_hi=1.0)
+    twin.update(raw_mse_ratio=1.0, raw_mse_ratio_lo=1.0, raw_mse_ratio_hi=1.0)
+    rows = [_row("white", 1, 0.0), twin, _row("ldbn", 1, -0.5, mse=0.9)]
+    (found,) = judge_cells(rows, _JOD).values()
+    assert found.row["strategy"] == "ldbn" and found.rivals == 1  # not the twin's 0.00 "equal"
+    assert found.verdict == "worse"
+
+
 @pytest.mark.parametrize(
     ("jod", "half", "said"),
     [(0.5, 0.2, "better"), (-0.5, 0.2, "worse"), (0.0, 0.05, "equal"), (0.1, 0.3, "open")],
