@@ -398,10 +398,13 @@ _SAME_SCENE_DENOISERS = ("oidn", "gaussian", "unet", "taa")
 _CYCLES_SETS = _GapSets(seed_sets=4, frames=3, warmup=2, res=(128, 128), reference_spp=1024)
 
 #: The default metrics and what a viewer sees beside them: FLIP per frame, ColorVideoVDP per
-#: sequence (the perceptual decision table, perceptual.md). The suites cheap enough to carry them
-#: (quick, seed, cycles: Blender's render dwarfs the metric) do; the quality suite's 120,384
-#: sequences would take about 2.3 CPU-hours more.
+#: sequence (the perceptual decision table, perceptual.md). The suites cheap enough to carry both
+#: (quick, seed, cycles: Blender's render dwarfs the metric) do.
 _PERCEPTUAL = (*Sweep.metrics, "flip", "cvvdp")
+#: The quality suite's: ColorVideoVDP only, its verdicts' metric. FLIP on its sequences would
+#: cost about 1.7 times ColorVideoVDP again (0.104 s against 0.059 s a sequence of 128x128
+#: frames); ColorVideoVDP alone took the suite from 67 to 131 minutes (docs/FINDINGS.md).
+_QUALITY_METRICS = (*Sweep.metrics, "cvvdp")
 
 SUITES: dict[str, Suite] = {
     "quick": Suite(
@@ -443,6 +446,9 @@ SUITES: dict[str, Suite] = {
         # the same pixels. Every pixel and the coherent region ride on the same renders.
         resolve=("unlit",),
         stop_settled=True,
+        # The coherent region is a diagnostic of the MSE family (docs/METHODS.md, section 6);
+        # scoring its sequences in JOD too would cost about 20 minutes more.
+        coherent_skips=("cvvdp",),
         sweeps=(
             Sweep(
                 scenes=_ALL_SCENES,
@@ -452,6 +458,7 @@ SUITES: dict[str, Suite] = {
                 conditions=(Condition(region="all"), Condition(region="unlit")),
                 res=(128, 128),
                 reference_spp=1024,
+                metrics=_QUALITY_METRICS,
                 **_SETS,
             ),
         ),

@@ -9,7 +9,7 @@ import re
 import pytest
 
 import benchmarks.reports as reports
-from benchmarks.reports import decision, seed, write_report
+from benchmarks.reports import decision, perceptual, seed, write_report
 from benchmarks.reports.gap import write_gap_tables
 from benchmarks.reports.groups import group_key
 from benchmarks.reports.page import ON_DEMAND
@@ -158,6 +158,10 @@ def test_the_readmes_headline_table_is_the_committed_quality_decision():
     # and its count of the verdicts is the one the table's cells give
     summary = decision.headline_summary(rows, denoisers, scenes, region=region)
     assert summary in " ".join(readme.split()), summary
+    # and its one line on what a viewer sees: how many of those cells ColorVideoVDP agrees on
+    agreement = perceptual.headline_agreement(rows, denoisers, scenes, region=region)
+    assert agreement, "results/quality: no ColorVideoVDP verdicts to count"
+    assert agreement in " ".join(readme.split()), agreement
 
 
 def test_the_headline_reads_one_pixel_region_every_pixel_by_default():
