@@ -35,6 +35,7 @@ __all__ = [
     "design_of",
     "headline_summary",
     "headline_table",
+    "is_rival",
     "renders_white",
     "rival_counts",
     "to_settle",
@@ -76,6 +77,12 @@ def renders_white(row: dict) -> bool:
     return all(v == 1.0 for v in raw) and all(
         v is not None and abs(v - 1.0) <= SAME_FRAMES for v in den
     )
+
+
+def is_rival(row: dict, exclude: Sequence[str]) -> bool:
+    """Whether ``row`` competes with white for its cell: neither the baseline nor among
+    ``exclude``, and not a rendering of white's own frames (:func:`renders_white`)."""
+    return row["strategy"] not in (*exclude, baseline()) and not renders_white(row)
 
 
 def best_rows(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> dict[tuple, dict]:
@@ -133,9 +140,7 @@ def rival_counts(rows: Sequence[dict], exclude: Sequence[str] | None = None) -> 
     exclude = _excludes(rows, exclude)
     names: dict[tuple, set[str]] = {}
     for row in rows:
-        if row.get("den_mse") is None or row["strategy"] in (*exclude, baseline()):
-            continue
-        if renders_white(row):
+        if row.get("den_mse") is None or not is_rival(row, exclude):
             continue
         names.setdefault((group_key(row), row["spp"], row["denoiser"]), set()).add(row["strategy"])
     return {key: len(v) for key, v in names.items()}

@@ -42,13 +42,12 @@ from benchmarks.reports.decision import (
     cell_verdicts,
     decision_excludes,
     design_of,
-    renders_white,
+    is_rival,
 )
 from benchmarks.reports.groups import group_key, group_order, group_title, strategy_order
 from benchmarks.reports.markdown import table_lines
 from bnerr.metrics import Estimate, relevel_difference, relevel_ratio
 from bnerr.metrics.sequential import settle
-from bnerr.strategies import baseline
 
 __all__ = [
     "JOD_MARGIN",
@@ -160,9 +159,7 @@ def judge_cells(
     cells: dict[tuple, list[dict]] = {}
     for row in rows:
         value = row.get(judge.column)
-        if value is None or not math.isfinite(value) or row["strategy"] in (*exclude, baseline()):
-            continue
-        if renders_white(row):  # white again, not a rival (as in the MSE table)
+        if value is None or not math.isfinite(value) or not is_rival(row, exclude):
             continue
         cells.setdefault((group_key(row), row["spp"], row["denoiser"]), []).append(row)
     out = {}
